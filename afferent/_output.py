@@ -1,0 +1,70 @@
+"""Writing results safely: to a temporary name, then renamed; never silently overwritten."""
+
+from __future__ import annotations
+
+import os
+import shutil
+import tempfile
+from collections.abc import Callable
+from contextlib import contextmanager
+
+from .exceptions import OutputExistsError
+
+__all__ = ["atomic_file", "atomic_dir", "check_writable"]
+
+
+def check_writable(path: str, *, overwrite: bool, what: str = "Output file") -> None:
+    """Raise :class:`OutputExistsError` if ``path`` exists and ``overwrite`` is False."""
+    if os.path.lexists(path) and not overwrite:
+        raise OutputExistsError(f"{what} {path!r} already exists; pass --overwrite (overwrite=True) to replace it.")
+    parent = os.path.dirname(os.path.abspath(path))
+    if not os.path.isdir(parent):
+        raise FileNotFoundError(f"{what} {path!r}: its folder {parent!r} does not exist.")
+
+
+@contextmanager
+def atomic_file(path: str, *, overwrite: bool = False):
+    """Yield a temporary path beside ``path``; on success rename it to ``path``, else delete it.
+
+    >>> with atomic_file("out.csv", overwrite=True) as tmp:  # doctest: +SKIP
+    ...     df.to_csv(tmp)
+    """
+    path = os.fspath(path)
+    check_writable(path, overwrite=overwrite)
+    folder, base = os.path.split(os.path.abspath(path))
+    fd, tmp = tempfile.mkstemp(prefix=f".{base}.", suffix=".part", dir=folder)
+    os.close(fd)
+    try:
+        yield tmp
+        os.replace(tmp, path)
+    finally:
+        if os.path.exists(tmp):
+            os.remove(tmp)
+
+
+@contextmanager
+def atomic_dir(path: str, *, overwrite: bool = False):
+    """Yield a temporary folder beside ``path``; on success it replaces ``path`` as a whole."""
+    path = os.fspath(path)
+    check_writable(path, overwrite=overwrite, what="Output folder")
+    parent, base = os.path.split(os.path.abspath(path))
+    tmp = tempfile.mkdtemp(prefix=f".{base}.", suffix=".part", dir=parent)
+    try:
+        yield tmp
+        if os.path.lexists(path):
+            old = tempfile.mkdtemp(prefix=f".{base}.", suffix=".old", dir=parent)
+            os.replace(path, os.path.join(old, base))
+            os.replace(tmp, path)
+            shutil.rmtree(old, ignore_errors=True)
+        else:
+            os.replace(tmp, path)
+    finally:
+        if os.path.exists(tmp):
+            shutil.rmtree(tmp, ignore_errors=True)
+
+
+def write_csv(df, path: str, *, overwrite: bool = False, writer: Callable | None = None) -> str:
+    """Write a DataFrame as CSV atomically (no index); returns ``path``."""
+    with atomic_file(path, overwrite=overwrite) as tmp:
+        (writer or (lambda d, p: d.to_csv(p, index=False)))(df, tmp)
+    return path

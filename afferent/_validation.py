@@ -1,0 +1,116 @@
+"""Validation helpers used at the public boundary (scikit-learn / MNE style).
+
+Messages follow one template::
+
+    <subject> must be <expectation incl. unit or shape>; got <repr> instead.[ <hint>]
+"""
+
+from __future__ import annotations
+
+import difflib
+import numbers
+from collections.abc import Iterable
+
+import numpy as np
+
+__all__ = [
+    "check_option",
+    "check_positive",
+    "check_finite_array",
+    "check_rng",
+    "suggest",
+    "describe_array",
+]
+
+
+def suggest(word: str, choices: Iterable[str], *, cutoff: float = 0.6) -> str:
+    """Return ``" Did you mean 'X'?"`` for the closest choice, or ``""``.
+
+    Matching is case-insensitive; the suggestion keeps the spelling of ``choices``.
+    """
+    choices = list(choices)
+    lower = {c.lower(): c for c in choices}
+    match = difflib.get_close_matches(str(word).lower(), list(lower), n=1, cutoff=cutoff)
+    return f" Did you mean {lower[match[0]]!r}?" if match else ""
+
+
+def _join(choices: list) -> str:
+    reprs = [repr(c) for c in choices]
+    if len(reprs) <= 2:
+        return " and ".join(reprs)
+    return ", ".join(reprs[:-1]) + " and " + reprs[-1]
+
+
+def check_option(name: str, value, allowed: Iterable):
+    """Return ``value`` if it is one of ``allowed``, else raise ``ValueError``.
+
+    >>> check_option("method", "cubic", ("linear", "nearest"))
+    Traceback (most recent call last):
+    ...
+    ValueError: Invalid value for the 'method' parameter. Allowed values are 'linear' and 'nearest', but got 'cubic' instead.
+    """
+    allowed = list(allowed)
+    if value in allowed:
+        return value
+    hint = suggest(value, [a for a in allowed if isinstance(a, str)]) if isinstance(value, str) else ""
+    raise ValueError(
+        f"Invalid value for the {name!r} parameter. Allowed values are {_join(allowed)}, "
+        f"but got {value!r} instead.{hint}"
+    )
+
+
+def check_positive(name: str, value, *, unit: str = "", strict: bool = True, owner: str = "") -> float:
+    """Return ``float(value)`` if it is a finite real > 0 (>= 0 with ``strict=False``).
+
+    ``owner`` names the object the value belongs to, e.g. ``"LIFParams"``.
+    """
+    subject = f"The {name!r} field of {owner}" if owner else f"{name!r}"
+    unit_txt = f" {unit}" if unit else ""
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+        raise TypeError(f"{subject} must be a real number in{unit_txt or ' SI units'}; got {value!r} instead.")
+    v = float(value)
+    ok = np.isfinite(v) and (v > 0 if strict else v >= 0)
+    if not ok:
+        raise ValueError(f"{subject} must be {'>' if strict else '>='} 0{unit_txt}; got {value!r} instead.")
+    return v
+
+
+def describe_array(a) -> str:
+    """Short description of an array for error messages: shape and dtype, never the data."""
+    a = np.asarray(a)
+    return f"array of shape {a.shape} and dtype {a.dtype}"
+
+
+def check_finite_array(name: str, a, *, ndim: int | None = None, shape_doc: str = "", where: str = "") -> np.ndarray:
+    """Return ``a`` as a float64 array; raise ``ValueError`` on NaN/inf or a wrong ``ndim``.
+
+    ``where`` is prefixed to the message (e.g. a file name); ``shape_doc`` documents the
+    expected shape, e.g. ``"(n_times, n_receptors)"``.
+    """
+    prefix = f"{where}: " if where else ""
+    try:
+        arr = np.asarray(a, dtype=np.float64)
+    except (TypeError, ValueError) as err:
+        raise TypeError(f"{prefix}{name!r} must be a numeric array; got {type(a).__name__} instead.") from err
+    if ndim is not None and arr.ndim != ndim:
+        raise ValueError(
+            f"{prefix}{name!r} must be an array of shape {shape_doc or ndim * '(.)'}; got shape {arr.shape} instead."
+        )
+    bad = ~np.isfinite(arr)
+    if bad.any():
+        idx = np.argwhere(bad)[0]
+        kind = "NaN" if np.isnan(arr[tuple(idx)]) else "infinite"
+        raise ValueError(
+            f"{prefix}{name!r} must be finite; got {int(bad.sum())} non-finite value(s) "
+            f"(first: {kind} at index {tuple(int(i) for i in idx)}) instead."
+        )
+    return arr
+
+
+def check_rng(rng) -> np.random.Generator:
+    """Normalise ``None | int | numpy.random.Generator`` to a Generator (no global state)."""
+    if isinstance(rng, np.random.Generator):
+        return rng
+    if rng is None or (isinstance(rng, numbers.Integral) and not isinstance(rng, bool)):
+        return np.random.default_rng(rng)
+    raise TypeError(f"'rng' must be None, an int seed or a numpy.random.Generator; got {rng!r} instead.")

@@ -1,0 +1,114 @@
+"""Describe what an FE export holds, and how afferent would read it.
+
+Points, cells, arrays and their components, time steps, bounds, SED range, the columns
+afferent recognises, the units it would use (and whether the file states them), and a hint
+when magnitudes look like another unit.
+
+Example::
+
+    $ afferent info sample_sed/block4/indent_0p88mm.vtu
+"""
+
+from __future__ import annotations
+
+import argparse
+
+import numpy as np
+
+from ..exceptions import SEDFormatError
+from ..io import read_raw
+from ..io._assemble import ReadOptions, find_coordinates, find_sed_array, find_tensors
+from ..units import LENGTH_UNITS, SED_UNITS, parse_unit
+from ._options import add_quiet, show_progress
+
+#: Plausible ranges used only for hints (never to choose a unit): a fingertip FE block spans
+#: 0.5-50 mm; peak SED in skin under touch is about 1 to 1e5 J/m^3 (METHOD.md: ~190 Pa peak).
+PLAUSIBLE_SPAN_M = (0.5e-3, 50e-3)
+PLAUSIBLE_SED_PA = (1.0, 1e5)
+
+
+def add_args(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("exports", nargs="+", metavar="EXPORT", help="FE export file(s); several files are one time step each")
+    parser.add_argument("--format", choices=("csv", "vtu", "vtk", "pvd", "xdmf"), help="file format, when the extension does not tell")
+    add_quiet(parser)
+
+
+def _unit_hint(value: float, table: dict, plausible: tuple[float, float], units: tuple[str, ...]) -> str:
+    fits = [u for u in units if plausible[0] <= value * table[u] <= plausible[1]]
+    return ", ".join(fits) if fits else "none of " + ", ".join(units)
+
+
+def describe(raw) -> list[str]:
+    """Human-readable lines describing a :class:`RawExport`."""
+    lines = [f"{raw.files[0]}" + (f" (+{len(raw.files) - 1} files)" if len(raw.files) > 1 else "")]
+    add = lambda k, v: lines.append(f"  {k:<12} {v}")  # noqa: E731
+    add("format", raw.format)
+    opts = ReadOptions()
+    try:
+        xyz, coord_names = find_coordinates(raw, opts)
+    except SEDFormatError as err:
+        xyz, coord_names = None, None
+        add("coordinates", f"not recognised: {err}")
+    if xyz is not None:
+        lo, hi = np.nanmin(xyz, axis=0), np.nanmax(xyz, axis=0)
+        add("points", f"{xyz.shape[0]:,}" + ("" if coord_names == ("points",) else f" (columns {', '.join(coord_names)})"))
+        add("bounds", "  ".join(f"{a} [{l:.6g}, {h:.6g}]" for a, l, h in zip("xyz", lo, hi)) + " (file units)")
+    if raw.cells is not None:
+        add("cells", f"{raw.cells.n_cells:,} volume cells ({', '.join(raw.cells.cell_types)}), "
+                     f"{raw.cells.tetra.shape[0]:,} tetrahedra for sampling")
+    else:
+        add("cells", "none (a table of points: 'linear' sampling triangulates around the receptors)")
+    n_t = raw.n_times
+    add("time steps", f"{n_t}" + (f", t = {raw.times[0]:g} .. {raw.times[-1]:g}" + (f" {raw.time_unit}" if raw.time_unit else "")
+                                  if raw.times is not None else " (no times stated)"))
+    lines.append("  arrays")
+    for arr in raw.arrays.values():
+        ncomp = arr.values.shape[2] if arr.values.ndim == 3 else 1
+        comp = f"{ncomp} components" if ncomp > 1 else "scalar"
+        unit = f" [{arr.unit}]" if arr.unit else ""
+        with np.errstate(all="ignore"):
+            rng = f"{np.nanmin(arr.values):.4g} .. {np.nanmax(arr.values):.4g}" if arr.values.size else "empty"
+        lines.append(f"    {arr.name!r:<28} {arr.location:<5} {comp:<13} {rng}{unit}")
+    # recognition
+    try:
+        sed_arrays = find_sed_array(raw, opts)
+        sed = np.concatenate([a.values.reshape(a.values.shape[0], -1) for a in sed_arrays])
+        add("SED", f"{', '.join(repr(a.name) for a in sed_arrays)} ({sed_arrays[0].location} data)")
+        others = [a for a in raw.arrays.values() if a.name == sed_arrays[0].name and a.location != sed_arrays[0].location]
+        if others:
+            lines.append(f"  {'':<12} {others[0].location} data of the same name also present: --location {others[0].location} to use it")
+        stated = sed_arrays[0].unit
+        smax = float(np.nanmax(sed)) if sed.size else float("nan")
+        add("SED range", f"{np.nanmin(sed):.6g} .. {smax:.6g} (file units)")
+        if stated and parse_unit(stated):
+            add("SED unit", f"{stated} (stated in the file)")
+        else:
+            add("SED unit", "not stated: declare --sed-unit")
+            if np.isfinite(smax) and smax > 0:
+                add("hint", f"a max SED of {smax:.3g} is plausible for skin (1..1e5 J/m^3) in: "
+                            f"{_unit_hint(smax, SED_UNITS, PLAUSIBLE_SED_PA, ('Pa', 'kPa', 'MPa'))}")
+    except SEDFormatError as err:
+        add("SED", f"no SED array: {str(err).split('. Found')[0].split(': ', 1)[-1]}")
+    try:
+        (s_name, _, s_loc), (e_name, _, _) = find_tensors(raw, ReadOptions(sed_from="exact"), need_convention=False)
+        add("tensors", f"stress {s_name}; strain {e_name} ({s_loc} data): --sed-from exact|equivalent with --preset")
+    except (SEDFormatError, ValueError):
+        add("tensors", "no complete stress and strain tensors")
+    if xyz is not None:
+        span = float(np.nanmax(np.nanmax(xyz, 0) - np.nanmin(xyz, 0)))
+        if raw.length_unit:
+            add("length unit", f"{raw.length_unit} (stated in the file)")
+        else:
+            add("length unit", "not stated: declare --length-unit")
+            if span > 0:
+                add("hint", f"a span of {span:.3g} is plausible for a fingertip block (0.5..50 mm) in: "
+                            f"{_unit_hint(span, LENGTH_UNITS, PLAUSIBLE_SPAN_M, ('m', 'mm', 'um'))}")
+    for note in raw.notes:
+        add("note", note)
+    return lines
+
+
+def run(args: argparse.Namespace) -> int:
+    raw = read_raw(args.exports if len(args.exports) > 1 else args.exports[0], format=args.format, progress=show_progress(args))
+    print("\n".join(describe(raw)))
+    return 0

@@ -1,0 +1,63 @@
+"""Argument parsing and error handling for the ``afferent`` command (meshio ``_cli`` pattern)."""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import traceback
+
+from .. import __version__
+from ..exceptions import AfferentError
+from . import _info, _sample
+
+#: subcommand -> module with add_args(parser) and run(args) -> int; help comes from the docstring.
+COMMANDS = {"info": _info, "sample": _sample}
+
+
+class _Parser(argparse.ArgumentParser):
+    def error(self, message):  # argparse's own usage errors: one line, exit code 2
+        raise _UsageError(f"{self.prog}: {message}")
+
+
+class _UsageError(Exception):
+    pass
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = _Parser(prog="afferent", description="From FE strain-energy density of skin to tactile afferent signals.")
+    parser.add_argument("--version", action="version", version=f"afferent {__version__}")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
+    for name, module in COMMANDS.items():
+        doc = module.__doc__ or ""
+        p = sub.add_parser(name, help=doc.strip().splitlines()[0], description=doc,
+                           formatter_class=argparse.RawDescriptionHelpFormatter)
+        module.add_args(p)
+        p.set_defaults(func=module.run)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Run the CLI; returns the exit code (0 ok, 2 bad input, 1 unexpected failure)."""
+    parser = build_parser()
+    try:
+        args = parser.parse_args(argv)
+        if not getattr(args, "func", None):
+            parser.print_help(sys.stderr)
+            return 2
+        return args.func(args)
+    except _UsageError as err:
+        print(f"afferent: error: {err}", file=sys.stderr)
+        return 2
+    except (AfferentError, FileNotFoundError, FileExistsError, ValueError, TypeError, PermissionError, IsADirectoryError) as err:
+        msg = " ".join(str(err).split())  # one line
+        print(f"afferent: error: {msg}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("afferent: interrupted", file=sys.stderr)
+        return 130
+    except Exception as err:  # a bug: say so, keep the traceback for the report
+        print(f"afferent: internal error (please report): {type(err).__name__}: {err}", file=sys.stderr)
+        if os.environ.get("AFFERENT_DEBUG"):
+            traceback.print_exc()
+        return 1

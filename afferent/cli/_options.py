@@ -1,0 +1,73 @@
+"""Options shared by several subcommands, defined once (rasterio's ``rio/options.py`` idea)."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+from ..strain_energy import PRESETS
+from ..units import LENGTH_UNITS, SED_UNITS
+
+
+def add_input_options(parser: argparse.ArgumentParser) -> None:
+    """Options that say how to read an FE export (see :func:`afferent.read_sed`)."""
+    g = parser.add_argument_group("reading the export")
+    g.add_argument("--length-unit", metavar="U", help=f"unit of the coordinates ({', '.join(k for k in LENGTH_UNITS if k != 'µm')}); required unless the file states it")
+    g.add_argument("--sed-unit", metavar="U", help=f"unit of the SED array ({', '.join(SED_UNITS)}); required unless the file states it")
+    g.add_argument("--stress-unit", metavar="U", help="unit of the stress components when SED is computed from tensors")
+    g.add_argument("--sed-from", choices=("field", "exact", "equivalent"), default="field",
+                   help="read an SED array (field), or compute 1/2 sigma:eps (exact) or the study's equivalent SED from tensors")
+    g.add_argument("--poisson", type=float, metavar="NU", help="Poisson's ratio for --sed-from equivalent (the study: 0.48)")
+    g.add_argument("--preset", choices=tuple(PRESETS), help="FE tool whose tensor component order and shear convention apply")
+    g.add_argument("--shear", choices=("tensor", "engineering"), help="override the preset's shear-strain convention")
+    g.add_argument("--location", choices=("point", "cell"), help="use point data or cell data when the file has both")
+    g.add_argument("--sed-column", metavar="NAME", action="append", help="name of the SED array/column (repeat for one column per step)")
+    g.add_argument("--stress-columns", metavar="NAMES", help="stress array name, or 6 comma-separated column names xx,yy,zz,xy,yz,xz")
+    g.add_argument("--strain-columns", metavar="NAMES", help="strain array name, or 6 comma-separated column names xx,yy,zz,xy,yz,xz")
+    g.add_argument("--coord-columns", metavar="X,Y,Z", help="names of the coordinate columns of a CSV")
+    g.add_argument("--times", metavar="T0,T1,...", help="step times (s unless --time-unit), overriding the file")
+    g.add_argument("--time-unit", metavar="U", help="unit of the step times (s, ms, us)")
+    g.add_argument("--format", choices=("csv", "vtu", "vtk", "pvd", "xdmf"), help="file format, when the extension does not tell")
+
+
+def _names(text: str | None):
+    if text is None:
+        return None
+    parts = [p.strip() for p in text.split(",")]
+    return parts[0] if len(parts) == 1 else parts
+
+
+def input_kwargs(args: argparse.Namespace) -> dict:
+    """Keyword arguments for :func:`afferent.read_sed` from the parsed options."""
+    sed_column = args.sed_column
+    if sed_column is not None and len(sed_column) == 1:
+        sed_column = sed_column[0]
+    times = None
+    if args.times is not None:
+        try:
+            times = [float(t) for t in args.times.split(",")]
+        except ValueError as err:
+            raise ValueError(f"--times must be comma-separated numbers; got {args.times!r} instead.") from err
+    coord = _names(args.coord_columns)
+    if coord is not None and (isinstance(coord, str) or len(coord) != 3):
+        raise ValueError(f"--coord-columns must name 3 columns as X,Y,Z; got {args.coord_columns!r} instead.")
+    return dict(
+        length_unit=args.length_unit, sed_unit=args.sed_unit, stress_unit=args.stress_unit, sed_from=args.sed_from,
+        poisson=args.poisson, preset=args.preset, shear=args.shear, location=args.location, sed_column=sed_column,
+        stress_columns=_names(args.stress_columns), strain_columns=_names(args.strain_columns), coord_columns=coord,
+        times=times, time_unit=args.time_unit, format=args.format, progress=show_progress(args),
+    )
+
+
+def add_output_options(parser: argparse.ArgumentParser, *, what: str) -> None:
+    parser.add_argument("-o", "--output", required=True, metavar="OUT", help=what)
+    parser.add_argument("--overwrite", action="store_true", help="replace an existing output (never done silently)")
+
+
+def add_quiet(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("-q", "--quiet", action="store_true", help="no progress bars or summaries")
+
+
+def show_progress(args: argparse.Namespace) -> bool:
+    """Progress bars only on a terminal and without --quiet."""
+    return not getattr(args, "quiet", False) and sys.stderr.isatty()

@@ -1,0 +1,55 @@
+"""Exceptions and warnings raised by :mod:`afferent`.
+
+Every domain error subclasses both :class:`AfferentError` and the built-in type a
+caller would expect (scikit-learn's ``NotFittedError(ValueError, AttributeError)``
+pattern), so ``except ValueError`` keeps working::
+
+    AfferentError(Exception)
+    ├── SEDFormatError(AfferentError, ValueError)       unreadable or unsupported export
+    ├── UnitError(AfferentError, ValueError)            a unit missing, unknown or inconsistent
+    ├── FieldCoverageError(AfferentError, ValueError)   receptors outside the FE field
+    ├── OutputExistsError(AfferentError, FileExistsError)  refusing to overwrite results
+    └── CalibrationError(AfferentError, RuntimeError)   a calibration that cannot proceed
+
+Only :func:`afferent.cli.main` turns these into exit codes; the library never exits or prints.
+"""
+
+from __future__ import annotations
+
+__all__ = [
+    "AfferentError",
+    "SEDFormatError",
+    "UnitError",
+    "FieldCoverageError",
+    "OutputExistsError",
+    "CalibrationError",
+    "AfferentWarning",
+]
+
+
+class AfferentError(Exception):
+    """Base class of every error raised on purpose by :mod:`afferent`."""
+
+
+class SEDFormatError(AfferentError, ValueError):
+    """An FE export could not be read: unknown format, missing columns, bad values."""
+
+
+class UnitError(AfferentError, ValueError):
+    """A physical unit is missing, unknown, or contradicts what the file states."""
+
+
+class FieldCoverageError(AfferentError, ValueError):
+    """Receptor sites lie outside the FE field and ``on_outside='raise'``."""
+
+
+class OutputExistsError(AfferentError, FileExistsError):
+    """An output file or folder exists and overwriting was not asked for."""
+
+
+class CalibrationError(AfferentError, RuntimeError):
+    """A calibration cannot proceed (singular design, degenerate objective)."""
+
+
+class AfferentWarning(UserWarning):
+    """A recoverable oddity (negative SED clipped, saturated sigmoid, ...)."""

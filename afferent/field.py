@@ -1,0 +1,198 @@
+"""The SED field read from an FE export: the output of stage 1 (:func:`afferent.read_sed`).
+
+::
+
+    FE export (CSV / VTU / PVD / XDMF) --read_sed--> SEDField --sample_sed--> ReceptorSED
+
+An :class:`SEDField` holds SI values only (m, Pa = J/m^3, s) and a :class:`Provenance`
+saying where they came from and which conversion was applied.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Literal
+
+import numpy as np
+
+from ._validation import check_finite_array
+
+__all__ = ["SEDField", "Provenance", "Cells"]
+
+
+@dataclass(frozen=True)
+class Provenance:
+    """Where a field came from, so that every number can be traced back.
+
+    Parameters
+    ----------
+    files : tuple of str
+        The export files read, in time order.
+    format : str
+        Reader used (``'vtu'``, ``'csv'``, ``'pvd'``, ``'xdmf'``).
+    sed_from : str
+        ``'field'`` (an SED array of the export), ``'exact'`` (1/2 sigma:eps from tensors)
+        or ``'equivalent'`` (the study's 1/2 sigma_e eps_e, see :mod:`afferent.strain_energy`).
+    columns : dict
+        Which export array or column was used for what, e.g. ``{'sed': 'SENER', 'x': 'X'}``.
+    units : dict
+        Units as declared or read, e.g. ``{'length': 'mm', 'sed': 'MPa'}``, and where each
+        unit came from under ``'<name>_source'`` (``'declared'`` or ``'file'``).
+    factors : dict
+        Factors applied to reach SI, e.g. ``{'length': 1e-3, 'sed': 1e6}``.
+    notes : tuple of str
+        Free-text remarks recorded by the reader (how cell data was placed, rows skipped, ...).
+    """
+
+    files: tuple[str, ...] = ()
+    format: str = ""
+    sed_from: str = "field"
+    columns: dict = field(default_factory=dict)
+    units: dict = field(default_factory=dict)
+    factors: dict = field(default_factory=dict)
+    notes: tuple[str, ...] = ()
+
+    def to_dict(self) -> dict:
+        """Plain-dict form, for JSON records."""
+        return {
+            "files": list(self.files),
+            "format": self.format,
+            "sed_from": self.sed_from,
+            "columns": dict(self.columns),
+            "units": dict(self.units),
+            "factors": dict(self.factors),
+            "notes": list(self.notes),
+        }
+
+
+@dataclass(frozen=True)
+class Cells:
+    """Volume cells of the FE mesh, as linear tetrahedra used for point location.
+
+    Parameters
+    ----------
+    tetra : ndarray of shape (n_tetra, 4), int
+        Point indices of the linear tetrahedra that tile the mesh (hexahedra, wedges and
+        pyramids are split; quadratic cells use their corner nodes).
+    parent : ndarray of shape (n_tetra,), int
+        Index of the original FE cell each tetrahedron came from (into the cell-data arrays).
+    n_cells : int
+        Number of original volume cells.
+    cell_types : tuple of str
+        meshio names of the original volume cell blocks, in order.
+    """
+
+    tetra: np.ndarray
+    parent: np.ndarray
+    n_cells: int
+    cell_types: tuple[str, ...] = ()
+
+    def __post_init__(self):
+        object.__setattr__(self, "tetra", np.ascontiguousarray(self.tetra, dtype=np.int64))
+        object.__setattr__(self, "parent", np.ascontiguousarray(self.parent, dtype=np.int64))
+        if self.tetra.ndim != 2 or self.tetra.shape[1] != 4:
+            raise ValueError(f"'tetra' must be an array of shape (n_tetra, 4); got shape {self.tetra.shape} instead.")
+        if self.parent.shape != (self.tetra.shape[0],):
+            raise ValueError(
+                f"'parent' must be an array of shape (n_tetra,) = ({self.tetra.shape[0]},); "
+                f"got shape {self.parent.shape} instead."
+            )
+        self.tetra.setflags(write=False)
+        self.parent.setflags(write=False)
+
+
+@dataclass(frozen=True)
+class SEDField:
+    """Strain-energy density over an FE mesh, in SI units.
+
+    Parameters
+    ----------
+    points : ndarray of shape (n_points, 3)
+        Node (or sample-point) coordinates in m.
+    sed : ndarray of shape (n_times, n_values)
+        SED in J/m^3 (= Pa). ``n_values`` is ``n_points`` when ``location='point'`` and
+        ``cells.n_cells`` when ``location='cell'``.
+    times : ndarray of shape (n_times,)
+        Time of each step in s, strictly increasing. A static export has ``times = [0.]``.
+    location : {'point', 'cell'}
+        Whether ``sed`` lives on the points or is one value per FE cell (element average
+        or centroid value, as the export gave it).
+    cells : Cells or None
+        The mesh's volume cells; ``None`` for scattered points (a CSV without connectivity).
+    provenance : Provenance
+        Files, columns, units and conversions that produced the field.
+
+    Notes
+    -----
+    Arrays are made read-only: a field is an immutable value.
+    """
+
+    points: np.ndarray
+    sed: np.ndarray
+    times: np.ndarray
+    location: Literal["point", "cell"] = "point"
+    cells: Cells | None = None
+    provenance: Provenance = field(default_factory=Provenance)
+
+    def __post_init__(self):
+        where = self.provenance.files[0] if len(self.provenance.files) == 1 else ""
+        points = check_finite_array("points", self.points, ndim=2, shape_doc="(n_points, 3)", where=where)
+        if points.shape[1] != 3:
+            raise ValueError(f"'points' must be an array of shape (n_points, 3) in m; got shape {points.shape} instead.")
+        sed = check_finite_array("sed", self.sed, ndim=2, shape_doc="(n_times, n_values)", where=where)
+        times = check_finite_array("times", self.times, ndim=1, shape_doc="(n_times,)", where=where)
+        if self.location not in ("point", "cell"):
+            raise ValueError(f"'location' must be 'point' or 'cell'; got {self.location!r} instead.")
+        if self.location == "cell" and self.cells is None:
+            raise ValueError("A field with location='cell' needs its 'cells'; got cells=None instead.")
+        n_values = points.shape[0] if self.location == "point" else self.cells.n_cells
+        if sed.shape[1] != n_values:
+            what = "n_points" if self.location == "point" else "n_cells"
+            raise ValueError(
+                f"'sed' must have one column per {what[2:-1]} ({what} = {n_values}); "
+                f"got shape {sed.shape} instead."
+            )
+        if times.shape[0] != sed.shape[0]:
+            raise ValueError(
+                f"'times' must have one entry per SED row (n_times = {sed.shape[0]}); got shape {times.shape} instead."
+            )
+        if times.size > 1 and not np.all(np.diff(times) > 0):
+            k = int(np.argmin(np.diff(times) > 0))
+            raise ValueError(
+                f"'times' must be strictly increasing; got {float(times[k])!r} s followed by {float(times[k + 1])!r} s "
+                f"(steps {k} and {k + 1}) instead."
+            )
+        if self.cells is not None and self.cells.tetra.size and self.cells.tetra.max() >= points.shape[0]:
+            raise ValueError(
+                f"'cells' refer to point {int(self.cells.tetra.max())} but the field has only "
+                f"{points.shape[0]} points."
+            )
+        for name, arr in (("points", points), ("sed", sed), ("times", times)):
+            arr.setflags(write=False)
+            object.__setattr__(self, name, arr)
+
+    @property
+    def n_points(self) -> int:
+        """Number of points (nodes)."""
+        return self.points.shape[0]
+
+    @property
+    def n_times(self) -> int:
+        """Number of time steps."""
+        return self.sed.shape[0]
+
+    @property
+    def bounds(self) -> np.ndarray:
+        """Bounding box, ndarray of shape (2, 3): [[xmin, ymin, zmin], [xmax, ymax, zmax]] in m."""
+        return np.stack([self.points.min(axis=0), self.points.max(axis=0)])
+
+    def __repr__(self) -> str:
+        lo, hi = self.bounds * 1e3
+        cells = f"{self.cells.n_cells} cells" if self.cells is not None else "no cells"
+        return (
+            f"<SEDField: {self.n_points} points, {cells}, {self.n_times} time step(s) "
+            f"[{self.times[0]:g}..{self.times[-1]:g}] s, SED on {self.location}s "
+            f"in [{self.sed.min():.4g}, {self.sed.max():.4g}] J/m^3, "
+            f"bounds x [{lo[0]:.4g}, {hi[0]:.4g}] y [{lo[1]:.4g}, {hi[1]:.4g}] z [{lo[2]:.4g}, {hi[2]:.4g}] mm, "
+            f"sed_from={self.provenance.sed_from!r}>"
+        )

@@ -1,0 +1,193 @@
+"""Stage 1: read the SED field of an FE export (CSV or mesh files) into an :class:`SEDField`.
+
+::
+
+    FE export --read_sed--> SEDField   (points m, SED J/m^3, times s, provenance)
+
+One private module per kind of file returns a :class:`~afferent.io._raw.RawExport` in the
+file's own names and units; :mod:`afferent.io._assemble` interprets it (SED column or
+stress/strain tensors, units, validation) the same way for every format. The registry is the
+explicit dict :data:`FORMATS`.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Sequence
+
+from .._validation import check_option
+from ..exceptions import SEDFormatError
+from ..field import SEDField
+from ._assemble import ReadOptions, assemble
+from ._raw import RawExport
+
+__all__ = ["read_sed", "read_raw", "FORMATS"]
+
+#: Known formats: name -> file-name endings. '.gz' CSV files are read by the CSV reader.
+FORMATS: dict[str, tuple[str, ...]] = {
+    "csv": (".csv", ".txt", ".tsv", ".dat", ".rpt", ".log", ".csv.gz", ".txt.gz"),
+    "vtu": (".vtu",),
+    "vtk": (".vtk",),
+    "pvd": (".pvd",),
+    "xdmf": (".xdmf", ".xmf"),
+}
+
+
+def _format_of(path: str, fmt: str | None) -> str:
+    if fmt is not None:
+        return check_option("format", fmt, tuple(FORMATS))
+    lower = path.lower()
+    for name, endings in FORMATS.items():
+        if lower.endswith(endings):
+            return name
+    known = ", ".join(repr(e) for ends in FORMATS.values() for e in ends)
+    raise SEDFormatError(
+        f"Could not deduce the SED file format from {path!r}. Known extensions are {known}; "
+        f"pass format='csv' (or one of {', '.join(map(repr, FORMATS))}) explicitly."
+    )
+
+
+def _paths(path_or_paths) -> list[str]:
+    if isinstance(path_or_paths, (str, os.PathLike)):
+        paths = [os.fspath(path_or_paths)]
+    elif isinstance(path_or_paths, Sequence):
+        paths = [os.fspath(p) for p in path_or_paths]
+    else:
+        raise TypeError(f"'path_or_paths' must be a path or a list of paths; got {type(path_or_paths).__name__} instead.")
+    if not paths:
+        raise ValueError("'path_or_paths' must name at least one file; got an empty list instead.")
+    for p in paths:
+        if not os.path.exists(p):
+            raise FileNotFoundError(f"SED file {p!r} not found.")
+        if os.path.isdir(p):
+            raise SEDFormatError(f"SED file {p!r} is a directory; pass the export file(s) inside it.")
+    return paths
+
+
+def read_raw(path_or_paths, *, format: str | None = None, progress: bool = False, **csv_kwargs) -> RawExport:
+    """Read an export into its raw, uninterpreted form (the file's names and units).
+
+    Used by ``afferent info``; most users want :func:`read_sed`. Several paths are one time
+    step each, in the order given.
+    """
+    from . import _meshio
+
+    paths = _paths(path_or_paths)
+    formats = {_format_of(p, format) for p in paths}
+    if len(formats) > 1:
+        raise SEDFormatError(f"A series must be of one format; got {', '.join(sorted(formats))} for {paths!r}.")
+    fmt = formats.pop()
+    if fmt == "csv":
+        from ._csv import read_csv
+
+        return read_csv(paths if len(paths) > 1 else paths[0], progress=progress, **csv_kwargs)
+    if len(paths) > 1:
+        if fmt in ("pvd", "xdmf"):
+            raise SEDFormatError(f"Pass one .{fmt} file, not a list: it lists its own time steps ({paths!r}).")
+        return _meshio.read_vtu_series(paths, progress=progress)
+    if fmt == "pvd":
+        return _meshio.read_pvd(paths[0], progress=progress)
+    if fmt == "xdmf":
+        return _meshio.read_xdmf(paths[0], progress=progress)
+    return _meshio.read_mesh_file(paths[0])
+
+
+def read_sed(
+    path_or_paths,
+    *,
+    length_unit: str | None = None,
+    sed_unit: str | None = None,
+    stress_unit: str | None = None,
+    sed_from: str = "field",
+    poisson: float | None = None,
+    preset: str | None = None,
+    shear: str | None = None,
+    location: str | None = None,
+    sed_column: str | Sequence[str] | None = None,
+    stress_columns: str | Sequence[str] | None = None,
+    strain_columns: str | Sequence[str] | None = None,
+    coord_columns: Sequence[str] | None = None,
+    times: Sequence[float] | None = None,
+    time_unit: str | None = None,
+    format: str | None = None,
+    progress: bool = False,
+) -> SEDField:
+    """Read the strain-energy density of an FE export, in SI units.
+
+    Parameters
+    ----------
+    path_or_paths : str, path-like or list of them
+        One export (``.vtu``, ``.vtk``, ``.pvd``, ``.xdmf``, ``.csv``/``.txt``/``.rpt``, optionally
+        ``.gz``), or several files of one format, one per time step, in time order.
+    length_unit : {'m', 'mm', 'um', 'cm'}, optional
+        Unit of the coordinates. Required unless the file states it (COMSOL ``% Length unit``,
+        ``X Location (mm)``); if both are given they must agree. Never guessed.
+    sed_unit : {'Pa', 'kPa', 'MPa', 'J/m^3', 'mJ/mm^3', ...}, optional
+        Unit of the SED array (``sed_from='field'``). Required unless the column header states it.
+        An mm/N/s model exports SED in MPa (= mJ/mm^3).
+    stress_unit : str, optional
+        Unit of the stress components when SED is computed from tensors (strain is dimensionless).
+    sed_from : {'field', 'exact', 'equivalent'}, default='field'
+        ``'field'`` reads an SED array; ``'exact'`` computes 1/2 sigma:eps from stress and strain;
+        ``'equivalent'`` computes the study's 1/2 sigma_e eps_e (needs ``poisson``).
+    poisson : float, optional
+        Poisson's ratio for ``sed_from='equivalent'`` (the study's skin: 0.48).
+    preset : str, optional
+        The FE tool whose component order and shear convention the tensors follow, one of
+        :data:`afferent.strain_energy.PRESETS` (``'abaqus'``, ``'ansys'``, ``'comsol'``, ``'febio'``,
+        ``'calculix-frd'``, ``'calculix-dat'``, ``'sfepy'``, ...). Needed with ``sed_from='exact'|'equivalent'``
+        unless ``shear`` is given.
+    shear : {'tensor', 'engineering'}, optional
+        Overrides the preset's shear-strain convention.
+    location : {'point', 'cell'}, optional
+        Take SED (or tensors) from point data or cell data when a file has both; default point
+        data (the choice is recorded in the provenance).
+    sed_column, stress_columns, strain_columns, coord_columns : optional
+        Explicit names for anything not recognised. ``sed_column`` may list one column per time
+        step; ``stress_columns``/``strain_columns`` take a tensor array name or 6 column names in
+        the order xx yy zz xy yz xz.
+    times : sequence of float, optional
+        Step times, overriding what the file states (unit ``time_unit``, default s).
+    time_unit : {'s', 'ms', 'us'}, optional
+        Unit of the times stated in the file or passed as ``times``.
+    format : {'csv', 'vtu', 'vtk', 'pvd', 'xdmf'}, optional
+        Overrides the format deduced from the file name.
+    progress : bool, default=False
+        Show a progress bar while reading a series.
+
+    Returns
+    -------
+    SEDField
+        Points in m, SED of shape (n_times, n_values) in J/m^3, times in s, cells when the
+        export has a volume mesh, and the provenance (files, columns, units, formula).
+
+    Raises
+    ------
+    FileNotFoundError
+        A file does not exist.
+    SEDFormatError
+        Unknown format, unreadable or corrupt file, missing columns, NaN/inf or negative SED,
+        non-increasing times, a series whose steps do not match.
+    UnitError
+        A unit neither stated nor declared, unknown, or contradicting the file.
+
+    See Also
+    --------
+    afferent.sample_sed : SED at receptor sites (stage 2).
+
+    Examples
+    --------
+    >>> field = read_sed("sample_sed/block4/indent_0p88mm.vtu", length_unit="mm", sed_unit="MPa")  # doctest: +SKIP
+    >>> field.sed.max()  # J/m^3  # doctest: +SKIP
+    """
+    opts = ReadOptions(
+        length_unit=length_unit, sed_unit=sed_unit, stress_unit=stress_unit, time_unit=time_unit,
+        sed_from=sed_from, poisson=poisson, preset=preset, shear=shear, location=location,
+        sed_column=sed_column if sed_column is None or isinstance(sed_column, str) else tuple(sed_column),
+        stress_columns=stress_columns if stress_columns is None or isinstance(stress_columns, str) else tuple(stress_columns),
+        strain_columns=strain_columns if strain_columns is None or isinstance(strain_columns, str) else tuple(strain_columns),
+        coord_columns=None if coord_columns is None else tuple(coord_columns),
+        times=None if times is None else tuple(float(t) for t in times),
+    )
+    raw = read_raw(path_or_paths, format=format, progress=progress)
+    return assemble(raw, opts)

@@ -1,0 +1,123 @@
+"""How FE tools spell coordinates, time, SED, stress and strain (see shared FE-FORMATS.md).
+
+Names are matched after :func:`canonical` (lower case; spaces, dots, dashes, colons and
+underscores removed), so ``S.S11``, ``S-S11``, ``S:S11`` and ``s_11`` all read ``ss11``/``s11``.
+Matching is by name only; values never decide what a column is.
+"""
+
+from __future__ import annotations
+
+import re
+
+__all__ = [
+    "canonical",
+    "split_unit",
+    "COORD_ALIASES",
+    "TIME_ALIASES",
+    "ID_ALIASES",
+    "SED_ALIASES",
+    "ENERGY_NOT_DENSITY",
+    "STRESS_COMPONENTS",
+    "STRAIN_COMPONENTS",
+    "TENSOR_ARRAY_NAMES",
+]
+
+_STRIP = re.compile(r"[\s._:\-/\[\]()]+")
+_UNIT = re.compile(r"^(?P<name>.*?)\s*[\(\[](?P<unit>[^\)\]]*)[\)\]]\s*$")
+
+
+def canonical(name: str) -> str:
+    """Canonical spelling used for matching: ``'S.S11'`` -> ``'ss11'``, ``'solid.Ws'`` -> ``'solidws'``."""
+    return _STRIP.sub("", str(name)).lower()
+
+
+def split_unit(header: str) -> tuple[str, str | None]:
+    """Split ``'solid.Ws (J/m^3)'`` into ``('solid.Ws', 'J/m^3')``; no unit gives ``(header, None)``."""
+    header = str(header).strip()
+    m = _UNIT.match(header)
+    if m and m.group("name"):
+        return m.group("name").strip(), m.group("unit").strip()
+    return header, None
+
+
+def _c(*names: str) -> frozenset[str]:
+    return frozenset(canonical(n) for n in names)
+
+
+#: Coordinate columns, by axis.
+COORD_ALIASES: dict[str, frozenset[str]] = {
+    "x": _c("x", "coord1", "coor1", "coordx", "coordinatex", "xlocation", "xcoord", "xcoordinate", "points0"),
+    "y": _c("y", "coord2", "coor2", "coordy", "coordinatey", "ylocation", "ycoord", "ycoordinate", "points1"),
+    "z": _c("z", "coord3", "coor3", "coordz", "coordinatez", "zlocation", "zcoord", "zcoordinate", "points2"),
+}
+
+#: Time columns.
+TIME_ALIASES: frozenset[str] = _c("time", "t", "steptime", "totaltime", "timestep", "time_s")
+
+#: Node / element label columns (kept, never used as data).
+ID_ALIASES: frozenset[str] = _c(
+    "node", "nodelabel", "nodenumber", "nodeid", "node_id", "nid", "element", "elementlabel",
+    "elementnumber", "elementid", "elem", "eid", "id", "label", "ip", "intpt", "integrationpoint",
+)
+
+#: SED *density* arrays, in order of preference (FE-FORMATS.md §1, §4.4).
+SED_ALIASES: tuple[str, ...] = tuple(
+    canonical(n)
+    for n in (
+        "sed", "sener", "eseden", "send", "sendelastic", "solid.Ws", "Ws", "ener",
+        "strain energy density", "strain_energy_density", "strainenergydensity",
+        "elastic strain energy density", "enel", "enel_elno", "enel_noeu", "enel_elga",
+    )
+)
+
+#: Arrays that are element *energies*, not densities: refused with a hint (FE-FORMATS.md §4.4).
+ENERGY_NOT_DENSITY: dict[str, str] = {
+    canonical("ELSE"): "Abaqus/CalculiX ELSE is the element's total strain energy (J), not a density",
+    canonical("SENE"): "ANSYS SENE is the element strain energy (J), not a density; export SEND",
+    canonical("element strain energy"): "FEBio 'element strain energy' is an energy, not a density",
+    canonical("solid.Ws_tot"): "COMSOL solid.Ws_tot is the integrated energy, not a density; export solid.Ws",
+    canonical("strain energy"): "'Strain Energy' (Workbench) is an element energy, not a density",
+    canonical("ALLSE"): "Abaqus ALLSE is the whole model's strain energy",
+}
+
+_AXES = {"1": "x", "2": "y", "3": "z", "x": "x", "y": "y", "z": "z"}
+
+
+def _component_aliases(prefixes: tuple[str, ...]) -> dict[str, frozenset[str]]:
+    """``{'xx': {...}, 'yy': ..., 'xy': ..., 'yz': ..., 'xz': ...}`` for the given name prefixes."""
+    pairs = {"xx": ("11", "xx", "x"), "yy": ("22", "yy", "y"), "zz": ("33", "zz", "z"),
+             "xy": ("12", "xy", "21", "yx"), "yz": ("23", "yz", "32", "zy"), "xz": ("13", "xz", "31", "zx")}
+    out = {}
+    for comp, suffixes in pairs.items():
+        names = set()
+        for p in prefixes:
+            for s in suffixes:
+                if len(s) == 1 and p.lower() in ("s", "e", "ep"):
+                    continue  # 'SX' is fine for ANSYS stress but 'sx'/'ex' alone are handled below
+                names.add(canonical(p + s))
+        out[comp] = frozenset(names)
+    return out
+
+
+#: Stress component columns by canonical component (tensor order xx yy zz xy yz xz).
+STRESS_COMPONENTS = _component_aliases(
+    ("S", "S.S", "S-S", "S:S", "sigma", "sig", "stress", "stress_", "solid.s", "SI", "SIG", "cauchy_stress")
+)
+for _comp, _names in (("xx", ("sx", "solid.sx")), ("yy", ("sy", "solid.sy")), ("zz", ("sz", "solid.sz"))):
+    STRESS_COMPONENTS[_comp] = STRESS_COMPONENTS[_comp] | _c(*_names)
+
+#: Strain component columns by canonical component. Which shear convention applies is a
+#: property of the tool (see :data:`afferent.strain_energy.PRESETS`), not of the name.
+STRAIN_COMPONENTS = _component_aliases(
+    ("E", "E.E", "E-E", "E:E", "LE", "LE.LE", "LE-LE", "EE", "EE.EE", "NE", "eps", "epsilon", "strain",
+     "strain_", "solid.e", "EP", "EPEL", "EPTO", "EPTO.", "EPEL.", "cauchy_strain", "Lagrange strain", "TOSTRAIN")
+)
+for _comp, _names in (("xx", ("ex", "epelx", "eptox")), ("yy", ("ey", "epely", "eptoy")), ("zz", ("ez", "epelz", "eptoz"))):
+    STRAIN_COMPONENTS[_comp] = STRAIN_COMPONENTS[_comp] | _c(*_names)
+
+#: Multi-component tensor arrays (VTU/XDMF): a 6- or 9-component array with one of these names.
+TENSOR_ARRAY_NAMES: dict[str, frozenset[str]] = {
+    "stress": _c("S", "stress", "sigma", "cauchy_stress", "Stress", "SIEF", "SIGM", "STRESS", "nodal stress"),
+    "strain": _c("E", "strain", "eps", "epsilon", "cauchy_strain", "Strain", "LE", "EE", "EPSI", "TOSTRAIN",
+                 "Lagrange strain", "infinitesimal strain", "EPEL", "EPTO"),
+}

@@ -1,0 +1,317 @@
+"""Mesh-based exports through meshio: VTU/VTK files, PVD collections, XDMF time series.
+
+Each reader returns a :class:`~afferent.io._raw.RawExport` in the file's units. For a time
+series the mesh (points and cells) is decoded once; later steps decode only their data
+arrays (a VTU series is checked to share the first step's points).
+"""
+
+from __future__ import annotations
+
+import os
+import warnings
+from xml.etree import ElementTree as ET
+
+import numpy as np
+
+from ..exceptions import SEDFormatError
+from ..field import Cells
+from ._raw import RawArray, RawExport
+
+__all__ = ["read_mesh_file", "read_vtu_series", "read_pvd", "read_xdmf", "cells_from_meshio"]
+
+# Corner nodes of each volume cell type, then its split into linear tetrahedra (VTK node order).
+_TETS = {
+    "tetra": [(0, 1, 2, 3)],
+    "hexahedron": [(0, 6, 1, 2), (0, 6, 2, 3), (0, 6, 3, 7), (0, 6, 7, 4), (0, 6, 4, 5), (0, 6, 5, 1)],
+    "wedge": [(0, 1, 2, 3), (1, 2, 3, 4), (2, 3, 4, 5)],
+    "pyramid": [(0, 1, 2, 4), (0, 2, 3, 4)],
+}
+_HIGHER = {
+    "tetra10": "tetra", "tetra14": "tetra", "hexahedron20": "hexahedron", "hexahedron24": "hexahedron",
+    "hexahedron27": "hexahedron", "wedge15": "wedge", "wedge18": "wedge", "pyramid13": "pyramid",
+    "pyramid14": "pyramid",
+}
+
+
+def _volume_blocks(cells) -> list[tuple[int, str, np.ndarray]]:
+    out = []
+    for k, block in enumerate(cells):
+        base = _HIGHER.get(block.type, block.type)
+        if base in _TETS:
+            out.append((k, block.type, np.asarray(block.data)))
+    return out
+
+
+def cells_from_meshio(cells) -> Cells | None:
+    """Split meshio volume cell blocks into linear tetrahedra; None when the mesh has no volume cells.
+
+    Quadratic cells use their corner nodes (the field is then interpolated linearly between
+    corners). Surface and line blocks are ignored.
+    """
+    blocks = _volume_blocks(cells)
+    if not blocks:
+        return None
+    tets, parents, offset = [], [], 0
+    for _, ctype, conn in blocks:
+        pattern = np.asarray(_TETS[_HIGHER.get(ctype, ctype)])
+        n = conn.shape[0]
+        tets.append(conn[:, pattern].reshape(-1, 4))
+        parents.append(np.repeat(np.arange(offset, offset + n), len(pattern)))
+        offset += n
+    return Cells(np.concatenate(tets), np.concatenate(parents), offset, tuple(b[1] for b in blocks))
+
+
+def _read_meshio(path: str):
+    import meshio
+
+    if not os.path.isfile(path):
+        raise FileNotFoundError(f"SED file {path!r} not found.")
+    if os.path.getsize(path) == 0:
+        raise SEDFormatError(f"SED file {path!r} is empty.")
+    # The format's own reader, not meshio.read: its dispatcher prints and calls sys.exit on failure.
+    ext = os.path.splitext(path)[1].lower()
+    reader = {".vtu": meshio.vtu.read, ".vtk": meshio.vtk.read, ".xdmf": meshio.xdmf.read, ".xmf": meshio.xdmf.read}.get(
+        ext, meshio.read
+    )
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # meshio warns on skipped data; we report what we keep
+            return reader(path)
+    except (Exception, SystemExit) as err:  # ReadError, ET.ParseError, ValueError, KeyError, zlib.error...
+        kind = type(err).__name__
+        raise SEDFormatError(
+            f"SED file {path!r} could not be read as {os.path.splitext(path)[1] or 'a mesh'} "
+            f"(truncated or corrupt?): {kind}: {err}"
+        ) from err
+
+
+def _arrays_from_mesh(mesh, path: str, cells_obj: Cells | None) -> dict[str, RawArray]:
+    arrays: dict[str, RawArray] = {}
+    n_points = len(mesh.points)
+    for name, data in mesh.point_data.items():
+        data = np.asarray(data, dtype=float)
+        if data.shape[0] != n_points:
+            raise SEDFormatError(
+                f"SED file {path!r}: point array {name!r} must have one value per point ({n_points}); "
+                f"got {data.shape[0]} instead."
+            )
+        arrays[name] = RawArray(name, data[None], "point")
+    if cells_obj is not None:
+        vol = [k for k, _, _ in _volume_blocks(mesh.cells)]
+        for name, per_block in mesh.cell_data.items():
+            try:
+                parts = [np.asarray(per_block[k], dtype=float) for k in vol]
+            except (TypeError, ValueError):
+                continue  # non-numeric cell data
+            data = np.concatenate(parts)
+            if data.shape[0] != cells_obj.n_cells:
+                raise SEDFormatError(
+                    f"SED file {path!r}: cell array {name!r} must have one value per volume cell "
+                    f"({cells_obj.n_cells}); got {data.shape[0]} instead."
+                )
+            key = name if name not in arrays else f"{name}@cell"
+            arrays[key] = RawArray(name, data[None], "cell")
+    return arrays
+
+
+def read_mesh_file(path: str) -> RawExport:
+    """A single VTU / VTK (or any meshio-readable) file: one time step."""
+    mesh = _read_meshio(path)
+    cells_obj = cells_from_meshio(mesh.cells)
+    points = np.asarray(mesh.points, dtype=float)
+    if points.ndim != 2 or points.shape[0] == 0:
+        raise SEDFormatError(f"SED file {path!r} holds no points.")
+    if points.shape[1] == 2:
+        points = np.column_stack([points, np.zeros(len(points))])
+    notes = []
+    if cells_obj is None:
+        notes.append("No volume cells in the file: the points are treated as scattered samples.")
+    return RawExport(
+        files=(path,), format=os.path.splitext(path)[1].lstrip(".").lower(), points=points,
+        arrays=_arrays_from_mesh(mesh, path, cells_obj), cells=cells_obj, notes=tuple(notes),
+    )
+
+
+class _VtuDataReader:
+    """Decode only the data arrays of a VTU file, with meshio's own decoder.
+
+    meshio re-reads points and connectivity for every file of a series; for step 2..N of a
+    series we parse the XML and decode only Points (to check the mesh is the same) and the
+    PointData / CellData arrays.
+    """
+
+    def __init__(self, path: str):
+        from meshio.vtu import _vtu
+
+        self.path = path
+        try:
+            try:
+                root = ET.parse(path).getroot()
+            except ET.ParseError:
+                root = _vtu._parse_raw_binary(path)
+            reader = _vtu.VtuReader.__new__(_vtu.VtuReader)
+            reader.compression = root.attrib.get("compressor")
+            reader.header_type = root.attrib.get("header_type", "UInt32")
+            reader.byte_order = root.attrib.get("byte_order")
+            grid, reader.appended_data = _vtu.get_grid(root)
+            pieces = [c for c in grid if c.tag == "Piece"]
+            if len(pieces) != 1:
+                raise SEDFormatError(f"SED file {path!r}: expected one Piece in a series step; got {len(pieces)}.")
+            piece = pieces[0]
+            self.n_points = int(piece.attrib["NumberOfPoints"])
+            self.n_cells = int(piece.attrib["NumberOfCells"])
+            self.points = None
+            self.point_data, self.cell_data = {}, {}
+            for child in piece:
+                if child.tag == "Points":
+                    self.points = reader.read_data(child[0]).reshape(self.n_points, -1)
+                elif child.tag == "PointData":
+                    self.point_data = {c.attrib["Name"]: reader.read_data(c) for c in child}
+                elif child.tag == "CellData":
+                    self.cell_data = {c.attrib["Name"]: reader.read_data(c) for c in child}
+        except SEDFormatError:
+            raise
+        except Exception as err:
+            raise SEDFormatError(
+                f"SED file {path!r} could not be read as .vtu (truncated or corrupt?): {type(err).__name__}: {err}"
+            ) from err
+
+
+def read_vtu_series(paths: list[str], times=None, *, progress: bool = False) -> RawExport:
+    """Several VTU files, one per time step, on one mesh; the mesh is decoded once.
+
+    Parameters
+    ----------
+    paths : list of str
+        Files in time order.
+    times : array_like of shape (n_files,), optional
+        Step times (file units) when known (from a PVD); else None.
+    progress : bool
+        Show a progress bar (tqdm) while reading.
+    """
+    from tqdm.auto import tqdm
+
+    first = read_mesh_file(paths[0])
+    n_points = first.points.shape[0]
+    n_cells = first.cells.n_cells if first.cells is not None else None
+    stacks = {key: [arr.values[0]] for key, arr in first.arrays.items()}
+    for path in tqdm(paths[1:], desc="reading series", unit="file", disable=not progress):
+        if not os.path.isfile(path):
+            raise FileNotFoundError(f"SED file {path!r} not found.")
+        if not path.lower().endswith(".vtu"):
+            step = read_mesh_file(path)
+            pd = {a.name: a.values[0] for a in step.arrays.values() if a.location == "point"}
+            cd = {a.name: a.values[0] for a in step.arrays.values() if a.location == "cell"}
+            pts, npts = step.points, step.points.shape[0]
+        else:
+            step = _VtuDataReader(path)
+            pd, cd, pts, npts = step.point_data, step.cell_data, step.points, step.n_points
+        if npts != n_points or (pts is not None and not np.array_equal(np.asarray(pts, dtype=float), first.points)):
+            raise SEDFormatError(
+                f"SED file {path!r} is not on the same mesh as {paths[0]!r} "
+                f"({npts} points vs {n_points}, or moved points); a series must share one mesh."
+            )
+        for key, arr in first.arrays.items():
+            source = pd if arr.location == "point" else cd
+            if arr.name not in source:
+                raise SEDFormatError(
+                    f"SED file {path!r} lacks the {arr.location} array {arr.name!r} that {paths[0]!r} has; "
+                    "every step of a series must carry the same arrays."
+                )
+            values = np.asarray(source[arr.name], dtype=float)
+            expected = n_points if arr.location == "point" else n_cells
+            if values.shape[0] != expected:
+                raise SEDFormatError(
+                    f"SED file {path!r}: array {arr.name!r} must have {expected} values; got {values.shape[0]} instead."
+                )
+            stacks[key].append(values)
+    arrays = {
+        key: RawArray(arr.name, np.stack(stacks[key]), arr.location, arr.unit, arr.components)
+        for key, arr in first.arrays.items()
+    }
+    return RawExport(
+        files=tuple(paths), format="vtu-series", points=first.points, arrays=arrays,
+        times=None if times is None else np.asarray(times, dtype=float), cells=first.cells,
+        notes=first.notes + (f"{len(paths)} steps read; mesh decoded once, from {paths[0]!r}.",),
+    )
+
+
+def read_pvd(path: str, *, progress: bool = False) -> RawExport:
+    """A ParaView ``.pvd`` collection: ``<DataSet timestep=... file=...>`` entries, sorted by time."""
+    if not os.path.isfile(path):
+        raise FileNotFoundError(f"SED file {path!r} not found.")
+    try:
+        root = ET.parse(path).getroot()
+    except ET.ParseError as err:
+        raise SEDFormatError(f"SED file {path!r} is not a valid .pvd (XML) file: {err}") from err
+    datasets = root.findall(".//DataSet")
+    if not datasets:
+        raise SEDFormatError(f"SED file {path!r} lists no <DataSet> entries; expected a ParaView collection.")
+    folder = os.path.dirname(path)
+    entries = []
+    for k, ds in enumerate(datasets):
+        if "file" not in ds.attrib:
+            raise SEDFormatError(f"SED file {path!r}: DataSet {k} has no 'file' attribute.")
+        try:
+            t = float(ds.attrib.get("timestep", k))
+        except ValueError as err:
+            raise SEDFormatError(
+                f"SED file {path!r}: DataSet {k} timestep must be a number; got {ds.attrib['timestep']!r} instead."
+            ) from err
+        entries.append((t, int(ds.attrib.get("part", 0)), os.path.join(folder, ds.attrib["file"])))
+    if len({e[1] for e in entries}) > 1:
+        raise SEDFormatError(f"SED file {path!r} has several parts per time step; afferent reads single-part series.")
+    times = [e[0] for e in entries]
+    if any(b <= a for a, b in zip(times, times[1:])):
+        k = next(i for i, (a, b) in enumerate(zip(times, times[1:])) if b <= a)
+        raise SEDFormatError(
+            f"SED file {path!r}: timesteps must be strictly increasing; got {times[k]!r} followed by "
+            f"{times[k + 1]!r} (DataSets {k} and {k + 1}) instead."
+        )
+    raw = read_vtu_series([e[2] for e in entries], times, progress=progress)
+    return RawExport(
+        files=(path,) + raw.files, format="pvd", points=raw.points, arrays=raw.arrays, times=raw.times,
+        cells=raw.cells, notes=raw.notes,
+    )
+
+
+def read_xdmf(path: str, *, progress: bool = False) -> RawExport:
+    """An XDMF file: a time series (meshio ``TimeSeriesReader``, mesh read once) or a single mesh."""
+    import meshio
+    from tqdm.auto import tqdm
+
+    if not os.path.isfile(path):
+        raise FileNotFoundError(f"SED file {path!r} not found.")
+    try:
+        reader = meshio.xdmf.TimeSeriesReader(path)
+        points, cells = reader.read_points_cells()
+        n_steps = reader.num_steps
+    except Exception:
+        raw = read_mesh_file(path)
+        return RawExport(raw.files, "xdmf", raw.points, raw.arrays, None, raw.cells, notes=raw.notes)
+    cells_obj = cells_from_meshio(cells)
+    times, stacks, first = [], {}, None
+    try:
+        for k in tqdm(range(n_steps), desc="reading xdmf", unit="step", disable=not progress):
+            t, point_data, cell_data = reader.read_data(k)
+            step = meshio.Mesh(points, cells, point_data=point_data, cell_data=cell_data)
+            arrays = _arrays_from_mesh(step, path, cells_obj)
+            if first is None:
+                first = arrays
+            elif set(arrays) != set(first):
+                raise SEDFormatError(f"SED file {path!r}: step {k} carries arrays {sorted(arrays)}, step 0 {sorted(first)}.")
+            times.append(float(t))
+            for key, arr in arrays.items():
+                stacks.setdefault(key, []).append(arr.values[0])
+    except SEDFormatError:
+        raise
+    except Exception as err:
+        raise SEDFormatError(f"SED file {path!r} could not be read as an XDMF time series: {type(err).__name__}: {err}") from err
+    pts = np.asarray(points, dtype=float)
+    if pts.shape[1] == 2:
+        pts = np.column_stack([pts, np.zeros(len(pts))])
+    arrays = {key: RawArray(first[key].name, np.stack(v), first[key].location) for key, v in stacks.items()}
+    return RawExport(
+        files=(path,), format="xdmf", points=pts, arrays=arrays, times=np.asarray(times), cells=cells_obj,
+        notes=(f"XDMF time series of {n_steps} step(s); mesh read once.",),
+    )

@@ -1,0 +1,88 @@
+"""The common intermediate form every format reader returns.
+
+A reader's only job is to turn bytes into numbers: it returns a :class:`RawExport` with the
+export's own names and units, untouched. Choosing the SED array, recognising tensor
+components, converting units and validating is done once, for every format, in
+:mod:`afferent.io._assemble`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..field import Cells
+
+__all__ = ["RawExport", "RawArray"]
+
+
+@dataclass(frozen=True)
+class RawArray:
+    """One named array of an export, in the file's units.
+
+    Parameters
+    ----------
+    name : str
+        The name as the export spells it (CSV header without its unit, VTU array name).
+    values : ndarray of shape (n_times, n_values) or (n_times, n_values, n_components)
+        Values in the file's units (float64).
+    location : {'point', 'cell'}
+        Point (node) data or one value per cell.
+    unit : str or None
+        The unit the file states for this array (e.g. from ``solid.Ws (J/m^3)``), else None.
+    components : tuple of str
+        Component names when the file gives them (VTU ``ComponentName``), else ().
+    """
+
+    name: str
+    values: np.ndarray
+    location: str = "point"
+    unit: str | None = None
+    components: tuple[str, ...] = ()
+
+
+@dataclass(frozen=True)
+class RawExport:
+    """What a format reader found in an export, before interpretation.
+
+    Parameters
+    ----------
+    files : tuple of str
+        Files read, in time order.
+    format : str
+        Reader name (``'csv'``, ``'vtu'``, ``'pvd'``, ``'xdmf'``).
+    points : ndarray of shape (n_points, 3) or None
+        Coordinates in the file's length unit; None for a CSV whose coordinate columns have
+        not been identified yet (then they are among ``arrays``).
+    arrays : dict of str to RawArray
+        Every numeric array/column found, keyed by name.
+    times : ndarray of shape (n_times,) or None
+        Step times in the file's time unit when the file states them (PVD ``timestep``,
+        a CSV time column, ``@ t=`` headers), else None.
+    cells : Cells or None
+        Volume cells (VTU/XDMF); None for CSV tables.
+    length_unit : str or None
+        Length unit the file states (COMSOL ``% Length unit``, ``X Location (mm)``), else None.
+    time_unit : str or None
+        Time unit the file states, else None.
+    notes : tuple of str
+        What the reader did that a user should know (rows skipped, footers dropped, ...).
+    """
+
+    files: tuple[str, ...]
+    format: str
+    points: np.ndarray | None
+    arrays: dict[str, RawArray] = field(default_factory=dict)
+    times: np.ndarray | None = None
+    cells: Cells | None = None
+    length_unit: str | None = None
+    time_unit: str | None = None
+    notes: tuple[str, ...] = ()
+
+    @property
+    def n_times(self) -> int:
+        """Number of time steps found (1 for a static export)."""
+        for arr in self.arrays.values():
+            return arr.values.shape[0]
+        return 0

@@ -1,0 +1,318 @@
+"""Stage 2: the SED field at the receptor sites.
+
+::
+
+    SEDField + ReceptorLayout --sample_sed--> ReceptorSED   (n_times, n_receptors) J/m^3
+
+``'nearest'`` takes the value of the nearest mesh node (for cell data: of the cell holding
+the receptor). ``'linear'`` interpolates inside the mesh's own cells (split into linear
+tetrahedra), with barycentric weights computed once and reused for every time step; for a
+CSV without connectivity it triangulates only the points around the receptors.
+"""
+
+from __future__ import annotations
+
+import warnings
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+from scipy.spatial import cKDTree
+
+from ._validation import check_option
+from .exceptions import AfferentWarning, FieldCoverageError
+from .field import Cells, SEDField
+from .receptors import ReceptorLayout
+
+__all__ = ["ReceptorSED", "Sampler", "build_sampler", "sample_sed", "METHODS"]
+
+METHODS = ("linear", "nearest")
+ON_OUTSIDE = ("raise", "warn", "nan")
+
+#: Barycentric slack: a receptor within this (relative) distance outside a tetrahedron's
+#: face still counts as inside it (receptors on faces, float noise in exported coordinates).
+BARY_TOL = 1e-6
+
+#: Neighbours gathered around each receptor when a scattered-point export is triangulated.
+SCATTER_NEIGHBOURS = 48
+
+
+@dataclass(frozen=True)
+class ReceptorSED:
+    """SED sampled at receptor sites.
+
+    Parameters
+    ----------
+    values : ndarray of shape (n_times, n_receptors)
+        SED in J/m^3 (NaN for receptors outside the field with ``on_outside='nan'|'warn'``).
+    times : ndarray of shape (n_times,)
+        Time of each step in s.
+    layout : ReceptorLayout
+        The receptor sites.
+    method : str
+        ``'linear'`` or ``'nearest'``.
+    outside : ndarray of shape (n_receptors,), bool
+        Receptors found outside the field.
+    """
+
+    values: np.ndarray
+    times: np.ndarray
+    layout: ReceptorLayout
+    method: str
+    outside: np.ndarray
+
+    def __array__(self, dtype=None, copy=None):
+        return np.asarray(self.values, dtype=dtype)
+
+    def to_dataframe(self, *, sections: bool = False):
+        """Long table, one row per receptor and step.
+
+        Columns ``receptor, x_m, y_m, z_m, time_s, sed_pa`` (positions in m, time in s, SED in
+        J/m^3 = Pa); with ``sections=True`` also ``longitudinal`` and ``cross`` section labels.
+        """
+        import pandas as pd
+
+        n_t, n_r = self.values.shape
+        pos = self.layout.positions
+        cols = {
+            "receptor": np.tile(self.layout.ids, n_t),
+            "x_m": np.tile(pos[:, 0], n_t),
+            "y_m": np.tile(pos[:, 1], n_t),
+            "z_m": np.tile(pos[:, 2], n_t),
+        }
+        if sections:
+            cols["longitudinal"] = np.tile(self.layout.longitudinal, n_t)
+            cols["cross"] = np.tile(self.layout.cross, n_t)
+        cols["time_s"] = np.repeat(self.times, n_r)
+        cols["sed_pa"] = self.values.reshape(-1)
+        return pd.DataFrame(cols)
+
+    def __repr__(self) -> str:
+        return (
+            f"<ReceptorSED: {self.values.shape[1]} receptors x {self.values.shape[0]} step(s), method={self.method!r}, "
+            f"SED in [{np.nanmin(self.values) if self.values.size else np.nan:.4g}, "
+            f"{np.nanmax(self.values) if self.values.size else np.nan:.4g}] J/m^3>"
+        )
+
+
+@dataclass(frozen=True)
+class Sampler:
+    """Interpolation weights from field values to receptors, computed once.
+
+    ``values_at_receptors = weights @ field_values`` for every time step.
+
+    Parameters
+    ----------
+    weights : scipy.sparse.csr_matrix of shape (n_receptors, n_values)
+    outside : ndarray of shape (n_receptors,), bool
+    method : str
+    """
+
+    weights: sp.csr_matrix
+    outside: np.ndarray
+    method: str
+
+    def apply(self, sed: np.ndarray) -> np.ndarray:
+        """(n_times, n_values) -> (n_times, n_receptors); NaN where outside."""
+        out = np.asarray((self.weights @ np.asarray(sed, dtype=float).T).T)
+        out[:, self.outside] = np.nan
+        return out
+
+
+def _barycentric(points: np.ndarray, tet_xyz: np.ndarray) -> np.ndarray:
+    """Barycentric coordinates of points (m, 3) in tets (m, 4, 3) -> (m, 4); NaN for degenerate tets."""
+    t = tet_xyz[:, 1:, :] - tet_xyz[:, :1, :]  # (m, 3, 3) rows = edges
+    rhs = points - tet_xyz[:, 0, :]
+    det = np.linalg.det(t)
+    ok = np.abs(det) > 1e-30 * np.maximum(1.0, np.abs(t).max(axis=(1, 2)) ** 3)
+    lam = np.full((points.shape[0], 3), np.nan)
+    if ok.any():
+        lam[ok] = np.linalg.solve(np.transpose(t[ok], (0, 2, 1)), rhs[ok][..., None])[..., 0]
+    return np.column_stack([1.0 - lam.sum(axis=1), lam])
+
+
+def locate_in_tets(points: np.ndarray, xyz: np.ndarray, tetra: np.ndarray, *, k: int = 24):
+    """Find, for each point, a tetrahedron that contains it and its barycentric weights.
+
+    Candidate tetrahedra are those with the nearest centroids (KD-tree); points not found
+    among ``k`` candidates are retried with more, then against every tetrahedron whose
+    bounding box holds them.
+
+    Returns
+    -------
+    tet_index : ndarray of shape (n,), int (-1 where outside)
+    bary : ndarray of shape (n, 4)
+    """
+    n = points.shape[0]
+    tet_index = np.full(n, -1, dtype=np.int64)
+    bary = np.zeros((n, 4))
+    if n == 0 or tetra.shape[0] == 0:
+        return tet_index, bary
+    centroids = xyz[tetra].mean(axis=1)
+    tree = cKDTree(centroids)
+    todo = np.arange(n)
+    for kk in (k, 8 * k):
+        kk = min(kk, tetra.shape[0])
+        _, cand = tree.query(points[todo], k=kk)
+        cand = cand.reshape(len(todo), kk)
+        for j in range(kk):
+            c = cand[:, j]
+            b = _barycentric(points[todo], xyz[tetra[c]])
+            inside = np.all(b >= -BARY_TOL, axis=1)
+            tet_index[todo[inside]] = c[inside]
+            bary[todo[inside]] = b[inside]
+            todo = todo[~inside]
+            cand = cand[~inside]
+            if not todo.size:
+                return tet_index, bary
+    lo, hi = xyz[tetra].min(axis=1), xyz[tetra].max(axis=1)
+    for i in todo:  # few points: brute force over bounding boxes
+        span = np.abs(hi - lo).max()
+        box = np.all((points[i] >= lo - BARY_TOL * span) & (points[i] <= hi + BARY_TOL * span), axis=1)
+        c = np.flatnonzero(box)
+        if c.size:
+            b = _barycentric(np.repeat(points[i][None], c.size, 0), xyz[tetra[c]])
+            hit = np.flatnonzero(np.all(b >= -BARY_TOL, axis=1))
+            if hit.size:
+                tet_index[i] = c[hit[0]]
+                bary[i] = b[hit[0]]
+    return tet_index, bary
+
+
+def _node_average(cells: Cells, xyz: np.ndarray, n_points: int) -> sp.csr_matrix:
+    """(n_points, n_cells) matrix averaging cell values to nodes, weighted by cell volume."""
+    t = xyz[cells.tetra]
+    vol = np.abs(np.linalg.det(t[:, 1:] - t[:, :1])) / 6.0
+    rows = cells.tetra.reshape(-1)
+    cols = np.repeat(cells.parent, 4)
+    m = sp.csr_matrix((np.repeat(vol, 4), (rows, cols)), shape=(n_points, cells.n_cells))
+    norm = np.asarray(m.sum(axis=1)).ravel()
+    norm[norm == 0] = 1.0
+    return sp.diags(1.0 / norm) @ m
+
+
+def build_sampler(field: SEDField, layout: ReceptorLayout, *, method: str = "linear") -> Sampler:
+    """Compute the interpolation weights from ``field`` to the receptor sites (once).
+
+    Parameters
+    ----------
+    field : SEDField
+        Only its geometry (points, cells, location) is used.
+    layout : ReceptorLayout
+        Receptor positions in m.
+    method : {'linear', 'nearest'}
+
+    Returns
+    -------
+    Sampler
+    """
+    check_option("method", method, METHODS)
+    xyz, pos = field.points, layout.positions
+    n_r = layout.n_receptors
+    if field.cells is not None:
+        tet, bary = locate_in_tets(pos, xyz, field.cells.tetra)
+        outside = tet < 0
+        inside = np.flatnonzero(~outside)
+        if field.location == "cell" and method == "nearest":
+            cols = field.cells.parent[tet[inside]]
+            w = sp.csr_matrix((np.ones(inside.size), (inside, cols)), shape=(n_r, field.cells.n_cells))
+        elif method == "nearest":
+            _, idx = cKDTree(xyz).query(pos)
+            w = sp.csr_matrix((np.ones(inside.size), (inside, idx[inside])), shape=(n_r, field.n_points))
+        else:
+            nodes = field.cells.tetra[tet[inside]]
+            w = sp.csr_matrix(
+                (bary[inside].ravel(), (np.repeat(inside, 4), nodes.ravel())), shape=(n_r, field.n_points)
+            )
+            if field.location == "cell":
+                w = w @ _node_average(field.cells, xyz, field.n_points)
+        return Sampler(w.tocsr(), outside, method)
+    # Scattered points (a CSV table): no connectivity.
+    lo, hi = xyz.min(axis=0), xyz.max(axis=0)
+    span = float(np.max(hi - lo)) or 1.0
+    tree = cKDTree(xyz)
+    if method == "nearest":
+        outside = np.any((pos < lo - 1e-9 * span) | (pos > hi + 1e-9 * span), axis=1)
+        _, idx = tree.query(pos)
+        inside = np.flatnonzero(~outside)
+        w = sp.csr_matrix((np.ones(inside.size), (inside, idx[inside])), shape=(n_r, field.n_points))
+        return Sampler(w, outside, method)
+    from scipy.spatial import Delaunay, QhullError
+
+    k = min(SCATTER_NEIGHBOURS, field.n_points)
+    _, nb = tree.query(pos, k=k)
+    local = np.unique(nb.reshape(-1))
+    try:
+        tri = Delaunay(xyz[local])
+    except QhullError as err:
+        raise FieldCoverageError(
+            "Linear sampling of scattered points needs a 3-D point cloud around the receptors; the points are "
+            f"degenerate there (coplanar?): {str(err).splitlines()[0]}. Use method='nearest'."
+        ) from err
+    # Locate in the local tetrahedra with the same code as for mesh cells (scipy's
+    # find_simplex is orders of magnitude slower here).
+    tets = local[tri.simplices]
+    tet, bary = locate_in_tets(pos, xyz, tets)
+    outside = tet < 0
+    inside = np.flatnonzero(~outside)
+    nodes = tets[tet[inside]]
+    w = sp.csr_matrix((bary[inside].ravel(), (np.repeat(inside, 4), nodes.ravel())), shape=(n_r, field.n_points))
+    return Sampler(w, outside, method)
+
+
+def sample_sed(
+    field: SEDField,
+    layout: ReceptorLayout,
+    *,
+    method: str = "linear",
+    on_outside: str = "raise",
+    sampler: Sampler | None = None,
+) -> ReceptorSED:
+    """SED at each receptor site and time step.
+
+    Parameters
+    ----------
+    field : SEDField
+        SED in J/m^3 (from :func:`afferent.read_sed`).
+    layout : ReceptorLayout
+        Receptor sites in m (from :func:`afferent.read_receptors`).
+    method : {'linear', 'nearest'}, default='linear'
+        ``'linear'``: barycentric interpolation in the mesh's cells (exact for a field linear
+        in space). ``'nearest'``: value of the nearest node, or of the containing cell for
+        cell data. ``'nearest'`` is cheaper and cruder; ``benchmarks/bench_sampling.py`` measures both.
+    on_outside : {'raise', 'warn', 'nan'}, default='raise'
+        What to do with receptors outside the mesh (or outside the points' hull / bounding
+        box for a CSV without cells): raise :class:`FieldCoverageError`, or keep them as NaN
+        (with an :class:`AfferentWarning` for ``'warn'``).
+    sampler : Sampler, optional
+        Weights from :func:`build_sampler` to reuse (same geometry, same layout).
+
+    Returns
+    -------
+    ReceptorSED
+        Values of shape (n_times, n_receptors) in J/m^3.
+
+    Raises
+    ------
+    FieldCoverageError
+        Receptors outside the field with ``on_outside='raise'``.
+    """
+    check_option("method", method, METHODS)
+    check_option("on_outside", on_outside, ON_OUTSIDE)
+    if sampler is None:
+        sampler = build_sampler(field, layout, method=method)
+    n_out = int(sampler.outside.sum())
+    if n_out:
+        i = int(np.flatnonzero(sampler.outside)[0])
+        p = ", ".join(f"{v:.6g}" for v in layout.positions[i])
+        lo, hi = field.bounds
+        bounds = " ".join(f"{a} [{l:.6g}, {h:.6g}]" for a, l, h in zip("xyz", lo, hi))
+        msg = (
+            f"{n_out} of {layout.n_receptors} receptors lie outside the SED field "
+            f"(first: receptor {str(layout.ids[i])!r} at [{p}] m; field bounds {bounds} m)."
+        )
+        if on_outside == "raise":
+            raise FieldCoverageError(msg + " Pass on_outside='nan' to keep them as NaN or on_outside='warn' to continue.")
+        if on_outside == "warn":
+            warnings.warn(msg + " They are NaN.", AfferentWarning, stacklevel=2)
+    return ReceptorSED(sampler.apply(field.sed), field.times.copy(), layout, method, sampler.outside.copy())

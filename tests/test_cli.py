@@ -1,0 +1,126 @@
+"""The command line, in-process through ``main(argv)`` (plus one smoke test of the entry point)."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from afferent.cli import main
+
+from conftest import linear_sed
+
+
+@pytest.fixture
+def receptors_csv(tmp_path, rng):
+    pos = rng.uniform(0.1, 0.6, (7, 3))
+    path = tmp_path / "R.csv"
+    pd.DataFrame({"id": [f"r{i}" for i in range(7)], "x": pos[:, 0], "y": pos[:, 1], "z": pos[:, 2]}).to_csv(path, index=False)
+    return path, pos
+
+
+def run(capsys, *argv):
+    code = main([str(a) for a in argv])
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+def test_sample_writes_long_form_csv(capsys, tmp_path, box_vtu, receptors_csv):
+    rpath, pos = receptors_csv
+    out = tmp_path / "sed.csv"
+    code, _, err = run(capsys, "sample", box_vtu, "--receptors", rpath, "--length-unit", "mm", "--sed-unit", "MPa", "-o", out)
+    assert code == 0, err
+    df = pd.read_csv(out)
+    assert list(df.columns) == ["receptor", "x_m", "y_m", "z_m", "time_s", "sed_pa"]
+    np.testing.assert_allclose(df["sed_pa"], linear_sed(pos) * 1e6, rtol=1e-12)
+    np.testing.assert_allclose(df[["x_m", "y_m", "z_m"]], pos * 1e-3, rtol=1e-15)
+
+
+def test_existing_output_is_not_overwritten(capsys, tmp_path, box_vtu, receptors_csv):
+    out = tmp_path / "sed.csv"
+    out.write_text("precious\n")
+    args = ["sample", box_vtu, "--receptors", receptors_csv[0], "--length-unit", "mm", "--sed-unit", "MPa", "-o", out]
+    code, _, err = run(capsys, *args)
+    assert code == 2
+    assert err == f"afferent: error: Output file {str(out)!r} already exists; pass --overwrite (overwrite=True) to replace it.\n"
+    assert out.read_text() == "precious\n"
+    code, _, _ = run(capsys, *args, "--overwrite")
+    assert code == 0 and out.read_text().startswith("receptor,")
+
+
+@pytest.mark.parametrize(
+    "extra, message",
+    [
+        (["--sed-unit", "MPa"], "The length unit of the coordinates in SED file"),
+        (["--length-unit", "mm", "--sed-unit", "furlong"], "'sed_unit' must be a SED/stress unit, one of"),
+        (["--length-unit", "mm", "--sed-unit", "MPa", "--sed-column", "SENER"], "has no array or column 'SENER'"),
+    ],
+)
+def test_bad_input_is_one_line_exit_2_and_no_output(capsys, tmp_path, box_vtu, receptors_csv, extra, message):
+    out = tmp_path / "never.csv"
+    code, _, err = run(capsys, "sample", box_vtu, "--receptors", receptors_csv[0], *extra, "-o", out)
+    assert code == 2
+    assert err.startswith("afferent: error: ") and message in err and err.count("\n") == 1
+    assert "Traceback" not in err
+    assert not out.exists() and not list(tmp_path.glob("*.part"))
+
+
+def test_receptor_file_errors(capsys, tmp_path, box_vtu):
+    bad = tmp_path / "R.csv"
+    bad.write_text("a,b,c\n1,2,3\n")
+    code, _, err = run(capsys, "sample", box_vtu, "--receptors", bad, "--length-unit", "mm", "--sed-unit", "MPa", "-o", tmp_path / "o.csv")
+    assert code == 2
+    assert err == (f"afferent: error: Receptor file {str(bad)!r} must have columns 'x', 'y', 'z'; missing 'x', 'y', 'z'. "
+                   "Found columns 'a', 'b', 'c'.\n")
+
+
+def test_receptor_outside_mesh(capsys, tmp_path, box_vtu):
+    r = tmp_path / "R.csv"
+    r.write_text("x,y,z\n0.5,0.3,0.9\n9,9,9\n")
+    code, _, err = run(capsys, "sample", box_vtu, "--receptors", r, "--length-unit", "mm", "--sed-unit", "MPa", "-o", tmp_path / "o.csv")
+    assert code == 2 and "1 of 2 receptors lie outside the SED field" in err
+    code, _, err = run(capsys, "sample", box_vtu, "--receptors", r, "--length-unit", "mm", "--sed-unit", "MPa",
+                       "--on-outside", "nan", "-o", tmp_path / "o.csv")
+    assert code == 0
+    assert pd.read_csv(tmp_path / "o.csv")["sed_pa"].isna().tolist() == [False, True]
+
+
+def test_info_describes_the_export(capsys, box_vtu):
+    code, out, _ = run(capsys, "info", box_vtu)
+    assert code == 0
+    assert "points       120" in out
+    assert "60 volume cells (hexahedron)" in out
+    assert "cell data of the same name also present: --location cell" in out
+    assert "SED unit     not stated: declare --sed-unit" in out
+    # max SED 1.995e-4 (file units) is plausible as MPa only; a 1.9 span as mm only
+    assert "plausible for skin (1..1e5 J/m^3) in: MPa" in out
+    assert "plausible for a fingertip block (0.5..50 mm) in: mm" in out
+
+
+def test_usage_errors_are_one_line(capsys):
+    code, _, err = run(capsys, "sample")
+    assert code == 2 and err.startswith("afferent: error: afferent sample: the following arguments are required")
+    code, _, err = run(capsys, "frobnicate")
+    assert code == 2 and "invalid choice: 'frobnicate'" in err
+
+
+def test_entry_point_smoke(tmp_path):
+    """The installed console script exists and exits 2 on bad input without a traceback."""
+    exe = os.path.join(os.path.dirname(sys.executable), "afferent")
+    proc = subprocess.run([exe, "info", str(tmp_path / "missing.vtu")], capture_output=True, text=True)
+    assert proc.returncode == 2
+    assert proc.stderr == f"afferent: error: SED file {str(tmp_path / 'missing.vtu')!r} not found.\n"
+
+
+def test_import_is_light():
+    """`import afferent` and reading an export never import brian2 or matplotlib."""
+    code = ("import sys, time; t=time.perf_counter(); import afferent; dt=time.perf_counter()-t; "
+            "import afferent.io, afferent.sampling; "
+            "print(dt, 'brian2' in sys.modules, 'matplotlib' in sys.modules)")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.split()
+    assert float(out[0]) < 0.5
+    assert out[1:] == ["False", "False"]

@@ -1,0 +1,112 @@
+"""SED from stress and strain tensors: closed forms for every tool's conventions."""
+
+from __future__ import annotations
+
+import re
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from afferent.strain_energy import (
+    CANONICAL_ORDER,
+    PRESETS,
+    Convention,
+    full_tensor,
+    sed_equivalent,
+    sed_exact,
+    to_canonical,
+)
+
+E_PA, NU = 0.08e6, 0.48  # dermis (METHOD.md table)
+G_PA = E_PA / (2 * (1 + NU))
+
+
+def hooke(eps6):
+    """Isotropic linear elasticity: stress (canonical, Pa) from strain (canonical, tensor shear)."""
+    lam = E_PA * NU / ((1 + NU) * (1 - 2 * NU))
+    eps = full_tensor(eps6)
+    sig = lam * np.trace(eps) * np.eye(3) + 2 * G_PA * eps
+    return np.array([sig[0, 0], sig[1, 1], sig[2, 2], sig[0, 1], sig[1, 2], sig[0, 2]])
+
+
+def test_uniaxial_tension_exact_and_equivalent_agree_with_closed_form():
+    sigma = 123.4567  # Pa
+    eps = np.array([sigma / E_PA, -NU * sigma / E_PA, -NU * sigma / E_PA, 0, 0, 0])
+    stress = np.array([sigma, 0, 0, 0, 0, 0])
+    expected = sigma**2 / (2 * E_PA)  # U = sigma^2 / 2E
+    np.testing.assert_allclose(sed_exact(stress, eps), expected, rtol=1e-14)
+    np.testing.assert_allclose(sed_equivalent(stress, eps, NU), expected, rtol=1e-14)
+
+
+def test_pure_shear_exact_closed_form():
+    tau = 31.7  # Pa, sigma_xy
+    eps_xy = tau / (2 * G_PA)  # tensor shear
+    stress = np.array([0, 0, 0, tau, 0, 0])
+    strain = np.array([0, 0, 0, eps_xy, 0, 0])
+    np.testing.assert_allclose(sed_exact(stress, strain), tau**2 / (2 * G_PA), rtol=1e-14)  # U = tau^2 / 2G
+
+
+@pytest.mark.parametrize("preset", sorted(PRESETS))
+def test_each_preset_reads_a_shear_state_back_exactly(preset):
+    """Write the canonical state in the tool's own order and shear convention; reading it back gives U."""
+    conv = PRESETS[preset]
+    strain = np.array([1.1e-3, -0.7e-3, 0.3e-3, 2.9e-3, -1.3e-3, 0.6e-3])
+    stress = hooke(strain)
+    expected = sed_exact(stress, strain)
+    order = [CANONICAL_ORDER.index("xz" if c == "zx" else c) for c in conv.order]
+    written_strain = strain[order].copy()
+    if conv.shear == "engineering":
+        written_strain[3:] *= 2
+    s = to_canonical(stress[order], conv, is_strain=False)
+    e = to_canonical(written_strain, conv, is_strain=True)
+    np.testing.assert_allclose(sed_exact(s, e), expected, rtol=1e-14)
+    # and U = 1/2 eps : C : eps > 0 for the elastic material
+    assert expected > 0
+
+
+def test_wrong_shear_convention_changes_the_energy():
+    """Reading engineering shear as tensor shear doubles the shear energy: the convention matters."""
+    conv_right = PRESETS["abaqus"]
+    conv_wrong = Convention(conv_right.order, "tensor")
+    strain = np.array([0, 0, 0, 1e-3, 0, 0])
+    stress = hooke(strain)
+    written = strain.copy()
+    written[3:] *= 2  # abaqus writes gamma
+    right = sed_exact(stress, to_canonical(written, conv_right, is_strain=True))
+    wrong = sed_exact(stress, to_canonical(written, conv_wrong, is_strain=True))
+    np.testing.assert_allclose(wrong, 2 * right, rtol=1e-14)
+
+
+def test_equivalent_sed_ignores_hydrostatic_energy():
+    p = 50.0
+    stress = np.array([-p, -p, -p, 0, 0, 0])
+    strain = stress / (3 * E_PA / (3 * (1 - 2 * NU)))  # eps = sigma / 3K
+    assert sed_equivalent(stress, strain, NU) == pytest.approx(0.0, abs=1e-12)
+    assert sed_exact(stress, strain) > 0
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.lists(st.floats(-1e-2, 1e-2), min_size=6, max_size=6))
+def test_exact_sed_is_non_negative_and_frame_invariant(eps_list):
+    strain = np.array(eps_list)
+    stress = hooke(strain)
+    u = sed_exact(stress, strain)
+    assert u >= -1e-12 * max(1.0, abs(u))
+    # rotate the frame: SED is invariant
+    theta = 0.3
+    R = np.array([[np.cos(theta), -np.sin(theta), 0], [np.sin(theta), np.cos(theta), 0], [0, 0, 1]])
+    rot = lambda v: (lambda m: np.array([m[0, 0], m[1, 1], m[2, 2], m[0, 1], m[1, 2], m[0, 2]]))(R @ full_tensor(v) @ R.T)  # noqa: E731
+    np.testing.assert_allclose(sed_exact(rot(stress), rot(strain)), u, rtol=1e-9, atol=1e-18)
+
+
+def test_bad_convention_and_shapes_are_errors():
+    with pytest.raises(ValueError, match=re.escape("'order' must be a permutation of")):
+        Convention(("xx", "yy", "zz", "xy", "xy", "xz"), "tensor")
+    with pytest.raises(ValueError, match=re.escape("Allowed values are 'tensor' and 'engineering', but got 'voigt' instead.")):
+        Convention(CANONICAL_ORDER, "voigt")
+    with pytest.raises(ValueError, match=re.escape("must have 6 components on its last axis; got shape (3,) instead.")):
+        to_canonical([1, 2, 3], PRESETS["vtk"], is_strain=False)
+    with pytest.raises(ValueError, match=re.escape("'poisson' must be in (-1, 0.5]; got 0.7 instead.")):
+        sed_equivalent(np.zeros(6), np.zeros(6), 0.7)
