@@ -14,6 +14,7 @@ from collections.abc import Iterable
 import numpy as np
 
 __all__ = [
+    "plain",
     "check_option",
     "check_positive",
     "check_finite_array",
@@ -59,11 +60,17 @@ def check_option(name: str, value, allowed: Iterable):
     )
 
 
+def plain(value):
+    """A numpy scalar as the Python scalar it holds, so messages read ``-1.0``, not ``np.float64(-1.0)``."""
+    return value.item() if isinstance(value, np.generic) else value
+
+
 def check_positive(name: str, value, *, unit: str = "", strict: bool = True, owner: str = "") -> float:
     """Return ``float(value)`` if it is a finite real > 0 (>= 0 with ``strict=False``).
 
     ``owner`` names the object the value belongs to, e.g. ``"LIFParams"``.
     """
+    value = plain(value)
     subject = f"The {name!r} field of {owner}" if owner else f"{name!r}"
     unit_txt = f" {unit}" if unit else ""
     if isinstance(value, bool) or not isinstance(value, numbers.Real):

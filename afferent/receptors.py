@@ -126,11 +126,16 @@ class ReceptorLayout:
     def section_positions(self, kind: str) -> np.ndarray:
         """Mean coordinate (m) of each section: x for ``'longitudinal'``, z for ``'cross'``.
 
-        Returns an ndarray of shape (n_sections,), indexed by section label.
+        Returns an ndarray of shape (max_label + 1,), indexed by section label; NaN for a
+        label no receptor carries (after :meth:`subset`).
         """
         labels = self.longitudinal if kind == "longitudinal" else self.cross
         axis = 0 if kind == "longitudinal" else 2
-        return np.bincount(labels, weights=self.positions[:, axis]) / np.bincount(labels)
+        n = int(labels.max()) + 1 if labels.size else 0
+        counts = np.bincount(labels, minlength=n)
+        sums = np.bincount(labels, weights=self.positions[:, axis], minlength=n)
+        with np.errstate(invalid="ignore"):
+            return np.where(counts > 0, sums / np.maximum(counts, 1), np.nan)
 
     def subset(self, mask) -> "ReceptorLayout":
         """The layout restricted to ``mask`` (bool array or indices); section labels are kept."""

@@ -1,0 +1,96 @@
+"""Benchmark: cost and error of the sampling methods, and of reading a VTU series.
+
+Run:  python benchmarks/bench_sampling.py [--points 270000] [--receptors 150 10000]
+
+A structured hexahedral block (0 <= x, z <= 4 mm, 0 <= y <= 3.1 mm) carries a smooth analytic
+SED field, SED(x, y, z) = 100 Pa * (1 + sin(2 pi x / 0.88 mm) cos(2 pi z / 0.88 mm) / 2) * exp(y / 3.1 mm),
+i.e. it varies on the scale of the indenters (wavelength 0.88 mm). Receptors are placed at random
+inside the block (seeded). For each method we time building the weights (once) and applying
+them to every time step, and report the error against the analytic value.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import tempfile
+import time
+import tracemalloc
+
+import meshio
+import numpy as np
+
+import afferent
+from afferent.receptors import ReceptorLayout
+from afferent.sampling import build_sampler
+
+sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "tests"))
+from conftest import hex_box  # noqa: E402
+
+
+def analytic(p_mm):
+    x, y, z = p_mm.T
+    return 100.0 * (1 + 0.5 * np.sin(2 * np.pi * x / 0.88) * np.cos(2 * np.pi * z / 0.88)) * np.exp(y / 3.1)
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--points", type=int, default=270_000, help="approximate number of mesh nodes")
+    ap.add_argument("--receptors", type=int, nargs="+", default=[150, 10_000])
+    ap.add_argument("--steps", type=int, default=6, help="time steps in the VTU series")
+    args = ap.parse_args(argv)
+
+    n = round((args.points / (4 * 4 * 3.1)) ** (1 / 3) * 1.0)
+    nx = nz = max(2, round(n * 4)) - 1
+    ny = max(2, round(n * 3.1)) - 1
+    points, hexes = hex_box(nx, ny, nz, size=(4.0, 3.1, 4.0))
+    tmp = tempfile.mkdtemp()
+    paths = []
+    for k in range(args.steps):
+        p = os.path.join(tmp, f"step_{k:03d}.vtu")
+        meshio.write(p, meshio.Mesh(points, [("hexahedron", hexes)], point_data={"SED": (k + 1) / args.steps * analytic(points) / 1e6}),
+                     binary=True, compression="zlib")
+        paths.append(p)
+    h = 4.0 / nx
+    print(f"# mesh: {len(points):,} nodes, {len(hexes):,} hexahedra, h = {h * 1e3:.0f} um; {args.steps} VTU steps "
+          f"({os.path.getsize(paths[0]) / 1e6:.1f} MB each)")
+    print(f"# command: python benchmarks/bench_sampling.py --points {args.points} --receptors {' '.join(map(str, args.receptors))} --steps {args.steps}")
+
+    t = time.perf_counter()
+    field1 = afferent.read_sed(paths[0], length_unit="mm", sed_unit="MPa")
+    t_one = time.perf_counter() - t
+    t = time.perf_counter()
+    field = afferent.read_sed(paths, length_unit="mm", sed_unit="MPa")
+    t_series = time.perf_counter() - t
+    t = time.perf_counter()
+    for p in paths:
+        meshio.read(p)
+    t_meshio = time.perf_counter() - t
+    print(f"read one VTU: {t_one:.2f} s; series of {args.steps} (mesh decoded once): {t_series:.2f} s; "
+          f"meshio.read on every file: {t_meshio:.2f} s")
+
+    rng = np.random.default_rng(0)
+    print(f"{'receptors':>9} {'method':>8} {'weights_s':>10} {'apply_s':>8} {'peak_MB':>8} {'max_err_Pa':>11} {'rms_err_Pa':>11} {'max_rel':>8}")
+    for n_r in args.receptors:
+        pos = rng.uniform([0.05, 0.05, 0.05], [3.95, 3.05, 3.95], (n_r, 3))
+        layout = ReceptorLayout(pos * 1e-3)
+        exact = analytic(pos)
+        for method in ("nearest", "linear"):
+            tracemalloc.start()
+            t = time.perf_counter()
+            sampler = build_sampler(field, layout, method=method)
+            t_w = time.perf_counter() - t
+            t = time.perf_counter()
+            values = afferent.sample_sed(field, layout, method=method, sampler=sampler).values
+            t_a = time.perf_counter() - t
+            peak = tracemalloc.get_traced_memory()[1] / 1e6
+            tracemalloc.stop()
+            err = values[-1] - exact
+            print(f"{n_r:>9} {method:>8} {t_w:>10.3f} {t_a:>8.4f} {peak:>8.0f} {np.abs(err).max():>11.3g} "
+                  f"{np.sqrt(np.mean(err ** 2)):>11.3g} {np.abs(err / exact).max():>8.2%}")
+    del field1
+
+
+if __name__ == "__main__":
+    main()
