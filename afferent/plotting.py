@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["plot_sed_map", "plot_sed_profile", "save_figure"]
+__all__ = ["plot_sed_map", "plot_sed_profile", "plot_section_profiles", "plot_fit", "save_figure"]
 
 
 def _axes(ax, figsize=(5.0, 4.2)):
@@ -104,3 +104,73 @@ def save_figure(ax_or_fig, path: str, *, overwrite: bool = False, dpi: int = 150
         fig.savefig(tmp, dpi=dpi, format="png")
     plt.close(fig)
     return path
+
+
+def _central_line(layout, axis: str):
+    """Receptors on the line through the middle of the grid along ``axis`` ('x' or 'z')."""
+    other = 2 if axis == "x" else 0
+    labels = layout.cross if axis == "x" else layout.longitudinal
+    kind = "cross" if axis == "x" else "longitudinal"
+    centres = layout.section_positions(kind)
+    mid = 0.5 * (layout.positions[:, other].min() + layout.positions[:, other].max())
+    best = int(np.nanargmin(np.abs(centres - mid)))
+    idx = np.flatnonzero(labels == best)
+    coord = layout.positions[idx, 0 if axis == "x" else 2]
+    order = np.argsort(coord)
+    return idx[order], coord[order], centres[best]
+
+
+def _norm(v):
+    v = np.asarray(v, dtype=float)
+    span = np.nanmax(v) - np.nanmin(v)
+    return (v - np.nanmin(v)) / span if span > 0 else np.zeros_like(v)
+
+
+def plot_section_profiles(sed, current, afferent=None, *, axis: str = "x", time_index: int = -1, ax=None, title=None):
+    """Normalised SED, receptor current and afferent current along one axis, on one axes.
+
+    The study's figures 5-6 (``axis='x'``, across the ridges, with longitudinal-section
+    afferents) and 5-7 (``axis='z'``, along the ridges, with cross-section afferents). The
+    receptor curves are the receptors on the grid line through the middle of the layout.
+
+    Parameters
+    ----------
+    sed : ReceptorSED
+    current : ReceptorCurrent
+    afferent : AfferentCurrent, optional
+        Plotted against its positions when its axis is ``axis``.
+    axis : {'x', 'z'}
+    time_index : int, default=-1
+
+    Returns
+    -------
+    matplotlib Axes
+    """
+    ax = _axes(ax, figsize=(6.0, 3.8))
+    idx, coord, at = _central_line(sed.layout, axis)
+    other = "z" if axis == "x" else "x"
+    ax.plot(coord * 1e3, _norm(sed.values[time_index, idx]), "o-", ms=3, label=f"SED (receptors at {other} = {at * 1e3:.2f} mm)")
+    ax.plot(coord * 1e3, _norm(current.values[time_index, idx]), "s--", ms=3, label="receptor current")
+    if afferent is not None and getattr(afferent, "axis", axis) == axis:
+        order = np.argsort(afferent.positions)
+        ax.plot(afferent.positions[order] * 1e3, _norm(afferent.values[time_index, order]), "^-", ms=4, lw=2,
+                label=f"afferent current ({afferent.kind} sections)")
+    ax.set_xlabel(f"{axis} ({'across' if axis == 'x' else 'along'} the ridges) (mm)")
+    ax.set_ylabel("normalised (min-max)")
+    ax.set_ylim(-0.05, 1.1)
+    ax.legend(fontsize="small", loc="lower center")
+    ax.set_title(title or f"Profiles along {axis}")
+    return ax
+
+
+def plot_fit(fit, *, ax=None, title=None):
+    """Predicted against observed profile (as compared: normalised per ``fit.normalise``)."""
+    ax = _axes(ax, figsize=(5.5, 3.6))
+    x = fit.positions * 1e3 if fit.positions is not None else np.arange(len(fit.predicted))
+    ax.plot(x, fit.observed, "ko", label="observed")
+    ax.plot(x, fit.predicted, "-", lw=2, label="predicted")
+    ax.set_xlabel("afferent position (mm)" if fit.positions is not None else "afferent")
+    ax.set_ylabel("response (normalised)" if fit.normalise != "neither" else "response")
+    ax.set_title(title or f"R$^2$ (study) = {fit.r2_study:.3f}, R$^2$ = {fit.r2:.3f}, ssd = {fit.ssd:.3g}")
+    ax.legend(fontsize="small")
+    return ax

@@ -1,0 +1,145 @@
+"""Writing a run's results: CSV tables (pandas), PNG figures, a VTU of the receptor sites
+(ParaView) and ``run.json``; all into a folder that appears whole or not at all.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import platform
+import sys
+from importlib import metadata
+
+import numpy as np
+
+from ._output import atomic_dir
+
+__all__ = ["write_pipeline_outputs", "file_sha256", "versions"]
+
+
+def file_sha256(path: str, chunk: int = 1 << 20) -> str:
+    """SHA-256 of a file's content (hex)."""
+    h = hashlib.sha256()
+    with open(path, "rb") as f:
+        for block in iter(lambda: f.read(chunk), b""):
+            h.update(block)
+    return h.hexdigest()
+
+
+def versions() -> dict:
+    """Versions of Python, afferent and its dependencies, for the run record."""
+    out = {"python": platform.python_version(), "platform": platform.platform()}
+    for dist in ("afferent-skin", "numpy", "scipy", "pandas", "scikit-learn", "meshio", "matplotlib", "brian2", "pydoe"):
+        try:
+            out[dist] = metadata.version(dist)
+        except metadata.PackageNotFoundError:
+            out[dist] = None
+    return out
+
+
+def _jsonable(obj):
+    if isinstance(obj, dict):
+        return {str(k): _jsonable(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_jsonable(v) for v in obj]
+    if isinstance(obj, np.generic):
+        return obj.item()
+    if isinstance(obj, np.ndarray):
+        return obj.tolist()
+    if isinstance(obj, float) and not np.isfinite(obj):
+        return None
+    return obj
+
+
+def receptors_table(result):
+    """receptor, x_m, y_m, z_m, longitudinal, cross, time_s, sed_pa, current_a."""
+    df = result.sed.to_dataframe(sections=True)
+    df["current_a"] = result.current.values.reshape(-1)
+    return df
+
+
+def write_receptor_vtu(result, path: str, *, time_index: int = -1) -> None:
+    """Receptor sites as VTK vertices with SED (Pa), current (A) and section labels, for ParaView."""
+    import meshio
+
+    layout = result.sed.layout
+    n = layout.n_receptors
+    mesh = meshio.Mesh(
+        layout.positions,
+        [("vertex", np.arange(n).reshape(-1, 1))],
+        point_data={
+            "sed_pa": result.sed.values[time_index],
+            "current_a": result.current.values[time_index],
+            "longitudinal": layout.longitudinal.astype(np.int32),
+            "cross": layout.cross.astype(np.int32),
+        },
+    )
+    meshio.write(path, mesh, file_format="vtu")
+
+
+def write_pipeline_outputs(result, outdir: str, *, record: dict, overwrite: bool = False, plots: bool = True) -> list[str]:
+    """Write every output of a static pipeline run into ``outdir`` (atomically, as a whole).
+
+    Files: ``receptors.csv``, ``afferents.csv``, ``fit.csv`` and ``profile_fit.csv`` (when a
+    fit was made), ``receptors.vtu``, ``run.json``, and with ``plots`` the PNG figures
+    ``sed_map.png`` (study fig. 5-5), ``profiles_x.png`` (fig. 5-6), ``profiles_z.png``
+    (fig. 5-7) and ``fit.png``.
+
+    Returns
+    -------
+    list of str
+        The files written (names inside ``outdir``).
+    """
+    written = []
+    with atomic_dir(outdir, overwrite=overwrite) as tmp:
+        def path(name):
+            written.append(name)
+            return os.path.join(tmp, name)
+
+        receptors_table(result).to_csv(path("receptors.csv"), index=False)
+        result.afferent.to_dataframe()[["afferent", "position_m", "time_s", "current_a"]].to_csv(path("afferents.csv"), index=False)
+        if result.fit is not None:
+            import pandas as pd
+
+            fit = result.fit
+            pd.DataFrame([{"synthesis": result.branching.kind, "normalise": fit.normalise, "r2_study": fit.r2_study,
+                           "r2": fit.r2, "ssd": fit.ssd, "n_afferents": len(fit.predicted), "dropped": fit.dropped,
+                           "time_s": fit.time}]).to_csv(path("fit.csv"), index=False)
+            pd.DataFrame({"position_m": fit.positions, "predicted": fit.predicted, "observed": fit.observed}).to_csv(
+                path("profile_fit.csv"), index=False)
+        write_receptor_vtu(result, path("receptors.vtu"))
+        if plots:
+            from . import plotting
+            from .synthesis import Branching, synthesize
+
+            import matplotlib.pyplot as plt
+
+            fig, axes = plt.subplots(1, 2, figsize=(10, 4.2), layout="constrained")
+            plotting.plot_sed_map(result.sed, ax=axes[0])
+            plotting.plot_sed_map(result.sed, ax=axes[1], normalise=True, threshold=0.6, title="normalised SED, hot spots >= 0.6")
+            plotting.save_figure(fig, path("sed_map.png"))
+            layout = result.sed.layout
+            for axis, kind, name in (("x", "longitudinal", "profiles_x.png"), ("z", "cross", "profiles_z.png")):
+                aff = result.afferent if result.branching.kind == kind else synthesize(
+                    result.current, Branching.longitudinal(layout) if kind == "longitudinal" else Branching.cross(layout))
+                ax = plotting.plot_section_profiles(result.sed, result.current, aff, axis=axis)
+                plotting.save_figure(ax, path(name))
+            if result.fit is not None:
+                plotting.save_figure(plotting.plot_fit(result.fit), path("fit.png"))
+        full = dict(record)
+        full.setdefault("versions", versions())
+        full["saturation"] = {
+            "fraction_sensitive": result.saturation.fraction_sensitive,
+            "fraction_high": result.saturation.fraction_high,
+            "fraction_low": result.saturation.fraction_low,
+            "message": result.saturation.message,
+        }
+        if result.fit is not None:
+            full["fit"] = {"r2_study": result.fit.r2_study, "r2": result.fit.r2, "ssd": result.fit.ssd,
+                           "normalise": result.fit.normalise, "dropped": result.fit.dropped}
+        full["stage_seconds"] = result.timings
+        full["outputs"] = sorted(written + ["run.json"])
+        with open(path("run.json"), "w") as f:
+            json.dump(_jsonable(full), f, indent=2)
+    return written

@@ -1,0 +1,127 @@
+"""The stage order, in one place: sampling -> transduction -> synthesis [-> comparison].
+
+::
+
+    SEDField + ReceptorLayout --sample_sed--> ReceptorSED --transduce--> ReceptorCurrent
+        --synthesize--> AfferentCurrent [--compare_profiles(observed)--> ProfileFit]
+
+Each stage is also usable on its own; :func:`run_pipeline` only chains them, times them
+and keeps every intermediate result.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+from ._validation import check_option
+from .profiles import ObservedProfile, ProfileFit, compare_profiles
+from .receptors import ReceptorLayout
+from .sampling import ReceptorSED, sample_sed
+from .synthesis import AfferentCurrent, Branching, synthesize
+from .transduction import ReceptorCurrent, SaturationReport, SigmoidParams, saturation_report, transduce
+
+__all__ = ["PipelineResult", "run_pipeline", "make_branching", "SYNTHESES"]
+
+SYNTHESES = ("longitudinal", "cross", "map:FILE", "random:N")
+
+
+def make_branching(spec: str | Branching, layout: ReceptorLayout, *, rng=None) -> Branching:
+    """A :class:`Branching` from its command-line spelling.
+
+    Parameters
+    ----------
+    spec : str or Branching
+        ``'longitudinal'`` (sections parallel to the ridges, profile vs x), ``'cross'``
+        (sections across the ridges, profile vs z), ``'map:FILE'`` (CSV receptor,
+        afferent[,weight]) or ``'random:N'`` (N receptors per afferent, seeded by ``rng``).
+    layout : ReceptorLayout
+    rng : None, int or numpy.random.Generator
+        Seed for ``'random:N'``.
+    """
+    if isinstance(spec, Branching):
+        return spec
+    kind, _, arg = str(spec).partition(":")
+    check_option("synthesis", kind if not arg else f"{kind}:", ("longitudinal", "cross", "map:", "random:"))
+    if kind == "longitudinal":
+        return Branching.longitudinal(layout)
+    if kind == "cross":
+        return Branching.cross(layout)
+    if kind == "map":
+        return Branching.from_map(arg, layout)
+    try:
+        n = int(arg)
+    except ValueError as err:
+        raise ValueError(f"'synthesis' random:N needs a whole number of receptors per afferent; got {arg!r} instead.") from err
+    return Branching.random(layout, n, rng=rng)
+
+
+@dataclass(frozen=True)
+class PipelineResult:
+    """Every intermediate of one run of the static pipeline (SI units throughout)."""
+
+    sed: ReceptorSED
+    current: ReceptorCurrent
+    branching: Branching
+    afferent: AfferentCurrent
+    saturation: SaturationReport
+    fit: ProfileFit | None = None
+    timings: dict = field(default_factory=dict)
+
+
+def run_pipeline(
+    field,
+    layout: ReceptorLayout,
+    params: SigmoidParams,
+    *,
+    synthesis: str | Branching = "longitudinal",
+    method: str = "linear",
+    on_outside: str = "raise",
+    observed: ObservedProfile | None = None,
+    normalise: str = "both",
+    rng=None,
+) -> PipelineResult:
+    """SED field -> receptor SED -> receptor current -> afferent current [-> fit].
+
+    Parameters
+    ----------
+    field : SEDField
+        SED in J/m^3.
+    layout : ReceptorLayout
+        Receptor sites in m.
+    params : SigmoidParams
+        Transduction parameters (alpha A, gamma 1/Pa, lambda Pa).
+    synthesis : str or Branching, default='longitudinal'
+        See :func:`make_branching`.
+    method, on_outside : str
+        Sampling options (:func:`afferent.sample_sed`).
+    observed : ObservedProfile, optional
+        A recorded profile to compare the afferent profile with (last time step).
+    normalise : {'both', 'prediction', 'observation', 'neither'}
+        What is min-max normalised before comparing.
+    rng : None, int or Generator
+        Seed for random branching.
+
+    Returns
+    -------
+    PipelineResult
+        With ``timings``: wall time of each stage in s.
+    """
+    timings = {}
+    t = time.perf_counter()
+    sed = sample_sed(field, layout, method=method, on_outside=on_outside)
+    timings["sampling"] = time.perf_counter() - t
+    t = time.perf_counter()
+    current = transduce(sed, params)
+    sat = saturation_report(sed, params)
+    timings["transduction"] = time.perf_counter() - t
+    t = time.perf_counter()
+    branching = make_branching(synthesis, layout, rng=rng)
+    afferent = synthesize(current, branching)
+    timings["synthesis"] = time.perf_counter() - t
+    fit = None
+    if observed is not None:
+        t = time.perf_counter()
+        fit = compare_profiles(afferent, observed, normalise=normalise)
+        timings["comparison"] = time.perf_counter() - t
+    return PipelineResult(sed, current, branching, afferent, sat, fit, timings)

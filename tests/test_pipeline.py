@@ -1,0 +1,121 @@
+"""The static pipeline end to end on a small field built in code, and `afferent run`."""
+
+from __future__ import annotations
+
+import json
+import re
+
+import meshio
+import numpy as np
+import pandas as pd
+import pytest
+
+from afferent import read_sed
+from afferent.cli import main
+from afferent.pipeline import make_branching, run_pipeline
+from afferent.profiles import ObservedProfile
+from afferent.receptors import ReceptorLayout
+from afferent.transduction import STUDY_PARAMS, sigmoid
+
+from conftest import hex_box
+
+PITCH_X, PITCH_Z = 0.44, 0.22  # mm
+
+
+@pytest.fixture
+def bump(tmp_path):
+    """A 4 x 3.1 x 4 mm hex block with a Gaussian SED bump (MPa) centred at x = z = 2 mm, and a papilla grid."""
+    points, hexes = hex_box(16, 4, 16, size=(4.0, 3.1, 4.0))
+    x, y, z = points.T
+    sed = 1.9e-4 * np.exp(-((x - 2.0) ** 2 + (z - 2.0) ** 2) / 0.6) * (y / 3.1)
+    vtu = tmp_path / "bump.vtu"
+    meshio.write(vtu, meshio.Mesh(points, [("hexahedron", hexes)], point_data={"SED": sed}))
+    xs = np.arange(PITCH_X / 2, 4.0, PITCH_X)
+    zs = np.arange(PITCH_Z / 2, 4.0, PITCH_Z)
+    X, Z = np.meshgrid(xs, zs, indexing="ij")
+    receptors = tmp_path / "R.csv"
+    pd.DataFrame({"x": X.ravel(), "y": 2.35, "z": Z.ravel()}).to_csv(receptors, index=False)
+    return vtu, receptors, X.size, len(xs), len(zs)
+
+
+def test_pipeline_conserves_current_and_matches_the_sigmoid(bump):
+    vtu, receptors, n, nx, nz = bump
+    field = read_sed(vtu, length_unit="mm", sed_unit="MPa")
+    from afferent.receptors import read_receptors
+
+    layout = read_receptors(receptors, length_unit="mm")
+    params = STUDY_PARAMS["start"]
+    res = run_pipeline(field, layout, params)
+    np.testing.assert_allclose(res.current.values, sigmoid(res.sed.values, params), rtol=1e-15)
+    assert res.afferent.n_afferents == nx
+    # synthesis conserves the total current (longitudinal sections partition the receptors)
+    np.testing.assert_allclose(res.afferent.values.sum(), res.current.values.sum(), rtol=1e-13)
+    cross = run_pipeline(field, layout, params, synthesis="cross")
+    assert cross.afferent.n_afferents == nz
+    np.testing.assert_allclose(cross.afferent.values.sum(), res.current.values.sum(), rtol=1e-13)
+    assert set(res.timings) == {"sampling", "transduction", "synthesis"}
+
+
+def test_fit_against_a_profile_generated_by_the_model_is_perfect(bump):
+    vtu, receptors, *_ = bump
+    field = read_sed(vtu, length_unit="mm", sed_unit="MPa")
+    from afferent.receptors import read_receptors
+
+    layout = read_receptors(receptors, length_unit="mm")
+    res = run_pipeline(field, layout, STUDY_PARAMS["start"])
+    observed = ObservedProfile(res.afferent.positions, 3.0 * res.afferent.values[-1] + 2e-7)  # affine, same magnitude: same shape
+    fit = run_pipeline(field, layout, STUDY_PARAMS["start"], observed=observed).fit
+    assert fit.ssd == pytest.approx(0.0, abs=1e-15) and fit.r2_study == pytest.approx(1.0) and fit.r2 == pytest.approx(1.0)
+
+
+def test_make_branching_specs():
+    layout = ReceptorLayout(np.array([[0, 0, 0], [0, 0, 2.2e-4], [4.4e-4, 0, 0], [4.4e-4, 0, 2.2e-4]]))
+    assert make_branching("longitudinal", layout).n_afferents == 2
+    assert make_branching("cross", layout).kind == "cross"
+    assert make_branching("random:2", layout, rng=1).kind == "random"
+    with pytest.raises(ValueError, match=re.escape("Invalid value for the 'synthesis' parameter. Allowed values are 'longitudinal', 'cross', 'map:' and 'random:', but got 'radial' instead.")):
+        make_branching("radial", layout)
+    with pytest.raises(ValueError, match=re.escape("'synthesis' random:N needs a whole number of receptors per afferent; got 'x' instead.")):
+        make_branching("random:x", layout)
+
+
+def test_run_cli_writes_every_output(capsys, tmp_path, bump):
+    vtu, receptors, n, nx, nz = bump
+    obs = tmp_path / "obs.csv"
+    pos = np.linspace(0, 4, 11)
+    pd.DataFrame({"position": pos, "response": np.exp(-((pos - 2) ** 2))}).to_csv(obs, index=False)
+    out = tmp_path / "out"
+    code = main(["run", str(vtu), "--receptors", str(receptors), "--length-unit", "mm", "--sed-unit", "MPa",
+                 "--params", "start", "--observed", str(obs), "-o", str(out)])
+    assert code == 0, capsys.readouterr().err
+    names = {p.name for p in out.iterdir()}
+    assert names == {"receptors.csv", "afferents.csv", "fit.csv", "profile_fit.csv", "receptors.vtu", "run.json",
+                     "sed_map.png", "profiles_x.png", "profiles_z.png", "fit.png"}
+    rec = pd.read_csv(out / "receptors.csv")
+    assert list(rec.columns) == ["receptor", "x_m", "y_m", "z_m", "longitudinal", "cross", "time_s", "sed_pa", "current_a"]
+    assert len(rec) == n
+    aff = pd.read_csv(out / "afferents.csv")
+    assert list(aff.columns) == ["afferent", "position_m", "time_s", "current_a"] and len(aff) == nx
+    np.testing.assert_allclose(aff["current_a"].sum(), rec["current_a"].sum(), rtol=1e-12)
+    record = json.loads((out / "run.json").read_text())
+    assert record["transduction"]["alpha_a"] == STUDY_PARAMS["start"].alpha
+    assert record["field"]["units"]["sed"] == "MPa" and len(record["inputs"]) == 3
+    vtk = meshio.read(out / "receptors.vtu")
+    assert vtk.points.shape == (n, 3) and "sed_pa" in vtk.point_data
+    # a second run into the same folder refuses, and leaves it intact
+    code = main(["run", str(vtu), "--receptors", str(receptors), "--length-unit", "mm", "--sed-unit", "MPa",
+                 "--params", "start", "-o", str(out)])
+    err = capsys.readouterr().err
+    assert code == 2 and f"Output folder {str(out)!r} already exists" in err
+    assert {p.name for p in out.iterdir()} == names
+
+
+def test_run_cli_requires_parameters(capsys, tmp_path, bump):
+    vtu, receptors, *_ = bump
+    code = main(["run", str(vtu), "--receptors", str(receptors), "--length-unit", "mm", "--sed-unit", "MPa",
+                 "--alpha", "1e-8", "-o", str(tmp_path / "o")])
+    err = capsys.readouterr().err
+    assert code == 2
+    assert err == ("afferent: error: Transduction parameters --gamma, --lambda are missing: give --alpha A --gamma G "
+                   "--lambda L (A, 1/Pa, Pa) or --params one of start, longitudinal, cross.\n")
+    assert not (tmp_path / "o").exists() and not list(tmp_path.glob(".o.*"))
