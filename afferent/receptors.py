@@ -774,11 +774,10 @@ def tips_from_export(
         )
     cell_arrays = {arr.name: arr for arr in raw.arrays.values() if arr.location == "cell"}
     if material_array not in cell_arrays:
-        found = ", ".join(repr(n) for n in cell_arrays) or "none"
+        found = f"cell arrays {', '.join(repr(n) for n in cell_arrays)}" if cell_arrays else "no cell arrays"
         hint = suggest(material_array, list(cell_arrays))
         raise SEDFormatError(
-            f"Export {path!r} must have a cell array {material_array!r} of material ids; found cell arrays "
-            f"{found} instead.{hint}"
+            f"Export {path!r} must have a cell array {material_array!r} of material ids; found {found} instead.{hint}"
         )
     values = cell_arrays[material_array].values
     if values.ndim != 2:

@@ -24,16 +24,13 @@ from ..export import file_sha256, write_pipeline_outputs
 from ..io import read_sed
 from ..pipeline import SYNTHESES, run_pipeline
 from ..profiles import read_observed
-from ..receptors import read_receptors
 from ..sampling import METHODS
 from ..transduction import STUDY_PARAMS, SigmoidParams
-from ._options import add_input_options, add_output_options, add_quiet, input_kwargs
+from ._options import add_input_options, add_receptor_options, layout_from_args, add_output_options, add_quiet, input_kwargs
 
 
 def add_args(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("exports", nargs="+", metavar="EXPORT", help="FE export file(s); several files are one time step each")
-    parser.add_argument("--receptors", required=True, metavar="R.csv", help="receptor sites: columns x, y, z (optional id), in --length-unit")
-    parser.add_argument("--receptor-unit", metavar="U", help="length unit of R.csv (default: the export's length unit)")
     parser.add_argument("--method", choices=METHODS, default="linear", help="sampling: interpolate in the mesh cells, or nearest node")
     parser.add_argument("--on-outside", choices=("raise", "warn", "nan"), default="raise", help="receptors outside the mesh")
     parser.add_argument("--synthesis", default="longitudinal", metavar="|".join(SYNTHESES),
@@ -50,6 +47,7 @@ def add_args(parser: argparse.ArgumentParser) -> None:
     g.add_argument("--normalise", choices=("both", "prediction", "observation", "neither"), default="both",
                    help="what is min-max normalised before comparing (the study: both)")
     parser.add_argument("--no-plots", action="store_true", help="skip the PNG figures")
+    add_receptor_options(parser)
     add_input_options(parser)
     add_output_options(parser, what="output folder (created whole, or not at all)")
     add_quiet(parser)
@@ -73,19 +71,19 @@ def run(args: argparse.Namespace) -> int:
     params = params_from_args(args)
     exports = args.exports if len(args.exports) > 1 else args.exports[0]
     field = read_sed(exports, **input_kwargs(args))
-    unit = args.receptor_unit or field.provenance.units.get("length")
-    layout = read_receptors(args.receptors, length_unit=unit)
+    unit = field.provenance.units.get("length")
+    layout = layout_from_args(args, field)
     observed = None
     if args.observed:
         observed = read_observed(args.observed, length_unit=args.observed_unit or unit)
     result = run_pipeline(field, layout, params, synthesis=args.synthesis, method=args.method,
                           on_outside=args.on_outside, observed=observed, normalise=args.normalise, rng=args.seed)
-    files = list(field.provenance.files) + [args.receptors] + ([args.observed] if args.observed else [])
+    files = list(field.provenance.files) + ([args.receptors] if args.receptors else []) + ([args.observed] if args.observed else [])
     record = {
         "command": "afferent " + " ".join(sys.argv[1:]) if sys.argv and sys.argv[0].endswith("afferent") else None,
         "inputs": {f: file_sha256(f) for f in files},
         "field": field.provenance.to_dict(),
-        "receptors": {"file": args.receptors, "length_unit": unit, "n": layout.n_receptors},
+        "receptors": {"file": args.receptors, "grid": args.grid, "length_unit": unit, "n": layout.n_receptors},
         "transduction": {"alpha_a": params.alpha, "gamma_per_pa": params.gamma, "lambda_pa": params.lambda_},
         "synthesis": args.synthesis, "sampling": args.method, "normalise": args.normalise,
     }

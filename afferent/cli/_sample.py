@@ -16,17 +16,15 @@ import sys
 
 from .._output import write_csv
 from ..io import read_sed
-from ..receptors import read_receptors
 from ..sampling import METHODS, sample_sed
-from ._options import add_input_options, add_output_options, add_quiet, input_kwargs
+from ._options import add_input_options, add_receptor_options, layout_from_args, add_output_options, add_quiet, input_kwargs
 
 
 def add_args(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("exports", nargs="+", metavar="EXPORT", help="FE export file(s); several files are one time step each")
-    parser.add_argument("--receptors", required=True, metavar="R.csv", help="receptor sites: columns x, y, z (optional id), in --length-unit")
-    parser.add_argument("--receptor-unit", metavar="U", help="length unit of R.csv (default: the export's --length-unit)")
     parser.add_argument("--method", choices=METHODS, default="linear", help="interpolate inside the mesh cells (linear) or take the nearest node (nearest)")
     parser.add_argument("--on-outside", choices=("raise", "warn", "nan"), default="raise", help="receptors outside the mesh: error (default) or NaN")
+    add_receptor_options(parser)
     add_input_options(parser)
     add_output_options(parser, what="output CSV (long form)")
     add_quiet(parser)
@@ -34,8 +32,7 @@ def add_args(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     field = read_sed(args.exports if len(args.exports) > 1 else args.exports[0], **input_kwargs(args))
-    unit = args.receptor_unit or args.length_unit or field.provenance.units.get("length")
-    layout = read_receptors(args.receptors, length_unit=unit)
+    layout = layout_from_args(args, field)
     sed = sample_sed(field, layout, method=args.method, on_outside=args.on_outside)
     write_csv(sed.to_dataframe(), args.output, overwrite=args.overwrite)
     if not args.quiet:
