@@ -25,6 +25,8 @@ def add_input_options(parser: argparse.ArgumentParser) -> None:
     g.add_argument("--stress-columns", metavar="NAMES", help="stress array name, or 6 comma-separated column names xx,yy,zz,xy,yz,xz")
     g.add_argument("--strain-columns", metavar="NAMES", help="strain array name, or 6 comma-separated column names xx,yy,zz,xy,yz,xz")
     g.add_argument("--coord-columns", metavar="X,Y,Z", help="names of the coordinate columns of a CSV")
+    g.add_argument("--coordinates", metavar="NODES.csv", help="node/element table id,x,y,z to join on a table that has only labels")
+    g.add_argument("--on-nan", choices=("raise", "drop"), default="raise", help="NaN rows of a point table: error (default) or leave them out")
     g.add_argument("--times", metavar="T0,T1,...", help="step times (s unless --time-unit), overriding the file")
     g.add_argument("--time-unit", metavar="U", help="unit of the step times (s, ms, us)")
     g.add_argument("--format", choices=("csv", "vtu", "vtk", "pvd", "xdmf"), help="file format, when the extension does not tell")
@@ -55,7 +57,8 @@ def input_kwargs(args: argparse.Namespace) -> dict:
         length_unit=args.length_unit, sed_unit=args.sed_unit, stress_unit=args.stress_unit, sed_from=args.sed_from,
         poisson=args.poisson, preset=args.preset, shear=args.shear, location=args.location, sed_column=sed_column,
         stress_columns=_names(args.stress_columns), strain_columns=_names(args.strain_columns), coord_columns=coord,
-        times=times, time_unit=args.time_unit, format=args.format, progress=show_progress(args),
+        times=times, time_unit=args.time_unit, coordinates=args.coordinates, on_nan=args.on_nan,
+        format=args.format, progress=show_progress(args),
     )
 
 

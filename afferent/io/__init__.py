@@ -109,6 +109,8 @@ def read_sed(
     coord_columns: Sequence[str] | None = None,
     times: Sequence[float] | None = None,
     time_unit: str | None = None,
+    coordinates: str | os.PathLike | None = None,
+    on_nan: str = "raise",
     format: str | None = None,
     progress: bool = False,
 ) -> SEDField:
@@ -150,6 +152,13 @@ def read_sed(
         Step times, overriding what the file states (unit ``time_unit``, default s).
     time_unit : {'s', 'ms', 'us'}, optional
         Unit of the times stated in the file or passed as ``times``.
+    coordinates : str or path-like, optional
+        A CSV node (or element-centroid) table ``id, x, y, z`` to join on the export's node or
+        element label column, for tables that carry no coordinates (Abaqus reports, FEBio
+        logfiles, CalculiX .dat). Its length unit is ``length_unit`` or the one it states.
+    on_nan : {'raise', 'drop'}, default='raise'
+        NaN in a point table is an error; ``'drop'`` leaves those rows out (COMSOL writes NaN
+        where an expression is not evaluated) and records how many in the provenance.
     format : {'csv', 'vtu', 'vtk', 'pvd', 'xdmf'}, optional
         Overrides the format deduced from the file name.
     progress : bool, default=False
@@ -188,6 +197,7 @@ def read_sed(
         strain_columns=strain_columns if strain_columns is None or isinstance(strain_columns, str) else tuple(strain_columns),
         coord_columns=None if coord_columns is None else tuple(coord_columns),
         times=None if times is None else tuple(float(t) for t in times),
+        coordinates=None if coordinates is None else os.fspath(coordinates), on_nan=on_nan,
     )
     raw = read_raw(path_or_paths, format=format, progress=progress)
     return assemble(raw, opts)

@@ -46,6 +46,8 @@ class ReadOptions:
     strain_columns: str | tuple[str, ...] | None = None
     coord_columns: tuple[str, str, str] | None = None
     times: tuple[float, ...] | None = None
+    coordinates: str | None = None
+    on_nan: str = "raise"
 
     def __post_init__(self):
         check_option("sed_from", self.sed_from, SED_FROM)
@@ -55,6 +57,7 @@ class ReadOptions:
             check_option("shear", self.shear, ("tensor", "engineering"))
         if self.location is not None:
             check_option("location", self.location, ("point", "cell"))
+        check_option("on_nan", self.on_nan, ("raise", "drop"))
         if self.sed_from == "equivalent" and self.poisson is None:
             raise ValueError(
                 "sed_from='equivalent' needs Poisson's ratio: pass poisson=NU (the study's skin model uses 0.48)."
@@ -94,6 +97,77 @@ def _pick_location(raw, matches, name, location):
         return point
     raise SEDFormatError(
         f"SED file {_where(raw)!r} has several arrays named {name!r}; pass location='point' or 'cell'."
+    )
+
+
+def _id_array(raw: RawExport) -> RawArray | None:
+    for a in raw.arrays.values():
+        if a.values.ndim == 2 and C.canonical(a.name) in C.ID_ALIASES:
+            return a
+    return None
+
+
+def join_coordinates(raw: RawExport, path: str) -> RawExport:
+    """Attach coordinates from a node (or element-centroid) table ``id, x, y, z`` to a table
+    keyed by node/element label (an Abaqus report, a FEBio logfile, a CalculiX .dat)."""
+    from ._csv import read_csv
+
+    table = read_csv(path)
+    xyz, names = find_coordinates(table, ReadOptions())
+    tid = _id_array(table)
+    if tid is None:
+        raise SEDFormatError(
+            f"Coordinates file {path!r} must have an id column (e.g. 'Node Label', 'node', 'id') and x, y, z; "
+            f"found {_names(table)}."
+        )
+    rid = _id_array(raw)
+    if rid is None:
+        raise SEDFormatError(
+            f"SED file {_where(raw)!r} has no node/element id column to join coordinates on; found {_names(raw)}."
+        )
+    t_ids, r_ids = tid.values[0], rid.values[0]
+    if len(np.unique(t_ids)) != t_ids.size:
+        raise SEDFormatError(f"Coordinates file {path!r}: ids in column {tid.name!r} must be unique.")
+    if len(np.unique(r_ids)) != r_ids.size:
+        raise SEDFormatError(
+            f"SED file {_where(raw)!r}: ids in column {rid.name!r} repeat (integration-point rows?); export one value "
+            "per node or per element (centroid or averaged) to place it at one coordinate."
+        )
+    order = np.argsort(t_ids)
+    pos = np.searchsorted(t_ids[order], r_ids)
+    pos = np.clip(pos, 0, t_ids.size - 1)
+    found = t_ids[order][pos] == r_ids
+    if not found.all():
+        missing = r_ids[~found][:5]
+        raise SEDFormatError(
+            f"Coordinates file {path!r} lacks {int((~found).sum())} id(s) of SED file {_where(raw)!r} "
+            f"(first: {', '.join(f'{v:g}' for v in missing)})."
+        )
+    points = xyz[order][pos]
+    return RawExport(
+        files=raw.files + (path,), format=raw.format, points=points, arrays=raw.arrays, times=raw.times,
+        cells=None, length_unit=table.length_unit, time_unit=raw.time_unit,
+        notes=raw.notes + (f"coordinates joined from {path!r} on {rid.name!r} = {tid.name!r} ({', '.join(names)}).",),
+    )
+
+
+def drop_nan_rows(raw: RawExport, arrays_used: list[str]) -> RawExport:
+    """Drop the points (rows) with a NaN in any column at any step (COMSOL writes NaN for points
+    where an expression is not evaluated). Only for tables without cells."""
+    bad = np.zeros(next(iter(raw.arrays.values())).values.shape[1], dtype=bool)
+    for name in arrays_used:
+        v = raw.arrays[name].values
+        bad |= ~np.isfinite(v.reshape(v.shape[0], v.shape[1], -1)).all(axis=(0, 2))
+    if raw.points is not None:
+        bad |= ~np.isfinite(raw.points).all(axis=1)
+    if not bad.any():
+        return raw
+    keep = ~bad
+    arrays = {k: RawArray(a.name, a.values[:, keep], a.location, a.unit, a.components) for k, a in raw.arrays.items()}
+    return RawExport(
+        files=raw.files, format=raw.format, points=None if raw.points is None else raw.points[keep], arrays=arrays,
+        times=raw.times, cells=None, length_unit=raw.length_unit, time_unit=raw.time_unit,
+        notes=raw.notes + (f"{int(bad.sum())} of {bad.size} rows with NaN dropped (on_nan='drop').",),
     )
 
 
@@ -279,11 +353,18 @@ def _check_values(raw: RawExport, values: np.ndarray, what: str) -> None:
         raise SEDFormatError(
             f"SED file {_where(raw)!r}: {what} must be finite; got {int(bad.sum())} non-finite value(s) "
             f"(first: {kind} at row {int(i)}{f', step {int(t)}' if values.shape[0] > 1 else ''}) instead."
+            + (" Pass on_nan='drop' (--on-nan drop) to leave such rows out." if raw.cells is None else "")
         )
 
 
 def assemble(raw: RawExport, opts: ReadOptions) -> SEDField:
     """Build the SI :class:`SEDField` from a reader's raw export and the user's declarations."""
+    if opts.coordinates is not None:
+        raw = join_coordinates(raw, opts.coordinates)
+    if opts.on_nan == "drop":
+        if raw.cells is not None:
+            raise ValueError("on_nan='drop' applies to point tables (CSV); a mesh export cannot lose points.")
+        raw = drop_nan_rows(raw, list(raw.arrays))
     notes = list(raw.notes)
     columns: dict = {}
     units: dict = {}

@@ -57,7 +57,7 @@ TIME_ALIASES: frozenset[str] = _c("time", "t", "steptime", "totaltime", "timeste
 #: Node / element label columns (kept, never used as data).
 ID_ALIASES: frozenset[str] = _c(
     "node", "nodelabel", "nodenumber", "nodeid", "node_id", "nid", "element", "elementlabel",
-    "elementnumber", "elementid", "elem", "eid", "id", "label", "ip", "intpt", "integrationpoint",
+    "elementnumber", "elementid", "elem", "eid", "id", "label", "ip", "intpt", "integrationpoint", "integ.pnt.",
 )
 
 #: SED *density* arrays, in order of preference (FE-FORMATS.md §1, §4.4).
@@ -66,7 +66,7 @@ SED_ALIASES: tuple[str, ...] = tuple(
     for n in (
         "sed", "sener", "eseden", "send", "sendelastic", "solid.Ws", "Ws", "ener",
         "strain energy density", "strain_energy_density", "strainenergydensity",
-        "elastic strain energy density", "enel", "enel_elno", "enel_noeu", "enel_elga",
+        "elastic strain energy density", "internal energy density", "enel", "enel_elno", "enel_noeu", "enel_elga",
     )
 )
 
@@ -78,6 +78,7 @@ ENERGY_NOT_DENSITY: dict[str, str] = {
     canonical("solid.Ws_tot"): "COMSOL solid.Ws_tot is the integrated energy, not a density; export solid.Ws",
     canonical("strain energy"): "'Strain Energy' (Workbench) is an element energy, not a density",
     canonical("ALLSE"): "Abaqus ALLSE is the whole model's strain energy",
+    canonical("internal energy"): "CalculiX 'internal energy' (ELSE, .dat) is the element's energy, not a density; print ENER",
 }
 
 _AXES = {"1": "x", "2": "y", "3": "z", "x": "x", "y": "y", "z": "z"}

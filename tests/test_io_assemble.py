@@ -1,0 +1,153 @@
+"""From a reader's raw table to an SEDField: columns, units, tensors, joins, NaN handling.
+
+The CSV files under tests/data/csv are synthetic files in several tools' documented layouts
+(see tests/data/csv/README.md); the values checked here are read off those files by hand.
+"""
+
+from __future__ import annotations
+
+import re
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from afferent import read_sed
+from afferent.exceptions import SEDFormatError, UnitError
+
+CSV = "tests/data/csv"
+
+
+def test_workbench_units_come_from_the_headers():
+    f = read_sed(f"{CSV}/workbench_tab.txt")
+    np.testing.assert_allclose(f.points[1], [-0.7e-3, 1.4142135623730951e-3, 2.5e-3], rtol=1e-15)
+    np.testing.assert_allclose(f.sed[0], [5.6e-4 * 1e6, 1.2345678901234567e-3 * 1e6, 0.00011111111111111112 * 1e6], rtol=1e-15)
+    assert f.provenance.units["length_source"] == "file" and f.provenance.units["sed"] == "MPa"
+    assert f.provenance.columns["sed"] == "Strain Energy Density"
+
+
+def test_declared_unit_must_agree_with_the_file():
+    with pytest.raises(UnitError, match=re.escape("'length_unit' is 'm' but SED file 'tests/data/csv/workbench_tab.txt' states 'mm' for the coordinates")):
+        read_sed(f"{CSV}/workbench_tab.txt", length_unit="m")
+    f = read_sed(f"{CSV}/workbench_tab.txt", length_unit="mm", sed_unit="N/mm^2")  # same units, other spelling
+    assert f.provenance.units["sed_source"] == "declared"
+
+
+def test_comsol_one_column_per_step():
+    f = read_sed(f"{CSV}/comsol_time_suffix.csv")
+    np.testing.assert_allclose(f.times, [0.0, 0.05, 0.1])
+    np.testing.assert_allclose(f.sed[:, 0], [0.0, 0.14285714285714285, 0.2857142857142857], rtol=1e-15)
+    np.testing.assert_allclose(f.points[2], [0.7e-3, 0.8e-3, 0.9e-3], rtol=1e-15)
+
+
+def test_comsol_nan_rows_error_or_drop():
+    with pytest.raises(SEDFormatError, match=re.escape(
+            "SED column 'solid.Ws' must be finite; got 1 non-finite value(s) (first: NaN at row 3) instead. "
+            "Pass on_nan='drop' (--on-nan drop) to leave such rows out.")):
+        read_sed(f"{CSV}/comsol_spreadsheet.csv")
+    f = read_sed(f"{CSV}/comsol_spreadsheet.csv", on_nan="drop")
+    assert f.n_points == 2 and "2 of 4 rows with NaN dropped (on_nan='drop')." in f.provenance.notes
+
+
+def test_febio_logfile_with_a_node_table(tmp_path):
+    nodes = tmp_path / "nodes.csv"
+    nodes.write_text("node,x,y,z\n3,0.3,0.0,1.0\n1,0.1,0.0,1.0\n2,0.2,0.0,1.0\n")  # any order
+    f = read_sed(f"{CSV}/febio_log.txt", coordinates=nodes, length_unit="mm", sed_unit="MPa")
+    np.testing.assert_allclose(f.points[:, 0], [0.1e-3, 0.2e-3, 0.3e-3], rtol=1e-15)
+    np.testing.assert_allclose(f.times[:2], [0.1, 0.2])
+    np.testing.assert_allclose(f.sed[0], np.array([0.00033333333333333332, 0.00016666666666666666, 0.0]) * 1e6, rtol=1e-15)
+    assert "coordinates joined from" in " ".join(f.provenance.notes)
+
+
+def test_join_errors(tmp_path):
+    nodes = tmp_path / "nodes.csv"
+    nodes.write_text("node,x,y,z\n1,0.1,0.0,1.0\n2,0.2,0.0,1.0\n")
+    with pytest.raises(SEDFormatError, match=re.escape(f"Coordinates file {str(nodes)!r} lacks 1 id(s) of SED file 'tests/data/csv/febio_log.txt' (first: 3).")):
+        read_sed(f"{CSV}/febio_log.txt", coordinates=nodes, length_unit="mm", sed_unit="MPa")
+    elements = tmp_path / "elements.csv"
+    elements.write_text("element,x,y,z\n1,0.1,0.0,1.0\n2,0.2,0.0,1.0\n")
+    with pytest.raises(SEDFormatError, match=re.escape("ids in column 'Element Label' repeat (integration-point rows?)")):
+        read_sed(f"{CSV}/abaqus_tensors.rpt", coordinates=elements, length_unit="mm", stress_unit="MPa",
+                 sed_from="exact", preset="abaqus")
+
+
+def test_no_coordinates_says_how_to_add_them():
+    with pytest.raises(SEDFormatError, match=re.escape(
+            "must have one x coordinate column (e.g. 'x', 'X', 'COORD1', 'X Location'); found no. "
+            "Found columns 'Node Label', 'SENER'.")):
+        read_sed(f"{CSV}/abaqus_sener.rpt", length_unit="mm", sed_unit="MPa")
+
+
+def _tensor_table(tmp_path, *, engineering: bool, names, extra=None):
+    rng = np.random.default_rng(7)
+    eps = rng.normal(0, 1e-3, (5, 6))  # canonical xx yy zz xy yz xz, tensor shear
+    lam, G = 0.3, 0.02  # MPa
+    sig = 2 * G * eps
+    sig[:, :3] += lam * eps[:, :3].sum(1, keepdims=True)
+    u = 0.5 * ((sig[:, :3] * eps[:, :3]).sum(1) + 2 * (sig[:, 3:] * eps[:, 3:]).sum(1))  # MPa
+    order = [0, 1, 2, 3, 5, 4]  # names are given in Abaqus order 11 22 33 12 13 23
+    e = eps[:, order].copy()
+    if engineering:
+        e[:, 3:] *= 2
+    df = pd.DataFrame(rng.uniform(0, 1, (5, 3)), columns=["X", "Y", "Z"])
+    for k, n in enumerate(names[:6]):
+        df[n] = sig[:, order][:, k]
+    for k, n in enumerate(names[6:]):
+        df[n] = e[:, k]
+    for k, v in (extra or {}).items():
+        df[k] = v
+    path = tmp_path / "tensors.csv"
+    df.to_csv(path, index=False, float_format="%.17g")
+    return path, u * 1e6
+
+
+ABQ = ["S11", "S22", "S33", "S12", "S13", "S23", "E11", "E22", "E33", "E12", "E13", "E23"]
+COMSOL = ["solid.sx", "solid.sy", "solid.sz", "solid.sxy", "solid.sxz", "solid.syz",
+          "solid.eXX", "solid.eYY", "solid.eZZ", "solid.eXY", "solid.eXZ", "solid.eYZ"]
+
+
+@pytest.mark.parametrize("names, preset, engineering", [(ABQ, "abaqus", True), (COMSOL, "comsol", False)])
+def test_csv_tensors_by_name_give_the_exact_sed(tmp_path, names, preset, engineering):
+    path, expected = _tensor_table(tmp_path, engineering=engineering, names=names)
+    f = read_sed(path, length_unit="mm", stress_unit="MPa", sed_from="exact", preset=preset)
+    np.testing.assert_allclose(f.sed[0], expected, rtol=1e-12)
+    assert f.provenance.columns["stress"].split(", ")[3] == names[3]
+
+
+def test_shear_convention_must_be_declared_and_matters(tmp_path):
+    path, expected = _tensor_table(tmp_path, engineering=True, names=ABQ)
+    wrong = read_sed(path, length_unit="mm", stress_unit="MPa", sed_from="exact", shear="tensor")
+    assert not np.allclose(wrong.sed[0], expected, rtol=1e-3)
+    with pytest.raises(ValueError, match=re.escape("sed_unit='MPa' does not apply with sed_from='exact'")):
+        read_sed(path, length_unit="mm", sed_unit="MPa", sed_from="exact", preset="abaqus")
+
+
+def test_incomplete_tensor_names_the_missing_components(tmp_path):
+    path, _ = _tensor_table(tmp_path, engineering=True, names=ABQ)
+    df = pd.read_csv(path).drop(columns=["S13"])
+    df.to_csv(path, index=False)
+    with pytest.raises(SEDFormatError, match=re.escape("has no complete stress tensor (found 'S11', 'S22', 'S33', 'S12', 'S23'); missing component(s) xz.")):
+        read_sed(path, length_unit="mm", stress_unit="MPa", sed_from="exact", preset="abaqus")
+
+
+def test_energy_column_is_refused(tmp_path):
+    p = tmp_path / "else.csv"
+    p.write_text("x,y,z,ELSE\n0,0,0,1.5\n1,0,0,2.5\n")
+    with pytest.raises(SEDFormatError, match=re.escape(
+            "column 'ELSE' holds an energy, not an energy density (Abaqus/CalculiX ELSE is the element's total strain energy (J), not a density)")):
+        read_sed(p, length_unit="mm", sed_unit="MPa")
+
+
+def test_sed_columns_one_per_step_by_name(tmp_path):
+    p = tmp_path / "steps.csv"
+    p.write_text("x,y,z,SED_a,SED_b\n0,0,0,1.5,3.0\n1,0,0,2.5,5.0\n")
+    f = read_sed(p, length_unit="mm", sed_unit="kPa", sed_column=["SED_a", "SED_b"], times=[0.0, 0.1])
+    np.testing.assert_allclose(f.sed, [[1500.0, 2500.0], [3000.0, 5000.0]])
+    np.testing.assert_allclose(f.times, [0.0, 0.1])
+
+
+def test_file_unit_that_afferent_does_not_know(tmp_path):
+    p = tmp_path / "u.csv"
+    p.write_text("x (mm),y (mm),z (mm),SED (psi)\n0,0,0,1.5\n1,0,0,2.5\n")
+    with pytest.raises(UnitError, match=re.escape("states the unit 'psi' for SED column 'SED', which afferent does not know")):
+        read_sed(p)
