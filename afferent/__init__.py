@@ -40,14 +40,22 @@ _LAZY = {
 
 __all__ = sorted(_LAZY) + ["__version__"]
 
+#: Stage modules reachable as attributes (``afferent.sampling``), also loaded on first use.
+_SUBMODULES = {
+    "io", "field", "units", "exceptions", "strain_energy", "receptors", "sampling", "transduction",
+    "synthesis", "profiles", "pipeline", "spiking", "plotting", "export", "calibration", "cli",
+}
+
 
 def __getattr__(name: str):
     if name in _LAZY:
         value = getattr(importlib.import_module(_LAZY[name]), name)
         globals()[name] = value
         return value
+    if name in _SUBMODULES:
+        return importlib.import_module(f"afferent.{name}")
     raise AttributeError(f"module 'afferent' has no attribute {name!r}")
 
 
 def __dir__():
-    return __all__
+    return __all__ + sorted(_SUBMODULES)

@@ -1,0 +1,134 @@
+"""Run the main job on the bundled FE sample: every indenter, SED -> receptors -> afferents.
+
+For each square indenter of the sample (0.44-2.0 mm on the 4 mm block, 4 mm on the 8 mm
+block) the static pipeline runs with the study's start parameters (METHOD.md table 5.2) and
+longitudinal synthesis, writing one folder per indenter (as ``afferent run`` does), plus:
+
+- ``summary.csv``: per indenter, SED at the receptors (max, median), whether the SED along the
+  central cross-section shows an interchange zone (peak-valley-peak), and how many peaks the
+  longitudinal and cross-section afferent profiles have;
+- ``indenters_x.png``: normalised receptor SED and longitudinal afferent current along x for
+  every indenter on one figure (the study's chapter-5 comparison).
+
+Example::
+
+    $ afferent demo -o results/demo
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from .._output import atomic_dir
+from ..exceptions import AfferentError
+
+#: (case name, block folder, file, indenter width mm)
+CASES = [
+    ("indent_0p44mm", "block4", "indent_0p44mm.vtu", 0.44),
+    ("indent_0p66mm", "block4", "indent_0p66mm.vtu", 0.66),
+    ("indent_0p88mm", "block4", "indent_0p88mm.vtu", 0.88),
+    ("indent_1p10mm", "block4", "indent_1p10mm.vtu", 1.10),
+    ("indent_1p32mm", "block4", "indent_1p32mm.vtu", 1.32),
+    ("indent_2p00mm", "block4", "indent_2p00mm.vtu", 2.00),
+    ("indent_4p00mm", "block8", "indent_4p00mm.vtu", 4.00),
+]
+
+
+def default_sample_dir() -> Path:
+    """``$AFFERENT_SAMPLE_DIR``, else the ``sample_sed/`` folder beside the package's source tree."""
+    env = os.environ.get("AFFERENT_SAMPLE_DIR")
+    return Path(env) if env else Path(__file__).resolve().parents[2] / "sample_sed"
+
+
+def add_args(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("-o", "--output", required=True, metavar="OUTDIR", help="output folder (created whole, or not at all)")
+    parser.add_argument("--overwrite", action="store_true", help="replace an existing output folder")
+    parser.add_argument("--sample-dir", metavar="DIR", help="the sample folder (default: sample_sed/ of the source tree)")
+    parser.add_argument("-q", "--quiet", action="store_true", help="no progress output")
+
+
+def count_peaks(profile, *, rel_prominence: float = 0.05) -> int:
+    """Number of local maxima of a 1-D profile standing out by at least ``rel_prominence`` of its range
+    (scipy.signal.find_peaks; plateau ends count once)."""
+    from scipy.signal import find_peaks
+
+    p = np.asarray(profile, dtype=float)
+    span = p.max() - p.min()
+    if span <= 0:
+        return 0
+    padded = np.concatenate([[p.min() - span], p, [p.min() - span]])  # so edge maxima count
+    peaks, _ = find_peaks(padded, prominence=rel_prominence * span)
+    return int(peaks.size)
+
+
+def run(args: argparse.Namespace) -> int:
+    import pandas as pd
+
+    from .. import plotting
+    from ..export import write_pipeline_outputs
+    from ..io import read_sed
+    from ..pipeline import run_pipeline
+    from ..plotting import _central_line
+    from ..receptors import read_receptors
+    from ..synthesis import Branching, synthesize
+    from ..transduction import STUDY_PARAMS
+
+    sample = Path(args.sample_dir) if args.sample_dir else default_sample_dir()
+    if not (sample / "block4" / "receptors.csv").is_file():
+        raise FileNotFoundError(
+            f"The bundled sample was not found in {str(sample)!r} (expected block4/receptors.csv); "
+            "pass --sample-dir or set AFFERENT_SAMPLE_DIR."
+        )
+    params = STUDY_PARAMS["start"]
+    rows, profiles = [], []
+    with atomic_dir(args.output, overwrite=args.overwrite) as tmp:
+        for name, block, fname, width in CASES:
+            path = sample / block / fname
+            if not path.is_file():
+                raise AfferentError(f"Sample file {str(path)!r} is missing; regenerate with 'make samples'.")
+            if not args.quiet:
+                print(f"afferent demo: {name} ...", file=sys.stderr)
+            field = read_sed(str(path), length_unit="mm", sed_unit="MPa")
+            layout = read_receptors(sample / block / "receptors.csv", length_unit="mm")
+            res = run_pipeline(field, layout, params, synthesis="longitudinal")
+            record = {"command": "afferent demo", "case": name, "indenter_mm": width, "field": field.provenance.to_dict(),
+                      "transduction": {"alpha_a": params.alpha, "gamma_per_pa": params.gamma, "lambda_pa": params.lambda_,
+                                       "source": "METHOD.md table 5.2, start row"}}
+            write_pipeline_outputs(res, os.path.join(tmp, name), record=record)
+            idx, coord, _ = _central_line(layout, "x")
+            sed_line = res.sed.values[-1, idx]
+            cross = synthesize(res.current, Branching.cross(layout))
+            lon = res.afferent.values[-1]
+            rows.append({
+                "case": name, "indenter_mm": width,
+                "sed_max_pa": float(res.sed.values.max()), "sed_median_pa": float(np.median(res.sed.values)),
+                "sed_peaks_central_x": count_peaks(sed_line),
+                "interchange_zone": count_peaks(sed_line) >= 2,
+                "afferent_peaks_longitudinal": count_peaks(lon),
+                "afferent_peaks_cross": count_peaks(cross.values[-1]),
+                "fraction_sensitive": res.saturation.fraction_sensitive,
+            })
+            profiles.append((width, coord - coord.mean(), sed_line, res.afferent.positions - res.afferent.positions.mean(), lon))
+        pd.DataFrame(rows).to_csv(os.path.join(tmp, "summary.csv"), index=False)
+        import matplotlib.pyplot as plt
+
+        fig, axes = plt.subplots(1, 2, figsize=(11, 4), layout="constrained", sharey=True)
+        for width, x, sed_line, xa, lon in profiles:
+            axes[0].plot(x * 1e3, plotting._norm(sed_line), "o-", ms=3, label=f"{width:g} mm")
+            axes[1].plot(xa * 1e3, plotting._norm(lon), "^-", ms=3, label=f"{width:g} mm")
+        axes[0].set_title("SED at receptors, central cross-section")
+        axes[1].set_title("afferent current, longitudinal sections")
+        for ax in axes:
+            ax.set_xlabel("x from the indenter centre (mm)")
+            ax.legend(title="indenter", fontsize="small")
+        axes[0].set_ylabel("normalised (min-max)")
+        plotting.save_figure(fig, os.path.join(tmp, "indenters_x.png"))
+    if not args.quiet:
+        print(pd.DataFrame(rows).to_string(index=False), file=sys.stderr)
+        print(f"afferent demo: wrote {args.output}", file=sys.stderr)
+    return 0
