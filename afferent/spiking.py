@@ -1,0 +1,1002 @@
+"""Stage 6: afferent current -> spike trains, through a leaky integrate-and-fire neuron.
+
+::
+
+    AfferentCurrent (n_times, n_afferents) A --simulate_lif--> SpikeTrains (spike times in s)
+
+The model (METHOD.md section 7), one neuron per afferent::
+
+    tau_m dV/dt = -(V - v_rest) + r_m I(t);   V >= v_thresh -> spike, V <- v_reset,
+                                               V held at v_reset for t_ref
+
+Two engines simulate it on the same clock grid and give the **same spikes, step for step**:
+
+``'brian2'``
+    The reference: a :class:`brian2.NeuronGroup` with the input as a
+    :class:`brian2.TimedArray`, ``method='exact'``, threshold / reset / refractory, run in an
+    explicit :class:`brian2.Network`. This is the only place in :mod:`afferent` that imports
+    brian2, and it does so inside the engine function, so ``import afferent.spiking`` stays
+    fast. Code is generated for brian2's ``numpy`` target *per object*
+    (``codeobj_class=NumpyCodeObject`` on the group and the monitor), so nothing is compiled
+    and brian2's global ``prefs.codegen.target`` is never touched.
+``'fast'``
+    Exact exponential integration per step, vectorised over afferents with a loop over time
+    steps: numba when it is installed (``pip install 'afferent-skin[fast]'``), else numpy.
+    Both back ends evaluate brian2's own update expression in brian2's order of floating-point
+    operations, so they reproduce brian2 bit for bit. ``'auto'`` means ``'fast'``;
+    ``'fast-numba'`` and ``'fast-numpy'`` force a back end.
+
+Grid semantics (those of brian2, which both engines follow)
+-----------------------------------------------------------
+Step ``i`` covers ``[t_i, t_i + dt)`` with ``t_i = t_start + i dt``. In step ``i``:
+
+1. the input is the current sample active at ``t_i`` (held constant over the step, like a
+   ``TimedArray``);
+2. unless refractory, V is advanced exactly over ``dt``:
+   ``V <- v_rest + (r_m I + E V) + E (-v_rest - r_m I)`` with ``E = exp(-dt / tau_m)``;
+3. if ``V >= v_thresh`` (and not refractory) a spike is stamped at ``t_i`` - the *start* of
+   the step in which the crossing happened - and V is set to ``v_reset``;
+4. a neuron that spiked in step ``k`` is refractory (V held, threshold off) while
+   ``i - k < n_ref``, ``n_ref = floor(t_ref / dt + 1e-3)`` (brian2's ``timestep()``).
+
+Accuracy on the grid (derived for a constant current I, ``theta = v_thresh - v_rest``)
+--------------------------------------------------------------------------------------
+Let ``T(V0) = tau_m ln((r_m I - (V0 - v_rest)) / (r_m I - theta))`` be the exact time to
+threshold from ``V0`` (METHOD.md section 7) and ``n_eff = max(n_ref, 1)``. Integration from
+V0 needs ``m = ceil(T(V0) / dt)`` steps, and the spike is stamped at the start of the last
+one, so
+
+* first spike (from rest): ``t_1 = (m_0 - 1) dt``, i.e. ``T(v_rest) - dt <= t_1 < T(v_rest)``;
+* every inter-spike interval: ``ISI_grid = (n_eff - 1 + ceil(T(v_reset) / dt)) dt``, i.e.
+  ``(n_eff - 1) dt + T_r <= ISI_grid < (n_eff - 1) dt + T_r + dt`` (see
+  :func:`grid_isi_bounds`).
+
+Against the continuous ``ISI = t_ref + T(v_reset)`` this gives
+``ISI - 2 dt < ISI_grid < ISI + dt``, and ``ISI - dt <= ISI_grid < ISI`` when ``t_ref`` is a
+nonzero multiple of ``dt``: the grid then *shortens* intervals by up to one step (the spike
+is stamped early, and refractoriness counts from that stamp), it does not lengthen them.
+(With ``t_ref < dt`` the neuron integrates again in the very next step and
+``ISI_grid - ISI`` lies in ``(-dt, dt)``.) The steady rate
+``1 / ISI_grid`` therefore obeys ``1 / (ISI + dt) < rate_grid < 1 / (ISI - 2 dt)``.
+
+Default parameter sets (:data:`LIF_PRESETS`)
+--------------------------------------------
+``'ra'`` - RA-like. ``tau_m = 4.47 ms`` from the median membrane constant of the nine RA
+afferents fitted in TouchSim (Saal et al. 2017, PNAS 114:E5693; ``hsaal/touchsim``,
+``touchsim/constants.py``: parameter 9 of ``affparamsRA`` = 17.1-44.9 samples at 5 kHz,
+median 22.87, used as ``V += -V / tau + I`` per 0.2 ms sample in ``touchsim/transduction.py``;
+a decay by ``1 - 1/22.87`` per sample is ``exp(-0.2 ms / 4.47 ms)``). ``t_ref = 1.2 ms`` is
+TouchSim's hard minimum ISI (a spike is allowed once 6 samples at 5 kHz have passed; TouchSim
+also has a post-spike current, which this model does not). TouchSim's IF is dimensionless
+(threshold 1, reset 0), so the voltages are the conventional -70 / -50 / -70 mV, and
+**r_m = 200 kOhm is illustrative**, not physiological: it puts the rheobase ``theta / r_m`` at
+100 nA inside the study's own current range. That range, derived from METHOD.md sections 3,
+4 and 6: with the start parameters (alpha = 2.46e-8 A) the receptors sit at 0.20-0.38 alpha =
+4.9-9.3 nA, and 9-17 receptors per afferent give 44-160 nA per afferent (silent to 1.6x
+rheobase, up to ~180 Hz); the longitudinal fit (alpha = 9.29e-7 A, saturated) gives
+8.4-15.8 uA per afferent (84-158x rheobase, ~800 Hz, near the 1 / t_ref = 833 Hz ceiling).
+The study's currents are not physiological (real receptor currents are pA-nA), so neither is
+this resistance.
+
+``'sa1'`` - SA-I skin-neuron model values from the public Gerling-lab model code (Python
+constants file of the mouse SA-I model with Merkel-cell groups [8, 5, 3, 1] per heminode, the
+model line of Lesniak & Gerling 2009, Math Biosci 220:15, and Lesniak et al. 2014, eLife
+3:e01488): ``LIF_PARAMS = [30 mV threshold, 30 pF, 5 GOhm]`` (marked "Original Version"; a
+sibling version of the file has 1.667 GOhm), ``REFRACTORY_PERIOD = 1 ms``; voltages measured
+from rest (V_rest = V_reset = 0). So ``tau_m = R C = 150 ms`` and the rheobase is 6 pA. These
+values were read from that code, not checked against the papers' tables. With the study's
+currents (>= 10 nA) every afferent would sit at the 1 / t_ref ceiling: this set expects
+pA-scale generator currents.
+"""
+
+from __future__ import annotations
+
+import numbers
+from collections import deque
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ._validation import check_option, check_positive, describe_array
+
+__all__ = [
+    "LIFParams",
+    "LIF_PRESETS",
+    "SpikeTrains",
+    "simulate_lif",
+    "grid_isi_bounds",
+    "ENGINES",
+]
+
+#: Engines accepted by :func:`simulate_lif`.
+ENGINES = ("auto", "fast", "fast-numba", "fast-numpy", "brian2")
+
+# brian2's timestep() shifts by 1e-3 dt before flooring (brian2/core/functions.py).
+_TIMESTEP_SHIFT = 1e-3
+# brian2's Clock rounds a duration to a whole step if within 1e-4 dt (Clock.epsilon_dt).
+_CLOCK_EPS = 1e-4
+# A sample time within this fraction of dt after a grid point counts as on it.
+_SAMPLE_EPS = 1e-3
+# |r_m * I| above this (in V) would overflow the update to inf/NaN.
+_MAX_DRIVE_V = 1e300
+# Step indices are int32 in the spike buffers; the step -> sample map alone is 8 bytes a step.
+_MAX_STEPS = 2.0**31 - 1
+
+
+def _check_voltage(name: str, value) -> float:
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+        raise TypeError(f"The {name!r} field of LIFParams must be a real number in V; got {value!r} instead.")
+    if not np.isfinite(float(value)):
+        raise ValueError(f"The {name!r} field of LIFParams must be a finite real number in V; got {value!r} instead.")
+    return float(value)
+
+
+@dataclass(frozen=True)
+class LIFParams:
+    """Parameters of the leaky integrate-and-fire neuron, in SI units.
+
+    ``tau_m dV/dt = -(V - v_rest) + r_m I``; a spike when ``V >= v_thresh``, then
+    ``V = v_reset`` held for ``t_ref``.
+
+    Parameters
+    ----------
+    tau_m : float
+        Membrane time constant in s (``r_m`` times the membrane capacitance), > 0.
+    r_m : float
+        Membrane (input) resistance in Ohm, > 0.
+    v_rest : float
+        Resting potential in V (the neuron starts here).
+    v_thresh : float
+        Firing threshold in V, > ``v_rest``.
+    v_reset : float
+        Potential after a spike in V, < ``v_thresh``.
+    t_ref : float
+        Absolute refractory period in s, >= 0. On a grid it is rounded down to
+        ``floor(t_ref / dt + 1e-3)`` steps, as brian2 does.
+
+    See Also
+    --------
+    LIF_PRESETS : documented parameter sets with their sources.
+    simulate_lif : run the neuron on an afferent current.
+
+    Examples
+    --------
+    >>> p = LIFParams(tau_m=0.01, r_m=1e7, v_rest=-0.07, v_thresh=-0.05, v_reset=-0.07, t_ref=0.002)
+    >>> round(p.rheobase * 1e9, 6)   # nA
+    2.0
+    >>> round(float(p.steady_rate(4e-9)), 3)   # Hz, closed form
+    111.964
+    """
+
+    tau_m: float
+    r_m: float
+    v_rest: float
+    v_thresh: float
+    v_reset: float
+    t_ref: float
+
+    def __post_init__(self):
+        set_ = object.__setattr__
+        set_(self, "tau_m", check_positive("tau_m", self.tau_m, unit="s", owner="LIFParams"))
+        set_(self, "r_m", check_positive("r_m", self.r_m, unit="Ohm", owner="LIFParams"))
+        for name in ("v_rest", "v_thresh", "v_reset"):
+            set_(self, name, _check_voltage(name, getattr(self, name)))
+        set_(self, "t_ref", check_positive("t_ref", self.t_ref, unit="s", strict=False, owner="LIFParams"))
+        if not self.v_thresh > self.v_rest:
+            raise ValueError(
+                f"The 'v_thresh' field of LIFParams must be > v_rest = {self.v_rest!r} V; "
+                f"got {self.v_thresh!r} instead."
+            )
+        if not self.v_reset < self.v_thresh:
+            raise ValueError(
+                f"The 'v_reset' field of LIFParams must be < v_thresh = {self.v_thresh!r} V; "
+                f"got {self.v_reset!r} instead."
+            )
+
+    @classmethod
+    def from_preset(cls, name: str) -> LIFParams:
+        """Return one of the documented parameter sets of :data:`LIF_PRESETS` (``'ra'``, ``'sa1'``)."""
+        check_option("name", name, tuple(LIF_PRESETS))
+        return LIF_PRESETS[name]
+
+    @property
+    def theta(self) -> float:
+        """Threshold distance ``v_thresh - v_rest`` in V."""
+        return self.v_thresh - self.v_rest
+
+    @property
+    def rheobase(self) -> float:
+        """Smallest constant current that ever fires, ``(v_thresh - v_rest) / r_m``, in A.
+
+        A current at or below it never reaches threshold (the spike time is infinite).
+        """
+        return self.theta / self.r_m
+
+    def _time_to_threshold(self, current, v0: float) -> np.ndarray:
+        drive = self.r_m * np.asarray(current, dtype=np.float64)
+        out = np.full(drive.shape, np.inf)
+        ok = drive > self.theta
+        # ln((D - (v0 - v_rest)) / (D - theta)) as log1p, exact also for D >> theta
+        out[ok] = self.tau_m * np.log1p((self.theta - (v0 - self.v_rest)) / (drive[ok] - self.theta))
+        return out
+
+    def first_spike_latency(self, current) -> np.ndarray:
+        """Exact time from rest to the first spike for a constant ``current`` (A), in s.
+
+        ``tau_m ln(r_m I / (r_m I - theta))``; ``inf`` at or below the rheobase.
+        """
+        return self._time_to_threshold(current, self.v_rest)
+
+    def steady_isi(self, current) -> np.ndarray:
+        """Exact inter-spike interval for a constant ``current`` (A), in s.
+
+        ``t_ref + tau_m ln((r_m I - (v_reset - v_rest)) / (r_m I - theta))`` (METHOD.md section 7;
+        with ``v_reset = v_rest`` the study's formula). ``inf`` at or below the rheobase.
+        """
+        return self.t_ref + self._time_to_threshold(current, self.v_reset)
+
+    def steady_rate(self, current) -> np.ndarray:
+        """Exact firing rate ``1 / steady_isi(current)`` in Hz; 0 at or below the rheobase."""
+        isi = self.steady_isi(current)
+        with np.errstate(divide="ignore"):
+            return np.where(np.isfinite(isi), 1.0 / isi, 0.0)
+
+
+#: Documented default parameter sets; see the module docstring for the sources.
+#:
+#: * ``'ra'``: RA-like, tau_m and t_ref from TouchSim's RA fits; r_m illustrative (rheobase 100 nA
+#:   inside the study's current range).
+#: * ``'sa1'``: SA-I skin-neuron model values from Gerling-lab model code (30 mV, 30 pF, 5 GOhm, 1 ms).
+LIF_PRESETS: dict[str, LIFParams] = {
+    "ra": LIFParams(tau_m=4.47e-3, r_m=2.0e5, v_rest=-0.070, v_thresh=-0.050, v_reset=-0.070, t_ref=1.2e-3),
+    "sa1": LIFParams(tau_m=5e9 * 30e-12, r_m=5e9, v_rest=0.0, v_thresh=0.030, v_reset=0.0, t_ref=1e-3),
+}
+
+
+def _refractory_steps(t_ref: float, dt: float) -> int:
+    """brian2's ``timestep(t_ref, dt)``: ``floor((t_ref + 1e-3 dt) / dt)``."""
+    return int(np.array((t_ref + _TIMESTEP_SHIFT * dt) / dt, dtype=np.int64))
+
+
+def _n_steps(duration: float, dt: float) -> int:
+    """brian2's ``Clock._calc_timestep``: round to a whole step if within 1e-4 dt, else round up."""
+    n = int(np.round(duration / dt))
+    if n * dt == duration or abs(n * dt - duration) / dt <= _CLOCK_EPS:
+        return n
+    return int(np.ceil(duration / dt))
+
+
+def grid_isi_bounds(params: LIFParams, current, *, dt: float) -> tuple[np.ndarray, np.ndarray]:
+    """Bounds on the inter-spike interval the grid engines produce for a constant current.
+
+    ``ISI_grid = (n_eff - 1 + ceil(T_r / dt)) dt`` with ``n_eff = max(n_ref, 1)``,
+    ``n_ref = floor(t_ref / dt + 1e-3)`` and ``T_r = tau_m ln((r_m I - (v_reset - v_rest)) /
+    (r_m I - theta))``, so ``lo <= ISI_grid < hi`` with ``lo = (n_eff - 1) dt + T_r`` and
+    ``hi = lo + dt`` (both widened by 1e-6 dt for floating-point rounding of V). The looser,
+    parameter-free form is ``ISI - 2 dt < ISI_grid < ISI + dt`` (module docstring).
+
+    Parameters
+    ----------
+    params : LIFParams
+    current : float or array_like
+        Constant current(s) in A.
+    dt : float
+        Time step in s.
+
+    Returns
+    -------
+    lo, hi : ndarray
+        Bounds in s, shaped like ``current``; ``inf`` at or below the rheobase.
+    """
+    dt = check_positive("dt", dt, unit="s")
+    n_eff = max(_refractory_steps(params.t_ref, dt), 1)
+    t_r = params._time_to_threshold(current, params.v_reset)
+    lo = (n_eff - 1) * dt + t_r - 1e-6 * dt
+    return lo, lo + dt + 2e-6 * dt
+
+
+# --------------------------------------------------------------------------------------------
+# Result object
+# --------------------------------------------------------------------------------------------
+
+
+def _readonly(a: np.ndarray) -> np.ndarray:
+    if not a.flags.c_contiguous:
+        a = np.ascontiguousarray(a)
+    if a.flags.writeable:
+        a = a.view()
+        a.setflags(write=False)
+    return a
+
+
+@dataclass(frozen=True, eq=False)
+class SpikeTrains:
+    """Spike times of a population of afferents, from :func:`simulate_lif`.
+
+    Parameters
+    ----------
+    spike_times : tuple of ndarray
+        One sorted array of spike times in s per afferent (``n_afferents`` arrays). Times are
+        ``t_start + k dt`` for whole steps ``k``: a spike is stamped at the start of the step
+        in which V crossed threshold.
+    afferent_ids : ndarray of shape (n_afferents,)
+        Identifier of each afferent (the current's ``afferent_ids`` if it has them, else
+        ``0 .. n_afferents - 1``).
+    duration : float
+        Simulated time in s (a whole number of steps).
+    dt : float
+        Time step in s.
+    engine : str
+        ``'fast'`` or ``'brian2'``.
+    backend : str
+        What ran: ``'numba'`` or ``'numpy'`` for the fast engine, ``'brian2-numpy'`` for brian2.
+    silent_skipped : ndarray of int
+        Positions (0-based columns of the current) of afferents that were not simulated
+        because they are provably silent: ``r_m max(I) <= v_thresh - v_rest`` over the
+        simulated window (METHOD.md section 7), with a margin of a few rounding errors so the
+        skip never disagrees with a simulation.
+    params : LIFParams
+        The neuron parameters used.
+    t_start : float, default=0.0
+        Time of the first step in s (the current's first sample time).
+    notes : tuple of str
+        Remarks recorded by the simulation (refractory rounding, unused input samples, ...).
+
+    Notes
+    -----
+    Arrays are read-only; the object compares by identity (``eq=False``).
+    """
+
+    spike_times: tuple
+    afferent_ids: np.ndarray
+    duration: float
+    dt: float
+    engine: str
+    backend: str
+    silent_skipped: np.ndarray
+    params: LIFParams
+    t_start: float = 0.0
+    notes: tuple = field(default_factory=tuple)
+
+    def __post_init__(self):
+        trains = tuple(_readonly(np.asarray(t, dtype=np.float64)) for t in self.spike_times)
+        object.__setattr__(self, "spike_times", trains)
+        object.__setattr__(self, "afferent_ids", _readonly(np.asarray(self.afferent_ids)))
+        object.__setattr__(self, "silent_skipped", _readonly(np.asarray(self.silent_skipped, dtype=np.int64)))
+        if self.afferent_ids.shape != (len(trains),):
+            raise ValueError(
+                f"'afferent_ids' must be an array of shape (n_afferents,) = ({len(trains)},); "
+                f"got shape {self.afferent_ids.shape} instead."
+            )
+
+    @property
+    def n_afferents(self) -> int:
+        """Number of afferents (simulated or skipped)."""
+        return len(self.spike_times)
+
+    @property
+    def n_spikes(self) -> np.ndarray:
+        """Spike count per afferent, ndarray of shape (n_afferents,)."""
+        return np.array([t.size for t in self.spike_times], dtype=np.int64)
+
+    @property
+    def simulated(self) -> np.ndarray:
+        """Boolean mask of shape (n_afferents,): True where the afferent was simulated."""
+        mask = np.ones(self.n_afferents, dtype=bool)
+        mask[self.silent_skipped] = False
+        return mask
+
+    def rates(self) -> np.ndarray:
+        """Mean firing rate over the simulated window, in Hz: ``n_spikes / duration``."""
+        return self.n_spikes / self.duration
+
+    def first_spike_latency(self) -> np.ndarray:
+        """Time from ``t_start`` to each afferent's first spike in s; NaN if it never fired."""
+        return np.array([t[0] - self.t_start if t.size else np.nan for t in self.spike_times])
+
+    def isi(self) -> tuple:
+        """Inter-spike intervals in s: one array of length ``n_spikes - 1`` per afferent."""
+        return tuple(np.diff(t) for t in self.spike_times)
+
+    def psth(self, bin_width: float) -> tuple[np.ndarray, np.ndarray]:
+        """Population peri-stimulus time histogram.
+
+        Parameters
+        ----------
+        bin_width : float
+            Bin width in s; the last bin is cut at the end of the window.
+
+        Returns
+        -------
+        rate_hz : ndarray of shape (n_bins,)
+            Mean rate per afferent in each bin, in Hz (spikes / (n_afferents * bin width)).
+        edges : ndarray of shape (n_bins + 1,)
+            Bin edges in s, from ``t_start`` to ``t_start + duration``.
+        """
+        bin_width = check_positive("bin_width", bin_width, unit="s")
+        n_bins = max(int(np.ceil(self.duration / bin_width - 1e-9)), 1)
+        edges = self.t_start + np.minimum(np.arange(n_bins + 1) * bin_width, self.duration)
+        allspikes = np.concatenate(self.spike_times) if self.n_afferents else np.empty(0)
+        counts, _ = np.histogram(allspikes, bins=edges)
+        denom = max(self.n_afferents, 1) * np.diff(edges)
+        return counts / denom, edges
+
+    def to_dataframe(self):
+        """Tidy table of every spike: columns ``afferent`` and ``spike_time_s``, sorted by afferent."""
+        import pandas as pd
+
+        counts = self.n_spikes
+        return pd.DataFrame(
+            {
+                "afferent": np.repeat(self.afferent_ids, counts),
+                "spike_time_s": np.concatenate(self.spike_times) if self.n_afferents else np.empty(0),
+            }
+        )
+
+    def summary(self):
+        """One row per afferent, as a DataFrame indexed by ``afferent``.
+
+        Columns: ``n_spikes``; ``rate_hz``; ``first_spike_latency_s`` (NaN if it never fired);
+        ``mean_isi_s`` (NaN below 2 spikes); ``cv_isi``, the standard deviation over the mean
+        of the ISIs (NaN below 3 spikes); ``simulated`` (False for afferents skipped as
+        provably silent).
+        """
+        import pandas as pd
+
+        isis = self.isi()
+        mean_isi = np.array([d.mean() if d.size >= 1 else np.nan for d in isis])
+        cv_isi = np.array([d.std() / d.mean() if d.size >= 2 else np.nan for d in isis])
+        df = pd.DataFrame(
+            {
+                "n_spikes": self.n_spikes,
+                "rate_hz": self.rates(),
+                "first_spike_latency_s": self.first_spike_latency(),
+                "mean_isi_s": mean_isi,
+                "cv_isi": cv_isi,
+                "simulated": self.simulated,
+            },
+            index=pd.Index(self.afferent_ids, name="afferent"),
+        )
+        return df
+
+    def __repr__(self) -> str:
+        return (
+            f"<SpikeTrains: {self.n_afferents} afferents ({self.silent_skipped.size} skipped as silent), "
+            f"{int(self.n_spikes.sum())} spikes in {self.duration:g} s, engine {self.engine!r} ({self.backend}), "
+            f"dt={self.dt:g} s>"
+        )
+
+
+# --------------------------------------------------------------------------------------------
+# Input preparation
+# --------------------------------------------------------------------------------------------
+
+
+@dataclass
+class _Plan:
+    values: np.ndarray  # (n_times, n_afferents) float64, not copied
+    idx: np.ndarray  # (n_steps,) int64: input sample active in each step
+    n_steps: int
+    dt: float
+    t_start: float
+    ratio: int | None  # input samples are every `ratio` steps from step 0 (brian2 can use them as is)
+    afferent_ids: np.ndarray
+    notes: list
+
+
+def _as_current(current, times):
+    """Split ``current`` into (values, times or None, afferent_ids or None).
+
+    An object with ``values`` and ``times`` (an AfferentCurrent) brings its own times; when
+    those are ``None`` (unknown) it is treated like an ndarray, and ``times`` may be passed.
+    """
+    if isinstance(current, np.ndarray) or not (hasattr(current, "values") and hasattr(current, "times")):
+        return current, times, None
+    own = current.times
+    if times is not None and own is not None:
+        raise ValueError(
+            "Pass 'times' only with an ndarray current; the "
+            f"{type(current).__name__} carries its own times. Got times={describe_array(times)} instead."
+        )
+    return current.values, (own if own is not None else times), getattr(current, "afferent_ids", None)
+
+
+def _plan(current, dt, duration, times) -> _Plan:
+    values, times, ids = _as_current(current, times)
+    try:
+        arr = np.asarray(values, dtype=np.float64)
+    except (TypeError, ValueError) as err:
+        raise TypeError(f"'current' must be a numeric array in A; got {type(values).__name__} instead.") from err
+    if arr.ndim != 2:
+        hint = " For one afferent pass current[:, None]." if arr.ndim == 1 else ""
+        raise ValueError(
+            f"'current' must be an array of shape (n_times, n_afferents) in A; got shape {arr.shape} instead.{hint}"
+        )
+    if arr.shape[0] == 0:
+        raise ValueError(f"'current' must have at least one time step; got shape {arr.shape} instead.")
+    # max/min propagate NaN and inf: a cheap, temporary-free test before locating any culprit
+    if arr.size and not (np.isfinite(arr.max()) and np.isfinite(arr.min())):
+        bad = ~np.isfinite(arr)
+        first = tuple(int(i) for i in np.argwhere(bad)[0])
+        kind = "NaN" if np.isnan(arr[first]) else "infinite"
+        raise ValueError(
+            f"'current' must be finite; got {int(bad.sum())} non-finite value(s) (first: {kind} at index {first}) "
+            "instead."
+        )
+    n_times = arr.shape[0]
+    dt = check_positive("dt", dt, unit="s")
+    notes: list[str] = []
+
+    if times is None:
+        t_start = 0.0
+        start_step = np.arange(n_times, dtype=np.int64)
+        default_duration = n_times * dt
+    else:
+        t = np.asarray(times, dtype=np.float64)
+        if t.shape != (n_times,):
+            raise ValueError(
+                f"'times' must be an array of shape (n_times,) = ({n_times},) in s to match 'current'; "
+                f"got shape {t.shape} instead."
+            )
+        if not np.all(np.isfinite(t)):
+            raise ValueError("'times' must be finite; got non-finite values instead.")
+        steps_back = np.flatnonzero(np.diff(t) <= 0)
+        if steps_back.size:
+            k = int(steps_back[0]) + 1
+            raise ValueError(
+                f"'times' must be strictly increasing in s; got times[{k}] = {float(t[k])!r} <= times[{k - 1}] = "
+                f"{float(t[k - 1])!r} instead."
+            )
+        t_start = float(t[0])
+        rel = (t - t[0]) / dt
+        start_step = np.ceil(rel - _SAMPLE_EPS).astype(np.int64)
+        last = float(t[-1] - t[-2]) if n_times >= 2 else dt
+        default_duration = float(t[-1] - t[0]) + last
+
+    if duration is None:
+        duration = default_duration
+    else:
+        duration = check_positive("duration", duration, unit="s")
+    if not duration / dt < _MAX_STEPS:
+        raise ValueError(
+            f"duration / dt must be below {_MAX_STEPS:.0f} steps; got {duration / dt:.3g} steps "
+            f"(duration {duration!r} s, dt {dt!r} s) instead."
+        )
+    n_steps = max(_n_steps(duration, dt), 1)
+    if abs(n_steps * dt - duration) > _CLOCK_EPS * dt:
+        notes.append(f"duration {duration!r} s is not a whole number of steps; simulated {n_steps} steps.")
+
+    # Sample active in step i: the last one whose start step is <= i (held before/after, like TimedArray).
+    idx = np.searchsorted(start_step, np.arange(n_steps, dtype=np.int64), side="right") - 1
+    np.clip(idx, 0, n_times - 1, out=idx)
+    ratio = None
+    if times is None:
+        ratio = 1
+    elif n_times >= 2 and start_step[1] >= 1 and np.array_equal(start_step, np.arange(n_times) * start_step[1]):
+        ratio = int(start_step[1])
+    unused = n_times - np.unique(start_step).size
+    if unused:
+        notes.append(f"{unused} input sample(s) fall within one step of the next and are never used; reduce dt.")
+
+    if ids is None:
+        ids = np.arange(arr.shape[1])
+    else:
+        ids = np.asarray(ids)
+        if ids.shape != (arr.shape[1],):
+            raise ValueError(
+                f"'afferent_ids' of the current must have shape (n_afferents,) = ({arr.shape[1]},); "
+                f"got shape {ids.shape} instead."
+            )
+    return _Plan(arr, idx.astype(np.int64), n_steps, dt, t_start, ratio, ids, notes)
+
+
+def _peak_current(plan: _Plan) -> np.ndarray:
+    """Largest current of each afferent over the input samples the simulation uses, in A."""
+    lo, hi = int(plan.idx[0]), int(plan.idx[-1])
+    return plan.values[lo : hi + 1].max(axis=0)
+
+
+def _silent(i_max: np.ndarray, params: LIFParams, dt: float) -> np.ndarray:
+    """Mask of afferents provably silent over the window (never reach threshold from rest)."""
+    drive = params.r_m * i_max
+    # Rounding in the grid update can push V a few ulp beyond its fixed point v_rest + r_m I;
+    # the error is contracted by E each step, so it stays below ~ulp / (1 - E).
+    scale = abs(params.v_rest) + abs(params.v_thresh) + np.abs(drive)
+    margin = 64 * np.finfo(np.float64).eps * scale / -np.expm1(-dt / params.tau_m)
+    return drive <= params.theta - margin
+
+
+# --------------------------------------------------------------------------------------------
+# Engines. Each returns (steps of the spikes grouped by column, each
+# group in time order; spike count per column), columns indexing `cols`.
+# --------------------------------------------------------------------------------------------
+
+
+def _lif_loop(values, cols, idx, i_start, n_steps, v, ref_until, a, b, row_now, consts, n_ref, out_step, out_col):
+    """Time loop of the fast engine (plain Python source, run compiled by numba).
+
+    Advances the state ``v`` / ``ref_until`` from step ``i_start`` and writes spikes into
+    ``out_step`` / ``out_col`` from position 0. It stops early, at a step boundary, when fewer
+    than ``len(cols)`` free slots remain, so the caller can grow the buffers and resume; the
+    hot loop itself never allocates. Returns ``(next_step, n_spikes_written, row_now)``.
+
+    The update is brian2's exact-integration expression, in brian2's order of operations:
+    ``v_rest + ((r I + E v) + E ((0 - v_rest) + (-r) I))``.
+    """
+    v_rest, r, E, v_thresh, v_reset = consts[0], consts[1], consts[2], consts[3], consts[4]
+    n = cols.shape[0]
+    cap = out_step.shape[0]
+    count = 0
+    c0 = 0.0 - v_rest
+    mr = -r
+    for i in range(i_start, n_steps):
+        if cap - count < n:
+            return i, count, row_now
+        row = idx[i]
+        if row != row_now:  # input sample changed: r I and E (-v_rest - r I) once per sample
+            for j in range(n):
+                current = values[row, cols[j]]
+                a[j] = r * current
+                b[j] = E * (c0 + mr * current)
+            row_now = row
+        for j in range(n):  # refractory neurons are not integrated (branch-free select)
+            vj = v[j]
+            vn = v_rest + ((a[j] + E * vj) + b[j])
+            v[j] = vj if ref_until[j] > i else vn
+        for j in range(n):  # refractory neurons sit at v_reset < v_thresh: no spike
+            if v[j] >= v_thresh:
+                out_step[count] = i
+                out_col[count] = j
+                count += 1
+                v[j] = v_reset
+                ref_until[j] = i + n_ref
+    return n_steps, count, row_now
+
+
+def _group_by_col(steps, cols, out, counts):
+    """Counting sort of spikes by column, keeping time order (plain Python, run by numba).
+
+    Fills ``out`` (steps grouped by column) and ``counts`` (zeroed, one per column); both are
+    allocated by the caller so that Python's memory tools see them.
+    """
+    n = counts.shape[0]
+    for k in range(cols.shape[0]):
+        counts[cols[k]] += 1
+    start = np.empty(n, np.int64)
+    acc = 0
+    for j in range(n):
+        start[j] = acc
+        acc += counts[j]
+    for k in range(cols.shape[0]):
+        c = cols[k]
+        out[start[c]] = steps[k]
+        start[c] += 1
+
+
+_NUMBA_LOOP = None
+_NUMBA_GROUP = None
+
+
+def _numba_available() -> bool:
+    try:
+        import numba  # noqa: F401
+    except ImportError:
+        return False
+    return True
+
+
+def _numba_loop():
+    global _NUMBA_LOOP
+    if _NUMBA_LOOP is None:
+        import numba
+
+        _NUMBA_LOOP = numba.njit(cache=True, nogil=True)(_lif_loop)
+    return _NUMBA_LOOP
+
+
+def _numba_group():
+    global _NUMBA_GROUP
+    if _NUMBA_GROUP is None:
+        import numba
+
+        _NUMBA_GROUP = numba.njit(cache=True, nogil=True)(_group_by_col)
+    return _NUMBA_GROUP
+
+
+def _group_numpy(steps: np.ndarray, cols: np.ndarray, n: int):
+    """Spikes grouped by column in time order: (steps sorted by column, count per column)."""
+    order = np.argsort(cols, kind="stable")
+    return steps[order], np.bincount(cols, minlength=n).astype(np.int64)
+
+
+def _constants(params: LIFParams, dt: float):
+    # np.exp, as brian2's numpy target computes it, so E is the same double. For dt >> tau_m it
+    # underflows to 0, which is exact enough: V jumps to v_rest + r_m I within the step.
+    with np.errstate(under="ignore"):
+        E = float(np.exp((-dt) / params.tau_m))
+    return E, _refractory_steps(params.t_ref, dt)
+
+
+def _capacity_guess(peak: np.ndarray, plan: _Plan, params: LIFParams, n_ref: int) -> int:
+    """First size of the spike buffers (>= len(peak)); the loop resumes with bigger ones if short.
+
+    The closed-form rate at each simulated afferent's ``peak`` current, capped by one spike per
+    refractory period, plus slack.
+    """
+    per_aff = np.minimum(params.steady_rate(peak) * plan.n_steps * plan.dt, plan.n_steps / max(n_ref, 1))
+    return int(min(1.1 * float(per_aff.sum()), 2.0**26)) + 2 * peak.size + 1024
+
+
+def _run_numba(plan: _Plan, cols: np.ndarray, params: LIFParams, peak: np.ndarray):
+    E, n_ref = _constants(params, plan.dt)
+    loop = _numba_loop()
+    values = plan.values if plan.values.flags.c_contiguous else np.ascontiguousarray(plan.values)
+    cols = cols.astype(np.int64)
+    n = cols.size
+    v = np.full(n, params.v_rest)
+    ref_until = np.zeros(n, np.int64)  # first step at which each neuron integrates again
+    a, b = np.empty(n), np.empty(n)
+    consts = np.array([params.v_rest, params.r_m, E, params.v_thresh, params.v_reset])
+    cap = _capacity_guess(peak, plan, params, n_ref)
+    steps_parts, cols_parts = [], []
+    i, row_now = 0, -1
+    while i < plan.n_steps:
+        out_step = np.empty(cap, np.int32)
+        out_col = np.empty(cap, np.int32)
+        i, count, row_now = loop(
+            values, cols, plan.idx, i, plan.n_steps, v, ref_until, a, b, row_now, consts, n_ref, out_step, out_col
+        )
+        steps_parts.append(out_step[:count])
+        cols_parts.append(out_col[:count])
+        cap *= 2
+    steps = steps_parts[0] if len(steps_parts) == 1 else np.concatenate(steps_parts)
+    hit = cols_parts[0] if len(cols_parts) == 1 else np.concatenate(cols_parts)
+    grouped, counts = np.empty(steps.size, np.int64), np.zeros(n, np.int64)
+    _numba_group()(steps, hit, grouped, counts)
+    return grouped, counts
+
+
+def _run_numpy(plan: _Plan, cols: np.ndarray, params: LIFParams):
+    E, n_ref = _constants(params, plan.dt)
+    n = cols.size
+    all_cols = n == plan.values.shape[1]
+    v_rest, r = params.v_rest, params.r_m
+    c0, mr = 0.0 - v_rest, -r
+    v = np.full(n, v_rest)
+    a = np.empty(n)  # r I
+    b = np.empty(n)  # E (-v_rest - r I)
+    tmp = np.empty(n)
+    spiking = np.empty(n, dtype=bool)
+    recent = deque()  # (step, cols) of spikes still refractory
+    steps_out, cols_out = [], []
+    row_now = -1
+    for i in range(plan.n_steps):
+        row = plan.idx[i]
+        if row != row_now:
+            current = plan.values[row] if all_cols else plan.values[row, cols]
+            np.multiply(r, current, out=a)
+            np.multiply(mr, current, out=b)
+            np.add(c0, b, out=b)
+            np.multiply(E, b, out=b)
+            row_now = row
+        np.multiply(E, v, out=tmp)
+        np.add(a, tmp, out=tmp)
+        np.add(tmp, b, out=tmp)
+        np.add(v_rest, tmp, out=v)
+        # Refractory neurons are not integrated: their V stays at v_reset (< v_thresh, so they
+        # cannot spike either). Overwriting after the update gives the same state.
+        while recent and i - recent[0][0] >= n_ref:
+            recent.popleft()
+        for _, held in recent:
+            v[held] = params.v_reset
+        np.greater_equal(v, params.v_thresh, out=spiking)
+        if spiking.any():
+            fired = np.flatnonzero(spiking)
+            v[fired] = params.v_reset
+            steps_out.append(np.full(fired.size, i, dtype=np.int64))
+            cols_out.append(fired)
+            if n_ref > 1:
+                recent.append((i, fired))
+    if steps_out:
+        return _group_numpy(np.concatenate(steps_out), np.concatenate(cols_out).astype(np.int64), n)
+    return np.empty(0, np.int64), np.zeros(n, np.int64)
+
+
+_BRIAN2_EQS = """
+dv/dt = (v_rest - v + r_m*I_in(t, i))/tau_m : volt (unless refractory)
+v_rest : volt (shared, constant)
+v_thresh : volt (shared, constant)
+v_reset : volt (shared, constant)
+r_m : ohm (shared, constant)
+tau_m : second (shared, constant)
+"""
+
+
+def _run_brian2(plan: _Plan, cols: np.ndarray, params: LIFParams):
+    """The reference engine: brian2 NeuronGroup + TimedArray + SpikeMonitor in an explicit Network.
+
+    Code objects use brian2's numpy target through ``codeobj_class`` (nothing is compiled and
+    the global ``prefs.codegen.target`` is left alone).
+    """
+    import brian2 as b2
+    from brian2.codegen.runtime.numpy_rt import NumpyCodeObject
+
+    dt = plan.dt
+    last_row = int(plan.idx[-1])
+    ta_dt = None
+    if plan.ratio is not None:
+        ta_dt = plan.ratio * dt
+        if ta_dt / dt != float(plan.ratio):  # brian2 needs an exact integer ratio for exact integration
+            ta_dt = None
+    if ta_dt is not None:
+        table = plan.values[: last_row + 1][:, cols]
+    else:  # irregular input: resample onto the simulation grid (per-step constant)
+        table, ta_dt = plan.values[np.ix_(plan.idx, cols)], dt
+    timed = b2.TimedArray(table * b2.amp, dt=ta_dt * b2.second)
+    group = b2.NeuronGroup(
+        cols.size,
+        _BRIAN2_EQS,
+        threshold="v >= v_thresh",
+        reset="v = v_reset",
+        refractory=params.t_ref * b2.second,
+        method="exact",
+        dt=dt * b2.second,
+        namespace={"I_in": timed},
+        codeobj_class=NumpyCodeObject,
+    )
+    group.v_rest = params.v_rest * b2.volt
+    group.v_thresh = params.v_thresh * b2.volt
+    group.v_reset = params.v_reset * b2.volt
+    group.r_m = params.r_m * b2.ohm
+    group.tau_m = params.tau_m * b2.second
+    group.v = params.v_rest * b2.volt
+    monitor = b2.SpikeMonitor(group, codeobj_class=NumpyCodeObject)
+    net = b2.Network(group, monitor)
+    net.run(plan.n_steps * dt * b2.second, namespace={})
+    steps = np.rint(np.asarray(monitor.t_) / dt).astype(np.int64)
+    return _group_numpy(steps, np.asarray(monitor.i, dtype=np.int64), cols.size)
+
+
+# --------------------------------------------------------------------------------------------
+# Public entry point
+# --------------------------------------------------------------------------------------------
+
+
+def simulate_lif(current, params: LIFParams, *, dt: float, engine: str = "auto", duration=None, times=None):
+    """Simulate one leaky integrate-and-fire neuron per afferent.
+
+    Parameters
+    ----------
+    current : AfferentCurrent or ndarray of shape (n_times, n_afferents)
+        Afferent current in A. An object with ``values`` (n_times, n_afferents) in A and
+        ``times`` (n_times,) in s (an :class:`afferent.synthesis.AfferentCurrent`) is used
+        with its own times and, if it has them, its ``afferent_ids``; if its ``times`` is
+        ``None`` it is treated like an ndarray. An ndarray is taken as sampled every ``dt``
+        from t = 0 unless ``times`` is given. Each sample is held constant from its time to the next (like a
+        brian2 ``TimedArray``): before the first sample the first is held, after the last the
+        last.
+    params : LIFParams
+        Neuron parameters (see :data:`LIF_PRESETS`).
+    dt : float
+        Simulation time step in s. Input sample times are put on this grid (a sample counts
+        from the first step at or after its time).
+    engine : {'auto', 'fast', 'fast-numba', 'fast-numpy', 'brian2'}, default='auto'
+        ``'brian2'`` is the reference; ``'fast'`` (= ``'auto'``) gives the same spikes, using
+        numba if installed, else numpy.
+    duration : float, optional
+        Simulated time in s from the first sample time. Default: up to one sample interval
+        after the last sample (``n_times * dt`` for an ndarray).
+    times : ndarray of shape (n_times,), optional
+        Sample times in s of an ndarray ``current``, strictly increasing.
+
+    Returns
+    -------
+    SpikeTrains
+        Spike times per afferent, with the engine used and the afferents skipped as silent.
+
+    Raises
+    ------
+    TypeError
+        If ``current`` is not numeric or a parameter has the wrong type.
+    ValueError
+        If a shape, a time or a parameter value is invalid, or ``r_m * |current|`` would
+        overflow.
+    ImportError
+        If ``engine='fast-numba'`` and numba is not installed.
+
+    See Also
+    --------
+    afferent.synthesis.synthesize : produces the AfferentCurrent.
+    LIFParams.steady_rate : closed-form rate for a constant current.
+    grid_isi_bounds : how far the grid engines can be from the closed form.
+
+    Notes
+    -----
+    Afferents whose current never drives V past threshold (``r_m max(I) <= v_thresh -
+    v_rest`` over the window) are provably silent and are not simulated; they are listed in
+    ``SpikeTrains.silent_skipped``. Only ``duration`` is simulated.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> p = LIF_PRESETS["ra"]
+    >>> current = np.array([[0.0, 5e-8, 2e-7]]).repeat(200, axis=0)   # 20 ms at dt = 0.1 ms
+    >>> trains = simulate_lif(current, p, dt=1e-4)
+    >>> trains.silent_skipped.tolist()        # the first two are below the 100 nA rheobase
+    [0, 1]
+    >>> trains.n_spikes.tolist()
+    [0, 0, 5]
+    >>> np.round(trains.spike_times[2] * 1e3, 6).tolist()   # ms: first at (ceil(T0/dt) - 1) dt
+    [3.0, 7.2, 11.4, 15.6, 19.8]
+    """
+    if not isinstance(params, LIFParams):
+        raise TypeError(f"'params' must be a LIFParams; got {type(params).__name__} instead.")
+    check_option("engine", engine, ENGINES)
+    plan = _plan(current, dt, duration, times)
+    values = plan.values
+    n_aff = values.shape[1]
+
+    peak = max(float(values.max()), -float(values.min())) if n_aff else 0.0  # no |values| temporary
+    if not peak * params.r_m < _MAX_DRIVE_V:
+        worst = peak * params.r_m
+        raise ValueError(
+            f"r_m * max|current| must be < {_MAX_DRIVE_V:g} V for the update to stay finite; got {worst:g} V instead."
+        )
+
+    if engine == "auto":
+        engine = "fast"
+    if engine == "fast":
+        backend = "numba" if _numba_available() else "numpy"
+    elif engine == "fast-numba":
+        if not _numba_available():
+            raise ImportError(
+                "engine='fast-numba' needs numba, which is not installed. "
+                "Install it with pip install 'afferent-skin[fast]', or use engine='fast'."
+            )
+        engine, backend = "fast", "numba"
+    elif engine == "fast-numpy":
+        engine, backend = "fast", "numpy"
+    else:
+        backend = "brian2-numpy"
+
+    n_ref = _refractory_steps(params.t_ref, plan.dt)
+    if params.t_ref > 0 and abs(n_ref * plan.dt - params.t_ref) > 1e-9 * plan.dt:
+        plan.notes.append(
+            f"t_ref = {params.t_ref:g} s is not a whole number of steps: refractory lasts "
+            f"{n_ref} step(s) = {n_ref * plan.dt:g} s (brian2's rounding)."
+        )
+
+    peak = _peak_current(plan) if n_aff else np.zeros(0)
+    silent = _silent(peak, params, plan.dt)
+    cols = np.flatnonzero(~silent)
+
+    if cols.size == 0:
+        steps, counts = np.empty(0, np.int64), np.zeros(0, np.int64)
+    elif backend == "numba":
+        steps, counts = _run_numba(plan, cols, params, peak[cols])
+    elif backend == "numpy":
+        steps, counts = _run_numpy(plan, cols, params)
+    else:
+        steps, counts = _run_brian2(plan, cols, params)
+
+    # Spike times t_start + k dt (for t_start = 0 exactly brian2's t = timestep * dt).
+    times_s = steps * plan.dt
+    if plan.t_start:
+        times_s += plan.t_start
+    ends = np.cumsum(counts).tolist()
+    trains = [np.empty(0)] * n_aff
+    for c, lo, hi in zip(cols.tolist(), [0, *ends[:-1]], ends):
+        trains[c] = times_s[lo:hi]
+
+    return SpikeTrains(
+        spike_times=tuple(trains),
+        afferent_ids=plan.afferent_ids,
+        duration=plan.n_steps * plan.dt,
+        dt=plan.dt,
+        engine=engine,
+        backend=backend,
+        silent_skipped=np.flatnonzero(silent),
+        params=params,
+        t_start=plan.t_start,
+        notes=tuple(plan.notes),
+    )

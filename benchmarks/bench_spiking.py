@@ -1,0 +1,211 @@
+"""Benchmark of stage 6 (:func:`afferent.spiking.simulate_lif`): speed, memory and accuracy.
+
+Run from the repository root::
+
+    .venv/bin/python benchmarks/bench_spiking.py            # full: 12,500 afferents, 1 s, dt = 0.1 ms
+    .venv/bin/python benchmarks/bench_spiking.py --quick    # smaller, for a smoke test
+
+Part 1 - the target workload: 12,500 afferents, 1 s at dt = 0.1 ms (10,000 steps), RA preset.
+The current is a ramp-and-hold sampled every 1 ms (as an FE export would be; 1,001 samples x
+12,500 afferents = 100 MB), with per-afferent plateau amplitudes drawn log-uniformly over the
+study's afferent-current range 30 nA - 16 uA (METHOD.md sections 3, 4, 6; see the spiking
+module docstring) and onsets jittered over 0-20 ms. Each engine runs in a fresh subprocess
+(so brian2's imports do not weigh on the fast engine) and reports:
+
+* wall time of ``simulate_lif`` (best of ``--repeat``; brian2 once), after one warm-up call
+  that loads numba's compiled loop (timed apart: compile, or load from the on-disk cache);
+* peak memory allocated during the call, by tracemalloc (numpy buffers, including the fast
+  engine's spike buffers, which are allocated in Python) - the 100 MB input is allocated
+  before and not counted;
+* the process's peak resident memory (ru_maxrss) before and after the call: it includes the
+  interpreter, imports and the input, and catches anything tracemalloc cannot see.
+
+Part 2 - speed vs accuracy: dt x engine -> wall time and spike-time errors against a fine
+reference (fast engine at dt = 0.001 ms) on a subset of afferents (the reference costs 10^6
+steps). Errors: median and max |t - t_ref| over rank-matched spikes (each spike matched to
+the reference spike of the same rank; at high rates this accumulates the per-interval bias),
+the fraction of afferents whose spike count differs, the worst first-spike latency error, and
+the median relative error of the mean rate.
+"""
+
+from __future__ import annotations
+
+import argparse
+import hashlib
+import json
+import platform
+import resource
+import subprocess
+import sys
+import time
+import tracemalloc
+
+import numpy as np
+
+from afferent.spiking import LIF_PRESETS, simulate_lif
+
+PARAMS = LIF_PRESETS["ra"]
+DT = 1e-4
+
+
+def ramp_and_hold(n_afferents: int, *, duration: float = 1.0, sample_dt: float = 1e-3, rng=0):
+    """Ramp (100 ms) - hold (500 ms) - release (100 ms) - rest, per-afferent amplitude and onset."""
+    rng = np.random.default_rng(rng)
+    times = np.arange(int(round(duration / sample_dt)) + 1) * sample_dt
+    amp = np.exp(rng.uniform(np.log(3e-8), np.log(1.6e-5), n_afferents))
+    onset = rng.uniform(0.0, 0.02, n_afferents)
+    # clip(t / 0.1, 0, 1) - clip((t - 0.6) / 0.1, 0, 1), times amp; in place (two buffers at most)
+    current = np.subtract.outer(times, onset)
+    release = current - 0.6
+    for buf in (current, release):
+        np.divide(buf, 0.1, out=buf)
+        np.clip(buf, 0.0, 1.0, out=buf)
+    current -= release
+    del release
+    current *= amp
+    return times, current
+
+
+def workload(quick: bool):
+    n_aff, duration = (1250, 0.2) if quick else (12_500, 1.0)
+    times, current = ramp_and_hold(n_aff, duration=duration)
+    return n_aff, duration, times, current
+
+
+def maxrss_mb() -> float:
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024  # kB on Linux
+
+
+def measure_one(engine: str, quick: bool, repeat: int) -> dict:
+    """Run in a subprocess: time and memory of one engine on the Part 1 workload."""
+    n_aff, duration, times, current = workload(quick)
+
+    def run():
+        return simulate_lif(current, PARAMS, dt=DT, engine=engine, times=times, duration=duration)
+
+    t0 = time.perf_counter()
+    simulate_lif(np.full((2, 1), 1e-6), PARAMS, dt=DT, engine=engine)  # loads numba's loop
+    warmup = time.perf_counter() - t0
+    rss_before = maxrss_mb()
+    tracemalloc.start()
+    res = run()
+    traced_peak = tracemalloc.get_traced_memory()[1]
+    tracemalloc.stop()
+    rss_after = maxrss_mb()
+    best = np.inf
+    for _ in range(1 if engine == "brian2" else repeat):
+        t0 = time.perf_counter()
+        res = run()
+        best = min(best, time.perf_counter() - t0)
+    digest = hashlib.sha256()
+    for train in res.spike_times:
+        digest.update(np.asarray(train).tobytes() + b"|")
+    return {
+        "engine": engine,
+        "backend": res.backend,
+        "wall_s": best,
+        "warmup_s": warmup,
+        "traced_peak_mb": traced_peak / 1e6,
+        "rss_before_mb": rss_before,
+        "rss_after_mb": rss_after,
+        "spikes": int(res.n_spikes.sum()),
+        "skipped": int(res.silent_skipped.size),
+        "sha256": digest.hexdigest()[:16],
+    }
+
+
+def spike_errors(trains, ref):
+    """Rank-matched spike-time errors, count mismatches, first-spike latency and rate errors vs ``ref``."""
+    lat = np.abs(trains.first_spike_latency() - ref.first_spike_latency())
+    lat_max = float(np.nanmax(lat)) if np.isfinite(lat).any() else 0.0
+    fired = ref.n_spikes > 0
+    rate_err = np.abs(trains.rates() - ref.rates())[fired] / ref.rates()[fired]
+    rate_med = float(np.median(rate_err)) if rate_err.size else 0.0
+    errs, mismatched = [], 0
+    for a, b in zip(trains.spike_times, ref.spike_times):
+        mismatched += a.size != b.size
+        k = min(a.size, b.size)
+        errs.append(np.abs(a[:k] - b[:k]))
+    errs = np.concatenate(errs) if errs else np.empty(0)
+    med = float(np.median(errs)) if errs.size else 0.0
+    mx = float(errs.max()) if errs.size else 0.0
+    return med, mx, mismatched / max(len(trains.spike_times), 1), lat_max, rate_med
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--quick", action="store_true", help="1,250 afferents, 0.2 s, small accuracy table")
+    parser.add_argument("--repeat", type=int, default=3)
+    parser.add_argument("--no-brian2", action="store_true")
+    parser.add_argument("--one", metavar="ENGINE", help=argparse.SUPPRESS)  # internal: subprocess mode
+    args = parser.parse_args(argv)
+
+    if args.one:
+        print(json.dumps(measure_one(args.one, args.quick, args.repeat)))
+        return 0
+
+    print("command:", " ".join(["python", *sys.argv]))
+    print(f"python {platform.python_version()}, numpy {np.__version__}, {platform.machine()}")
+    try:
+        import numba
+
+        print(f"numba {numba.__version__}")
+    except ImportError:
+        print("numba not installed")
+
+    n_aff, duration, times, current = workload(args.quick)
+    print(f"\n== Part 1: {n_aff} afferents, {duration:g} s at dt = {DT * 1e3:g} ms ({int(round(duration / DT))} steps)")
+    print(f"input: {current.shape[0]} samples every 1 ms x {n_aff} afferents = {current.nbytes / 1e6:.0f} MB")
+    engines = ["fast-numba", "fast-numpy"] + ([] if args.no_brian2 else ["brian2"])
+    rows = []
+    for engine in engines:
+        cmd = [sys.executable, __file__, "--one", engine, "--repeat", str(args.repeat)]
+        cmd += ["--quick"] if args.quick else []
+        out = subprocess.run(cmd, capture_output=True, text=True, check=True).stdout.strip().splitlines()[-1]
+        rows.append(json.loads(out))
+    print(
+        f"\n{'engine':<11} {'wall s':>7} {'warm-up s':>9} {'traced peak MB':>14} {'RSS before MB':>13} "
+        f"{'RSS after MB':>12} {'spikes':>9} {'skipped':>7}  spikes sha256"
+    )
+    for r in rows:
+        print(
+            f"{r['engine']:<11} {r['wall_s']:7.3f} {r['warmup_s']:9.2f} {r['traced_peak_mb']:14.1f} "
+            f"{r['rss_before_mb']:13.0f} {r['rss_after_mb']:12.0f} {r['spikes']:9d} {r['skipped']:7d}  {r['sha256']}"
+        )
+    print("spike trains identical across engines:", len({r["sha256"] for r in rows}) == 1)
+
+    # ---- Part 2: accuracy -----------------------------------------------------------------
+    n_sub = 50 if args.quick else 200
+    sub = np.linspace(0, n_aff - 1, n_sub).astype(int)
+    c2 = current[:, sub]
+    dt_ref = 1e-6
+    t0 = time.perf_counter()
+    ref = simulate_lif(c2, PARAMS, dt=dt_ref, engine="fast", times=times, duration=duration)
+    print(
+        f"\n== Part 2: {n_sub} afferents, {duration:g} s; reference fast engine at dt = {dt_ref * 1e3:g} ms "
+        f"({time.perf_counter() - t0:.2f} s, {int(ref.n_spikes.sum())} spikes)"
+    )
+    print(
+        f"{'dt ms':>6} {'engine':<7} {'wall s':>7} {'spike err med ms':>17} {'max ms':>8} {'count differs':>14} "
+        f"{'latency err max ms':>19} {'rate err med':>13}"
+    )
+    if not args.no_brian2:  # import brian2 outside the timings
+        simulate_lif(np.full((2, 1), 1e-6), PARAMS, dt=DT, engine="brian2")
+    for dt2 in (1e-3, 1e-4, 1e-5):
+        for engine in ["fast"] + ([] if args.no_brian2 else ["brian2"]):
+            if engine == "brian2" and dt2 < 1e-4 and not args.quick:
+                print(f"{dt2 * 1e3:6g} {engine:<7}  (skipped: 10^5 Python-level steps; same spikes as 'fast')")
+                continue
+            t0 = time.perf_counter()
+            res = simulate_lif(c2, PARAMS, dt=dt2, engine=engine, times=times, duration=duration)
+            wall = time.perf_counter() - t0
+            med, mx, mism, lat, rate = spike_errors(res, ref)
+            print(
+                f"{dt2 * 1e3:6g} {engine:<7} {wall:7.3f} {med * 1e3:17.4f} {mx * 1e3:8.3f} {mism:14.1%} "
+                f"{lat * 1e3:19.4f} {rate:13.2%}"
+            )
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
