@@ -34,6 +34,8 @@ _LAZY = {
     "SigmoidParams": "afferent.transduction",
     "synthesize": "afferent.synthesis",
     "Branching": "afferent.synthesis",
+    "calibrate": "afferent.calibration",
+    "CalibrationResult": "afferent.calibration",
     "simulate_lif": "afferent.spiking",
     "LIFParams": "afferent.spiking",
 }

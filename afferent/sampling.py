@@ -12,6 +12,7 @@ CSV without connectivity it triangulates only the points around the receptors.
 
 from __future__ import annotations
 
+import os
 import warnings
 from dataclasses import dataclass
 
@@ -20,11 +21,11 @@ import scipy.sparse as sp
 from scipy.spatial import cKDTree
 
 from ._validation import check_option
-from .exceptions import AfferentWarning, FieldCoverageError
+from .exceptions import AfferentWarning, FieldCoverageError, SEDFormatError
 from .field import Cells, SEDField
 from .receptors import ReceptorLayout
 
-__all__ = ["ReceptorSED", "Sampler", "build_sampler", "sample_sed", "METHODS"]
+__all__ = ["ReceptorSED", "Sampler", "build_sampler", "sample_sed", "read_receptor_sed", "METHODS"]
 
 METHODS = ("linear", "nearest")
 ON_OUTSIDE = ("raise", "warn", "nan")
@@ -316,3 +317,93 @@ def sample_sed(
         if on_outside == "warn":
             warnings.warn(msg + " They are NaN.", AfferentWarning, stacklevel=2)
     return ReceptorSED(sampler.apply(field.sed), field.times.copy(), layout, method, sampler.outside.copy())
+
+
+#: Columns of the long-form table written by ``afferent sample`` (:meth:`ReceptorSED.to_dataframe`).
+SED_TABLE_COLUMNS = ("receptor", "x_m", "y_m", "z_m", "time_s", "sed_pa")
+
+
+def read_receptor_sed(path):
+    """Read the long-form SED table written by ``afferent sample`` into a :class:`~afferent.sampling.ReceptorSED`.
+
+    Parameters
+    ----------
+    path : str or path-like
+        CSV with columns receptor, x_m, y_m, z_m (m), time_s (s), sed_pa (Pa = J/m^3); one
+        row per receptor and time step. Receptors keep the order of their first appearance;
+        sections (longitudinal by x, cross by z) are recomputed from the positions.
+
+    Returns
+    -------
+    ReceptorSED
+        Values of shape (n_times, n_receptors) in Pa, times in s, ``method='csv'``.
+
+    Raises
+    ------
+    FileNotFoundError
+        If ``path`` does not exist.
+    SEDFormatError
+        Missing columns, non-numeric or non-finite values, a receptor at two positions, or a
+        (receptor, time) pair missing or repeated.
+    """
+    import pandas as pd
+
+    path = os.fspath(path)
+    if not os.path.isfile(path):
+        raise FileNotFoundError(f"SED file {path!r} not found.")
+    try:
+        df = pd.read_csv(path, comment="#", skipinitialspace=True)
+    except pd.errors.EmptyDataError as err:
+        raise SEDFormatError(f"SED file {path!r} is empty; expected columns {', '.join(SED_TABLE_COLUMNS)}.") from err
+    except (pd.errors.ParserError, UnicodeDecodeError) as err:
+        raise SEDFormatError(f"SED file {path!r} could not be parsed as CSV: {err}") from err
+    df.columns = [str(c).strip().lower() for c in df.columns]
+    missing = [c for c in SED_TABLE_COLUMNS if c not in df.columns]
+    if missing:
+        found = ", ".join(repr(str(c)) for c in df.columns) or "none"
+        raise SEDFormatError(
+            f"SED file {path!r} must have the columns {', '.join(SED_TABLE_COLUMNS)} (as written by 'afferent sample'); "
+            f"missing {', '.join(missing)}. Found columns {found}."
+        )
+    if df.empty:
+        raise SEDFormatError(f"SED file {path!r} has no data rows.")
+    num = df[list(SED_TABLE_COLUMNS[1:])].apply(pd.to_numeric, errors="coerce")
+    bad = ~np.isfinite(num.to_numpy(float))
+    if bad.any():
+        row, col = (int(i) for i in np.argwhere(bad)[0])
+        raise SEDFormatError(
+            f"SED file {path!r}: column {SED_TABLE_COLUMNS[1 + col]!r} must hold finite numbers; "
+            f"got {df.iloc[row][SED_TABLE_COLUMNS[1 + col]]!r} on data row {row + 1} instead."
+        )
+    ids = df["receptor"].astype(str).to_numpy()
+    names, first = np.unique(ids, return_index=True)
+    order = np.argsort(first, kind="stable")
+    names, first = names[order], first[order]
+    col_of = {n: i for i, n in enumerate(names)}
+    times = np.unique(num["time_s"].to_numpy(float))
+    n_r, n_t = names.size, times.size
+    xyz = num[["x_m", "y_m", "z_m"]].to_numpy(float)
+    positions = xyz[first]
+    cols = np.array([col_of[i] for i in ids])
+    if not np.allclose(xyz, positions[cols], rtol=0, atol=1e-12):
+        k = int(np.flatnonzero(~np.all(np.isclose(xyz, positions[cols], rtol=0, atol=1e-12), axis=1))[0])
+        raise SEDFormatError(
+            f"SED file {path!r}: receptor {ids[k]!r} must have one position; got two (data rows "
+            f"{int(first[cols[k]]) + 1} and {k + 1}) instead."
+        )
+    rows = np.searchsorted(times, num["time_s"].to_numpy(float))
+    counts = np.zeros((n_t, n_r), int)
+    np.add.at(counts, (rows, cols), 1)
+    if not np.all(counts == 1):
+        t, j = (int(i) for i in np.argwhere(counts != 1)[0])
+        what = "missing" if counts[t, j] == 0 else f"given {counts[t, j]} times"
+        raise SEDFormatError(
+            f"SED file {path!r} must have exactly one row per receptor and time step; receptor {names[j]!r} at "
+            f"time {float(times[t])!r} s is {what}."
+        )
+    values = np.empty((n_t, n_r))
+    values[rows, cols] = num["sed_pa"].to_numpy(float)
+    layout = ReceptorLayout(positions, names)
+    return ReceptorSED(values, times, layout, "csv", np.zeros(n_r, bool))
+
+

@@ -9,10 +9,10 @@ import traceback
 
 from .. import __version__
 from ..exceptions import AfferentError
-from . import _demo, _info, _run, _sample
+from . import _calibrate, _demo, _info, _run, _sample
 
 #: subcommand -> module with add_args(parser) and run(args) -> int; help comes from the docstring.
-COMMANDS = {"info": _info, "sample": _sample, "run": _run, "demo": _demo}
+COMMANDS = {"info": _info, "sample": _sample, "run": _run, "calibrate": _calibrate, "demo": _demo}
 
 
 class _Parser(argparse.ArgumentParser):

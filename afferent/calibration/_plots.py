@@ -1,0 +1,89 @@
+"""Figures of a calibration: the final profile fit and the ssd per iteration.
+
+matplotlib is imported inside the functions only. Each takes ``ax=None`` (a new figure) and
+returns the Axes; positions are shown in mm, the data stay SI.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["plot_calibrated_profile", "plot_ssd_history"]
+
+
+def _axes(ax, figsize):
+    import matplotlib.pyplot as plt
+
+    if ax is None:
+        _, ax = plt.subplots(figsize=figsize, layout="constrained")
+    return ax
+
+
+def plot_calibrated_profile(result, *, ax=None, title=None):
+    """Predicted (calibrated) against observed profile, as compared.
+
+    Parameters
+    ----------
+    result : CalibrationResult
+        Its ``fit`` holds the profiles (normalised as ``result.normalise`` says) and the
+        afferent positions in m (plotted in mm).
+    ax : matplotlib Axes, optional
+    title : str, optional
+        Default: method, synthesis, ssd and R^2 (study).
+
+    Returns
+    -------
+    matplotlib Axes
+    """
+    ax = _axes(ax, (5.5, 3.8))
+    fit = result.fit
+    x = fit.positions * 1e3 if fit.positions is not None else np.arange(len(fit.predicted))
+    ax.plot(x, fit.observed, "ko", label="observed")
+    ax.plot(x, fit.predicted, "-", lw=2, label="calibrated")
+    axis = "x" if result.synthesis in ("longitudinal", "map", "random") else "z"
+    ax.set_xlabel(f"afferent position {axis} (mm)" if fit.positions is not None else "afferent")
+    norm = result.normalise in ("both", "prediction")
+    ax.set_ylabel("response (normalised)" if norm else "response")
+    p = result.params
+    ax.set_title(title or (
+        f"{result.method}, {result.synthesis}: ssd {result.ssd:.3g}, R$^2$ (study) {result.r2_study:.3f}\n"
+        f"alpha {p.alpha:.3g} A, gamma {p.gamma:.3g} 1/Pa, lambda {p.lambda_:.4g} Pa"
+    ), fontsize="small")
+    ax.legend(fontsize="small")
+    return ax
+
+
+def plot_ssd_history(result, *, ax=None, title=None):
+    """ssd of every evaluated point (grey) and of each iteration's best point (line), by evaluation.
+
+    Parameters
+    ----------
+    result : CalibrationResult
+        Uses ``design_runs`` (``evaluation``, ``ssd``) and ``iterations`` (``evaluations``, ``ssd``).
+    ax : matplotlib Axes, optional
+    title : str, optional
+
+    Returns
+    -------
+    matplotlib Axes
+        Logarithmic y axis when every ssd is > 0.
+    """
+    ax = _axes(ax, (5.5, 3.8))
+    runs = result.design_runs
+    it = result.iterations
+    if len(runs):
+        usable = ~runs["degenerate"].to_numpy(bool)
+        ax.plot(runs["evaluation"][usable], runs["ssd"][usable], ".", color="0.7", ms=4, label="evaluated points")
+        if (~usable).any():
+            ax.plot(runs["evaluation"][~usable], runs["ssd"][~usable], "x", color="tab:red", ms=4,
+                    label="degenerate (flat prediction)")
+    ax.plot(it["evaluations"], it["ssd"], "o-", color="tab:blue", drawstyle="steps-post", label="best after each iteration")
+    ssd_all = np.concatenate([runs["ssd"].to_numpy(float) if len(runs) else np.array([]), it["ssd"].to_numpy(float)])
+    if ssd_all.size and np.all(ssd_all > 0):
+        ax.set_yscale("log")
+    ax.set_xlabel("model evaluations")
+    ax.set_ylabel("ssd")
+    ax.set_title(title or f"{result.method}: {result.n_iterations} iteration(s), {result.n_evaluations} evaluations",
+                 fontsize="small")
+    ax.legend(fontsize="small")
+    return ax
