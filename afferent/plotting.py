@@ -8,7 +8,10 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["plot_sed_map", "plot_sed_profile", "plot_section_profiles", "plot_fit", "save_figure"]
+__all__ = [
+    "plot_sed_map", "plot_sed_profile", "plot_section_profiles", "plot_fit",
+    "plot_raster", "plot_rates", "plot_psth", "plot_waveform", "save_figure",
+]
 
 
 def _axes(ax, figsize=(5.0, 4.2)):
@@ -173,4 +176,160 @@ def plot_fit(fit, *, ax=None, title=None):
     ax.set_ylabel("response (normalised)" if fit.normalise != "neither" else "response")
     ax.set_title(title or f"R$^2$ (study) = {fit.r2_study:.3f}, R$^2$ = {fit.r2:.3f}, ssd = {fit.ssd:.3g}")
     ax.legend(fontsize="small")
+    return ax
+
+
+# ---- spikes and stimuli -------------------------------------------------------------------
+
+#: Above this many afferents the raster's y axis shows indices, not names.
+MAX_RASTER_LABELS = 30
+
+
+def plot_raster(spikes, ax=None, *, color: str = "k", title: str | None = None):
+    """Spike raster: one row per afferent, one tick per spike.
+
+    Parameters
+    ----------
+    spikes : SpikeTrains
+        From :func:`afferent.spiking.simulate_lif`; spike times in s.
+    ax : matplotlib Axes, optional
+    color : str, default='k'
+    title : str, optional
+
+    Returns
+    -------
+    matplotlib Axes
+        x: time (s) over the simulated window; y: afferent (names when at most
+        :data:`MAX_RASTER_LABELS`, else indices).
+
+    Examples
+    --------
+    >>> ax = plot_raster(trains)  # doctest: +SKIP
+    """
+    ax = _axes(ax)
+    n = spikes.n_afferents
+    if n:
+        ax.eventplot(list(spikes.spike_times), lineoffsets=np.arange(n), linelengths=0.8, colors=color,
+                     linewidths=0.8)
+    ax.set_xlim(spikes.t_start, spikes.t_start + spikes.duration)
+    ax.set_ylim(-0.6, max(n, 1) - 0.4)
+    if 0 < n <= MAX_RASTER_LABELS:
+        ax.set_yticks(np.arange(n))
+        ax.set_yticklabels([str(i) for i in spikes.afferent_ids])
+        ax.set_ylabel("afferent")
+    else:
+        ax.set_ylabel("afferent (index)")
+    ax.set_xlabel("time (s)")
+    ax.set_title(title or f"{int(spikes.n_spikes.sum())} spikes, {n} afferents")
+    return ax
+
+
+def plot_rates(spikes, positions=None, ax=None, *, label: str | None = None, title: str | None = None):
+    """Mean firing rate of each afferent, against its position when given.
+
+    Parameters
+    ----------
+    spikes : SpikeTrains
+        Rates are ``n_spikes / duration`` in Hz (:meth:`SpikeTrains.rates`).
+    positions : array_like of shape (n_afferents,) or AfferentCurrent, optional
+        Afferent coordinate in m (an object with ``positions``, e.g. the AfferentCurrent or
+        InputCurrent that was simulated, is accepted; its ``axis`` names the x label). Without
+        it the rates are plotted against the afferent index.
+    ax : matplotlib Axes, optional
+    label : str, optional
+        Legend label.
+    title : str, optional
+
+    Returns
+    -------
+    matplotlib Axes
+        x: position (mm) or afferent index; y: rate (Hz).
+
+    Raises
+    ------
+    ValueError
+        If ``positions`` does not have one entry per afferent.
+    """
+    ax = _axes(ax)
+    rates = spikes.rates()
+    axis = getattr(positions, "axis", None)
+    if positions is not None and hasattr(positions, "positions"):
+        positions = positions.positions
+    if positions is None:
+        x = np.arange(rates.size)
+        ax.set_xlabel("afferent (index)")
+    else:
+        x = np.asarray(positions, dtype=float)
+        if x.shape != rates.shape:
+            raise ValueError(
+                f"'positions' must have one entry per afferent (n_afferents = {rates.size}), in m; "
+                f"got shape {x.shape} instead."
+            )
+        x = x * 1e3
+        ax.set_xlabel(f"{axis or 'position'} (mm)")
+    order = np.argsort(x, kind="stable")
+    ax.plot(x[order], rates[order], "o-", ms=4, label=label)
+    ax.set_ylabel("rate (Hz)")
+    ax.set_ylim(bottom=0)
+    if label:
+        ax.legend(fontsize="small")
+    ax.set_title(title or f"mean rate over {spikes.duration:g} s")
+    return ax
+
+
+def plot_psth(spikes, bin_width: float, ax=None, *, label: str | None = None, title: str | None = None):
+    """Population peri-stimulus time histogram (mean rate per afferent in each bin).
+
+    Parameters
+    ----------
+    spikes : SpikeTrains
+    bin_width : float
+        Bin width in s (see :meth:`SpikeTrains.psth`).
+    ax : matplotlib Axes, optional
+    label : str, optional
+    title : str, optional
+
+    Returns
+    -------
+    matplotlib Axes
+        x: time (s); y: rate (Hz per afferent).
+
+    Raises
+    ------
+    ValueError
+        If ``bin_width`` is not > 0 s.
+    """
+    rate, edges = spikes.psth(bin_width)
+    ax = _axes(ax)
+    ax.stairs(rate, edges, fill=True, alpha=0.6, label=label)
+    ax.set_xlabel("time (s)")
+    ax.set_ylabel("rate per afferent (Hz)")
+    ax.set_xlim(edges[0], edges[-1])
+    if label:
+        ax.legend(fontsize="small")
+    ax.set_title(title or f"PSTH, {bin_width * 1e3:g} ms bins")
+    return ax
+
+
+def plot_waveform(waveform, ax=None, *, title: str | None = None):
+    """Indentation depth over time.
+
+    Parameters
+    ----------
+    waveform : Waveform
+        Times in s, depth in m (shown in mm).
+    ax : matplotlib Axes, optional
+    title : str, optional
+
+    Returns
+    -------
+    matplotlib Axes
+        x: time (s); y: depth (mm).
+    """
+    ax = _axes(ax, figsize=(5.5, 2.8))
+    ax.plot(waveform.times, waveform.depth * 1e3, "-", lw=1.2)
+    ax.set_xlabel("time (s)")
+    ax.set_ylabel("depth (mm)")
+    ax.set_ylim(bottom=0)
+    ax.set_title(title or f"{waveform.kind} waveform")
     return ax
