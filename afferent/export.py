@@ -82,9 +82,11 @@ def write_pipeline_outputs(result, outdir: str, *, record: dict, overwrite: bool
     """Write every output of a static pipeline run into ``outdir`` (atomically, as a whole).
 
     Files: ``receptors.csv``, ``afferents.csv``, ``fit.csv`` and ``profile_fit.csv`` (when a
-    fit was made), ``receptors.vtu``, ``run.json``, and with ``plots`` the PNG figures
-    ``sed_map.png`` (study fig. 5-5), ``profiles_x.png`` (fig. 5-6), ``profiles_z.png``
-    (fig. 5-7) and ``fit.png``.
+    fit was made), ``waveform.csv`` (with a stimulus waveform), ``spikes.csv`` (afferent,
+    spike_time_s) and ``spike_summary.csv`` (with spikes), ``receptors.vtu``, ``run.json``, and
+    with ``plots`` the PNG figures ``sed_map.png`` (study fig. 5-5), ``profiles_x.png``
+    (fig. 5-6), ``profiles_z.png`` (fig. 5-7), ``fit.png``, ``waveform.png``, ``raster.png``,
+    ``rates.png`` and ``psth.png``.
 
     Returns
     -------
@@ -109,6 +111,13 @@ def write_pipeline_outputs(result, outdir: str, *, record: dict, overwrite: bool
             pd.DataFrame({"position_m": fit.positions, "predicted": fit.predicted, "observed": fit.observed}).to_csv(
                 path("profile_fit.csv"), index=False)
         write_receptor_vtu(result, path("receptors.vtu"))
+        if result.waveform is not None:
+            result.waveform.to_dataframe().to_csv(path("waveform.csv"), index=False)
+        if result.spikes is not None:
+            result.spikes.to_dataframe().to_csv(path("spikes.csv"), index=False)
+            summary = result.spikes.summary().reset_index()
+            summary.insert(1, "position_m", result.afferent.positions)
+            summary.to_csv(path("spike_summary.csv"), index=False)
         if plots:
             from . import plotting
             from .synthesis import Branching, synthesize
@@ -127,6 +136,13 @@ def write_pipeline_outputs(result, outdir: str, *, record: dict, overwrite: bool
                 plotting.save_figure(ax, path(name))
             if result.fit is not None:
                 plotting.save_figure(plotting.plot_fit(result.fit), path("fit.png"))
+            if result.waveform is not None:
+                plotting.save_figure(plotting.plot_waveform(result.waveform), path("waveform.png"))
+            if result.spikes is not None:
+                plotting.save_figure(plotting.plot_raster(result.spikes), path("raster.png"))
+                plotting.save_figure(plotting.plot_rates(result.spikes, positions=result.afferent), path("rates.png"))
+                bin_width = max(result.spikes.duration / 50, result.spikes.dt)
+                plotting.save_figure(plotting.plot_psth(result.spikes, bin_width), path("psth.png"))
         full = dict(record)
         full.setdefault("versions", versions())
         full["saturation"] = {
@@ -138,6 +154,16 @@ def write_pipeline_outputs(result, outdir: str, *, record: dict, overwrite: bool
         if result.fit is not None:
             full["fit"] = {"r2_study": result.fit.r2_study, "r2": result.fit.r2, "ssd": result.fit.ssd,
                            "normalise": result.fit.normalise, "dropped": result.fit.dropped}
+        if result.spikes is not None:
+            sp = result.spikes
+            full["spikes"] = {
+                "engine": sp.engine, "backend": getattr(sp, "backend", None), "dt_s": sp.dt, "duration_s": sp.duration,
+                "input": getattr(result.input, "kind", None), "input_level": getattr(result.input, "level", None),
+                "n_spikes": int(sum(len(t) for t in sp.spike_times)),
+                "silent_skipped": [str(sp.afferent_ids[i]) for i in sp.silent_skipped],
+                "notes": list(getattr(sp, "notes", ())),
+                "lif": {k: getattr(sp.params, k) for k in ("tau_m", "r_m", "v_rest", "v_thresh", "v_reset", "t_ref")},
+            }
         full["stage_seconds"] = result.timings
         full["outputs"] = sorted(written + ["run.json"])
         with open(path("run.json"), "w") as f:

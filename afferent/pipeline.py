@@ -21,7 +21,7 @@ from .sampling import ReceptorSED, sample_sed
 from .synthesis import AfferentCurrent, Branching, synthesize
 from .transduction import ReceptorCurrent, SaturationReport, SigmoidParams, saturation_report, transduce
 
-__all__ = ["PipelineResult", "run_pipeline", "make_branching", "SYNTHESES"]
+__all__ = ["PipelineResult", "run_pipeline", "run_spikes", "make_branching", "SYNTHESES", "INPUTS"]
 
 SYNTHESES = ("longitudinal", "cross", "map:FILE", "random:N")
 
@@ -67,6 +67,9 @@ class PipelineResult:
     saturation: SaturationReport
     fit: ProfileFit | None = None
     timings: dict = field(default_factory=dict)
+    waveform: object | None = None
+    input: object | None = None
+    spikes: object | None = None
 
 
 def run_pipeline(
@@ -80,6 +83,8 @@ def run_pipeline(
     observed: ObservedProfile | None = None,
     normalise: str = "both",
     rng=None,
+    waveform=None,
+    d_ref: float | None = None,
 ) -> PipelineResult:
     """SED field -> receptor SED -> receptor current -> afferent current [-> fit].
 
@@ -101,6 +106,12 @@ def run_pipeline(
         What is min-max normalised before comparing.
     rng : None, int or Generator
         Seed for random branching.
+    waveform : afferent.stimulus.Waveform, optional
+        Indentation depth over time for a static export: the sampled SED is scaled by
+        (d(t) / d_ref)^2 (:func:`afferent.stimulus.scale_static`, valid for linear elasticity
+        with a fixed contact area).
+    d_ref : float, optional
+        Indentation depth of the static export in m (required with ``waveform``).
 
     Returns
     -------
@@ -111,6 +122,14 @@ def run_pipeline(
     t = time.perf_counter()
     sed = sample_sed(field, layout, method=method, on_outside=on_outside)
     timings["sampling"] = time.perf_counter() - t
+    if waveform is not None:
+        from .stimulus import scale_static
+
+        if d_ref is None:
+            raise ValueError("A waveform needs d_ref, the indentation depth (m) of the static export; got d_ref=None.")
+        t = time.perf_counter()
+        sed = scale_static(sed, waveform, d_ref=d_ref, time_index=-1)
+        timings["stimulus"] = time.perf_counter() - t
     t = time.perf_counter()
     current = transduce(sed, params)
     sat = saturation_report(sed, params)
@@ -124,4 +143,62 @@ def run_pipeline(
         t = time.perf_counter()
         fit = compare_profiles(afferent, observed, normalise=normalise)
         timings["comparison"] = time.perf_counter() - t
-    return PipelineResult(sed, current, branching, afferent, sat, fit, timings)
+    return PipelineResult(sed, current, branching, afferent, sat, fit, timings, waveform=waveform)
+
+
+INPUTS = ("static", "rate-sensitive")
+
+
+def run_spikes(result: PipelineResult, lif, *, dt: float, engine: str = "auto", input: str = "static",
+               gain: float | None = None, tau: float | None = None, duration: float | None = None) -> PipelineResult:
+    """Add spikes to a pipeline result: input current -> leaky integrate-and-fire.
+
+    Parameters
+    ----------
+    result : PipelineResult
+        From :func:`run_pipeline`.
+    lif : afferent.spiking.LIFParams
+    dt : float
+        LIF time step in s.
+    engine : {'auto', 'fast', 'brian2', ...}
+        See :func:`afferent.spiking.simulate_lif`.
+    input : {'static', 'rate-sensitive'}, default='static'
+        ``'static'``: the afferent current itself (the study's sigmoid of SED; fires through a
+        hold). ``'rate-sensitive'``: each receptor's current adapts on its own
+        (:func:`afferent.stimulus.adapting_input`, rectified rate of change, fires at onset
+        and offset), then the inputs are summed into afferents.
+    gain : float, optional
+        Gain of the rate-sensitive input in s (required for it).
+    tau : float, optional
+        Time constant of the rate-sensitive input in s (default that of ``adapting_input``).
+    duration : float, optional
+        Simulated time in s; default: to the last sample (``dt`` past it for a single sample).
+
+    Returns
+    -------
+    PipelineResult
+        ``result`` with ``input`` (the current fed to the LIF, tagged with its kind) and ``spikes``.
+    """
+    from dataclasses import replace
+
+    from . import stimulus
+    from .spiking import simulate_lif
+
+    check_option("input", input, INPUTS)
+    timings = dict(result.timings)
+    t = time.perf_counter()
+    if input == "static":
+        drive = stimulus.static_input(result.afferent)
+    else:
+        if gain is None:
+            raise ValueError("input='rate-sensitive' needs gain (s): how much input current (A) per A/s of rate.")
+        kw = {} if tau is None else {"tau": tau}
+        drive = stimulus.adapting_input(result.current, gain=gain, **kw).synthesize(result.branching)
+    timings["input"] = time.perf_counter() - t
+    if duration is None:
+        times = result.afferent.times
+        duration = float(times[-1] - times[0]) if times is not None and len(times) > 1 else None
+    t = time.perf_counter()
+    spikes = simulate_lif(drive, lif, dt=dt, engine=engine, duration=duration)
+    timings["spiking"] = time.perf_counter() - t
+    return replace(result, input=drive, spikes=spikes, timings=timings)

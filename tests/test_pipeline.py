@@ -119,3 +119,45 @@ def test_run_cli_requires_parameters(capsys, tmp_path, bump):
     assert err == ("afferent: error: Transduction parameters --gamma, --lambda are missing: give --alpha A --gamma G "
                    "--lambda L (A, 1/Pa, Pa) or --params one of start, longitudinal, cross.\n")
     assert not (tmp_path / "o").exists() and not list(tmp_path.glob(".o.*"))
+
+
+def test_run_cli_spikes_with_a_ramp_and_hold(capsys, tmp_path, bump):
+    """--waveform + --spikes: rate-sensitive input fires at onset and offset, not in the hold."""
+    vtu, receptors, n, nx, nz = bump
+    out = tmp_path / "ramp"
+    code = main(["run", str(vtu), "--receptors", str(receptors), "--length-unit", "mm", "--sed-unit", "MPa",
+                 "--params", "start", "--waveform", "ramp:0.5,5,0.5", "--d-ref-mm", "0.5", "--spikes",
+                 "--input", "rate-sensitive", "--gain-s", "2", "--no-plots", "-o", str(out)])
+    assert code == 0, capsys.readouterr().err
+    spikes = pd.read_csv(out / "spikes.csv")
+    assert list(spikes.columns) == ["afferent", "spike_time_s"] and len(spikes) > 0
+    t = spikes["spike_time_s"].to_numpy()
+    # ramp 0-0.1 s, hold to 0.6 s, release 0.6-0.7 s
+    assert np.any(t < 0.12) and np.any((t > 0.6) & (t < 0.75)) and not np.any((t > 0.2) & (t < 0.55))
+    summary = pd.read_csv(out / "spike_summary.csv")
+    assert {"afferent", "position_m", "n_spikes", "rate_hz", "first_spike_latency_s"} <= set(summary.columns)
+    record = json.loads((out / "run.json").read_text())
+    assert record["spikes"]["input"] == "rate-sensitive" and record["waveform"]["kind"] == "ramp-and-hold"
+
+
+def test_run_cli_spikes_on_a_static_export(capsys, tmp_path, bump):
+    vtu, receptors, *_ = bump
+    out = tmp_path / "static"
+    code = main(["run", str(vtu), "--receptors", str(receptors), "--length-unit", "mm", "--sed-unit", "MPa",
+                 "--params", "start", "--spikes", "--no-plots", "-o", str(out)])
+    assert code == 0, capsys.readouterr().err
+    record = json.loads((out / "run.json").read_text())
+    assert record["spikes"]["duration_s"] == pytest.approx(1.0) and record["spikes"]["input"] == "static"
+
+
+def test_run_cli_spike_option_errors(capsys, tmp_path, bump):
+    vtu, receptors, *_ = bump
+    base = ["run", str(vtu), "--receptors", str(receptors), "--length-unit", "mm", "--sed-unit", "MPa", "--params", "start"]
+    code = main(base + ["--waveform", "ramp:0.5,5", "--d-ref-mm", "0.5", "-o", str(tmp_path / "a")])
+    assert code == 2 and "--waveform ramp: needs 3 comma-separated values; got 2 in 'ramp:0.5,5' instead." in capsys.readouterr().err
+    code = main(base + ["--waveform", "ramp:0.5,5,1", "-o", str(tmp_path / "b")])
+    assert code == 2 and "--waveform needs --d-ref-mm" in capsys.readouterr().err
+    code = main(base + ["--spikes", "--input", "rate-sensitive", "--waveform", "ramp:0.5,5,1", "--d-ref-mm", "0.5",
+                        "-o", str(tmp_path / "c")])
+    assert code == 2 and "input='rate-sensitive' needs gain (s)" in capsys.readouterr().err
+    assert not any(p.name.startswith(("a", "b", "c", ".")) for p in tmp_path.iterdir() if p.name not in ("bump.vtu", "R.csv"))
