@@ -8,7 +8,6 @@ import hashlib
 import json
 import os
 import platform
-import sys
 from importlib import metadata
 
 import numpy as np

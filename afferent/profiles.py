@@ -312,19 +312,12 @@ def read_observed(path, *, length_unit: str, position_column: str = "position",
     """
     import pandas as pd
 
+    from ._tables import read_table
+
     path = os.fspath(path)
-    if not os.path.isfile(path):
-        raise FileNotFoundError(f"Observed profile file {path!r} not found.")
     factor = length_factor(length_unit)
-    try:
-        # Read as text so that an error can quote the cell as written ('n/a', '').
-        df = pd.read_csv(path, sep=None, engine="python", comment="#", skipinitialspace=True, dtype=str,
-                         keep_default_na=False)
-    except pd.errors.EmptyDataError as err:
-        raise SEDFormatError(f"Observed profile file {path!r} is empty; expected columns position, response.") from err
-    except (pd.errors.ParserError, UnicodeDecodeError) as err:
-        raise SEDFormatError(f"Observed profile file {path!r} could not be parsed as CSV: {err}") from err
-    cols = {str(c).strip().lower(): c for c in df.columns}
+    # Read as text so that an error can quote the cell as written ('n/a', '').
+    df, cols = read_table(path, what="Observed profile file", expected="position, response", as_text=True)
     picked = []
     for kw, name in (("position_column", position_column), ("response_column", response_column)):
         if str(name).lower() not in cols:

@@ -199,17 +199,11 @@ def read_receptors(path, *, length_unit: str, tol: float = SECTION_TOLERANCE_M) 
     """
     import pandas as pd
 
+    from ._tables import read_table
+
     path = os.fspath(path)
-    if not os.path.isfile(path):
-        raise FileNotFoundError(f"Receptor file {path!r} not found.")
     factor = length_factor(length_unit)
-    try:
-        df = pd.read_csv(path, sep=None, engine="python", comment="#", skipinitialspace=True)
-    except pd.errors.EmptyDataError as err:
-        raise SEDFormatError(f"Receptor file {path!r} is empty; expected a header with columns x, y, z.") from err
-    except (pd.errors.ParserError, UnicodeDecodeError) as err:
-        raise SEDFormatError(f"Receptor file {path!r} could not be parsed as CSV: {err}") from err
-    cols = {str(c).strip().lower(): c for c in df.columns}
+    df, cols = read_table(path, what="Receptor file", expected="x, y, z (optional id, longitudinal, cross)")
     missing = [c for c in ("x", "y", "z") if c not in cols]
     if missing:
         found = ", ".join(repr(str(c)) for c in df.columns) or "none"

@@ -348,15 +348,10 @@ def read_receptor_sed(path):
     """
     import pandas as pd
 
+    from ._tables import read_table
+
     path = os.fspath(path)
-    if not os.path.isfile(path):
-        raise FileNotFoundError(f"SED file {path!r} not found.")
-    try:
-        df = pd.read_csv(path, comment="#", skipinitialspace=True)
-    except pd.errors.EmptyDataError as err:
-        raise SEDFormatError(f"SED file {path!r} is empty; expected columns {', '.join(SED_TABLE_COLUMNS)}.") from err
-    except (pd.errors.ParserError, UnicodeDecodeError) as err:
-        raise SEDFormatError(f"SED file {path!r} could not be parsed as CSV: {err}") from err
+    df, _ = read_table(path, what="SED file", expected=", ".join(SED_TABLE_COLUMNS))
     df.columns = [str(c).strip().lower() for c in df.columns]
     missing = [c for c in SED_TABLE_COLUMNS if c not in df.columns]
     if missing:

@@ -480,15 +480,9 @@ def read_waveform(path, *, length_unit: str, time_unit: str = "s", on_negative: 
     tf = time_factor(time_unit)
     path = os.fspath(path)
     where = f"Waveform file {path!r}"
-    if not os.path.isfile(path):
-        raise FileNotFoundError(f"{where} not found.")
-    try:
-        df = pd.read_csv(path, sep=None, engine="python", comment="#", skipinitialspace=True, dtype=str,
-                         keep_default_na=False)
-    except pd.errors.EmptyDataError as err:
-        raise ValueError(f"{where} is empty; expected columns {time_column!r} and {depth_column!r}.") from err
-    except (pd.errors.ParserError, UnicodeDecodeError) as err:
-        raise ValueError(f"{where} could not be parsed as CSV: {err}") from err
+    from ._tables import read_table
+
+    df, _ = read_table(path, what="Waveform file", expected=f"{time_column!r} and {depth_column!r}", as_text=True)
     headers = {}
     for col in df.columns:
         name, unit = _split_header(col)

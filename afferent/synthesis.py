@@ -236,17 +236,11 @@ class Branching:
         if isinstance(source, pd.DataFrame):
             df, where = source, "Branching map"
         else:
+            from ._tables import read_table
+
             path = os.fspath(source)
             where = f"Branching map {path!r}"
-            if not os.path.isfile(path):
-                raise FileNotFoundError(f"Branching map file {path!r} not found.")
-            try:
-                df = pd.read_csv(path, sep=None, engine="python", comment="#", skipinitialspace=True, dtype=str,
-                                 keep_default_na=False)
-            except pd.errors.EmptyDataError as err:
-                raise SEDFormatError(f"{where} is empty; expected columns receptor, afferent[, weight].") from err
-            except (pd.errors.ParserError, UnicodeDecodeError) as err:
-                raise SEDFormatError(f"{where} could not be parsed as CSV: {err}") from err
+            df, _ = read_table(path, what="Branching map file", expected="receptor, afferent[, weight]", as_text=True)
         cols = {str(c).strip().lower(): c for c in df.columns}
         missing = [c for c in ("receptor", "afferent") if c not in cols]
         if missing:

@@ -34,9 +34,8 @@ import os
 import sys
 import warnings
 
-import numpy as np
 
-from ..exceptions import AfferentWarning, SEDFormatError
+from ..exceptions import AfferentWarning
 from ..sampling import read_receptor_sed
 from ..transduction import STUDY_PARAMS, SigmoidParams
 from ._options import add_output_options, add_quiet, show_progress
