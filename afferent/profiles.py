@@ -49,6 +49,10 @@ __all__ = [
 #: receptors saturated by the study's longitudinal parameters).
 NEARLY_CONSTANT_RTOL = 1e-9
 
+#: Relative slack (of the observed span) within which a position counts as inside the observed
+#: range: float round-off between a computed section position and one read from a CSV.
+POSITION_RTOL = 1e-9
+
 _NORMALISE = ("both", "prediction", "observation", "neither")
 
 
@@ -391,7 +395,10 @@ def observed_on(positions, observed, *, on_outside: str = "raise") -> np.ndarray
     obs = _as_observed(observed)
     pos = _finite("positions", positions, ndim=1)
     lo, hi = obs.positions[0], obs.positions[-1]
-    outside = (pos < lo) | (pos > hi)
+    # Positions are compared with a slack of POSITION_RTOL of the observed span, so that the
+    # same coordinate computed two ways (a section mean vs a number printed in a CSV) matches.
+    slack = POSITION_RTOL * max(hi - lo, abs(hi), abs(lo))
+    outside = (pos < lo - slack) | (pos > hi + slack)
     if outside.any() and on_outside == "raise":
         k = int(np.flatnonzero(outside)[0])
         raise ValueError(
@@ -399,7 +406,7 @@ def observed_on(positions, observed, *, on_outside: str = "raise") -> np.ndarray
             f"[{lo:.6g}, {hi:.6g}] m (first: position {k} at {pos[k]:.6g} m); the observation is not "
             "extrapolated. Pass on_outside='nan' (observed_on) or on_outside='drop' (compare_profiles) to skip them."
         )
-    out = np.interp(pos, obs.positions, obs.response)
+    out = np.interp(np.clip(pos, lo, hi), obs.positions, obs.response)
     out[outside] = np.nan
     return out
 

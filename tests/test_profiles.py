@@ -250,3 +250,14 @@ def test_compare_profiles_errors():
         "'observed' must be an ObservedProfile (see read_observed) or a (positions_m, response) tuple; got dict instead."
     )):
         observed_on([0.0], {"x": 1})
+
+
+def test_observed_on_tolerates_round_off_at_the_ends():
+    """A section position computed as a mean (3.3200000000000005e-3) matches an observed 3.32e-3."""
+    from afferent.profiles import ObservedProfile, observed_on
+
+    obs = ObservedProfile(np.array([0.68e-3, 3.32e-3]), np.array([1.0, 2.0]))
+    out = observed_on(np.array([0.68e-3, (0.68e-3 + 5.96e-3) / 2, 3.32e-3 * (1 + 4e-16)]), obs)
+    np.testing.assert_allclose(out, [1.0, 2.0, 2.0], rtol=1e-12)
+    with pytest.raises(ValueError, match=re.escape("1 of 1 positions lie outside the observed range [0.00068, 0.00332] m (first: position 0 at 0.00333 m)")):
+        observed_on(np.array([3.33e-3]), obs)
