@@ -8,7 +8,9 @@ longitudinal synthesis, writing one folder per indenter (as ``afferent run`` doe
   central cross-section shows an interchange zone (peak-valley-peak), and how many peaks the
   longitudinal and cross-section afferent profiles have;
 - ``indenters_x.png``: normalised receptor SED and longitudinal afferent current along x for
-  every indenter on one figure (the study's chapter-5 comparison).
+  every indenter on one figure (the study's chapter-5 comparison);
+- ``spikes_ramp/``: the bundled scene ``sample_sed/scenes/spikes_ramp.toml`` (the study's
+  ramp-and-hold on the 0.88 mm case, RA-I rate-sensitive input, leaky integrate-and-fire spikes).
 
 Example::
 
@@ -128,7 +130,16 @@ def run(args: argparse.Namespace) -> int:
             ax.legend(title="indenter", fontsize="small")
         axes[0].set_ylabel("normalised (min-max)")
         plotting.save_figure(fig, os.path.join(tmp, "indenters_x.png"))
+        from ..scene import load_scene, run_scene
+
+        scene_path = sample / "scenes" / "spikes_ramp.toml"
+        if not args.quiet:
+            print(f"afferent demo: scene {scene_path.name} ...", file=sys.stderr)
+        spikes = run_scene(load_scene(scene_path).with_output(os.path.join(tmp, "spikes_ramp")), use_cache=False)
     if not args.quiet:
         print(pd.DataFrame(rows).to_string(index=False), file=sys.stderr)
+        n = sum(len(t) for t in spikes.spikes.spike_times)
+        print(f"spikes_ramp: {n} spikes from {len(spikes.spikes.spike_times)} afferents (rate-sensitive input: "
+              "onset and release)", file=sys.stderr)
         print(f"afferent demo: wrote {args.output}", file=sys.stderr)
     return 0

@@ -62,8 +62,8 @@ def input_kwargs(args: argparse.Namespace) -> dict:
     )
 
 
-def add_output_options(parser: argparse.ArgumentParser, *, what: str) -> None:
-    parser.add_argument("-o", "--output", required=True, metavar="OUT", help=what)
+def add_output_options(parser: argparse.ArgumentParser, *, what: str, required: bool = True) -> None:
+    parser.add_argument("-o", "--output", required=required, metavar="OUT", help=what)
     parser.add_argument("--overwrite", action="store_true", help="replace an existing output (never done silently)")
 
 
@@ -76,10 +76,10 @@ def show_progress(args: argparse.Namespace) -> bool:
     return not getattr(args, "quiet", False) and sys.stderr.isatty()
 
 
-def add_receptor_options(parser: argparse.ArgumentParser) -> None:
+def add_receptor_options(parser: argparse.ArgumentParser, *, required: bool = True) -> None:
     """Where the receptors are: a CSV, or a grid generated on the export."""
     g = parser.add_argument_group("receptor sites")
-    m = g.add_mutually_exclusive_group(required=True)
+    m = g.add_mutually_exclusive_group(required=required)
     m.add_argument("--receptors", metavar="R.csv", help="receptor sites: columns x, y, z (optional id, longitudinal, cross)")
     m.add_argument("--grid", metavar="SPEC",
                    help="generate the sites: 'tips' = papilla tips found on the export's epidermis/dermis interface "

@@ -1,4 +1,7 @@
-"""Run the static pipeline: SED at receptors -> receptor currents -> afferent currents [-> fit].
+"""Run the pipeline: SED at receptors -> receptor currents -> afferent currents [-> fit] [-> spikes].
+
+``afferent run SCENE.toml`` runs a scene file instead (see afferent.scene): only the stages its
+outputs need, with sampled SED cached on disk and a run.json record.
 
 Writes into OUTDIR: receptors.csv (receptor, x_m, y_m, z_m, section ids, time_s, sed_pa,
 current_a), afferents.csv (afferent, position_m, time_s, current_a), fit.csv and
@@ -20,6 +23,7 @@ Example::
     $ afferent run sample_sed/block4/indent_0p88mm.vtu --receptors sample_sed/block4/receptors.csv \
           --length-unit mm --sed-unit MPa --params start --waveform ramp:0.5,5,2 --d-ref-mm 0.5 \
           --spikes --input rate-sensitive --gain-s 0.2 -o results/ramp
+    $ afferent run sample_sed/scenes/profiles.toml -o results/scene
 """
 
 from __future__ import annotations
@@ -37,7 +41,8 @@ from ._options import add_input_options, add_receptor_options, layout_from_args,
 
 
 def add_args(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("exports", nargs="+", metavar="EXPORT", help="FE export file(s); several files are one time step each")
+    parser.add_argument("exports", nargs="+", metavar="EXPORT",
+                        help="FE export file(s) (several files are one time step each), or one SCENE.toml")
     parser.add_argument("--method", choices=METHODS, default="linear", help="sampling: interpolate in the mesh cells, or nearest node")
     parser.add_argument("--on-outside", choices=("raise", "warn", "nan"), default="raise", help="receptors outside the mesh")
     parser.add_argument("--synthesis", default="longitudinal", metavar="|".join(SYNTHESES),
@@ -73,9 +78,10 @@ def add_args(parser: argparse.ArgumentParser) -> None:
     g.add_argument("--tau-ms", type=float, help="time constant of the rate-sensitive input, ms (default 5)")
     g.add_argument("--duration-s", type=float, help="simulated time, s (default: the stimulus; 1 s for a static export)")
     parser.add_argument("--no-plots", action="store_true", help="skip the PNG figures")
-    add_receptor_options(parser)
+    add_receptor_options(parser, required=False)
     add_input_options(parser)
-    add_output_options(parser, what="output folder (created whole, or not at all)")
+    add_output_options(parser, what="output folder (created whole, or not at all); for a scene, overrides its [outputs] dir",
+                       required=False)
     add_quiet(parser)
 
 
@@ -118,6 +124,14 @@ def waveform_from_args(args):
 
 
 def run(args: argparse.Namespace) -> int:
+    if len(args.exports) == 1 and args.exports[0].lower().endswith(".toml"):
+        from ..scene import run_scene_cli
+
+        return run_scene_cli(args.exports[0], output=args.output, overwrite=args.overwrite, quiet=args.quiet)
+    if args.receptors is None and args.grid is None:
+        raise ValueError("afferent run needs the receptor sites: --receptors R.csv or --grid tips|y=H (or a SCENE.toml).")
+    if args.output is None:
+        raise ValueError("afferent run needs an output folder: -o OUTDIR.")
     params = params_from_args(args)
     waveform = waveform_from_args(args)
     if waveform is not None and args.d_ref_mm is None:
