@@ -7,7 +7,7 @@ import os
 
 from .exceptions import SEDFormatError
 
-__all__ = ["read_table"]
+__all__ = ["read_table", "numeric_columns"]
 
 
 def read_table(path, *, what: str, expected: str, as_text: bool = False):
@@ -50,3 +50,29 @@ def read_table(path, *, what: str, expected: str, as_text: bool = False):
     except (pd.errors.ParserError, UnicodeDecodeError, ValueError) as err:
         raise SEDFormatError(f"{what} {path!r} could not be parsed as CSV: {err}") from err
     return df, {str(c).strip().lower(): c for c in df.columns}
+
+
+def numeric_columns(df, columns, *, what: str, path):
+    """The given columns as a float array of shape (n_rows, n_columns); every cell must be a finite number.
+
+    Raises
+    ------
+    SEDFormatError
+        ``"<what> '<path>': column 'c' must hold finite numbers; got '<cell as written>' on data row N instead."``
+    """
+    import numpy as np
+    import pandas as pd
+
+    columns = list(columns)
+    data = df[columns].apply(pd.to_numeric, errors="coerce").to_numpy(float)
+    bad = ~np.isfinite(data)
+    if bad.any():
+        row, col = (int(i) for i in np.argwhere(bad)[0])
+        cell = df.iloc[row][columns[col]]
+        cell = cell.item() if hasattr(cell, "item") else cell
+        cell = cell.strip() if isinstance(cell, str) else cell
+        raise SEDFormatError(
+            f"{what} {os.fspath(path)!r}: column {str(columns[col])!r} must hold finite numbers; "
+            f"got {cell!r} on data row {row + 1} instead."
+        )
+    return data

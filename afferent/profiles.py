@@ -26,7 +26,6 @@ from dataclasses import dataclass
 import numpy as np
 
 from ._validation import check_option, suggest
-from ._validation import plain as _plain
 from .exceptions import AfferentWarning, SEDFormatError
 from .units import length_factor
 
@@ -314,9 +313,8 @@ def read_observed(path, *, length_unit: str, position_column: str = "position",
     UnitError
         If ``length_unit`` is unknown.
     """
-    import pandas as pd
 
-    from ._tables import read_table
+    from ._tables import numeric_columns, read_table
 
     path = os.fspath(path)
     factor = length_factor(length_unit)
@@ -331,14 +329,7 @@ def read_observed(path, *, length_unit: str, position_column: str = "position",
                 f"{suggest(name, [str(c) for c in df.columns])} Pass {kw}=... to choose another column."
             )
         picked.append(cols[str(name).lower()])
-    data = df[picked].apply(pd.to_numeric, errors="coerce").to_numpy(float)
-    bad = ~np.isfinite(data)
-    if bad.any():
-        row, col = (int(i) for i in np.argwhere(bad)[0])
-        raise SEDFormatError(
-            f"Observed profile file {path!r}: column {str(picked[col])!r} must hold finite numbers; "
-            f"got {_plain(df.iloc[row][picked[col]])!r} on data row {row + 1} instead."
-        )
+    data = numeric_columns(df, picked, what="Observed profile file", path=path)
     order = np.argsort(data[:, 0], kind="stable")
     try:
         return ObservedProfile(data[order, 0] * factor, data[order, 1], source=path)

@@ -199,7 +199,7 @@ def read_receptors(path, *, length_unit: str, tol: float = SECTION_TOLERANCE_M) 
     """
     import pandas as pd
 
-    from ._tables import read_table
+    from ._tables import numeric_columns, read_table
 
     path = os.fspath(path)
     factor = length_factor(length_unit)
@@ -213,14 +213,7 @@ def read_receptors(path, *, length_unit: str, tol: float = SECTION_TOLERANCE_M) 
         )
     if len(df) == 0:
         raise SEDFormatError(f"Receptor file {path!r} has a header but no receptor rows.")
-    xyz = df[[cols["x"], cols["y"], cols["z"]]].apply(pd.to_numeric, errors="coerce").to_numpy(float)
-    bad = ~np.isfinite(xyz)
-    if bad.any():
-        row, col = np.argwhere(bad)[0]
-        raise SEDFormatError(
-            f"Receptor file {path!r}: column {'xyz'[col]!r} must hold finite numbers; "
-            f"got {df.iloc[row][cols['xyz'[col]]]!r} on data row {row + 1} instead."
-        )
+    xyz = numeric_columns(df, [cols["x"], cols["y"], cols["z"]], what="Receptor file", path=path)
     id_col = next((cols[c] for c in _ID_COLUMNS if c in cols), None)
     ids = df[id_col].astype(str).str.strip().to_numpy() if id_col is not None else None
     sections = {}

@@ -348,7 +348,7 @@ def read_receptor_sed(path):
     """
     import pandas as pd
 
-    from ._tables import read_table
+    from ._tables import numeric_columns, read_table
 
     path = os.fspath(path)
     df, _ = read_table(path, what="SED file", expected=", ".join(SED_TABLE_COLUMNS))
@@ -362,14 +362,8 @@ def read_receptor_sed(path):
         )
     if df.empty:
         raise SEDFormatError(f"SED file {path!r} has no data rows.")
-    num = df[list(SED_TABLE_COLUMNS[1:])].apply(pd.to_numeric, errors="coerce")
-    bad = ~np.isfinite(num.to_numpy(float))
-    if bad.any():
-        row, col = (int(i) for i in np.argwhere(bad)[0])
-        raise SEDFormatError(
-            f"SED file {path!r}: column {SED_TABLE_COLUMNS[1 + col]!r} must hold finite numbers; "
-            f"got {df.iloc[row][SED_TABLE_COLUMNS[1 + col]]!r} on data row {row + 1} instead."
-        )
+    num = pd.DataFrame(numeric_columns(df, SED_TABLE_COLUMNS[1:], what="SED file", path=path),
+                       columns=list(SED_TABLE_COLUMNS[1:]))
     ids = df["receptor"].astype(str).to_numpy()
     names, first = np.unique(ids, return_index=True)
     order = np.argsort(first, kind="stable")

@@ -471,7 +471,6 @@ def read_waveform(path, *, length_unit: str, time_unit: str = "s", on_negative: 
     --------
     >>> w = read_waveform("ramp.csv", length_unit="mm", time_unit="ms")  # doctest: +SKIP
     """
-    import pandas as pd
 
     from .units import length_factor, parse_unit, time_factor
 
@@ -480,7 +479,7 @@ def read_waveform(path, *, length_unit: str, time_unit: str = "s", on_negative: 
     tf = time_factor(time_unit)
     path = os.fspath(path)
     where = f"Waveform file {path!r}"
-    from ._tables import read_table
+    from ._tables import numeric_columns, read_table
 
     df, _ = read_table(path, what="Waveform file", expected=f"{time_column!r} and {depth_column!r}", as_text=True)
     headers = {}
@@ -508,16 +507,7 @@ def read_waveform(path, *, length_unit: str, time_unit: str = "s", on_negative: 
                     f"{where}: column {str(col)!r} states the unit {stated!r}, but {unit_kw}={declared!r} was "
                     f"declared. Pass {unit_kw}={stated!r} if the header is right."
                 )
-        raw = df[col].astype(str).str.strip()
-        num = pd.to_numeric(raw, errors="coerce").to_numpy(dtype=float)
-        bad = ~np.isfinite(num)
-        if bad.any():
-            row = int(np.flatnonzero(bad)[0])
-            raise ValueError(
-                f"{where}: column {str(col)!r} must hold finite numbers; got {raw.iloc[row]!r} on data row "
-                f"{row + 1} instead."
-            )
-        out[role] = num
+        out[role] = numeric_columns(df, [col], what="Waveform file", path=path)[:, 0]
     t_raw, d_raw = out["time"], out["depth"]
     if t_raw.size == 0:
         raise ValueError(f"{where} has no data rows; expected at least one (time, depth) sample.")
