@@ -20,8 +20,8 @@ Example::
 
     $ afferent run sample_sed/block4/indent_0p88mm.vtu --receptors sample_sed/block4/receptors.csv \\
           --length-unit mm --sed-unit MPa --synthesis longitudinal --params start -o results/run1
-    $ afferent run sample_sed/block4/indent_0p88mm.vtu --receptors sample_sed/block4/receptors.csv \
-          --length-unit mm --sed-unit MPa --params start --waveform ramp:0.5,5,2 --d-ref-mm 0.5 \
+    $ afferent run sample_sed/block4/indent_0p88mm.vtu --receptors sample_sed/block4/receptors.csv \\
+          --length-unit mm --sed-unit MPa --params start --waveform ramp:0.5,5,2 --d-ref-mm 0.5 \\
           --spikes --input rate-sensitive --gain-s 0.2 -o results/ramp
     $ afferent run sample_sed/scenes/profiles.toml -o results/scene
 """
