@@ -14,12 +14,14 @@ __all__ = ["atomic_file", "atomic_dir", "check_writable"]
 
 
 def check_writable(path: str, *, overwrite: bool, what: str = "Output file") -> None:
-    """Raise :class:`OutputExistsError` if ``path`` exists and ``overwrite`` is False."""
+    """Raise :class:`OutputExistsError` if ``path`` exists and ``overwrite`` is False; create
+    its missing parent folders (``results/`` on a fresh checkout)."""
     if os.path.lexists(path) and not overwrite:
         raise OutputExistsError(f"{what} {path!r} already exists; pass --overwrite (overwrite=True) to replace it.")
     parent = os.path.dirname(os.path.abspath(path))
-    if not os.path.isdir(parent):
-        raise FileNotFoundError(f"{what} {path!r}: its folder {parent!r} does not exist.")
+    if os.path.exists(parent) and not os.path.isdir(parent):
+        raise NotADirectoryError(f"{what} {path!r}: {parent!r} is a file, not a folder.")
+    os.makedirs(parent, exist_ok=True)
 
 
 @contextmanager

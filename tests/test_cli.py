@@ -124,3 +124,12 @@ def test_import_is_light():
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.split()
     assert float(out[0]) < 0.5
     assert out[1:] == ["False", "False"]
+
+
+def test_missing_output_folders_are_created(capsys, tmp_path, box_vtu, receptors_csv):
+    """A fresh checkout has no results/ folder: outputs create their parent folders."""
+    out = tmp_path / "results" / "deep" / "sed.csv"
+    code, _, err = run(capsys, "sample", box_vtu, "--receptors", receptors_csv[0], "--length-unit", "mm",
+                       "--sed-unit", "MPa", "-o", out)
+    assert code == 0, err
+    assert out.is_file()

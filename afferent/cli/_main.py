@@ -49,7 +49,8 @@ def main(argv: list[str] | None = None) -> int:
     except _UsageError as err:
         print(f"afferent: error: {err}", file=sys.stderr)
         return 2
-    except (AfferentError, FileNotFoundError, FileExistsError, ValueError, TypeError, PermissionError, IsADirectoryError) as err:
+    except (AfferentError, FileNotFoundError, FileExistsError, ValueError, TypeError, PermissionError,
+            IsADirectoryError, NotADirectoryError) as err:
         msg = " ".join(str(err).split())  # one line
         print(f"afferent: error: {msg}", file=sys.stderr)
         return 2
