@@ -31,6 +31,8 @@ from types import SimpleNamespace
 
 import numpy as np
 
+from .export import write_receptor_vtu
+
 __all__ = ["write_outputs", "write_json", "write_receptor_vtu"]
 
 
@@ -40,21 +42,6 @@ def write_json(path: str, data: dict) -> None:
 
     with open(path, "w") as f:
         json.dump(_jsonable(data), f, indent=2)
-
-
-def write_receptor_vtu(path: str, sed, *, current=None, time_index: int = -1) -> None:
-    """Receptor sites as VTK vertices with SED (Pa) [and current (A)] at ``time_index`` and section labels."""
-    import meshio
-
-    layout = sed.layout
-    n = layout.n_receptors
-    data = {"sed_pa": np.asarray(sed.values)[time_index]}
-    if current is not None:
-        data["current_a"] = np.asarray(current.values)[time_index]
-    data["longitudinal"] = layout.longitudinal.astype(np.int32)
-    data["cross"] = layout.cross.astype(np.int32)
-    meshio.write(path, meshio.Mesh(layout.positions, [("vertex", np.arange(n).reshape(-1, 1))], point_data=data),
-                 file_format="vtu")
 
 
 def write_outputs(folder: str, *, want, plots: bool, sed_static, sed, current=None, branching=None, afferent=None,

@@ -58,23 +58,28 @@ def receptors_table(result):
     return df
 
 
-def write_receptor_vtu(result, path: str, *, time_index: int = -1) -> None:
-    """Receptor sites as VTK vertices with SED (Pa), current (A) and section labels, for ParaView."""
+def write_receptor_vtu(path: str, sed, *, current=None, time_index: int = -1) -> None:
+    """Receptor sites as VTK vertices for ParaView: SED (Pa) [and current (A)] at ``time_index``,
+    and the section labels.
+
+    Parameters
+    ----------
+    path : str
+    sed : ReceptorSED
+    current : ReceptorCurrent, optional
+    time_index : int, default=-1
+    """
     import meshio
 
-    layout = result.sed.layout
+    layout = sed.layout
     n = layout.n_receptors
-    mesh = meshio.Mesh(
-        layout.positions,
-        [("vertex", np.arange(n).reshape(-1, 1))],
-        point_data={
-            "sed_pa": result.sed.values[time_index],
-            "current_a": result.current.values[time_index],
-            "longitudinal": layout.longitudinal.astype(np.int32),
-            "cross": layout.cross.astype(np.int32),
-        },
-    )
-    meshio.write(path, mesh, file_format="vtu")
+    data = {"sed_pa": np.asarray(sed.values)[time_index]}
+    if current is not None:
+        data["current_a"] = np.asarray(current.values)[time_index]
+    data["longitudinal"] = layout.longitudinal.astype(np.int32)
+    data["cross"] = layout.cross.astype(np.int32)
+    meshio.write(path, meshio.Mesh(layout.positions, [("vertex", np.arange(n).reshape(-1, 1))], point_data=data),
+                 file_format="vtu")
 
 
 def write_pipeline_outputs(result, outdir: str, *, record: dict, overwrite: bool = False, plots: bool = True) -> list[str]:
@@ -109,7 +114,7 @@ def write_pipeline_outputs(result, outdir: str, *, record: dict, overwrite: bool
                            "time_s": fit.time}]).to_csv(path("fit.csv"), index=False)
             pd.DataFrame({"position_m": fit.positions, "predicted": fit.predicted, "observed": fit.observed}).to_csv(
                 path("profile_fit.csv"), index=False)
-        write_receptor_vtu(result, path("receptors.vtu"))
+        write_receptor_vtu(path("receptors.vtu"), result.sed, current=result.current)
         if result.waveform is not None:
             result.waveform.to_dataframe().to_csv(path("waveform.csv"), index=False)
         if result.spikes is not None:
