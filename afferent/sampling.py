@@ -261,6 +261,28 @@ def build_sampler(field: SEDField, layout: ReceptorLayout, *, method: str = "lin
     return Sampler(w, outside, method)
 
 
+def report_outside(layout: ReceptorLayout, outside, on_outside: str, *, where: str, hint: str, stacklevel: int = 2):
+    """Raise or warn about receptors outside the SED field, per ``on_outside`` ('raise', 'warn', 'nan').
+
+    The message names how many, the first one (id and position in m) and ``where`` (e.g. the
+    field's bounds); ``hint`` says how to continue. Nothing happens when none is outside.
+    """
+    outside = np.asarray(outside, dtype=bool)
+    n_out = int(outside.sum())
+    if not n_out:
+        return
+    i = int(np.flatnonzero(outside)[0])
+    p = ", ".join(f"{v:.6g}" for v in layout.positions[i])
+    msg = (
+        f"{n_out} of {layout.n_receptors} receptors lie outside the SED field "
+        f"(first: receptor {str(layout.ids[i])!r} at [{p}] m; {where})."
+    )
+    if on_outside == "raise":
+        raise FieldCoverageError(f"{msg} {hint}")
+    if on_outside == "warn":
+        warnings.warn(msg + " They are NaN.", AfferentWarning, stacklevel=stacklevel + 1)
+
+
 def sample_sed(
     field: SEDField,
     layout: ReceptorLayout,
@@ -302,20 +324,11 @@ def sample_sed(
     check_option("on_outside", on_outside, ON_OUTSIDE)
     if sampler is None:
         sampler = build_sampler(field, layout, method=method)
-    n_out = int(sampler.outside.sum())
-    if n_out:
-        i = int(np.flatnonzero(sampler.outside)[0])
-        p = ", ".join(f"{v:.6g}" for v in layout.positions[i])
+    if sampler.outside.any():
         lo, hi = field.bounds
         bounds = " ".join(f"{a} [{l:.6g}, {h:.6g}]" for a, l, h in zip("xyz", lo, hi))
-        msg = (
-            f"{n_out} of {layout.n_receptors} receptors lie outside the SED field "
-            f"(first: receptor {str(layout.ids[i])!r} at [{p}] m; field bounds {bounds} m)."
-        )
-        if on_outside == "raise":
-            raise FieldCoverageError(msg + " Pass on_outside='nan' to keep them as NaN or on_outside='warn' to continue.")
-        if on_outside == "warn":
-            warnings.warn(msg + " They are NaN.", AfferentWarning, stacklevel=2)
+        report_outside(layout, sampler.outside, on_outside, where=f"field bounds {bounds} m",
+                       hint="Pass on_outside='nan' to keep them as NaN or on_outside='warn' to continue.", stacklevel=3)
     return ReceptorSED(sampler.apply(field.sed), field.times.copy(), layout, method, sampler.outside.copy())
 
 

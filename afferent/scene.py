@@ -1201,24 +1201,6 @@ def _crop(field, positions, method: str):
     return cropped, {"tetra_total": int(tet.shape[0]), "tetra_searched": int(keep.sum())}
 
 
-def _apply_on_outside(sed, on_outside: str):
-    import numpy as np
-
-    from .exceptions import AfferentWarning, FieldCoverageError
-
-    n_out = int(np.asarray(sed.outside).sum())
-    if not n_out:
-        return
-    i = int(np.flatnonzero(sed.outside)[0])
-    p = ", ".join(f"{v:.6g}" for v in sed.layout.positions[i])
-    msg = (f"{n_out} of {sed.layout.n_receptors} receptors lie outside the SED field "
-           f"(first: receptor {str(sed.layout.ids[i])!r} at [{p}] m; from the sampling cache).")
-    if on_outside == "raise":
-        raise FieldCoverageError(msg + " Set [sampling] on_outside = 'nan' or 'warn' to continue.")
-    if on_outside == "warn":
-        warnings.warn(msg + " They are NaN.", AfferentWarning, stacklevel=3)
-
-
 def _params(scene: Scene, inputs: dict):
     """SigmoidParams and where they came from."""
     from .transduction import STUDY_PARAMS, SigmoidParams
@@ -1523,7 +1505,10 @@ def _compute(scene, planned, skipped, steps, record, inputs, comp, *, cache_dir,
         if layout is None:
             layout = sed.layout
             region_info.update(entry.meta.get("region_info", {}))
-        _apply_on_outside(sed, scene.sampling.on_outside)
+        from .sampling import report_outside
+
+        report_outside(sed.layout, sed.outside, scene.sampling.on_outside, where="from the sampling cache",
+                       hint="Set [sampling] on_outside = 'nan' or 'warn' to continue.", stacklevel=4)
         why = (f"cache hit: SED at these {layout.n_receptors} receptors was sampled before from identical export "
                f"content with the same read options and method (key {key[:12]}, {entry.path})")
         skipped["reading"] = skipped["sampling"] = why
