@@ -151,3 +151,55 @@ def test_file_unit_that_afferent_does_not_know(tmp_path):
     p.write_text("x (mm),y (mm),z (mm),SED (psi)\n0,0,0,1.5\n1,0,0,2.5\n")
     with pytest.raises(UnitError, match=re.escape("states the unit 'psi' for SED column 'SED', which afferent does not know")):
         read_sed(p)
+
+
+def _tensor_raw(stress, strain, *, ncomp, components=(), preset=None):
+    from afferent.io._assemble import ReadOptions, assemble  # noqa: F401
+    from afferent.io._raw import RawArray, RawExport
+
+    pts = np.array([[0.0, 0.0, 0.0]])
+    return RawExport(
+        files=("mem.vtu",), format="vtu", points=pts, preset=preset,
+        arrays={
+            "S": RawArray("S", np.asarray(stress, float).reshape(1, 1, ncomp), components=components),
+            "E": RawArray("E", np.asarray(strain, float).reshape(1, 1, ncomp), components=components),
+        },
+    )
+
+
+@pytest.mark.parametrize("preset", ["abaqus", "ansys", "sfepy", "comsol", "calculix-frd"])
+def test_full_3x3_strain_is_never_halved_again(preset):
+    # Pure shear tau_xy = 1 Pa, eps_xy = 0.2 (tensor): SED = 1/2 * 2 * tau * eps = 0.2 J/m^3 for
+    # every preset: a 9-component array holds tensor components whatever the tool's 6-vector shear.
+    from afferent.io._assemble import ReadOptions, assemble
+
+    s = [[0, 1, 0], [1, 0, 0], [0, 0, 0]]
+    e = [[0, 0.2, 0], [0.2, 0, 0], [0, 0, 0]]
+    f = assemble(_tensor_raw(s, e, ncomp=9), ReadOptions(length_unit="m", stress_unit="Pa", sed_from="exact", preset=preset))
+    np.testing.assert_allclose(f.sed, [[0.2]], rtol=1e-15)
+
+
+def test_named_six_component_arrays_are_ordered_by_their_names():
+    # CalculiX .frd order SXX SYY SZZ SXY SYZ SZX: a yz-only shear state, read by names under
+    # the 'abaqus' preset (whose positional order would put it in xz), gives the same SED.
+    from afferent.io._assemble import ReadOptions, assemble
+
+    names = ("SXX", "SYY", "SZZ", "SXY", "SYZ", "SZX")
+    s = [0, 0, 0, 0, 3.0, 1.0]
+    e = [0, 0, 0, 0, 0.1, 0.0]  # eps_yz only (tensor shear)
+    raw = _tensor_raw(s, e, ncomp=6, components=names)
+    f = assemble(raw, ReadOptions(length_unit="m", stress_unit="Pa", sed_from="exact", shear="tensor"))
+    np.testing.assert_allclose(f.sed, [[3.0 * 0.1]], rtol=1e-15)  # 1/2 * 2 * s_yz * e_yz
+
+
+def test_the_files_own_convention_is_used_and_a_contradicting_preset_refused():
+    from afferent.io._assemble import ReadOptions, assemble
+
+    s = [0, 0, 0, 2.0, 0, 0]
+    e = [0, 0, 0, 0.1, 0, 0]
+    raw = _tensor_raw(s, e, ncomp=6, preset="sfepy")  # engineering shear: eps_xy = 0.05
+    f = assemble(raw, ReadOptions(length_unit="m", stress_unit="Pa", sed_from="exact"))
+    np.testing.assert_allclose(f.sed, [[2.0 * 0.05]], rtol=1e-15)
+    assert "implied by the file format" in " ".join(f.provenance.notes)
+    with pytest.raises(ValueError, match=re.escape("preset='abaqus' contradicts SED file 'mem.vtu', which only 'sfepy' writes")):
+        assemble(raw, ReadOptions(length_unit="m", stress_unit="Pa", sed_from="exact", preset="abaqus"))

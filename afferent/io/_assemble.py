@@ -241,19 +241,43 @@ def _tensor_summary(raw: RawExport) -> str:
     return f"stress {s[0]}, strain {e[0]}"
 
 
+def _order_from_names(components: tuple[str, ...]) -> tuple[str, ...] | None:
+    """Component order from a 6-component array's own names (``SXX``, ``S_YZ``, ``ZX``...), or None."""
+    if len(components) != 6:
+        return None
+    order = []
+    for name in components:
+        tail = C.canonical(name)[-2:]
+        comp = {"zx": "xz", "zy": "yz", "yx": "xy"}.get(tail, tail)
+        if comp not in ("xx", "yy", "zz", "xy", "yz", "xz"):
+            return None
+        order.append(comp)
+    return tuple(order) if len(set(order)) == 6 else None
+
+
 def _tensor_from_array(arr: RawArray, kind: str, conv: Convention | None, raw: RawExport) -> np.ndarray:
+    """A tensor array -> (n_t, n, 6) canonical components, **tensor** shear.
+
+    A 9-component array is a full 3x3 tensor (row-major): its off-diagonals are tensor
+    components whatever the tool's 6-component shear convention. A 6-component array is
+    ordered by its component names when it has them, else by the convention; engineering
+    shear strain is halved here.
+    """
     v = arr.values
     ncomp = v.shape[2] if v.ndim == 3 else 1
     if ncomp == 9:
-        m = v.reshape(v.shape[:2] + (3, 3))  # row-major 3x3: symmetric tensors, tensor shear
+        m = v.reshape(v.shape[:2] + (3, 3))
         return np.stack([m[..., 0, 0], m[..., 1, 1], m[..., 2, 2], m[..., 0, 1], m[..., 1, 2], m[..., 0, 2]], -1)
     if ncomp == 6:
-        if conv is None:
+        named = _order_from_names(arr.components)
+        if named is None and conv is None:
             raise SEDFormatError(
                 f"SED file {_where(raw)!r}: the 6-component {kind} array {arr.name!r} has no component names, "
                 f"so its order must be declared: pass preset=one of {', '.join(map(repr, PRESETS))}."
             )
-        return to_canonical(v, conv, is_strain=False)  # shear halving is applied later, for strain only
+        if named is not None:
+            conv = Convention(named, conv.shear if conv is not None else "tensor", "component names of the file")
+        return to_canonical(v, conv, is_strain=(kind == "strain"))
     raise SEDFormatError(
         f"SED file {_where(raw)!r}: {kind} array {arr.name!r} must have 6 or 9 components; got {ncomp} instead."
     )
@@ -262,9 +286,10 @@ def _tensor_from_array(arr: RawArray, kind: str, conv: Convention | None, raw: R
 def find_tensors(raw: RawExport, opts: ReadOptions, *, need_convention: bool = True):
     """Locate stress and strain: returns ((stress_desc, stress (n_t, n, 6)), (strain_desc, strain (n_t, n, 6))).
 
-    Components come back in the canonical order; strain shear is still as written in the file.
+    Components come back in the canonical order with tensor shear (engineering shear strain,
+    as the convention declares it, is halved here; full 3x3 arrays are tensor already).
     """
-    conv = _convention(opts) if need_convention else None
+    conv = _convention(opts, raw) if need_convention else None
     out = []
     for kind, comp_table, override in (
         ("stress", C.STRESS_COMPONENTS, opts.stress_columns),
@@ -280,7 +305,8 @@ def find_tensors(raw: RawExport, opts: ReadOptions, *, need_convention: bool = T
                     f"'{kind}_columns' must name 6 columns in the order xx yy zz xy yz xz; got {len(override)} instead."
                 )
             cols = [_by_name(raw, n, f"the {kind} component", opts.location) for n in override]
-            out.append((", ".join(c.name for c in cols), np.stack([c.values for c in cols], -1), cols[0].location))
+            values = np.stack([c.values for c in cols], -1)
+            out.append((", ".join(c.name for c in cols), _halve_shear(values, kind, conv), cols[0].location))
             continue
         tensor_arrays = [
             a for a in raw.arrays.values()
@@ -301,7 +327,8 @@ def find_tensors(raw: RawExport, opts: ReadOptions, *, need_convention: bool = T
                 f"SED file {_where(raw)!r} has no complete {kind} tensor{have}; missing component(s) "
                 f"{', '.join(missing)}. Found {_names(raw)}. Pass {kind}_columns=(6 names, xx yy zz xy yz xz)."
             )
-        out.append((", ".join(a.name for a in found), np.stack([a.values for a in found], -1), found[0].location))
+        values = np.stack([a.values for a in found], -1)
+        out.append((", ".join(a.name for a in found), _halve_shear(values, kind, conv), found[0].location))
     (s_name, s, s_loc), (e_name, e, e_loc) = out
     if s.shape != e.shape or s_loc != e_loc:
         raise SEDFormatError(
@@ -311,13 +338,29 @@ def find_tensors(raw: RawExport, opts: ReadOptions, *, need_convention: bool = T
     return (s_name, s, s_loc), (e_name, e, e_loc)
 
 
-def _convention(opts: ReadOptions) -> Convention:
-    if opts.preset is None and opts.shear is None:
+def _halve_shear(values: np.ndarray, kind: str, conv: Convention | None) -> np.ndarray:
+    """Named component columns (canonical order) -> tensor shear, by the declared convention."""
+    if kind == "strain" and conv is not None and conv.shear == "engineering":
+        values = values.copy()
+        values[..., 3:] *= 0.5
+    return values
+
+
+def _convention(opts: ReadOptions, raw: RawExport | None = None) -> Convention:
+    """The tensors' convention: the user's preset/shear, else the one the file's format implies."""
+    implied = raw.preset if raw is not None else None
+    if implied is not None and opts.preset is not None and opts.preset != implied:
+        raise ValueError(
+            f"preset={opts.preset!r} contradicts SED file {_where(raw)!r}, which only {implied!r} writes; "
+            "drop preset (the file's own convention is used)."
+        )
+    preset = opts.preset or implied
+    if preset is None and opts.shear is None:
         raise ValueError(
             "Computing SED from tensors needs the tool's shear convention: pass preset=one of "
             f"{', '.join(map(repr, PRESETS))}, or shear='tensor'|'engineering'."
         )
-    base = PRESETS[opts.preset] if opts.preset else PRESETS["vtk"]
+    base = PRESETS[preset] if preset else PRESETS["vtk"]
     return Convention(base.order, opts.shear or base.shear, base.note)
 
 
@@ -410,7 +453,7 @@ def assemble(raw: RawExport, opts: ReadOptions) -> SEDField:
                 "stress, so declare stress_unit= instead."
             )
         (s_name, s, location), (e_name, e, _) = find_tensors(raw, opts)
-        conv = _convention(opts)
+        conv = _convention(opts, raw)
         columns.update(stress=s_name, strain=e_name)
         _check_values(raw, s, f"stress ({s_name})")
         _check_values(raw, e, f"strain ({e_name})")
@@ -422,12 +465,10 @@ def assemble(raw: RawExport, opts: ReadOptions) -> SEDField:
         units.update(stress=su, stress_source=ssrc, strain="1")
         factors["stress"] = sf
         s = s * sf
-        if conv.shear == "engineering":
-            e = e.copy()
-            e[..., 3:] *= 0.5
         notes.append(
             f"SED computed from tensors: {'1/2 sigma:eps' if opts.sed_from == 'exact' else '1/2 sigma_e eps_e (nu=%g)' % opts.poisson}; "
-            f"shear strain read as {conv.shear} (preset={opts.preset!r})."
+            f"shear strain read as {conv.shear} (preset={opts.preset or raw.preset!r}"
+            f"{', implied by the file format' if opts.preset is None and raw.preset else ''})."
         )
         sed = sed_exact(s, e) if opts.sed_from == "exact" else sed_equivalent(s, e, opts.poisson)
 

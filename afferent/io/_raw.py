@@ -68,6 +68,10 @@ class RawExport:
         Time unit the file states, else None.
     notes : tuple of str
         What the reader did that a user should know (rows skipped, footers dropped, ...).
+    preset : str or None
+        The tool whose conventions the file follows when the format itself says so (a
+        CalculiX ``.frd`` is always CalculiX's component order and shear), a key of
+        :data:`afferent.strain_energy.PRESETS`; None when only the user can tell.
     """
 
     files: tuple[str, ...]
@@ -79,6 +83,7 @@ class RawExport:
     length_unit: str | None = None
     time_unit: str | None = None
     notes: tuple[str, ...] = ()
+    preset: str | None = None
 
     @property
     def n_times(self) -> int:
