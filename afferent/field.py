@@ -42,6 +42,11 @@ class Provenance:
         Factors applied to reach SI, e.g. ``{'length': 1e-3, 'sed': 1e6}``.
     notes : tuple of str
         Free-text remarks recorded by the reader (how cell data was placed, rows skipped, ...).
+    negative_sed : dict or None
+        The export's negative SED values, when it had any (nodal-averaging artefacts of the FE
+        tool): ``count``, ``n_values``, ``min_pa`` (J/m^3, after unit conversion),
+        ``min_relative`` (over the largest SED), ``tolerance`` and ``action`` ('set to 0').
+        None when every value was >= 0.
     """
 
     files: tuple[str, ...] = ()
@@ -51,6 +56,7 @@ class Provenance:
     units: dict = field(default_factory=dict)
     factors: dict = field(default_factory=dict)
     notes: tuple[str, ...] = ()
+    negative_sed: dict | None = None
 
     def to_dict(self) -> dict:
         """Plain-dict form, for JSON records."""
@@ -62,6 +68,7 @@ class Provenance:
             "units": dict(self.units),
             "factors": dict(self.factors),
             "notes": list(self.notes),
+            "negative_sed": None if self.negative_sed is None else dict(self.negative_sed),
         }
 
 

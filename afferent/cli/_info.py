@@ -16,8 +16,8 @@ import argparse
 import numpy as np
 
 from ..exceptions import SEDFormatError
-from ..io import read_raw
-from ..io._assemble import ReadOptions, find_coordinates, find_sed_array, find_tensors
+from ..io import FORMATS, read_raw
+from ..io._assemble import ReadOptions, find_coordinates, find_sed_array, find_tensors, negative_sed_report
 from ..units import LENGTH_UNITS, SED_UNITS, parse_unit
 from ._options import add_quiet, show_progress
 
@@ -29,7 +29,7 @@ PLAUSIBLE_SED_PA = (1.0, 1e5)
 
 def add_args(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("exports", nargs="+", metavar="EXPORT", help="FE export file(s); several files are one time step each")
-    parser.add_argument("--format", choices=("csv", "vtu", "vtk", "pvd", "xdmf"), help="file format, when the extension does not tell")
+    parser.add_argument("--format", choices=tuple(FORMATS), help="file format, when the extension does not tell")
     add_quiet(parser)
 
 
@@ -80,6 +80,13 @@ def describe(raw) -> list[str]:
         stated = sed_arrays[0].unit
         smax = float(np.nanmax(sed)) if sed.size else float("nan")
         add("SED range", f"{np.nanmin(sed):.6g} .. {smax:.6g} (file units)")
+        neg = negative_sed_report(np.where(np.isfinite(sed), sed, 0.0))  # NaN rows are reported by read_sed
+        if neg is not None:
+            rel = f"down to {neg['min_relative']:.2g} x the largest" if np.isfinite(neg["min_relative"]) else "no value is positive"
+            verdict = (f"within the tolerance {neg['tolerance']:g}: nodal-averaging artefacts, read as 0"
+                       if neg["within_tolerance"] else
+                       f"beyond the tolerance {neg['tolerance']:g}: refused unless --negative-tolerance allows it")
+            add("negative SED", f"{neg['count']:,} of {neg['n_values']:,} values ({rel}); {verdict}")
         if stated and parse_unit(stated):
             add("SED unit", f"{stated} (stated in the file)")
         else:

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import sys
 
+from ..io import FORMATS
 from ..strain_energy import PRESETS
 from ..units import LENGTH_UNITS, SED_UNITS
 
@@ -27,9 +28,12 @@ def add_input_options(parser: argparse.ArgumentParser) -> None:
     g.add_argument("--coord-columns", metavar="X,Y,Z", help="names of the coordinate columns of a CSV")
     g.add_argument("--coordinates", metavar="NODES.csv", help="node/element table id,x,y,z to join on a table that has only labels")
     g.add_argument("--on-nan", choices=("raise", "drop"), default="raise", help="NaN rows of a point table: error (default) or leave them out")
+    g.add_argument("--negative-tolerance", type=float, default=1e-3, metavar="R",
+                   help="accept negative SED down to -R x the largest SED (nodal-averaging artefacts of FE tools; "
+                        "set to 0 and reported); default 1e-3")
     g.add_argument("--times", metavar="T0,T1,...", help="step times (s unless --time-unit), overriding the file")
     g.add_argument("--time-unit", metavar="U", help="unit of the step times (s, ms, us)")
-    g.add_argument("--format", choices=("csv", "vtu", "vtk", "pvd", "xdmf"), help="file format, when the extension does not tell")
+    g.add_argument("--format", choices=tuple(FORMATS), help="file format, when the extension does not tell")
 
 
 def _names(text: str | None):
@@ -58,7 +62,7 @@ def input_kwargs(args: argparse.Namespace) -> dict:
         poisson=args.poisson, preset=args.preset, shear=args.shear, location=args.location, sed_column=sed_column,
         stress_columns=_names(args.stress_columns), strain_columns=_names(args.strain_columns), coord_columns=coord,
         times=times, time_unit=args.time_unit, coordinates=args.coordinates, on_nan=args.on_nan,
-        format=args.format, progress=show_progress(args),
+        negative_tolerance=args.negative_tolerance, format=args.format, progress=show_progress(args),
     )
 
 

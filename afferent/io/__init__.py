@@ -18,7 +18,7 @@ from collections.abc import Sequence
 from .._validation import check_option
 from ..exceptions import SEDFormatError
 from ..field import SEDField
-from ._assemble import ReadOptions, assemble
+from ._assemble import NEGATIVE_SED_RTOL, ReadOptions, assemble
 from ._raw import RawExport
 
 __all__ = ["read_sed", "read_raw", "FORMATS"]
@@ -111,6 +111,7 @@ def read_sed(
     time_unit: str | None = None,
     coordinates: str | os.PathLike | None = None,
     on_nan: str = "raise",
+    negative_tolerance: float = NEGATIVE_SED_RTOL,
     format: str | None = None,
     progress: bool = False,
 ) -> SEDField:
@@ -159,6 +160,12 @@ def read_sed(
     on_nan : {'raise', 'drop'}, default='raise'
         NaN in a point table is an error; ``'drop'`` leaves those rows out (COMSOL writes NaN
         where an expression is not evaluated) and records how many in the provenance.
+    negative_tolerance : float, default=1e-3
+        Negative SED values down to ``-negative_tolerance`` times the field's largest SED (all
+        steps) are accepted as the artefacts FE tools write where they extrapolate
+        integration-point SED to the nodes: they are set to 0, counted in
+        ``provenance.negative_sed`` and reported with an :class:`~afferent.exceptions.AfferentWarning`.
+        More negative values are refused (a wrong column, sign or shear convention).
     format : {'csv', 'vtu', 'vtk', 'pvd', 'xdmf'}, optional
         Overrides the format deduced from the file name.
     progress : bool, default=False
@@ -176,7 +183,8 @@ def read_sed(
         A file does not exist.
     SEDFormatError
         Unknown format, unreadable or corrupt file, missing columns, NaN/inf or negative SED,
-        non-increasing times, a series whose steps do not match.
+        SED more negative than ``negative_tolerance`` allows, non-increasing times, a series
+        whose steps do not match.
     UnitError
         A unit neither stated nor declared, unknown, or contradicting the file.
 
@@ -198,6 +206,7 @@ def read_sed(
         coord_columns=None if coord_columns is None else tuple(coord_columns),
         times=None if times is None else tuple(float(t) for t in times),
         coordinates=None if coordinates is None else os.fspath(coordinates), on_nan=on_nan,
+        negative_tolerance=negative_tolerance,
     )
     raw = read_raw(path_or_paths, format=format, progress=progress)
     return assemble(raw, opts)
