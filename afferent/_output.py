@@ -17,7 +17,7 @@ def check_writable(path: str, *, overwrite: bool, what: str = "Output file") -> 
     """Raise :class:`OutputExistsError` if ``path`` exists and ``overwrite`` is False; create
     its missing parent folders (``results/`` on a fresh checkout)."""
     if os.path.lexists(path) and not overwrite:
-        raise OutputExistsError(f"{what} {path!r} already exists; pass --overwrite (overwrite=True) to replace it.")
+        raise OutputExistsError(f"{what} {path!r} already exists; pass overwrite=True to replace it.")
     parent = os.path.dirname(os.path.abspath(path))
     if os.path.exists(parent) and not os.path.isdir(parent):
         raise NotADirectoryError(f"{what} {path!r}: {parent!r} is a file, not a folder.")

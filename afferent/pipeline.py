@@ -191,7 +191,7 @@ def run_spikes(result: PipelineResult, lif, *, dt: float, engine: str = "auto", 
         drive = stimulus.static_input(result.afferent)
     else:
         if gain is None:
-            raise ValueError("input='rate-sensitive' needs gain (s): how much input current (A) per A/s of rate.")
+            raise ValueError("input='rate-sensitive' needs gain= (s): how much input current (A) per A/s of rate.")
         kw = {} if tau is None else {"tau": tau}
         drive = stimulus.adapting_input(result.current, gain=gain, **kw).synthesize(result.branching)
     timings["input"] = time.perf_counter() - t

@@ -18,12 +18,14 @@ from __future__ import annotations
 
 import numbers
 import os
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
 
 from ._validation import check_finite_array, check_positive, plain, suggest
-from .exceptions import SEDFormatError
+from .exceptions import AfferentWarning, SEDFormatError
+from .io._columns import canonical
 from .units import length_factor
 
 __all__ = [
@@ -95,6 +97,8 @@ class ReceptorLayout:
         Cross-section index (lines across the ridges, grouped by z); computed when not given.
     tol : float, default=20e-6
         Grouping tolerance in m used when sections are computed.
+    source : str, optional
+        The receptor file the sites were read from (named in error messages), or None.
     """
 
     positions: np.ndarray
@@ -102,6 +106,7 @@ class ReceptorLayout:
     longitudinal: np.ndarray | None = None
     cross: np.ndarray | None = None
     tol: float = SECTION_TOLERANCE_M
+    source: str | None = None
 
     def __post_init__(self):
         pos = check_finite_array("positions", self.positions, ndim=2, shape_doc="(n_receptors, 3) in metres")
@@ -155,7 +160,7 @@ class ReceptorLayout:
         """The layout restricted to ``mask`` (bool array or indices); section labels are kept."""
         idx = np.arange(self.n_receptors)[mask]
         return ReceptorLayout(
-            self.positions[idx], self.ids[idx], self.longitudinal[idx], self.cross[idx], tol=self.tol
+            self.positions[idx], self.ids[idx], self.longitudinal[idx], self.cross[idx], tol=self.tol, source=self.source
         )
 
     def __len__(self) -> int:
@@ -168,7 +173,10 @@ class ReceptorLayout:
         )
 
 
-_ID_COLUMNS = ("id", "receptor", "name", "label")
+#: Receptor-id columns, compared after :func:`afferent.io._columns.canonical` (case, spaces,
+#: underscores, dots and dashes ignored): ``id``, ``receptor_id``, ``Receptor ID``, ``site``...
+_ID_COLUMNS = ("id", "receptor", "receptorid", "receptorname", "receptorlabel", "name", "label", "site", "siteid",
+               "rid", "meissner", "meissnerid", "corpuscle", "corpuscleid", "tip", "tipid")
 _SECTION_COLUMNS = {"longitudinal": ("longitudinal", "longitudinal_section"), "cross": ("cross", "cross_section")}
 
 
@@ -179,8 +187,10 @@ def read_receptors(path, *, length_unit: str, tol: float = SECTION_TOLERANCE_M) 
     ----------
     path : str or path-like
         CSV file; comma, semicolon, tab or whitespace separated; ``#`` comment lines allowed.
-        Column names are case-insensitive: ``x, y, z`` (required), ``id`` (optional),
-        ``longitudinal`` / ``cross`` (optional integer section labels).
+        Column names are case-insensitive: ``x, y, z`` (required), a receptor id (optional:
+        ``id``, ``receptor_id``, ``Receptor ID``, ``receptor``, ``name``, ``label``, ``site``,
+        ... the first found), ``longitudinal`` / ``cross`` (optional integer section labels).
+        Any other column is reported with an :class:`~afferent.exceptions.AfferentWarning`.
     length_unit : str
         Unit of x, y, z: ``'m'``, ``'mm'`` or ``'um'``. Required: never guessed.
     tol : float, default=20e-6
@@ -214,15 +224,26 @@ def read_receptors(path, *, length_unit: str, tol: float = SECTION_TOLERANCE_M) 
     if len(df) == 0:
         raise SEDFormatError(f"Receptor file {path!r} has a header but no receptor rows.")
     xyz = numeric_columns(df, [cols["x"], cols["y"], cols["z"]], what="Receptor file", path=path)
-    id_col = next((cols[c] for c in _ID_COLUMNS if c in cols), None)
+    by_canonical = {canonical(c): df_col for c, df_col in cols.items()}
+    id_col = next((by_canonical[c] for c in _ID_COLUMNS if c in by_canonical), None)  # first in the order above
     ids = df[id_col].astype(str).str.strip().to_numpy() if id_col is not None else None
     sections = {}
+    used = {cols["x"], cols["y"], cols["z"], id_col}
     for name, aliases in _SECTION_COLUMNS.items():
         col = next((cols[c] for c in aliases if c in cols), None)
         if col is not None:
             sections[name] = pd.to_numeric(df[col], errors="raise").to_numpy().astype(np.int64)
+            used.add(col)
+    ignored = [str(c) for c in df.columns if c not in used]
+    if ignored:
+        warnings.warn(
+            f"Receptor file {path!r}: column(s) {', '.join(map(repr, ignored))} not used (afferent reads x, y, z, "
+            f"a receptor id such as 'id' or 'receptor_id', 'longitudinal' and 'cross'); "
+            + (f"receptor ids from {str(id_col)!r}." if id_col is not None else "receptors numbered 0, 1, ..."),
+            AfferentWarning, stacklevel=2,
+        )
     try:
-        return ReceptorLayout(xyz * factor, ids, tol=tol, **sections)
+        return ReceptorLayout(xyz * factor, ids, tol=tol, source=path, **sections)
     except ValueError as err:
         raise SEDFormatError(f"Receptor file {path!r}: {err}") from err
 

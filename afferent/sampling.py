@@ -273,8 +273,9 @@ def report_outside(layout: ReceptorLayout, outside, on_outside: str, *, where: s
         return
     i = int(np.flatnonzero(outside)[0])
     p = ", ".join(f"{v:.6g}" for v in layout.positions[i])
+    of = f" of receptor file {layout.source!r}" if layout.source else ""
     msg = (
-        f"{n_out} of {layout.n_receptors} receptors lie outside the SED field "
+        f"{n_out} of {layout.n_receptors} receptors{of} lie outside the SED field "
         f"(first: receptor {str(layout.ids[i])!r} at [{p}] m; {where})."
     )
     if on_outside == "raise":

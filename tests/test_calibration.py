@@ -518,5 +518,5 @@ def test_cli_refuses_to_overwrite(tmp_path, cli_inputs, capsys):
     add_args(parser)
     args = parser.parse_args([str(cli_inputs[0]), "--observed", str(cli_inputs[1]), "-o", str(out)])
     with pytest.raises(OutputExistsError, match=re.escape(
-            f"Output folder {str(out)!r} already exists; pass --overwrite (overwrite=True) to replace it.")):
+            f"Output folder {str(out)!r} already exists; pass overwrite=True to replace it.")):
         run(args)

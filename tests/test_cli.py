@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import re
 import subprocess
 import sys
 
@@ -46,7 +47,7 @@ def test_existing_output_is_not_overwritten(capsys, tmp_path, box_vtu, receptors
     args = ["sample", box_vtu, "--receptors", receptors_csv[0], "--length-unit", "mm", "--sed-unit", "MPa", "-o", out]
     code, _, err = run(capsys, *args)
     assert code == 2
-    assert err == f"afferent: error: Output file {str(out)!r} already exists; pass --overwrite (overwrite=True) to replace it.\n"
+    assert err == f"afferent: error: Output file {str(out)!r} already exists; pass --overwrite to replace it.\n"
     assert out.read_text() == "precious\n"
     code, _, _ = run(capsys, *args, "--overwrite")
     assert code == 0 and out.read_text().startswith("receptor,")
@@ -56,7 +57,7 @@ def test_existing_output_is_not_overwritten(capsys, tmp_path, box_vtu, receptors
     "extra, message",
     [
         (["--sed-unit", "MPa"], "The length unit of the coordinates in SED file"),
-        (["--length-unit", "mm", "--sed-unit", "furlong"], "'sed_unit' must be a SED/stress unit, one of"),
+        (["--length-unit", "mm", "--sed-unit", "furlong"], "--sed-unit must be a SED/stress unit, one of"),
         (["--length-unit", "mm", "--sed-unit", "MPa", "--sed-column", "SENER"], "has no array or column 'SENER'"),
     ],
 )
@@ -82,7 +83,7 @@ def test_receptor_outside_mesh(capsys, tmp_path, box_vtu):
     r = tmp_path / "R.csv"
     r.write_text("x,y,z\n0.5,0.3,0.9\n9,9,9\n")
     code, _, err = run(capsys, "sample", box_vtu, "--receptors", r, "--length-unit", "mm", "--sed-unit", "MPa", "-o", tmp_path / "o.csv")
-    assert code == 2 and "1 of 2 receptors lie outside the SED field" in err
+    assert code == 2 and f"1 of 2 receptors of receptor file {str(r)!r} lie outside the SED field" in err
     code, _, err = run(capsys, "sample", box_vtu, "--receptors", r, "--length-unit", "mm", "--sed-unit", "MPa",
                        "--on-outside", "nan", "-o", tmp_path / "o.csv")
     assert code == 0
@@ -157,3 +158,34 @@ def test_negative_sed_artefacts_in_info_and_one_warning_line(capsys, tmp_path, r
     code, _, err = run(capsys, "sample", path, "--receptors", receptors_csv[0], "--length-unit", "mm", "--sed-unit", "MPa",
                        "--negative-tolerance", "1e-6", "-o", tmp_path / "s2.csv")
     assert code == 2 and "beyond the tolerance 1e-06 x the largest SED" in err and not (tmp_path / "s2.csv").exists()
+
+
+def test_errors_reached_from_the_cli_name_the_flags_not_python_keywords(capsys, tmp_path, box_vtu, receptors_csv):
+    r = receptors_csv[0]
+    cases = [
+        (["sample", box_vtu, "--receptors", r, "--sed-unit", "MPa", "-o", tmp_path / "a.csv"],
+         "is neither stated in the file nor declared; pass --length-unit (e.g. --length-unit mm)."),
+        (["sample", box_vtu, "--receptors", r, "--length-unit", "mm", "--sed-from", "equivalent", "-o", tmp_path / "b.csv"],
+         "--sed-from equivalent needs Poisson's ratio: pass --poisson NU (the study's skin model uses 0.48)."),
+        (["sample", box_vtu, "--receptors", r, "--length-unit", "mm", "--stress-unit", "MPa", "--sed-from", "exact",
+          "-o", tmp_path / "c.csv"], "pass --preset one of 'abaqus'"),
+        (["sample", box_vtu, "--receptors", r, "--length-unit", "mm", "--sed-unit", "MPa", "--negative-tolerance", "2",
+          "-o", tmp_path / "d.csv"], "--negative-tolerance must be a number in [0, 1)"),
+    ]
+    for argv, expected in cases:
+        code, _, err = run(capsys, *argv)
+        assert code == 2 and expected in err, err
+        assert not re.search(r"(?<![-\w])(length_unit|sed_from|poisson|preset|negative_tolerance)(=|')", err), err
+
+
+def test_speak_cli_rewrites_only_the_commands_own_options():
+    from afferent.cli._main import speak_cli
+
+    flags = {"on_outside": "--on-outside", "length_unit": "--length-unit", "overwrite": "--overwrite",
+             "overwrite=True": "--overwrite", "format": "--format"}
+    assert speak_cli("Pass on_outside='nan' or on_outside=\"warn\"; pass length_unit=.", flags) == \
+        "Pass --on-outside nan or --on-outside warn; pass --length-unit."
+    assert speak_cli("'length_unit' is 'm' but ...; pass overwrite=True to replace it; format='csv'.", flags) == \
+        "--length-unit is 'm' but ...; pass --overwrite to replace it; --format csv."
+    # not an option of this command, or part of a longer word: unchanged
+    assert speak_cli("pass time_unit='s'; my_length_unit=3; x.format='a'", flags) == "pass time_unit='s'; my_length_unit=3; x.format='a'"

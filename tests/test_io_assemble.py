@@ -43,7 +43,7 @@ def test_comsol_one_column_per_step():
 def test_comsol_nan_rows_error_or_drop():
     with pytest.raises(SEDFormatError, match=re.escape(
             "SED column 'solid.Ws' must be finite; got 1 non-finite value(s) (first: NaN at row 3) instead. "
-            "Pass on_nan='drop' (--on-nan drop) to leave such rows out.")):
+            "Pass on_nan='drop' to leave such rows out.")):
         read_sed(f"{CSV}/comsol_spreadsheet.csv")
     f = read_sed(f"{CSV}/comsol_spreadsheet.csv", on_nan="drop")
     assert f.n_points == 2 and "2 of 4 rows with NaN dropped (on_nan='drop')." in f.provenance.notes

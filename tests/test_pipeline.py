@@ -159,5 +159,5 @@ def test_run_cli_spike_option_errors(capsys, tmp_path, bump):
     assert code == 2 and "--waveform needs --d-ref-mm" in capsys.readouterr().err
     code = main(base + ["--spikes", "--input", "rate-sensitive", "--waveform", "ramp:0.5,5,1", "--d-ref-mm", "0.5",
                         "-o", str(tmp_path / "c")])
-    assert code == 2 and "input='rate-sensitive' needs gain (s)" in capsys.readouterr().err
+    assert code == 2 and "--input rate-sensitive needs --gain-s (s): how much" in capsys.readouterr().err
     assert not any(p.name.startswith(("a", "b", "c", ".")) for p in tmp_path.iterdir() if p.name not in ("bump.vtu", "R.csv"))

@@ -8,13 +8,14 @@ apexes sit on mesh nodes at known (x, z). The tips found must be exactly those n
 from __future__ import annotations
 
 import re
+import warnings
 from pathlib import Path
 
 import meshio
 import numpy as np
 import pytest
 
-from afferent.exceptions import SEDFormatError, UnitError
+from afferent.exceptions import AfferentWarning, SEDFormatError, UnitError
 from afferent.field import Cells
 from afferent.io._meshio import cells_from_meshio
 from afferent.receptors import (
@@ -416,3 +417,23 @@ def test_sample_block4_tips_match_generator(sample_sed_dir):
     np.testing.assert_array_equal(tips.cross, placed.cross[order])
     every = tips_from_export(vtu, length_unit="mm", upper=1, lower=2)
     assert every.n_receptors >= placed.n_receptors
+
+
+@pytest.mark.parametrize("header", ["receptor_id", "Receptor ID", "ReceptorId", "site_id", "id"])
+def test_common_receptor_id_spellings_are_read(tmp_path, header):
+    path = tmp_path / "R.csv"
+    path.write_text(f"{header},x,y,z\nm7,0,0,0\nm9,1,0,0\n")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # every column used: no warning
+        layout = read_receptors(path, length_unit="mm")
+    assert list(layout.ids) == ["m7", "m9"] and layout.source == str(path)
+
+
+def test_columns_afferent_does_not_use_are_named(tmp_path):
+    path = tmp_path / "R.csv"
+    path.write_text("receptor_id,x,y,z,depth_mm,afferent\nm7,0,0,0,1,3\nm9,1,0,0,1,3\n")
+    with pytest.warns(AfferentWarning, match=re.escape(
+            f"Receptor file {str(path)!r}: column(s) 'depth_mm', 'afferent' not used (afferent reads x, y, z, a receptor id "
+            "such as 'id' or 'receptor_id', 'longitudinal' and 'cross'); receptor ids from 'receptor_id'.")):
+        layout = read_receptors(path, length_unit="mm")
+    assert list(layout.ids) == ["m7", "m9"]

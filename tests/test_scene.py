@@ -349,7 +349,7 @@ def test_existing_output_folder_is_refused_without_overwrite(tmp_path, capsys):
     out = tmp_path / "out"
     run_scene(scene.with_output(out), cache_dir=tmp_path / "cache")
     before = (out / "run.json").read_bytes()
-    msg = re.escape(f"Output folder {str(out)!r} already exists; pass --overwrite (overwrite=True) to replace it.")
+    msg = re.escape(f"Output folder {str(out)!r} already exists; pass overwrite=True to replace it.")
     with pytest.raises(OutputExistsError, match=msg):
         run_scene(scene.with_output(out), cache_dir=tmp_path / "cache")
     with pytest.raises(FileExistsError, match=msg):

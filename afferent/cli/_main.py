@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import os
+import re
 import sys
 import traceback
 import warnings
@@ -38,6 +39,46 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _flags_of(parser: argparse.ArgumentParser, argv: list[str] | None) -> dict[str, str]:
+    """The subcommand's options by keyword: ``{'length_unit': '--length-unit', ...}``."""
+    sub = next((a for a in parser._actions if isinstance(a, argparse._SubParsersAction)), None)
+    words = sys.argv[1:] if argv is None else argv
+    command = next((w for w in words if sub is not None and w in sub.choices), None)
+    if command is None:
+        return {}
+    flags = {}
+    for action in sub.choices[command]._actions:
+        long = [o for o in action.option_strings if o.startswith("--")]
+        if not long:
+            continue
+        flags[action.dest] = long[0]
+        if isinstance(action, argparse._StoreTrueAction):
+            flags[f"{action.dest}=True"] = long[0]
+        if action.dest.endswith("_s"):  # --gain-s, --duration-s: the library's gain=, duration= are in s too
+            flags.setdefault(action.dest[:-2], long[0])
+    return flags
+
+
+def speak_cli(message: str, flags: dict[str, str]) -> str:
+    """Rewrite the library's Python keywords as the command's flags.
+
+    ``pass length_unit=`` -> ``pass --length-unit``; ``on_outside='nan'`` -> ``--on-outside nan``;
+    ``'sed_unit' is ...`` -> ``--sed-unit is ...``. Only the subcommand's own options are
+    rewritten (longest keywords first), so a keyword with no flag stays as it is.
+    """
+    for dest in sorted(flags, key=len, reverse=True):
+        flag = flags[dest]
+        key = re.escape(dest)
+        if dest.endswith("=True"):
+            message = re.sub(rf"(?<![\w\-.']){key}", flag, message)
+            continue
+        message = re.sub(rf"(?<![\w\-.']){key}=(?:'([^']*)'|\"([^\"]*)\"|([A-Za-z0-9_+^/\-]+(?:\.[A-Za-z0-9_+^/\-]+)*))",
+                         lambda m: f"{flag} {next(g for g in m.groups() if g is not None)}", message)
+        message = re.sub(rf"(?<![\w\-.']){key}=(?![\w'\"])", flag, message)
+        message = re.sub(rf"'{key}'", flag, message)
+    return message
+
+
 def _show_warning(message, category, filename, lineno, file=None, line=None):
     """Warnings from the library as one line each, like errors (no source path, no code line)."""
     print(f"afferent: warning: {' '.join(str(message).split())}", file=sys.stderr if file is None else file)
@@ -52,6 +93,7 @@ def main(argv: list[str] | None = None) -> int:
 
 def _main(argv: list[str] | None) -> int:
     parser = build_parser()
+    flags = _flags_of(parser, argv)
     try:
         args = parser.parse_args(argv)
         if not getattr(args, "func", None):
@@ -63,7 +105,7 @@ def _main(argv: list[str] | None) -> int:
         return 2
     except (AfferentError, FileNotFoundError, FileExistsError, ValueError, TypeError, PermissionError,
             IsADirectoryError, NotADirectoryError) as err:
-        msg = " ".join(str(err).split())  # one line
+        msg = speak_cli(" ".join(str(err).split()), flags)  # one line, in the command's own words
         print(f"afferent: error: {msg}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:

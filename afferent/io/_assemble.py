@@ -368,7 +368,7 @@ def _convention(opts: ReadOptions, raw: RawExport | None = None) -> Convention:
     if preset is None and opts.shear is None:
         raise ValueError(
             "Computing SED from tensors needs the tool's shear convention: pass preset=one of "
-            f"{', '.join(map(repr, PRESETS))}, or shear='tensor'|'engineering'."
+            f"{', '.join(map(repr, PRESETS))}, or shear='tensor' or shear='engineering'."
         )
     base = PRESETS[preset] if preset else PRESETS["vtk"]
     return Convention(base.order, opts.shear or base.shear, base.note)
@@ -406,7 +406,7 @@ def _check_values(raw: RawExport, values: np.ndarray, what: str) -> None:
         raise SEDFormatError(
             f"SED file {_where(raw)!r}: {what} must be finite; got {int(bad.sum())} non-finite value(s) "
             f"(first: {kind} at row {int(i)}{f', step {int(t)}' if values.shape[0] > 1 else ''}) instead."
-            + (" Pass on_nan='drop' (--on-nan drop) to leave such rows out." if raw.cells is None else "")
+            + (" Pass on_nan='drop' to leave such rows out." if raw.cells is None else "")
         )
 
 
