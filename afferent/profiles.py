@@ -25,6 +25,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ._plausibility import scale_ratio
 from ._validation import check_option, suggest
 from .exceptions import AfferentWarning, SEDFormatError
 from .units import length_factor
@@ -350,6 +351,15 @@ def _as_observed(observed) -> ObservedProfile:
     )
 
 
+#: Afferent and observed positions whose extents differ by more than this factor were
+#: probably declared in different length units (mm vs m is 1e3).
+UNIT_MISMATCH_RATIO = 30.0
+
+
+def _source(obs) -> str:
+    return f" of {obs.source!r}" if getattr(obs, "source", None) else ""
+
+
 def observed_on(positions, observed, *, on_outside: str = "raise") -> np.ndarray:
     """Interpolate an observed profile onto afferent positions.
 
@@ -390,13 +400,21 @@ def observed_on(positions, observed, *, on_outside: str = "raise") -> np.ndarray
     # same coordinate computed two ways (a section mean vs a number printed in a CSV) matches.
     slack = POSITION_RTOL * max(hi - lo, abs(hi), abs(lo))
     outside = (pos < lo - slack) | (pos > hi + slack)
+    ratio = scale_ratio(pos, obs.positions)
+    units = ""
+    if np.isfinite(ratio) and not (1 / UNIT_MISMATCH_RATIO <= ratio <= UNIT_MISMATCH_RATIO):
+        units = (f" The afferent positions span {ratio:.3g} x the observed ones{_source(obs)}: check the length unit "
+                 "declared for the observed positions (mm vs m is a factor 1e3).")
     if outside.any() and on_outside == "raise":
         k = int(np.flatnonzero(outside)[0])
         raise ValueError(
             f"{int(outside.sum())} of {pos.size} positions lie outside the observed range "
             f"[{lo:.6g}, {hi:.6g}] m (first: position {k} at {pos[k]:.6g} m); the observation is not "
             "extrapolated. Pass on_outside='nan' (observed_on) or on_outside='drop' (compare_profiles) to skip them."
+            + units
         )
+    if units:
+        warnings.warn(units.strip(), AfferentWarning, stacklevel=2)
     out = np.interp(np.clip(pos, lo, hi), obs.positions, obs.response)
     out[outside] = np.nan
     return out

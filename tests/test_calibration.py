@@ -516,7 +516,7 @@ def test_cli_refuses_to_overwrite(tmp_path, cli_inputs, capsys):
     out.mkdir()
     parser = argparse.ArgumentParser()
     add_args(parser)
-    args = parser.parse_args([str(cli_inputs[0]), "--observed", str(cli_inputs[1]), "-o", str(out)])
+    args = parser.parse_args([str(cli_inputs[0]), "--observed", str(cli_inputs[1]), "--observed-unit", "m", "-o", str(out)])
     with pytest.raises(OutputExistsError, match=re.escape(
             f"Output folder {str(out)!r} already exists; pass overwrite=True to replace it.")):
         run(args)

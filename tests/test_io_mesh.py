@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import re
+import warnings
 
 import meshio
 import numpy as np
@@ -287,3 +288,25 @@ def test_raw_reader_keeps_file_units(box_vtu):
     raw = read_raw(box_vtu)
     assert raw.points.max() == pytest.approx(1.9)  # mm, untouched
     assert {(a.name, a.location) for a in raw.arrays.values()} == {("SED", "point"), ("SED", "cell"), ("layer", "cell")}
+
+
+def test_units_declared_orders_of_magnitude_off_are_warned_robustly(tmp_path):
+    # A 1.3 x 0.7 x 1.9 mm block with SED ~1e-4 MPa (~100 Pa), and one singular corner node 1000x
+    # the rest (a punch edge): the level is the 99th percentile, so the corner does not decide.
+    points, hexes = hex_box(6, 6, 6)
+    sed = linear_sed(points)
+    sed[0] = 1000 * sed.max()
+    p = write_vtu(tmp_path / "corner.vtu", points, hexes, point_data={"SED": sed})
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        ok = read_sed(p, length_unit="mm", sed_unit="MPa")  # right units: silent despite the corner
+    assert ok.sed.max() > 1e5  # the corner alone would be "implausible" if the maximum were used
+    with pytest.warns(AfferentWarning, match=re.escape(
+            "(Pa declared): SED of 0.000") ) as rec:
+        read_sed(p, length_unit="mm", sed_unit="Pa")
+    assert "is far below what skin under touch holds (0.01..1e+07 J/m^3); check 'sed_unit' (MPa vs Pa is a factor 1e6)." in str(rec[0].message)
+    with pytest.warns(AfferentWarning, match=re.escape(
+            "(length unit m declared): the points span 1.9 m, far larger than a skin model (0.1 mm..0.5 m); "
+            "check 'length_unit' (mm vs m is a factor 1e3).")) as rec:
+        f = read_sed(p, length_unit="m", sed_unit="MPa")
+    assert any("points span" in n for n in f.provenance.notes)

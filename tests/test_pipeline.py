@@ -85,8 +85,12 @@ def test_run_cli_writes_every_output(capsys, tmp_path, bump):
     pos = np.linspace(0, 4, 11)
     pd.DataFrame({"position": pos, "response": np.exp(-((pos - 2) ** 2))}).to_csv(obs, index=False)
     out = tmp_path / "out"
-    code = main(["run", str(vtu), "--receptors", str(receptors), "--length-unit", "mm", "--sed-unit", "MPa",
-                 "--params", "start", "--observed", str(obs), "-o", str(out)])
+    argv = ["run", str(vtu), "--receptors", str(receptors), "--length-unit", "mm", "--sed-unit", "MPa",
+            "--params", "start", "--observed", str(obs), "-o", str(out)]
+    assert main(argv) == 2 and not out.exists()  # the observed positions' unit is never guessed
+    assert capsys.readouterr().err == ("afferent: error: --observed needs --observed-unit, the length unit of the observed "
+                                       "positions (e.g. mm); afferent never guesses a unit.\n")
+    code = main(argv + ["--observed-unit", "mm"])
     assert code == 0, capsys.readouterr().err
     names = {p.name for p in out.iterdir()}
     assert names == {"receptors.csv", "afferents.csv", "fit.csv", "profile_fit.csv", "receptors.vtu", "run.json",

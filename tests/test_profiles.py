@@ -261,3 +261,19 @@ def test_observed_on_tolerates_round_off_at_the_ends():
     np.testing.assert_allclose(out, [1.0, 2.0, 2.0], rtol=1e-12)
     with pytest.raises(ValueError, match=re.escape("1 of 1 positions lie outside the observed range [0.00068, 0.00332] m (first: position 0 at 0.00333 m)")):
         observed_on(np.array([3.33e-3]), obs)
+
+
+def test_observed_positions_in_another_unit_are_named_as_such():
+    # afferents at 0.5..3.5 mm; the observed file's positions were declared m instead of mm
+    afferents = np.linspace(0.5e-3, 3.5e-3, 7)
+    wrong = ObservedProfile(np.linspace(0.4, 4.0, 9), np.arange(9.0), source="obs.csv")  # mm read as m
+    with pytest.raises(ValueError, match=re.escape(
+            "The afferent positions span 0.000833 x the observed ones of 'obs.csv': check the length unit declared "
+            "for the observed positions (mm vs m is a factor 1e3).")):
+        observed_on(afferents, wrong)
+    with pytest.warns(AfferentWarning, match="span 0.000833 x the observed ones"):
+        observed_on(afferents, wrong, on_outside="nan")
+    right = ObservedProfile(np.linspace(0.0, 4e-3, 9), np.arange(9.0), source="obs.csv")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        observed_on(afferents, right)

@@ -2,7 +2,7 @@
 
 Input: SED_AT_RECEPTORS.csv as written by ``afferent sample`` (long form: receptor, x_m, y_m,
 z_m, time_s, sed_pa; SI units; sections are recomputed from the positions) and a recorded
-profile OBS.csv (columns position, response; positions in --observed-unit, default m).
+profile OBS.csv (columns position, response; positions in --observed-unit, required).
 The profile of the last time step is compared (--time-index to choose another).
 
 Methods: rsm1 (default; the study's two-level factorial + centre design, first-order fit,
@@ -46,7 +46,8 @@ _METHOD_CHOICES = ("rsm1", "rsm2", "least_squares", "all")
 def add_args(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("sed", metavar="SED_AT_RECEPTORS.csv", help="SED at the receptors, as written by 'afferent sample'")
     parser.add_argument("--observed", required=True, metavar="OBS.csv", help="recorded profile: columns position, response")
-    parser.add_argument("--observed-unit", default="m", metavar="U", help="length unit of the observed positions (default m)")
+    parser.add_argument("--observed-unit", required=True, metavar="U",
+                        help="length unit of the observed positions (m, mm, um); required, as everywhere: never guessed")
     parser.add_argument("--synthesis", default="longitudinal", metavar="longitudinal|cross|both|map:FILE|random:N",
                         help="receptor -> afferent grouping; 'both' calibrates longitudinal and cross-sections (default longitudinal)")
     parser.add_argument("--start", default="start", metavar="ALPHA,GAMMA,LAMBDA",

@@ -55,7 +55,7 @@ def add_args(parser: argparse.ArgumentParser) -> None:
     g.add_argument("--lambda", dest="lambda_", type=float, metavar="L", help="midpoint SED, Pa")
     g = parser.add_argument_group("comparison with a recording")
     g.add_argument("--observed", metavar="OBS.csv", help="recorded profile: columns position, response")
-    g.add_argument("--observed-unit", metavar="U", help="length unit of the observed positions (default: the export's)")
+    g.add_argument("--observed-unit", metavar="U", help="length unit of the observed positions (m, mm, um); required with --observed")
     g.add_argument("--normalise", choices=("both", "prediction", "observation", "neither"), default="both",
                    help="what is min-max normalised before comparing (the study: both)")
     g = parser.add_argument_group("stimulus over time (for a static export)")
@@ -144,7 +144,10 @@ def run(args: argparse.Namespace) -> int:
     layout = layout_from_args(args, field)
     observed = None
     if args.observed:
-        observed = read_observed(args.observed, length_unit=args.observed_unit or unit)
+        if args.observed_unit is None:
+            raise ValueError("--observed needs --observed-unit, the length unit of the observed positions (e.g. mm); "
+                             "afferent never guesses a unit.")
+        observed = read_observed(args.observed, length_unit=args.observed_unit)
     result = run_pipeline(field, layout, params, synthesis=args.synthesis, method=args.method,
                           on_outside=args.on_outside, observed=observed, normalise=args.normalise, rng=args.seed,
                           waveform=waveform, d_ref=None if args.d_ref_mm is None else args.d_ref_mm * 1e-3)

@@ -12,6 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .._plausibility import sed_warning, span_warning
 from .._validation import check_option, suggest
 from ..exceptions import AfferentWarning, SEDFormatError, UnitError
 from ..field import Provenance, SEDField
@@ -571,6 +572,15 @@ def assemble(raw: RawExport, opts: ReadOptions) -> SEDField:
             "SED is cell data (one value per FE cell, as exported): 'nearest' sampling takes the value of the "
             "cell containing the receptor; 'linear' first averages cells to nodes (volume-weighted)."
         )
+    unit_key = "sed_unit" if opts.sed_from == "field" else "stress_unit"
+    for msg in (
+        sed_warning(sed, what=f"SED file {_where(raw)!r} ({units.get('sed', units.get('stress'))} {units.get('sed_source', units.get('stress_source'))})",
+                    unit_hint=repr(unit_key)),
+        span_warning(xyz * lf, what=f"SED file {_where(raw)!r} (length unit {lu} {lsrc})", unit_hint="'length_unit'"),
+    ):
+        if msg:
+            notes.append(msg)
+            warnings.warn(msg, AfferentWarning, stacklevel=3)
     prov = Provenance(
         files=raw.files, format=raw.format, sed_from=opts.sed_from, columns=columns, units=units,
         factors=factors, notes=tuple(notes), negative_sed=negative,

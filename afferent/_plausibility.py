@@ -1,0 +1,92 @@
+"""Are these magnitudes those of skin under touch? Checks that warn, never choose a unit.
+
+A unit declared wrongly (mm for m, Pa for MPa) gives numbers that look like numbers: the
+wrong number that looks right. Units are always declared or stated, never guessed; these
+checks only compare what was declared with what skin models hold and say so when they are
+orders of magnitude apart. They use a robust level (a high percentile of the nonzero values),
+not the maximum: a singular corner under a punch edge can be 100x the rest of the field.
+
+The bands are wide on purpose (a warning must mean something): a factor 1e3 (mm/m) or 1e6
+(MPa/Pa) moves typical values outside them; kPa/Pa (1e3) on SED may not.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["SED_BAND_PA", "SPAN_BAND_M", "robust_level", "sed_warning", "span_warning", "scale_ratio"]
+
+#: Robust SED level (99th percentile of the nonzero |SED|) of skin under touch, in J/m^3 = Pa.
+#: The study's peak is ~190 Pa; the bundled sample's tip medians 51-688 Pa and peaks up to 4.4 kPa;
+#: a hard press on a fingertip reaches ~1e5 Pa. The band is two decades wider on each side.
+SED_BAND_PA = (1e-2, 1e7)
+#: Largest extent of an FE skin model, in m: from a 0.1 mm patch of papillae to a 0.5 m forearm
+#: or robot-skin sheet (a fingertip block is 1-20 mm).
+SPAN_BAND_M = (1e-4, 0.5)
+#: Percentile of the nonzero absolute values used as the field's level.
+LEVEL_PERCENTILE = 99.0
+
+
+def robust_level(values) -> float:
+    """The 99th percentile of the finite, nonzero absolute values (0.0 when there are none)."""
+    v = np.abs(np.asarray(values, dtype=float).ravel())
+    v = v[np.isfinite(v) & (v > 0)]
+    return float(np.percentile(v, LEVEL_PERCENTILE)) if v.size else 0.0
+
+
+def sed_warning(sed_pa, *, what: str, unit_hint: str) -> str | None:
+    """A warning text when the SED level lies outside :data:`SED_BAND_PA`, else None.
+
+    Parameters
+    ----------
+    sed_pa : array_like
+        SED in J/m^3 (after unit conversion).
+    what : str
+        What the values are, e.g. ``"SED file 'a.vtu' (SED column 'ENER', declared MPa)"``.
+    unit_hint : str
+        The option that sets the unit, e.g. ``"sed_unit"``.
+    """
+    level = robust_level(sed_pa)
+    lo, hi = SED_BAND_PA
+    if level == 0.0 or lo <= level <= hi:
+        return None
+    side = "below" if level < lo else "above"
+    return (
+        f"{what}: SED of {level:.3g} J/m^3 (99th percentile of the nonzero values) is far {side} what skin under "
+        f"touch holds ({lo:g}..{hi:g} J/m^3); check {unit_hint} (MPa vs Pa is a factor 1e6)."
+    )
+
+
+def span_warning(points_m, *, what: str, unit_hint: str) -> str | None:
+    """A warning text when the largest extent of ``points_m`` (m) lies outside :data:`SPAN_BAND_M`."""
+    pts = np.asarray(points_m, dtype=float).reshape(-1, 3)
+    if pts.shape[0] < 2:
+        return None
+    span = float(np.nanmax(np.nanmax(pts, axis=0) - np.nanmin(pts, axis=0)))
+    lo, hi = SPAN_BAND_M
+    if span == 0.0 or lo <= span <= hi:
+        return None
+    side = "smaller" if span < lo else "larger"
+    return (
+        f"{what}: the points span {span:.3g} m, far {side} than a skin model ({lo * 1e3:g} mm..{hi:g} m); "
+        f"check {unit_hint} (mm vs m is a factor 1e3)."
+    )
+
+
+def scale_ratio(a, b) -> float:
+    """Ratio of the extents (largest coordinate range, or |value| range for 1-D) of ``a`` over ``b``.
+
+    NaN when either extent is 0. Used to flag two sets of positions (receptors and mesh,
+    observed and afferent positions) declared in different units: a ratio near 1e3 or 1e-3.
+    """
+    def extent(x):
+        x = np.asarray(x, dtype=float)
+        x = x.reshape(-1, 1) if x.ndim == 1 else x
+        x = x[np.isfinite(x).all(axis=1)]
+        if x.shape[0] == 0:
+            return 0.0
+        rng = float(np.max(x.max(axis=0) - x.min(axis=0)))
+        return rng if rng > 0 else float(np.max(np.abs(x)))
+
+    ea, eb = extent(a), extent(b)
+    return ea / eb if ea > 0 and eb > 0 else float("nan")
