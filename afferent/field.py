@@ -47,6 +47,10 @@ class Provenance:
         tool): ``count``, ``n_values``, ``min_pa`` (J/m^3, after unit conversion),
         ``min_relative`` (over the largest SED), ``tolerance`` and ``action`` ('set to 0').
         None when every value was >= 0.
+    checks : dict
+        Cross-checks made while reading, by name, e.g. ``'tensor_sed_vs_export_sed'`` (SED from
+        the tensors against the export's own SED array; see
+        :func:`afferent.io._assemble.tensor_sed_crosscheck`).
     """
 
     files: tuple[str, ...] = ()
@@ -57,6 +61,7 @@ class Provenance:
     factors: dict = field(default_factory=dict)
     notes: tuple[str, ...] = ()
     negative_sed: dict | None = None
+    checks: dict = field(default_factory=dict)
 
     def to_dict(self) -> dict:
         """Plain-dict form, for JSON records."""
@@ -69,6 +74,7 @@ class Provenance:
             "factors": dict(self.factors),
             "notes": list(self.notes),
             "negative_sed": None if self.negative_sed is None else dict(self.negative_sed),
+            "checks": {k: dict(v) for k, v in self.checks.items()},
         }
 
 

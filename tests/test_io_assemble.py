@@ -203,3 +203,51 @@ def test_the_files_own_convention_is_used_and_a_contradicting_preset_refused():
     assert "implied by the file format" in " ".join(f.provenance.notes)
     with pytest.raises(ValueError, match=re.escape("preset='abaqus' contradicts SED file 'mem.vtu', which only 'sfepy' writes")):
         assemble(raw, ReadOptions(length_unit="m", stress_unit="Pa", sed_from="exact", preset="abaqus"))
+
+
+def _abaqus_like_vtu(path):
+    """Isotropic material (E 1 MPa, nu 0.3), random strains at the nodes; Abaqus conventions:
+    S11 S22 S33 S12 S13 S23, engineering shear strain (LE), SENER = 1/2 sigma:eps computed here."""
+    import meshio
+
+    from conftest import hex_box
+
+    pts, hexes = hex_box(3, 3, 3)
+    rng = np.random.default_rng(7)
+    lam, mu = 0.3 / (1.3 * 0.4), 1 / 2.6
+    eps = rng.normal(size=(len(pts), 3, 3)) * 1e-2
+    eps = (eps + eps.transpose(0, 2, 1)) / 2
+    sig = lam * np.trace(eps, axis1=1, axis2=2)[:, None, None] * np.eye(3) + 2 * mu * eps
+    sed = 0.5 * np.einsum("nij,nij->n", sig, eps)
+
+    def voigt(t, f):
+        return np.stack([t[:, 0, 0], t[:, 1, 1], t[:, 2, 2], f * t[:, 0, 1], f * t[:, 0, 2], f * t[:, 1, 2]], -1)
+
+    meshio.write(path, meshio.Mesh(pts, [("hexahedron", hexes)], point_data={"SENER": sed, "S": voigt(sig, 1), "LE": voigt(eps, 2)}))
+    return path, sed
+
+
+def test_a_wrong_shear_convention_is_caught_against_the_exports_own_sed(tmp_path, capsys):
+    import warnings
+
+    from afferent.cli import main
+    from afferent.exceptions import AfferentWarning
+
+    path, sed = _abaqus_like_vtu(tmp_path / "abq.vtu")
+    kw = dict(length_unit="mm", stress_unit="MPa", sed_from="exact")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        right = read_sed(path, preset="abaqus", **kw)
+    np.testing.assert_allclose(right.sed[0], sed * 1e6, rtol=1e-12)
+    check = right.provenance.checks["tensor_sed_vs_export_sed"]
+    assert check["agree"] and check["relative_difference"] < 1e-12 and check["scale"] == pytest.approx(1.0)  # both in the file's units (MPa)
+    assert check["by_preset"]["comsol"] > 0.1  # engineering shear read as tensor shear: shear energy doubled
+    with pytest.warns(AfferentWarning, match=re.escape(
+            "1/2 sigma:eps from the tensors (preset='comsol') differs from the file's own SED array 'SENER' by 15.")) as rec:
+        wrong = read_sed(path, preset="comsol", **kw)
+    assert "presets 'abaqus', 'ansys', 'sfepy' give < 1e-7 % (round-off). Check the preset" in str(rec[0].message)
+    assert not wrong.provenance.checks["tensor_sed_vs_export_sed"]["agree"]
+    assert main(["info", str(path)]) == 0
+    out = capsys.readouterr().out
+    assert ("cross-check  1/2 sigma:eps from the tensors vs the SED array 'SENER' (step 0, relative L2 after the best scale, "
+            "1 for 'abaqus'): abaqus/ansys/sfepy < 1e-7 % (round-off); comsol/") in out

@@ -18,7 +18,7 @@ import numpy as np
 from .._plausibility import robust_level
 from ..exceptions import SEDFormatError
 from ..io import FORMATS, read_raw
-from ..io._assemble import ReadOptions, find_coordinates, find_sed_array, find_tensors, negative_sed_report
+from ..io._assemble import ReadOptions, find_coordinates, find_sed_array, find_tensors, negative_sed_report, tensor_sed_crosscheck, _percent
 from ..units import LENGTH_UNITS, SED_UNITS, parse_unit
 from ._options import add_quiet, show_progress
 
@@ -104,6 +104,15 @@ def describe(raw) -> list[str]:
         add("tensors", f"stress {s_name}; strain {e_name} ({s_loc} data): --sed-from exact|equivalent with --preset")
     except (SEDFormatError, ValueError):
         add("tensors", "no complete stress and strain tensors")
+    check = tensor_sed_crosscheck(raw, ReadOptions())
+    if check is not None:
+        groups: dict = {}
+        for name, rel in check["by_preset"].items():
+            groups.setdefault(_percent(rel), []).append(name)
+        ranked = sorted(groups.items(), key=lambda kv: check["by_preset"][kv[1][0]])
+        add("cross-check", f"1/2 sigma:eps from the tensors vs the SED array {check['sed_array']!r} (step {check['step']}, "
+                           f"relative L2 after the best scale, {check['scale']:.4g} for {check['best_preset']!r}): "
+                           + "; ".join(f"{'/'.join(names)} {pct}" for pct, names in ranked))
     if xyz is not None:
         span = float(np.nanmax(np.nanmax(xyz, 0) - np.nanmin(xyz, 0)))
         if raw.length_unit:

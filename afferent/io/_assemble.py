@@ -8,7 +8,7 @@ when asked, and validate what the FE export holds.
 from __future__ import annotations
 
 import warnings
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -33,6 +33,13 @@ __all__ = ["ReadOptions", "assemble", "find_sed_array", "find_tensors", "find_co
 NEGATIVE_SED_RTOL = 1e-3
 
 SED_FROM = ("field", "exact", "equivalent")
+
+#: Relative L2 difference (at the most loaded step, after the best scale factor) above which
+#: the SED computed from an export's tensors and the export's own SED array are said to
+#: disagree. Where both are written at integration points or from the same nodal tensors they
+#: agree to round-off; nodal averaging of each separately costs a few % (measured on the real
+#: CalculiX files in tests/data/calculix); a wrong component order or shear convention 30-40 %.
+CROSSCHECK_RTOL = 0.10
 
 
 @dataclass(frozen=True)
@@ -444,6 +451,87 @@ def negative_sed_report(sed: np.ndarray, tolerance: float = NEGATIVE_SED_RTOL) -
     }
 
 
+def _scaled_difference(ref: np.ndarray, u: np.ndarray) -> tuple[float, float]:
+    """(relative L2 difference of ``ref`` and ``scale * u``, scale) for the least-squares scale."""
+    ok = np.isfinite(ref) & np.isfinite(u)
+    ref, u = ref[ok], u[ok]
+    nref, uu = float(np.linalg.norm(ref)), float(u @ u)
+    if nref == 0.0:
+        return (0.0 if uu == 0.0 else float("inf")), 1.0
+    if uu == 0.0:
+        return float("inf"), float("nan")
+    scale = float(ref @ u) / uu
+    return float(np.linalg.norm(ref - scale * u)) / nref, scale
+
+
+def _percent(rel: float) -> str:
+    return f"{100 * rel:.3g} %" if rel > 1e-9 else "< 1e-7 % (round-off)"
+
+
+def _presets_like(check: dict, name: str) -> str:
+    """The presets whose difference equals that of ``name`` up to round-off, as 'preset(s) ...'."""
+    ref = check["by_preset"][name]
+    same = [p for p, r in check["by_preset"].items() if abs(r - ref) <= 1e-9 + 1e-6 * ref]
+    return ("presets " if len(same) > 1 else "preset ") + ", ".join(map(repr, same)) + (" give" if len(same) > 1 else " gives")
+
+
+def tensor_sed_crosscheck(raw: RawExport, opts: ReadOptions) -> dict | None:
+    """Compare SED computed from the export's tensors with the export's own SED array.
+
+    Many tools write an SED array beside stress and strain. For linear elasticity the two
+    agree when the component order and shear convention are right, whatever the units (a
+    least-squares scale factor absorbs a unit difference and is reported). The comparison is
+    made at the step with the largest total SED, under the convention in use and under every
+    preset of :data:`afferent.strain_energy.PRESETS`.
+
+    What it can tell: the shear convention (engineering shear read as tensor shear doubles the
+    shear terms). What it cannot: the order of the shear components, since relabelling yz and
+    xz in both tensors leaves 1/2 sigma:eps unchanged (it does change the 'equivalent' SED,
+    which uses principal values; the order comes from the component names or the preset).
+
+    Returns
+    -------
+    dict or None
+        None when the export lacks an SED array or tensors at the same location. Otherwise
+        ``sed_array``, ``step``, ``convention`` (the preset or shear in use), ``relative_difference``
+        and ``scale`` (SED array ~ scale x SED from the tensors, both in the file's units: 1 when
+        the SED array is in the stress unit; for the best preset when no convention is declared), ``by_preset`` (relative difference per
+        preset), ``best_preset``, ``tolerance`` (:data:`CROSSCHECK_RTOL`) and ``agree`` (bool).
+    """
+    try:
+        (_, _, tloc), _ = find_tensors(raw, replace(opts, sed_from="exact"), need_convention=False)
+        arr = find_sed_array(raw, ReadOptions(location=tloc))[0]
+    except (SEDFormatError, ValueError):
+        return None
+    if arr.location != tloc or (arr.values.ndim == 3 and arr.values.shape[2] != 1):
+        return None
+    ref = arr.values.reshape(arr.values.shape[0], -1)
+    step = int(np.argmax(np.nansum(np.abs(ref), axis=1)))
+    one = replace(raw, arrays={k: replace(a, values=a.values[step:step + 1]) for k, a in raw.arrays.items()}, times=None)
+    columns = dict(location=tloc, stress_columns=opts.stress_columns, strain_columns=opts.strain_columns)
+
+    def difference(raw_k, options):
+        (_, s, _), (_, e, _) = find_tensors(raw_k, options)
+        return _scaled_difference(ref[step], sed_exact(s, e)[0])
+
+    free = replace(one, preset=None)
+    by_preset, scales = {}, {}
+    for name in PRESETS:
+        by_preset[name], scales[name] = difference(free, ReadOptions(sed_from="exact", preset=name, **columns))
+    best = min(by_preset, key=by_preset.get)
+    in_use = opts.preset or raw.preset
+    if in_use or opts.shear:
+        rel, scale = difference(one, ReadOptions(sed_from="exact", preset=opts.preset, shear=opts.shear, **columns))
+    else:  # no convention declared (afferent info): report the presets only
+        rel, scale = by_preset[best], scales[best]
+    return {
+        "sed_array": arr.name, "step": step,
+        "convention": (f"preset={in_use!r}" if in_use else "") + (f" shear={opts.shear!r}" if opts.shear else ""),
+        "relative_difference": rel, "scale": scale, "by_preset": by_preset, "best_preset": best,
+        "tolerance": CROSSCHECK_RTOL, "agree": bool(rel <= CROSSCHECK_RTOL),
+    }
+
+
 def assemble(raw: RawExport, opts: ReadOptions) -> SEDField:
     """Build the SI :class:`SEDField` from a reader's raw export and the user's declarations."""
     if opts.coordinates is not None:
@@ -453,6 +541,7 @@ def assemble(raw: RawExport, opts: ReadOptions) -> SEDField:
             raise ValueError("on_nan='drop' applies to point tables (CSV); a mesh export cannot lose points.")
         raw = drop_nan_rows(raw, list(raw.arrays))
     notes = list(raw.notes)
+    checks: dict = {}
     columns: dict = {}
     units: dict = {}
     factors: dict = {}
@@ -515,6 +604,21 @@ def assemble(raw: RawExport, opts: ReadOptions) -> SEDField:
             f"{', implied by the file format' if opts.preset is None and raw.preset else ''})."
         )
         sed = sed_exact(s, e) if opts.sed_from == "exact" else sed_equivalent(s, e, opts.poisson)
+        check = tensor_sed_crosscheck(raw, opts)
+        if check is not None:
+            checks["tensor_sed_vs_export_sed"] = check
+            best = check["best_preset"]
+            rel = check["relative_difference"]
+            if not check["agree"] or (rel > CROSSCHECK_RTOL / 5 and check["by_preset"][best] < rel / 2):
+                msg = (
+                    f"SED file {_where(raw)!r}: 1/2 sigma:eps from the tensors ({check['convention'].strip()}) differs from "
+                    f"the file's own SED array {check['sed_array']!r} by {100 * check['relative_difference']:.3g} % "
+                    f"(relative L2 at step {check['step']}, after a scale of {check['scale']:.4g}); "
+                    f"{_presets_like(check, best)} {_percent(check['by_preset'][best])}. Check the preset: its "
+                    "shear convention (engineering or tensor shear strain)."
+                )
+                notes.append(msg)
+                warnings.warn(msg, AfferentWarning, stacklevel=3)
 
     negative = negative_sed_report(sed, opts.negative_tolerance)
     if negative is not None:
@@ -583,7 +687,7 @@ def assemble(raw: RawExport, opts: ReadOptions) -> SEDField:
             warnings.warn(msg, AfferentWarning, stacklevel=3)
     prov = Provenance(
         files=raw.files, format=raw.format, sed_from=opts.sed_from, columns=columns, units=units,
-        factors=factors, notes=tuple(notes), negative_sed=negative,
+        factors=factors, notes=tuple(notes), negative_sed=negative, checks=checks,
     )
     try:
         return SEDField(xyz * lf, sed, times, location=location, cells=raw.cells, provenance=prov)
