@@ -310,3 +310,39 @@ def test_units_declared_orders_of_magnitude_off_are_warned_robustly(tmp_path):
             "check 'length_unit' (mm vs m is a factor 1e3).")) as rec:
         f = read_sed(p, length_unit="m", sed_unit="MPa")
     assert any("points span" in n for n in f.provenance.notes)
+
+
+def test_a_valid_file_in_an_unsupported_layout_says_what_is_unsupported(tmp_path):
+    poly = tmp_path / "surface.vtu"
+    poly.write_text(
+        '<?xml version="1.0"?>\n<VTKFile type="PolyData" version="0.1" byte_order="LittleEndian"><PolyData>'
+        '<Piece NumberOfPoints="3" NumberOfPolys="1"><Points><DataArray type="Float32" NumberOfComponents="3" '
+        'format="ascii">0 0 0 1 0 0 0 1 0</DataArray></Points><Polys><DataArray type="Int32" Name="connectivity" '
+        'format="ascii">0 1 2</DataArray><DataArray type="Int32" Name="offsets" format="ascii">3</DataArray></Polys>'
+        '</Piece></PolyData></VTKFile>\n')
+    with pytest.raises(SEDFormatError, match=re.escape(
+            f"SED file {str(poly)!r} holds a surface (PolyData), not the UnstructuredGrid (volume mesh) afferent reads from "
+            "a .vtu; export the volume mesh, or the surface points as a CSV table.")):
+        read_raw(poly)
+    version = tmp_path / "v22.vtu"
+    version.write_text(
+        '<?xml version="1.0"?>\n<VTKFile type="UnstructuredGrid" version="2.2"><UnstructuredGrid><Piece NumberOfPoints="1" '
+        'NumberOfCells="0"><Points><DataArray type="Float64" NumberOfComponents="3" format="ascii">0 0 0</DataArray>'
+        '</Points></Piece></UnstructuredGrid></VTKFile>\n')
+    with pytest.raises(SEDFormatError, match=re.escape(
+            f"SED file {str(version)!r} is a .vtu file in a layout afferent cannot read (through meshio): "
+            "Unknown VTU file version '2.2'. Save it as a VTU UnstructuredGrid")):
+        read_raw(version)
+
+
+def test_location_that_the_tensors_or_sed_do_not_have_is_named(tmp_path):
+    points, hexes = hex_box(2, 2, 2)
+    six = np.ones((len(hexes), 6))
+    p = write_vtu(tmp_path / "cell_tensors.vtu", points, hexes, cell_data={"S": [six], "E": [six], "SED": [np.ones(len(hexes))]})
+    with pytest.raises(SEDFormatError, match=re.escape(
+            f"SED file {str(p)!r}: the stress tensor 'S' is cell data, not point data as location='point' asks; "
+            "drop location= or pass location='cell'.")):
+        read_sed(p, length_unit="mm", stress_unit="MPa", sed_from="exact", preset="vtk", location="point")
+    with pytest.raises(SEDFormatError, match=re.escape(
+            f"SED file {str(p)!r}: the SED array 'SED' is cell data, not point data as location='point' asks")):
+        read_sed(p, length_unit="mm", sed_unit="MPa", location="point")

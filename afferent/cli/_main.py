@@ -74,7 +74,7 @@ def speak_cli(message: str, flags: dict[str, str]) -> str:
             continue
         message = re.sub(rf"(?<![\w\-.']){key}=(?:'([^']*)'|\"([^\"]*)\"|([A-Za-z0-9_+^/\-]+(?:\.[A-Za-z0-9_+^/\-]+)*))",
                          lambda m: f"{flag} {next(g for g in m.groups() if g is not None)}", message)
-        message = re.sub(rf"(?<![\w\-.']){key}=(?![\w'\"])", flag, message)
+        message = re.sub(rf"(?<![\w\-.']){key}=(?![\w'\"])(\S?)", lambda m: flag + (" " if m.group(1) and m.group(1) not in ".,;:)" else "") + m.group(1), message)
         message = re.sub(rf"'{key}'", flag, message)
     return message
 

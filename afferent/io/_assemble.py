@@ -219,6 +219,13 @@ def find_coordinates(raw: RawExport, opts: ReadOptions) -> tuple[np.ndarray, tup
     return xyz[0], tuple(c.name for c in cols)
 
 
+def _wrong_location(raw: RawExport, arr: RawArray, what: str, asked: str) -> None:
+    raise SEDFormatError(
+        f"SED file {_where(raw)!r}: the {what} {arr.name!r} is {arr.location} data, not {asked} data as "
+        f"location={asked!r} asks; drop location= or pass location={arr.location!r}."
+    )
+
+
 def find_sed_array(raw: RawExport, opts: ReadOptions) -> list[RawArray]:
     """The SED array(s) to use: one array, or one per step when ``sed_column`` lists several."""
     if opts.sed_column is not None:
@@ -226,8 +233,10 @@ def find_sed_array(raw: RawExport, opts: ReadOptions) -> list[RawArray]:
         return [_by_name(raw, n, "the SED", opts.location) for n in names]
     arrays = list(raw.arrays.values())
     for alias in C.SED_ALIASES:
-        hits = [a for a in arrays if C.canonical(a.name) == alias or C.canonical(a.name).startswith(alias + "@")]
-        hits = [a for a in hits if opts.location is None or a.location == opts.location]
+        named = [a for a in arrays if C.canonical(a.name) == alias or C.canonical(a.name).startswith(alias + "@")]
+        hits = [a for a in named if opts.location is None or a.location == opts.location]
+        if named and not hits:
+            _wrong_location(raw, named[0], "SED array", opts.location)
         if hits:
             return _pick_location(raw, hits, hits[0].name, opts.location)[:1] if len(hits) > 1 else hits
     for a in arrays:
@@ -326,11 +335,10 @@ def find_tensors(raw: RawExport, opts: ReadOptions, *, need_convention: bool = T
             values = np.stack([c.values for c in cols], -1)
             out.append((", ".join(c.name for c in cols), _halve_shear(values, kind, conv), cols[0].location))
             continue
-        tensor_arrays = [
-            a for a in raw.arrays.values()
-            if a.values.ndim == 3 and C.canonical(a.name) in C.TENSOR_ARRAY_NAMES[kind]
-            and (opts.location is None or a.location == opts.location)
-        ]
+        named = [a for a in raw.arrays.values() if a.values.ndim == 3 and C.canonical(a.name) in C.TENSOR_ARRAY_NAMES[kind]]
+        tensor_arrays = [a for a in named if opts.location is None or a.location == opts.location]
+        if named and not tensor_arrays:
+            _wrong_location(raw, named[0], f"{kind} tensor", opts.location)
         if tensor_arrays:
             arr = tensor_arrays[0]
             out.append((arr.name, _tensor_from_array(arr, kind, conv or PRESETS["vtk"], raw), arr.location))

@@ -73,16 +73,70 @@ def _read_meshio(path: str):
     reader = {".vtu": meshio.vtu.read, ".vtk": meshio.vtk.read, ".xdmf": meshio.xdmf.read, ".xmf": meshio.xdmf.read}.get(
         ext, meshio.read
     )
+    if ext == ".vtu":
+        _check_vtk_xml_type(path)
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")  # meshio warns on skipped data; we report what we keep
             return reader(path)
-    except (Exception, SystemExit) as err:  # ReadError, ET.ParseError, ValueError, KeyError, zlib.error...
+    except meshio.ReadError as err:
+        if not str(err).strip() or not _well_formed(path, ext):
+            raise SEDFormatError(
+                f"SED file {path!r} could not be read as {ext or 'a mesh'} (truncated or corrupt?): ReadError: {err}"
+            ) from err
+        # meshio parsed the file and met a layout it does not handle
+        raise SEDFormatError(
+            f"SED file {path!r} is a {ext or 'mesh'} file in a layout afferent cannot read (through meshio): "
+            f"{str(err).rstrip('.')}. Save it as a VTU UnstructuredGrid (ParaView: File > Save Data > .vtu)."
+        ) from err
+    except (Exception, SystemExit) as err:  # ET.ParseError, ValueError, KeyError, zlib.error...
         kind = type(err).__name__
         raise SEDFormatError(
             f"SED file {path!r} could not be read as {os.path.splitext(path)[1] or 'a mesh'} "
             f"(truncated or corrupt?): {kind}: {err}"
         ) from err
+
+
+def _well_formed(path: str, ext: str) -> bool:
+    """Whether an XML mesh file parses as XML to its end (a truncated file does not)."""
+    if ext not in (".vtu", ".xdmf", ".xmf"):
+        return True
+    try:
+        ET.parse(path)
+    except ET.ParseError:
+        return False
+    return True
+
+
+#: VTK XML dataset types other than UnstructuredGrid, and what to do with them.
+_VTK_XML_TYPES = {
+    "PolyData": ("a surface (PolyData)", "export the volume mesh, or the surface points as a CSV table"),
+    "StructuredGrid": ("a StructuredGrid", "in ParaView apply 'Clean to Grid' and save as .vtu"),
+    "RectilinearGrid": ("a RectilinearGrid", "in ParaView apply 'Clean to Grid' and save as .vtu"),
+    "ImageData": ("an ImageData volume", "in ParaView apply 'Clean to Grid' and save as .vtu"),
+    "PUnstructuredGrid": ("a parallel index (.pvtu) listing its pieces", "in ParaView apply 'Merge Blocks' and save as .vtu"),
+    "vtkMultiBlockDataSet": ("a multiblock index (.vtm) listing its blocks", "in ParaView apply 'Merge Blocks' and save as .vtu"),
+}
+
+
+def _check_vtk_xml_type(path: str) -> None:
+    """Refuse a .vtu whose VTKFile type is not UnstructuredGrid, saying what it is instead."""
+    import re
+
+    try:
+        with open(path, "rb") as fh:
+            head = fh.read(4096)
+    except OSError:
+        return
+    m = re.search(rb'<VTKFile[^>]*\btype="([^"]+)"', head)
+    if m is None:
+        return  # not XML or damaged: the reader says so
+    kind = m.group(1).decode("ascii", "replace")
+    if kind != "UnstructuredGrid":
+        what, advice = _VTK_XML_TYPES.get(kind, (f"a VTK XML {kind!r} dataset", "save it as a VTU UnstructuredGrid"))
+        raise SEDFormatError(
+            f"SED file {path!r} holds {what}, not the UnstructuredGrid (volume mesh) afferent reads from a .vtu; {advice}."
+        )
 
 
 def _arrays_from_mesh(mesh, path: str, cells_obj: Cells | None) -> dict[str, RawArray]:
