@@ -406,7 +406,13 @@ def read_receptor_sed(path):
         )
     values = np.empty((n_t, n_r))
     values[rows, cols] = num["sed_pa"].to_numpy(float)
-    layout = ReceptorLayout(positions, names)
+    layout = ReceptorLayout(positions, names, source=path)
+    from ._plausibility import sed_warning, span_warning
+
+    for msg in (sed_warning(values, what=f"SED file {path!r}", unit_hint="that sed_pa is in Pa"),
+                span_warning(positions, what=f"SED file {path!r} (receptor positions)", unit_hint="that x_m, y_m, z_m are in m")):
+        if msg:
+            warnings.warn(msg, AfferentWarning, stacklevel=2)
     return ReceptorSED(values, times, layout, "csv", np.zeros(n_r, bool))
 
 

@@ -130,3 +130,19 @@ def test_dataframe_long_form(field, rng):
     df = sample_sed(field, ReceptorLayout(pos * 1e-3, ids=list("abcd"))).to_dataframe()
     assert list(df.columns) == ["receptor", "x_m", "y_m", "z_m", "time_s", "sed_pa"]
     assert df["receptor"].tolist() == list("abcd")
+
+
+def test_a_receptor_sed_table_in_other_units_is_warned(tmp_path):
+    import re
+
+    from afferent.exceptions import AfferentWarning
+    from afferent.sampling import read_receptor_sed
+
+    path = tmp_path / "sed.csv"
+    # positions written in mm and SED in MPa under the SI column names
+    path.write_text("receptor,x_m,y_m,z_m,time_s,sed_pa\n0,0.5,3.0,1.0,0,2e-4\n1,2.5,3.0,1.0,0,3e-4\n")
+    with pytest.warns(AfferentWarning) as rec:
+        read_receptor_sed(path)
+    text = " | ".join(str(w.message) for w in rec)
+    assert re.search(r"SED of 0\.000\d+ J/m\^3 \(99th percentile of the nonzero values\) is far below", text), text
+    assert "check that sed_pa is in Pa" in text and "(receptor positions): the points span 2 m" in text
