@@ -133,9 +133,6 @@ def test_dataframe_long_form(field, rng):
 
 
 def test_a_receptor_sed_table_in_other_units_is_warned(tmp_path):
-    import re
-
-    from afferent.exceptions import AfferentWarning
     from afferent.sampling import read_receptor_sed
 
     path = tmp_path / "sed.csv"
