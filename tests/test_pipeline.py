@@ -56,16 +56,24 @@ def test_pipeline_conserves_current_and_matches_the_sigmoid(bump):
     assert set(res.timings) == {"sampling", "transduction", "synthesis"}
 
 
-def test_fit_against_a_profile_generated_by_the_model_is_perfect(bump):
+def test_the_fit_finds_the_parameters_that_made_the_profile_and_rejects_others(bump):
+    """A profile made by the model at known parameters (then put in arbitrary recording units by an
+    affine map, which min-max normalisation removes) fits perfectly at those parameters and
+    measurably worse at others: the comparison discriminates, it does not just echo the model."""
+    from afferent.receptors import read_receptors
+    from afferent.transduction import SigmoidParams
+
     vtu, receptors, *_ = bump
     field = read_sed(vtu, length_unit="mm", sed_unit="MPa")
-    from afferent.receptors import read_receptors
-
     layout = read_receptors(receptors, length_unit="mm")
-    res = run_pipeline(field, layout, STUDY_PARAMS["start"])
-    observed = ObservedProfile(res.afferent.positions, 3.0 * res.afferent.values[-1] + 2e-7)  # affine, same magnitude: same shape
-    fit = run_pipeline(field, layout, STUDY_PARAMS["start"], observed=observed).fit
-    assert fit.ssd == pytest.approx(0.0, abs=1e-15) and fit.r2_study == pytest.approx(1.0) and fit.r2 == pytest.approx(1.0)
+    true = SigmoidParams(alpha=2.46e-8, gamma=2e-2, lambda_=120.0)  # sensitive over the bump's 0-190 Pa
+    made = run_pipeline(field, layout, true)
+    observed = ObservedProfile(made.afferent.positions, 3.0 * made.afferent.values[-1] / true.alpha + 7.0)
+    at_truth = run_pipeline(field, layout, true, observed=observed).fit
+    assert at_truth.ssd == pytest.approx(0.0, abs=1e-20) and at_truth.r2 == pytest.approx(1.0, abs=1e-12)
+    for other in (STUDY_PARAMS["start"], SigmoidParams(alpha=2.46e-8, gamma=2e-2, lambda_=20.0)):
+        fit = run_pipeline(field, layout, other, observed=observed).fit
+        assert fit.ssd > 1e-3 and fit.r2 < at_truth.r2, (other, fit.ssd)
 
 
 def test_make_branching_specs():

@@ -252,17 +252,18 @@ def test_depth_scaling_error_detects_non_quadratic():
     assert chk2.rel_error_l2[-1] == 0.0
 
 
-def test_scaling_predicts_bundled_series(sample_sed_dir):
-    """On the bundled 0.88 mm loading series the last step, scaled by d^2, predicts the others.
+def test_d2_scaling_holds_near_the_reference_depth_and_fails_at_shallow_depths(sample_sed_dir):
+    """The d^2 scaling measured on the bundled 0.88 mm loading series, against an independent
+    computation, and its validity stated as what the physics predicts (not golden values).
 
     The series (``sample_sed/make_samples.py``) is 6 static steps at d = 0, 0.1, ..., 0.5 mm
     (t = 0, 0.02, ..., 0.1 s, i.e. 5 mm/s). The punch face is brought to the plane y_crest - d
-    over ridged skin (relief 0.06 mm), so the prescribed displacement is d plus a fixed offset
-    and the scaling cannot be exact. Measured on the bundled series (make_samples.py, full
-    mesh; ``pytest -s`` prints the table): relative L2 errors 0.034, 0.095, 0.23, 0.81 at
-    0.4, 0.3, 0.2, 0.1 mm, effective exponents 2.15-2.36 (0.032, 0.090, 0.22, 0.72 on the
-    coarse ``--quick`` mesh). With every step in full contact (d >= 0.1 mm > 0.06 mm relief)
-    the SED is exactly a d^2 + b d + c per receptor, which the test also checks.
+    over ridged skin (relief 0.06 mm), so the prescribed displacement is d plus a fixed offset:
+    SED = a d^2 + b d + c per receptor, and the pure d^2 law from the deepest step can only hold
+    near that step. Measured (``pytest -s`` prints the table): relative L2 errors 0.034, 0.095,
+    0.23, 0.81 at 0.4, 0.3, 0.2, 0.1 mm. The test asserts: the error is computed as documented
+    (numpy here, not the library), under 10 % within 0.1 mm of the reference step, over 50 % at
+    0.1 mm, growing monotonically towards shallow depths.
     """
     pvd = sample_sed_dir / "block4" / "series_0p88mm" / "indent.pvd"
     receptors = sample_sed_dir / "block4" / "receptors.csv"
@@ -280,8 +281,13 @@ def test_scaling_predicts_bundled_series(sample_sed_dir):
     chk = depth_scaling_error(sed, depths, ref_index=-1)
     table = chk.to_dataframe().to_string()
     print("\nd^2 scaling of the last step of the 0.88 mm series:\n" + table)
-    # golden values with slack (a regenerated mesh may move them by a few per cent)
-    np.testing.assert_allclose(chk.rel_error_l2[1:-1], [0.81, 0.23, 0.095, 0.034], rtol=0.25, err_msg=table)
+    ok = np.all(np.isfinite(sed.values), axis=0)
+    v = sed.values[:, ok]
+    independent = [np.linalg.norm(v[k] - v[-1] * (depths[k] / depths[-1]) ** 2) / np.linalg.norm(v[k])
+                   for k in range(1, len(depths))]
+    np.testing.assert_allclose(chk.rel_error_l2[1:], independent, rtol=1e-10, err_msg=table)
+    err = chk.rel_error_l2[1:-1]  # 0.1, 0.2, 0.3, 0.4 mm
+    assert err[-1] < 0.10 and err[0] > 0.50 and np.all(np.diff(err) < 0), table
     # the SED falls faster than d^2 towards small depths: the relief offset does not scale
     assert np.all(chk.exponent[1:-1] > 2.0), table
     # ... and the full-contact steps are an exact quadratic in d per receptor (float32 export)

@@ -48,22 +48,51 @@ def test_pure_shear_exact_closed_form():
     np.testing.assert_allclose(sed_exact(stress, strain), tau**2 / (2 * G_PA), rtol=1e-14)  # U = tau^2 / 2G
 
 
+#: Each tool's 6-component layout as its documentation or source spells it, written out here
+#: independently of afferent's PRESETS table (sources: the tools' manuals/source files named in
+#: each preset's note): the component each position holds, and the factor on shear strain.
+WRITTEN = {
+    "abaqus": (("11", "22", "33", "12", "13", "23"), 2),   # S11 S22 S33 S12 S13 S23; LE engineering
+    "ansys": (("X", "Y", "Z", "XY", "YZ", "XZ"), 2),       # SX SY SZ SXY SYZ SXZ; EPEL engineering
+    "comsol": (("XX", "YY", "ZZ", "XY", "YZ", "XZ"), 1),   # solid.eXX ... solid.eXZ, tensor
+    "febio": (("xx", "yy", "zz", "xy", "yz", "xz"), 1),    # plotfile mat3ds; Lagrange strain tensor
+    "calculix-frd": (("XX", "YY", "ZZ", "XY", "YZ", "ZX"), 1),  # frd.c: SXX SYY SZZ SXY SYZ SZX
+    "calculix-dat": (("xx", "yy", "zz", "xy", "xz", "yz"), 1),  # printout.f: sxx syy szz sxy sxz syz
+    "sfepy": (("11", "22", "33", "12", "13", "23"), 2),    # cauchy_strain, shear doubled
+    "code_aster": (("XX", "YY", "ZZ", "XY", "XZ", "YZ"), 1),  # SIXX SIYY SIZZ SIXY SIXZ SIYZ
+    "lsdyna": (("xx", "yy", "zz", "xy", "yz", "xz"), 1),   # lasso d3plot order
+    "elmer": (("xx", "yy", "zz", "xy", "yz", "xz"), 1),    # Stress_xx ... Stress_xz
+    "vtk": (("XX", "YY", "ZZ", "XY", "YZ", "XZ"), 1),      # VTK symmetric tensor
+}
+_AXIS = {"1": "x", "2": "y", "3": "z", "X": "x", "Y": "y", "Z": "z", "x": "x", "y": "y", "z": "z"}
+
+
+def _canonical_name(label):
+    pair = "".join(_AXIS[c] for c in (label * 2 if len(label) == 1 else label))
+    return {"yx": "xy", "zy": "yz", "zx": "xz"}.get(pair, pair)
+
+
+def test_every_preset_is_covered_by_the_written_layouts():
+    assert set(WRITTEN) == set(PRESETS)
+
+
 @pytest.mark.parametrize("preset", sorted(PRESETS))
-def test_each_preset_reads_a_shear_state_back_exactly(preset):
-    """Write the canonical state in the tool's own order and shear convention; reading it back gives U."""
-    conv = PRESETS[preset]
-    strain = np.array([1.1e-3, -0.7e-3, 0.3e-3, 2.9e-3, -1.3e-3, 0.6e-3])
+def test_each_preset_puts_every_written_component_in_its_place(preset):
+    """A state with six different values is written in the tool's layout (from WRITTEN, not from
+    PRESETS); to_canonical must return each component in its canonical slot, shear halved where
+    the tool writes engineering strain. A wrong order or shear entry in PRESETS fails here (the
+    SED alone could not tell a consistent yz/xz swap)."""
+    labels, shear_factor = WRITTEN[preset]
+    strain = np.array([1.1e-3, -0.7e-3, 0.3e-3, 2.9e-3, -1.3e-3, 0.6e-3])  # canonical, tensor shear
     stress = hooke(strain)
-    expected = sed_exact(stress, strain)
-    order = [CANONICAL_ORDER.index("xz" if c == "zx" else c) for c in conv.order]
-    written_strain = strain[order].copy()
-    if conv.shear == "engineering":
-        written_strain[3:] *= 2
-    s = to_canonical(stress[order], conv, is_strain=False)
-    e = to_canonical(written_strain, conv, is_strain=True)
-    np.testing.assert_allclose(sed_exact(s, e), expected, rtol=1e-14)
-    # and U = 1/2 eps : C : eps > 0 for the elastic material
-    assert expected > 0
+    slot = [CANONICAL_ORDER.index(_canonical_name(lab)) for lab in labels]
+    written_stress = stress[slot]
+    written_strain = strain[slot] * np.where(np.array(slot) >= 3, shear_factor, 1)
+    conv = PRESETS[preset]
+    np.testing.assert_array_equal(to_canonical(written_stress, conv, is_strain=False), stress)
+    np.testing.assert_allclose(to_canonical(written_strain, conv, is_strain=True), strain, rtol=1e-15)
+    s, e = to_canonical(written_stress, conv, is_strain=False), to_canonical(written_strain, conv, is_strain=True)
+    np.testing.assert_allclose(sed_exact(s, e), 0.5 * np.sum(full_tensor(stress) * full_tensor(strain)), rtol=1e-14)
 
 
 def test_wrong_shear_convention_changes_the_energy():
