@@ -70,6 +70,7 @@ class PipelineResult:
     waveform: object | None = None
     input: object | None = None
     spikes: object | None = None
+    scaling: dict | None = None
 
 
 def run_pipeline(
@@ -85,6 +86,8 @@ def run_pipeline(
     rng=None,
     waveform=None,
     d_ref: float | None = None,
+    reference_step: int | None = None,
+    series_depths=None,
 ) -> PipelineResult:
     """SED field -> receptor SED -> receptor current -> afferent current [-> fit].
 
@@ -112,6 +115,12 @@ def run_pipeline(
         with a fixed contact area).
     d_ref : float, optional
         Indentation depth of the static export in m (required with ``waveform``).
+    reference_step : int, optional
+        Which step of a multi-step export was solved at ``d_ref`` (required with ``waveform``
+        when the export has several steps; -1 for the last).
+    series_depths : array_like of shape (n_steps,), optional
+        Depth in m of each step of a loading-series export: the d^2 scaling is then measured
+        against the series and recorded in ``scaling`` (:func:`afferent.stimulus.scaling_record`).
 
     Returns
     -------
@@ -123,12 +132,16 @@ def run_pipeline(
     sed = sample_sed(field, layout, method=method, on_outside=on_outside)
     timings["sampling"] = time.perf_counter() - t
     if waveform is not None:
-        from .stimulus import scale_static
+        from .stimulus import no_reference_step_message, scale_static, scaling_record
 
         if d_ref is None:
             raise ValueError("A waveform needs d_ref, the indentation depth (m) of the static export; got d_ref=None.")
+        if reference_step is None and sed.values.shape[0] > 1:
+            raise ValueError(no_reference_step_message(sed.values.shape[0], sed.times))
         t = time.perf_counter()
-        sed = scale_static(sed, waveform, d_ref=d_ref, time_index=-1)
+        step = 0 if reference_step is None else reference_step
+        scaling = scaling_record(sed, waveform, d_ref=d_ref, reference_step=step, series_depths=series_depths)
+        sed = scale_static(sed, waveform, d_ref=d_ref, time_index=step)
         timings["stimulus"] = time.perf_counter() - t
     t = time.perf_counter()
     current = transduce(sed, params)
@@ -143,7 +156,8 @@ def run_pipeline(
         t = time.perf_counter()
         fit = compare_profiles(afferent, observed, normalise=normalise)
         timings["comparison"] = time.perf_counter() - t
-    return PipelineResult(sed, current, branching, afferent, sat, fit, timings, waveform=waveform)
+    return PipelineResult(sed, current, branching, afferent, sat, fit, timings, waveform=waveform,
+                          scaling=scaling if waveform is not None else None)
 
 
 INPUTS = ("static", "rate-sensitive")

@@ -429,6 +429,9 @@ class StimulusSpec:
     length_unit: str | None = _f("str")
     time_unit: str | None = _f("str")
     on_negative: str | None = _f("choice", choices=("raise", "clip"))
+    reference_step: int | None = _f("int", doc="the export step solved at d_ref; required when the export has several")
+    series_depths_m: tuple | None = _f("numbers", quantity="length",
+                                       doc="depth of every step of a loading-series export: measures the d^2 scaling")
 
 
 _LIF_FIELDS = ("tau_m_s", "r_m_ohm", "v_rest_v", "v_thresh_v", "v_reset_v", "t_ref_s")
@@ -934,7 +937,7 @@ def resolve(scene: Scene) -> Scene:
             raise err("stimulus", key, f"[stimulus] {key!r} has no effect without 'waveform' ('ramp', 'sine' or 'file').")
     else:
         own = {"ramp": _RAMP_KEYS, "sine": _SINE_KEYS, "file": _FILE_KEYS}[st.waveform]
-        common = ("d_ref_m", "dt_s", "on_negative")
+        common = ("d_ref_m", "dt_s", "on_negative", "reference_step", "series_depths_m")
         foreign = [k for k in given_st if k not in own + common]
         if foreign:
             key = _given(scene, "stimulus", foreign[0])
@@ -1560,8 +1563,14 @@ def _compute(scene, planned, skipped, steps, record, inputs, comp, *, cache_dir,
 
     span = {}
     if "stimulus" in planned:
-        from .stimulus import scale_static
+        from .stimulus import no_reference_step_message, scale_static, scaling_record
 
+        st = scene.stimulus
+        if st.reference_step is None and sed.values.shape[0] > 1:
+            where = f"Scene file {scene.source!r}" if scene.source else "Scene"
+            raise SceneError(f"{where}: [stimulus] " + no_reference_step_message(sed.values.shape[0], sed.times)
+                             .replace("reference_step=K", "reference_step = K"), path=scene.source, key="[stimulus] reference_step")
+        step = 0 if st.reference_step is None else st.reference_step
         with steps("stimulus"):
             waveform = _waveform(scene)
             span["waveform_s"] = [float(waveform.times[0]), float(waveform.times[-1])]
@@ -1573,7 +1582,9 @@ def _compute(scene, planned, skipped, steps, record, inputs, comp, *, cache_dir,
                     span["trimmed_to_s"] = [float(waveform.times[0]), float(waveform.times[-1])]
                     span["why"] = (f"only spikes are wanted and [spikes] duration is {dur:g} s: the stimulus beyond it "
                                    "is neither transduced nor simulated")
-            sed_t = scale_static(sed, waveform, d_ref=scene.stimulus.d_ref_m, time_index=-1)
+            record["stimulus"] = {"scaling": scaling_record(sed, waveform, d_ref=st.d_ref_m, reference_step=step,
+                                                            series_depths=st.series_depths_m)}
+            sed_t = scale_static(sed, waveform, d_ref=st.d_ref_m, time_index=step)
         comp["waveform"] = out["waveform"] = waveform
         out["sed"] = sed_t
     else:

@@ -56,6 +56,7 @@ __all__ = [
     "read_waveform",
     "scale_static",
     "depth_scaling_error",
+    "scaling_record",
     "ScalingCheck",
     "InputCurrent",
     "adapting_input",
@@ -671,6 +672,95 @@ def scale_static(sed, waveform: Waveform, *, d_ref: float, time_index: int | Non
     values = factor[:, None] * static[None, :]
     outside = np.asarray(getattr(sed, "outside", np.zeros(static.size, bool)), dtype=bool).copy()
     return ReceptorSED(values, waveform.times.copy(), sed.layout, getattr(sed, "method", "linear"), outside)
+
+
+#: Relative L2 error of the d^2 scaling, measured on an export's own loading series, above
+#: which a run driven by that scaling is warned about.
+SCALING_ERROR_WARN = 0.10
+
+#: When the d^2 scaling is exact, in a line for run records (see :func:`scale_static`, Notes).
+SCALING_VALIDITY = ("exact for linear elasticity under small strain, quasi-static loading and a contact area that "
+                    "does not change with depth (a flat punch in full contact); not for hyperelastic or viscoelastic "
+                    "skin, rounded indenters, or ridged skin before every ridge is touched")
+
+
+def no_reference_step_message(n_steps: int, times) -> str:
+    """The error for a waveform on a multi-step export without a reference step (one wording everywhere)."""
+    t = np.asarray(times, dtype=float)
+    return (
+        f"A waveform scales one static FE step by (d / d_ref)^2, but the export has {n_steps} steps "
+        f"(t = {t[0]:g} .. {t[-1]:g} s); say which step was solved at d_ref with reference_step=K (-1: the last, "
+        "usually the deepest). A loading series can also be used as it is, without a waveform."
+    )
+
+
+def scaling_record(sed, waveform: Waveform, *, d_ref: float, reference_step: int = 0, series_depths=None) -> dict:
+    """What a run driven by :func:`scale_static` assumed, and its error where the export allows measuring it.
+
+    Parameters
+    ----------
+    sed : ReceptorSED
+        The SED sampled from the export (before scaling), J/m^3, one row per export step.
+    waveform : Waveform
+        The indentation depth d(t) in m that drives the scaling.
+    d_ref : float
+        Depth in m of the reference step.
+    reference_step : int, default=0
+        The export step used as the static solution.
+    series_depths : array_like of shape (n_steps,), optional
+        The indentation depth in m of every step of a loading-series export. With it, the
+        scaling from the reference step is compared with the series' own steps
+        (:func:`depth_scaling_error`).
+
+    Returns
+    -------
+    dict
+        ``law``, ``valid_if``, ``d_ref_m``, ``reference_step``, ``reference_time_s``,
+        ``n_export_steps``, ``max_depth_m``, ``extrapolates`` (deeper than d_ref), and
+        ``measured``: None (one static step, or no depths given: not measurable) or the per-step
+        ``depths_m``, ``rel_error_l2``, ``exponent`` and ``max_error_in_range`` (the largest error
+        at the steps whose depth the waveform visits).
+
+    Warns
+    -----
+    AfferentWarning
+        When the measured error exceeds :data:`SCALING_ERROR_WARN` at a depth the waveform visits.
+    """
+    n = int(np.asarray(sed.values).shape[0])
+    k = int(reference_step) % n
+    record = {
+        "law": "SED(t) = SED_ref (d(t) / d_ref)^2", "valid_if": SCALING_VALIDITY, "d_ref_m": float(d_ref),
+        "reference_step": k, "reference_time_s": float(np.asarray(sed.times)[k]), "n_export_steps": n,
+        "max_depth_m": float(waveform.max_depth), "extrapolates": bool(waveform.max_depth > d_ref * (1 + 1e-9)),
+        "measured": None,
+    }
+    if series_depths is None:
+        record["measured_note"] = ("not measured: one static step" if n == 1 else
+                                   "not measured: pass the depths of the series' steps (series_depths) to measure it")
+        return record
+    depths = np.asarray(series_depths, dtype=float)
+    if depths.shape != (n,):
+        raise ValueError(f"'series_depths' must give one depth (m) per export step ({n}); got shape {depths.shape} instead.")
+    if not np.isclose(depths[k], d_ref, rtol=1e-6):
+        raise ValueError(
+            f"'series_depths' puts the reference step {k} at {depths[k]:g} m, but d_ref is {d_ref:g} m; they must agree."
+        )
+    chk = depth_scaling_error(sed, depths, ref_index=k)
+    lo, hi = float(np.min(waveform.depth)), float(np.max(waveform.depth))
+    visited = (depths > 0) & (depths >= lo - 1e-12) & (depths <= hi + 1e-12) & (np.arange(n) != k)
+    err = chk.rel_error_l2
+    worst = float(np.nanmax(err[visited])) if visited.any() else None
+    record["measured"] = {"depths_m": depths.tolist(), "rel_error_l2": err.tolist(), "exponent": chk.exponent.tolist(),
+                          "max_error_in_range": worst}
+    if worst is not None and worst > SCALING_ERROR_WARN:
+        j = int(np.flatnonzero(visited)[np.nanargmax(err[visited])])
+        warnings.warn(
+            f"The d^2 scaling of export step {k} (d_ref = {d_ref:g} m) is off by {100 * worst:.3g} % (relative L2) at "
+            f"d = {depths[j]:g} m, a depth the waveform visits, measured on the export's own loading series: "
+            "the SED there is not (d / d_ref)^2 x the reference (see scale_static, Notes).",
+            AfferentWarning, stacklevel=2,
+        )
+    return record
 
 
 @dataclass(frozen=True, eq=False)

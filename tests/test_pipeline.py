@@ -173,3 +173,26 @@ def test_run_cli_spike_option_errors(capsys, tmp_path, bump):
                         "-o", str(tmp_path / "c")])
     assert code == 2 and "--input rate-sensitive needs --gain-s (s): how much" in capsys.readouterr().err
     assert not any(p.name.startswith(("a", "b", "c", ".")) for p in tmp_path.iterdir() if p.name not in ("bump.vtu", "R.csv"))
+
+
+def test_run_cli_waveform_on_a_series_needs_the_reference_step(capsys, tmp_path):
+    from conftest import SAMPLE_DIR
+
+    series = SAMPLE_DIR / "block4" / "series_0p88mm" / "indent.pvd"
+    receptors = SAMPLE_DIR / "block4" / "receptors.csv"
+    if not series.is_file():
+        pytest.skip("bundled loading series not generated")
+    argv = ["run", str(series), "--receptors", str(receptors), "--length-unit", "mm", "--sed-unit", "MPa",
+            "--params", "start", "--waveform", "ramp:0.5,5,0.1", "--d-ref-mm", "0.5", "--no-plots"]
+    assert main(argv + ["-o", str(tmp_path / "a")]) == 2 and not (tmp_path / "a").exists()
+    assert capsys.readouterr().err == (
+        "afferent: error: A waveform scales one static FE step by (d / d_ref)^2, but the export has 6 steps "
+        "(t = 0 .. 0.1 s); say which step was solved at d_ref with --reference-step K (-1: the last, usually the "
+        "deepest). A loading series can also be used as it is, without a waveform.\n")
+    out = tmp_path / "b"
+    code = main(argv + ["--reference-step", "-1", "--series-depths-mm", "0,0.1,0.2,0.3,0.4,0.5", "-o", str(out)])
+    err = capsys.readouterr().err
+    assert code == 0, err
+    assert len([line for line in err.splitlines() if line.startswith("afferent: warning: The d^2 scaling of export step 5")]) == 1
+    scaling = json.loads((out / "run.json").read_text())["waveform"]["scaling"]
+    assert scaling["reference_step"] == 5 and scaling["measured"]["rel_error_l2"][1] > 0.5

@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 
 from afferent.cache import SEDCache, clear_cache, export_files
-from afferent.exceptions import OutputExistsError
+from afferent.exceptions import AfferentWarning, OutputExistsError
 from afferent.scene import (
     OUTPUTS,
     STAGES,
@@ -413,11 +413,12 @@ def test_spikes_ramp_scene_and_time_span(tmp_path):
         duration_s = 0.3
         """))
     cut = run_scene(short.with_output(tmp_path / "short"), cache_dir=tmp_path / "c")
-    assert cut.cache_hit is True
+    assert cut.cache_hit is False  # the full run read the loading series, this one the static 0.5 mm export
     assert cut.spikes.duration == pytest.approx(0.3)
     assert cut.waveform.times[-1] <= 0.3 + 1e-9 and cut.current.values.shape[0] == cut.waveform.n_times < 400
     assert cut.record["time_span"]["trimmed_to_s"][1] == pytest.approx(0.3)
-    # identical spikes to the full run over that window (the adaptation filter is causal)
+    # identical spikes to the full run over that window (the adaptation filter is causal; the series'
+    # last step is the static export)
     for a, b in zip(cut.spikes.spike_times, res.spikes.spike_times):
         np.testing.assert_allclose(a, b[b < 0.3 - 1e-9], rtol=0, atol=1e-12)
 
@@ -464,3 +465,38 @@ def test_tips_found_on_the_export_are_restricted_and_cached(tmp_path):
     np.testing.assert_array_equal(second.sed.layout.positions, first.sed.layout.positions)
     np.testing.assert_array_equal(second.sed.layout.ids, first.sed.layout.ids)
     np.testing.assert_array_equal(second.sed.values, first.sed.values)
+
+
+@needs_sample
+def test_a_waveform_on_a_loading_series_needs_its_reference_step_and_measures_the_scaling(tmp_path, capsys):
+    series = EXPORT.parent / "series_0p88mm" / "indent.pvd"
+    ramp = """
+        [region]
+        x_range_mm = [1.5, 2.5]
+        [stimulus]
+        waveform = "ramp"
+        d_ref_mm = 0.5
+        hold_s = 0.1
+        """
+    scene = load_scene(small_scene(tmp_path, ["profiles"], export=series, extra=ramp))
+    with pytest.raises(SceneError, match=re.escape(
+            "[stimulus] A waveform scales one static FE step by (d / d_ref)^2, but the export has 6 steps "
+            "(t = 0 .. 0.1 s); say which step was solved at d_ref with reference_step = K")):
+        run_scene(scene.with_output(tmp_path / "a"), use_cache=False)
+    assert not (tmp_path / "a").exists()
+    measured = load_scene(small_scene(tmp_path, ["profiles"], export=series, extra=ramp + """
+        reference_step = -1
+        series_depths_mm = [0.0, 0.1, 0.2, 0.3, 0.4, 0.5]
+        """))
+    with pytest.warns(AfferentWarning, match=re.escape("The d^2 scaling of export step 5 (d_ref = 0.0005 m) is off by 89.2 %")):
+        res = run_scene(measured.with_output(tmp_path / "b"), use_cache=False)
+    sc = res.record["stimulus"]["scaling"]
+    assert sc["reference_step"] == 5 and sc["n_export_steps"] == 6 and not sc["extrapolates"]
+    # the scaling is exact at the reference and wrong at shallow depths (independent check: tests/test_stimulus.py)
+    err = sc["measured"]["rel_error_l2"]
+    assert err[5] == 0.0 and err[4] < 0.05 and err[1] > 0.5 and sc["measured"]["max_error_in_range"] == err[1]
+    (tmp_path / "s").mkdir()
+    static = run_scene(load_scene(small_scene(tmp_path / "s", ["profiles"], extra=ramp)).with_output(tmp_path / "c"),
+                       use_cache=False)
+    assert static.record["stimulus"]["scaling"]["measured"] is None
+    assert static.record["stimulus"]["scaling"]["measured_note"] == "not measured: one static step"

@@ -63,6 +63,11 @@ def add_args(parser: argparse.ArgumentParser) -> None:
                    help="indentation depth over time: 'ramp:DEPTH_MM,SPEED_MM_PER_S,HOLD_S' (ramp-and-hold with release), "
                         "'sine:FREQ_HZ,AMPLITUDE_MM,DURATION_S', or a CSV 'FILE' with columns time, depth")
     g.add_argument("--waveform-unit", default="mm", metavar="U", help="depth unit of a waveform CSV (default mm; time in s)")
+    g.add_argument("--reference-step", type=int, metavar="K",
+                   help="with --waveform on a multi-step export: the step solved at --d-ref-mm (-1: the last); required there")
+    g.add_argument("--series-depths-mm", metavar="D0,D1,...",
+                   help="depth (mm) of every step of a loading-series export: the d^2 scaling is measured against it "
+                        "and recorded in run.json")
     g.add_argument("--d-ref-mm", type=float, metavar="D", help="indentation depth of the static export, mm (SED scales as (d/d_ref)^2)")
     g.add_argument("--waveform-dt-ms", type=float, default=1.0, help="sampling step of ramp/sine waveforms, ms (default 1)")
     g = parser.add_argument_group("spikes (leaky integrate-and-fire)")
@@ -123,6 +128,17 @@ def waveform_from_args(args):
     return stimulus.read_waveform(spec, length_unit=args.waveform_unit)
 
 
+def _series_depths(args):
+    if args.series_depths_mm is None:
+        return None
+    if args.waveform is None:
+        raise ValueError("--series-depths-mm applies to --waveform (it measures the d^2 scaling); add --waveform.")
+    try:
+        return [float(d) * 1e-3 for d in args.series_depths_mm.split(",")]
+    except ValueError as err:
+        raise ValueError(f"--series-depths-mm must be comma-separated numbers (mm); got {args.series_depths_mm!r} instead.") from err
+
+
 def run(args: argparse.Namespace) -> int:
     if len(args.exports) == 1 and args.exports[0].lower().endswith(".toml"):
         from ..scene import run_scene_cli
@@ -150,7 +166,8 @@ def run(args: argparse.Namespace) -> int:
         observed = read_observed(args.observed, length_unit=args.observed_unit)
     result = run_pipeline(field, layout, params, synthesis=args.synthesis, method=args.method,
                           on_outside=args.on_outside, observed=observed, normalise=args.normalise, rng=args.seed,
-                          waveform=waveform, d_ref=None if args.d_ref_mm is None else args.d_ref_mm * 1e-3)
+                          waveform=waveform, d_ref=None if args.d_ref_mm is None else args.d_ref_mm * 1e-3,
+                          reference_step=args.reference_step, series_depths=_series_depths(args))
     if args.spikes:
         from ..spiking import LIFParams
 
@@ -169,7 +186,8 @@ def run(args: argparse.Namespace) -> int:
         "transduction": {"alpha_a": params.alpha, "gamma_per_pa": params.gamma, "lambda_pa": params.lambda_},
         "synthesis": args.synthesis, "sampling": args.method, "normalise": args.normalise,
         "waveform": None if waveform is None else {"spec": args.waveform, "kind": waveform.kind,
-                                                   "parameters": dict(waveform.parameters), "d_ref_m": args.d_ref_mm * 1e-3},
+                                                   "parameters": dict(waveform.parameters), "d_ref_m": args.d_ref_mm * 1e-3,
+                                                   "scaling": result.scaling},
     }
     write_pipeline_outputs(result, args.output, record=record, overwrite=args.overwrite, plots=not args.no_plots)
     if not args.quiet:
