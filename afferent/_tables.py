@@ -37,6 +37,9 @@ def read_table(path, *, what: str, expected: str, as_text: bool = False):
         ``"<what> '<path>' is empty; expected columns <expected>."`` or
         ``"<what> '<path>' could not be parsed as CSV: <reason>"``.
     """
+    import csv
+    import re
+
     import pandas as pd
 
     path = os.fspath(path)
@@ -47,8 +50,15 @@ def read_table(path, *, what: str, expected: str, as_text: bool = False):
         df = pd.read_csv(path, sep=None, engine="python", comment="#", skipinitialspace=True, **kwargs)
     except pd.errors.EmptyDataError as err:
         raise SEDFormatError(f"{what} {path!r} is empty; expected columns {expected}.") from err
-    except (pd.errors.ParserError, UnicodeDecodeError, ValueError) as err:
+    except (pd.errors.ParserError, UnicodeDecodeError, ValueError, csv.Error) as err:
         raise SEDFormatError(f"{what} {path!r} could not be parsed as CSV: {err}") from err
+    names = [str(c).strip().lower() for c in df.columns]
+    repeated = sorted({n for n in names if names.count(n) > 1})
+    mangled = [str(c) for c in df.columns if re.fullmatch(r".+\.\d+", str(c)) and str(c).rsplit(".", 1)[0] in df.columns]
+    if repeated or mangled:
+        twice = repeated[0] if repeated else mangled[0].rsplit(".", 1)[0]
+        raise SEDFormatError(f"{what} {path!r} has two columns named {twice!r} (names are compared without case); "
+                             "each column needs its own name.")
     return df, {str(c).strip().lower(): c for c in df.columns}
 
 

@@ -5,7 +5,7 @@ caller would expect (scikit-learn's ``NotFittedError(ValueError, AttributeError)
 pattern), so ``except ValueError`` keeps working::
 
     AfferentError(Exception)
-    ├── SEDFormatError(AfferentError, ValueError)       unreadable or unsupported export
+    ├── SEDFormatError(AfferentError, ValueError)       unreadable or unsupported input file
     ├── UnitError(AfferentError, ValueError)            a unit missing, unknown or inconsistent
     ├── FieldCoverageError(AfferentError, ValueError)   receptors outside the FE field
     ├── OutputExistsError(AfferentError, FileExistsError)  refusing to overwrite results
@@ -32,7 +32,8 @@ class AfferentError(Exception):
 
 
 class SEDFormatError(AfferentError, ValueError):
-    """An FE export could not be read: unknown format, missing columns, bad values."""
+    """An input file could not be read: an FE export, or a receptor, observed-profile, waveform or
+    SED table (unknown format, missing columns, bad values). The message names the file."""
 
 
 class UnitError(AfferentError, ValueError):

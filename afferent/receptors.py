@@ -207,7 +207,6 @@ def read_receptors(path, *, length_unit: str, tol: float = SECTION_TOLERANCE_M) 
     SEDFormatError
         If the file is empty, lacks x/y/z, or holds non-numeric or non-finite coordinates.
     """
-    import pandas as pd
 
     from ._tables import numeric_columns, read_table
 
@@ -232,7 +231,14 @@ def read_receptors(path, *, length_unit: str, tol: float = SECTION_TOLERANCE_M) 
     for name, aliases in _SECTION_COLUMNS.items():
         col = next((cols[c] for c in aliases if c in cols), None)
         if col is not None:
-            sections[name] = pd.to_numeric(df[col], errors="raise").to_numpy().astype(np.int64)
+            labels = numeric_columns(df, [col], what="Receptor file", path=path)[:, 0]
+            if not np.all(labels == np.round(labels)):
+                k = int(np.flatnonzero(labels != np.round(labels))[0])
+                raise SEDFormatError(
+                    f"Receptor file {path!r}: column {str(col)!r} must hold whole-number section labels; got "
+                    f"{labels[k]!r} on data row {k + 1} instead."
+                )
+            sections[name] = labels.astype(np.int64)
             used.add(col)
     ignored = [str(c) for c in df.columns if c not in used]
     if ignored:

@@ -47,7 +47,7 @@ import numpy as np
 
 from ._validation import check_option, check_positive, describe_array
 from ._validation import plain as _plain
-from .exceptions import AfferentWarning, UnitError
+from .exceptions import AfferentWarning, SEDFormatError, UnitError
 
 __all__ = [
     "Waveform",
@@ -463,10 +463,10 @@ def read_waveform(path, *, length_unit: str, time_unit: str = "s", on_negative: 
         If ``path`` does not exist.
     UnitError
         If a unit is unknown, or the header states a unit other than the declared one.
-    ValueError
+    SEDFormatError
         If the file is empty or unparsable, a column is missing or not numeric, the times are
         not strictly increasing, or a depth is negative with ``on_negative='raise'``. The
-        message names the file and the data row (1-based, header excluded).
+        message names the file and the data row (1-based, header excluded). (A ``ValueError``.)
 
     Examples
     --------
@@ -491,7 +491,7 @@ def read_waveform(path, *, length_unit: str, time_unit: str = "s", on_negative: 
     missing = [v for v in wanted.values() if v not in headers]
     if missing:
         found = ", ".join(repr(str(c)) for c in df.columns) or "none"
-        raise ValueError(
+        raise SEDFormatError(
             f"{where} must have columns {wanted['time']!r} and {wanted['depth']!r}; missing "
             f"{', '.join(map(repr, missing))}. Found columns {found}."
         )
@@ -511,11 +511,11 @@ def read_waveform(path, *, length_unit: str, time_unit: str = "s", on_negative: 
         out[role] = numeric_columns(df, [col], what="Waveform file", path=path)[:, 0]
     t_raw, d_raw = out["time"], out["depth"]
     if t_raw.size == 0:
-        raise ValueError(f"{where} has no data rows; expected at least one (time, depth) sample.")
+        raise SEDFormatError(f"{where} has no data rows; expected at least one (time, depth) sample.")
     step = np.diff(t_raw)
     if np.any(step <= 0):
         k = int(np.flatnonzero(step <= 0)[0])
-        raise ValueError(
+        raise SEDFormatError(
             f"{where}: 'time' must be strictly increasing; got {_plain(t_raw[k])!r} {time_unit} followed by "
             f"{_plain(t_raw[k + 1])!r} {time_unit} (data rows {k + 1} and {k + 2}) instead."
         )
@@ -524,7 +524,7 @@ def read_waveform(path, *, length_unit: str, time_unit: str = "s", on_negative: 
     if neg.any():
         k = int(np.flatnonzero(neg)[0])
         if on_negative == "raise":
-            raise ValueError(
+            raise SEDFormatError(
                 f"{where}: 'depth' must be >= 0 (a negative depth means the indenter has left the skin); got "
                 f"{_plain(d_raw[k])!r} {length_unit} on data row {k + 1} instead. Pass on_negative='clip' to set "
                 "negative depths to 0."

@@ -595,9 +595,10 @@ def _field_counts(text: str, rows: list[str], delim: str) -> np.ndarray:
     """
     n = len(rows)
     if delim != "whitespace" and '"' in text:
-        return np.fromiter(
-            (len(f) for f in csv.reader(rows, delimiter=delim, skipinitialspace=True)), dtype=np.int64, count=n
-        )
+        counts = [len(f) for f in csv.reader(rows, delimiter=delim, skipinitialspace=True)]
+        if len(counts) != n:  # a quote left open runs across rows: no row count can be trusted
+            return None
+        return np.asarray(counts, dtype=np.int64)
     buf = np.frombuffer(text.encode("utf-8"), dtype=np.uint8)
     newlines = np.flatnonzero(buf == 10)
     if delim == "whitespace":
@@ -610,19 +611,9 @@ def _field_counts(text: str, rows: list[str], delim: str) -> np.ndarray:
     return np.bincount(np.searchsorted(newlines, hits), minlength=n) + 1
 
 
-def _read_rows(path, rows, row_lines, delim, names, header_line, notes):
-    """Parse ``rows`` with pandas; return (headers, float64 columns), dropping text columns."""
-    ncols = len(names)
-    text = "\n".join(rows)
-    counts = _field_counts(text, rows, delim)
-    bad = np.flatnonzero(counts != ncols)
-    if bad.size:
-        k = int(bad[0])
-        raise SEDFormatError(
-            f"Line {row_lines[k]} of SED file {path!r} must have {ncols} values, one per column of the "
-            f"header (line {header_line}); got {int(counts[k])} instead."
-        )
-    frame = pd.read_csv(
+def _parse_rows(text: str, delim: str, ncols: int):
+    """The rows as a DataFrame of ``ncols`` columns (pandas' C parser, numbers as float64)."""
+    return pd.read_csv(
         io.StringIO(text),
         sep=r"\s+" if delim == "whitespace" else delim,
         header=None,
@@ -635,6 +626,31 @@ def _read_rows(path, rows, row_lines, delim, names, header_line, notes):
         engine="c",
         **_FLOAT_KW,
     )
+
+
+def _read_rows(path, rows, row_lines, delim, names, header_line, notes):
+    """Parse ``rows`` with pandas; return (headers, float64 columns), dropping text columns."""
+    ncols = len(names)
+    text = "\n".join(rows)
+    counts = _field_counts(text, rows, delim)
+    if counts is None:
+        raise SEDFormatError(
+            f"SED file {path!r} has a quoted field that is never closed (a '\"' without its partner) in the rows "
+            f"from line {row_lines[0]} on; quotes must open and close on the same line."
+        )
+    bad = np.flatnonzero(counts != ncols)
+    if bad.size:
+        k = int(bad[0])
+        raise SEDFormatError(
+            f"Line {row_lines[k]} of SED file {path!r} must have {ncols} values, one per column of the "
+            f"header (line {header_line}); got {int(counts[k])} instead."
+        )
+    try:
+        frame = _parse_rows(text, delim, ncols)
+    except pd.errors.ParserError as err:
+        raise SEDFormatError(
+            f"SED file {path!r}: the rows from line {row_lines[0]} on could not be parsed as a table: {err}"
+        ) from err
     if len(frame) != len(rows):  # e.g. a quoted field spanning lines
         raise SEDFormatError(
             f"SED file {path!r} must have one table row per line; got {len(frame)} rows from "
@@ -813,6 +829,11 @@ def _parse_ccx(path: str, lines: list[str], sep: str | None, notes: list[str]):
             n_pre += not records
         else:
             records[-1]["rows"].append(i)
+    if not records:
+        raise SEDFormatError(
+            f"CalculiX file {path!r} names CalculiX output but has no complete block title such as "
+            "'stresses (elem, integ.pnt.,sxx,syy,szz,sxy,sxz,syz) for set EALL and time  0.1000000E+01'."
+        )
     if n_pre:
         notes.append(f"skipped {_plural(n_pre, 'line')} before the first CalculiX block title")
     time_keys = list(dict.fromkeys(r["time"] for r in records))

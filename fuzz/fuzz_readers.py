@@ -1,0 +1,177 @@
+"""Coverage-guided fuzzing of everything that reads a user's file (atheris).
+
+Each input's first byte picks a target (an FE export in one of the formats, a receptor table,
+an observed profile, a waveform, a scene); the rest is written to a file with that target's
+extension and read through the public API with fixed, valid options. The only outcomes
+accepted are a result or one of the documented errors (:class:`afferent.exceptions.AfferentError`
+and its subclasses, which the CLI turns into one line and exit 2). Anything else - IndexError,
+KeyError, a bare ValueError from numpy or pandas, a hang - is a finding: the fuzzer stops and
+writes the input as ``crash-<hash>``.
+
+Run (the seed corpus is built from the test files on first use)::
+
+    .venv/bin/pip install atheris
+    .venv/bin/python fuzz/fuzz_readers.py fuzz/corpus -max_total_time=1800 -timeout=20 -rss_limit_mb=4096
+
+With ``AFFERENT_FUZZ_FINDINGS=DIR`` set, a finding does not stop the run: each new kind
+(exception type and the afferent line that raised it) is written to DIR as ``<kind>.bin`` (the
+input) and ``<kind>.txt`` (target and traceback), and fuzzing goes on; the count of inputs
+tried is written to ``DIR/stats.txt`` every 10,000 inputs and at exit.
+
+Replay one input (prints the exception and the target)::
+
+    .venv/bin/python fuzz/fuzz_readers.py --replay crash-...
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+import sys
+import tempfile
+import warnings
+from pathlib import Path
+
+HERE = Path(__file__).resolve().parent
+ROOT = HERE.parent
+
+#: target name -> (file suffix, reader); readers take the path and use fixed, valid options.
+TARGETS: list[tuple[str, str]] = [
+    ("csv", ".csv"), ("txt", ".txt"), ("dat", ".dat"), ("rpt", ".rpt"), ("csv.gz", ".csv.gz"),
+    ("vtu", ".vtu"), ("vtk", ".vtk"), ("pvd", ".pvd"), ("xdmf", ".xdmf"), ("frd", ".frd"),
+    ("receptors", ".csv"), ("observed", ".csv"), ("waveform", ".csv"), ("scene", ".toml"), ("sed_table", ".csv"),
+]
+
+
+def _read(target: str, path: str) -> None:
+    import afferent
+    from afferent.profiles import read_observed
+    from afferent.sampling import read_receptor_sed
+    from afferent.scene import load_scene
+    from afferent.stimulus import read_waveform
+
+    if target == "receptors":
+        afferent.read_receptors(path, length_unit="mm")
+    elif target == "observed":
+        read_observed(path, length_unit="mm")
+    elif target == "waveform":
+        read_waveform(path, length_unit="mm")
+    elif target == "scene":
+        load_scene(path)
+    elif target == "sed_table":
+        read_receptor_sed(path)
+    else:
+        from afferent.io import FORMATS
+
+        if target == "frd" and "frd" not in FORMATS:
+            return
+        afferent.read_sed(path, length_unit="mm", sed_unit="MPa")
+
+
+def run_one(data: bytes, folder: str) -> None:
+    """Read one fuzz input; raise on anything but a documented error."""
+    from afferent.exceptions import AfferentError
+
+    if len(data) < 2:
+        return
+    target, suffix = TARGETS[data[0] % len(TARGETS)]
+    path = os.path.join(folder, "input" + suffix)
+    with open(path, "wb") as fh:
+        fh.write(data[1:])
+    if target == "pvd":  # a collection needs its steps beside it: one valid step file
+        shutil.copy(HERE / "seeds" / "step.vtu", os.path.join(folder, "step.vtu"))
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            _read(target, path)
+    except (AfferentError, FileNotFoundError):
+        pass
+
+
+def _record(findings: str, data: bytes, err: Exception) -> None:
+    import traceback
+
+    frames = [f for f in traceback.extract_tb(err.__traceback__) if "/afferent/" in f.filename]
+    where = f"{Path(frames[-1].filename).stem}_{frames[-1].lineno}" if frames else "outside"
+    kind = f"{type(err).__name__}-{where}"
+    out = Path(findings)
+    out.mkdir(parents=True, exist_ok=True)
+    if not (out / f"{kind}.bin").exists():
+        (out / f"{kind}.bin").write_bytes(data)
+        target = TARGETS[data[0] % len(TARGETS)] if data else None
+        (out / f"{kind}.txt").write_text(f"target: {target}\n" + "".join(traceback.format_exception(err)))
+
+
+def _seed_corpus(corpus: Path) -> None:
+    """Prefix each test file with the byte that selects its target."""
+    corpus.mkdir(parents=True, exist_ok=True)
+    if any(corpus.iterdir()):
+        return
+    names = [t for t, _ in TARGETS]
+    picks = {
+        "csv": ROOT / "tests/data/csv", "txt": ROOT / "tests/data/csv", "dat": ROOT / "tests/data/csv",
+        "rpt": ROOT / "tests/data/csv", "vtu": HERE / "seeds", "vtk": HERE / "seeds", "pvd": HERE / "seeds",
+        "xdmf": HERE / "seeds", "scene": ROOT / "sample_sed/scenes", "receptors": HERE / "seeds",
+        "observed": ROOT / "sample_sed/observed", "waveform": HERE / "seeds", "sed_table": HERE / "seeds",
+        "frd": ROOT / "tests/data/calculix",
+    }
+    suffixes = {"csv": (".csv",), "txt": (".txt",), "dat": (".dat",), "rpt": (".rpt",), "vtu": (".vtu",),
+                "vtk": (".vtk",), "pvd": (".pvd",), "xdmf": (".xdmf",), "scene": (".toml",), "receptors": ("receptors.csv",),
+                "observed": (".csv",), "waveform": ("waveform.csv",), "sed_table": ("sed_table.csv",), "frd": (".frd",)}
+    for target, folder in picks.items():
+        if not folder.is_dir():
+            continue
+        for f in sorted(folder.rglob("*")):
+            if f.is_file() and f.name.endswith(suffixes[target]) and f.stat().st_size < 200_000:
+                (corpus / f"{target}-{f.name}").write_bytes(bytes([names.index(target)]) + f.read_bytes())
+
+
+def main() -> None:
+    if len(sys.argv) >= 3 and sys.argv[1] == "--replay":
+        import traceback
+
+        data = Path(sys.argv[2]).read_bytes()
+        print("target:", TARGETS[data[0] % len(TARGETS)] if data else None)
+        with tempfile.TemporaryDirectory() as folder:
+            try:
+                run_one(data, folder)
+                print("accepted (a result or a documented error)")
+            except Exception:
+                traceback.print_exc()
+        return
+    import atheris
+
+    corpus = Path(sys.argv[1]) if len(sys.argv) > 1 and not sys.argv[1].startswith("-") else HERE / "corpus"
+    _seed_corpus(corpus)
+    with atheris.instrument_imports(include=["afferent"]):
+        import afferent  # noqa: F401
+        import afferent.io._assemble  # noqa: F401
+        import afferent.io._csv  # noqa: F401
+        import afferent.io._meshio  # noqa: F401
+        import afferent.profiles  # noqa: F401
+        import afferent.receptors  # noqa: F401
+        import afferent.sampling  # noqa: F401
+        import afferent.scene  # noqa: F401
+        import afferent.stimulus  # noqa: F401
+    folder = tempfile.mkdtemp(prefix="afferent-fuzz-")
+    findings = os.environ.get("AFFERENT_FUZZ_FINDINGS")
+    count = [0]
+
+    def one_input(data: bytes) -> None:
+        count[0] += 1
+        if findings and count[0] % 10_000 == 0:
+            Path(findings, "stats.txt").write_text(f"inputs tried: {count[0]}\n")
+        if not findings:
+            run_one(data, folder)
+            return
+        try:
+            run_one(data, folder)
+        except Exception as err:  # record and go on
+            _record(findings, data, err)
+
+    atheris.Setup(sys.argv, one_input)
+    atheris.Fuzz()
+
+
+if __name__ == "__main__":
+    main()
