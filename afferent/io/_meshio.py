@@ -312,7 +312,13 @@ def read_pvd(path: str, *, progress: bool = False) -> RawExport:
             raise SEDFormatError(
                 f"SED file {path!r}: DataSet {k} timestep must be a number; got {ds.attrib['timestep']!r} instead."
             ) from err
-        entries.append((t, int(ds.attrib.get("part", 0)), os.path.join(folder, ds.attrib["file"])))
+        try:
+            part = int(ds.attrib.get("part", 0))
+        except ValueError as err:
+            raise SEDFormatError(
+                f"SED file {path!r}: DataSet {k} part must be a whole number; got {ds.attrib['part']!r} instead."
+            ) from err
+        entries.append((t, part, os.path.join(folder, ds.attrib["file"])))
     if len({e[1] for e in entries}) > 1:
         raise SEDFormatError(f"SED file {path!r} has several parts per time step; afferent reads single-part series.")
     times = [e[0] for e in entries]
