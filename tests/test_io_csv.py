@@ -501,12 +501,23 @@ def test_empty_and_nan_cells_are_kept(tmp_path):
     np.testing.assert_array_equal(raw.arrays["sed"].values, [[nan, nan, 0.7]])
 
 
-def test_decimal_comma_hint(tmp_path):
-    p = _write(tmp_path, "x;sed\n0,1;0,5\n0,2;0,75\n")
-    msg = (f"Numbers in SED file {p!r} must use a decimal point; got '0,1' at line 2 instead. "
-           f"Export with a decimal point (decimal commas are not supported).")
-    with pytest.raises(SEDFormatError, match=re.escape(msg)):
-        read_csv(p)
+@pytest.mark.parametrize("sep", [";", "\t", " "])
+def test_decimal_commas_are_read_where_the_delimiter_leaves_no_doubt(tmp_path, sep):
+    # European exports (Excel, COMSOL with a comma locale): decimal commas with ';', tab or spaces
+    p = _write(tmp_path, f"x{sep}y{sep}sed\n0,1{sep}1,5e-3{sep}0,5\n0,2{sep}-2,25{sep}0,75\n# 9,9{sep}1\n0,3{sep}nan{sep}1\n")
+    raw = read_csv(p)
+    np.testing.assert_array_equal(raw.arrays["x"].values[0], [0.1, 0.2, 0.3])
+    np.testing.assert_array_equal(raw.arrays["y"].values[0][:2], [1.5e-3, -2.25])
+    np.testing.assert_array_equal(raw.arrays["sed"].values[0], [0.5, 0.75, 1.0])
+    assert any("read decimal commas as decimal points in 3 rows" in n for n in raw.notes)
+
+
+def test_comma_delimited_rows_are_never_read_as_decimal_commas(tmp_path):
+    p = _write(tmp_path, "x,y,sed\n0,1,5\n2,3,7\n")
+    raw = read_csv(p)
+    np.testing.assert_array_equal(raw.arrays["x"].values[0], [0.0, 2.0])
+    np.testing.assert_array_equal(raw.arrays["sed"].values[0], [5.0, 7.0])
+    assert not any("decimal commas" in n for n in raw.notes)
 
 
 def test_number_like_text_column_raises_instead_of_being_dropped(tmp_path):

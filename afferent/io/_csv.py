@@ -306,18 +306,30 @@ def _sniff(lines: list[str], idx: list[int]) -> str | None:
     return best
 
 
-def _check_decimal_comma(path: str, lines: list[str], idx: list[int]) -> None:
-    """Refuse rows like ``0,1;0,5`` (decimal commas), which a comma delimiter would misread."""
+def _decimal_comma_delimiter(lines: list[str], idx: list[int]) -> str | None:
+    """The delimiter (';', tab or whitespace) of rows like ``0,1;0,5`` (decimal commas), else None."""
     for i in idx:
         for delim in (";", "\t", "whitespace"):
             fields = [f for f in _split(lines[i], delim) if f]
-            if len(fields) >= 2 and all(_NUMBER.match(f) or _DECIMAL_COMMA.match(f) for f in fields):
-                bad = next((f for f in fields if _DECIMAL_COMMA.match(f)), None)
-                if bad is not None:
-                    raise SEDFormatError(
-                        f"Numbers in SED file {path!r} must use a decimal point; got {bad!r} at line {i + 1} "
-                        f"instead. Export with a decimal point (decimal commas are not supported)."
-                    )
+            if (len(fields) >= 2 and all(_NUMBER.match(f) or _DECIMAL_COMMA.match(f) for f in fields)
+                    and any(_DECIMAL_COMMA.match(f) for f in fields)):
+                return delim
+    return None
+
+
+def _decimal_points(lines: list[str], delim: str) -> tuple[list[str], int]:
+    """Rewrite the decimal commas of the all-numeric rows split by ``delim``; return (lines, rows changed)."""
+    out, changed = [], 0
+    for line in lines:
+        fields = _split(line, delim)
+        cells = [f for f in fields if f]
+        if (len(cells) >= 2 and all(_NUMBER.match(f) or _DECIMAL_COMMA.match(f) or f.lower() in _NA_SET for f in cells)
+                and any(_DECIMAL_COMMA.match(f) for f in cells)):
+            fields = [f.replace(",", ".") if _DECIMAL_COMMA.match(f) else f for f in fields]
+            line = (" " if delim == "whitespace" else delim).join(fields)
+            changed += 1
+        out.append(line)
+    return out, changed
 
 
 def _raise_no_data(path: str, lines: list[str], body: list[int]):
@@ -465,8 +477,13 @@ def _parse_table(path: str, lines: list[str], sep: str | None, notes: list[str])
             f"SED file {path!r} is empty: it must hold a header row and data rows; got {got} instead."
         )
     delim = sep
+    comma_delim = _decimal_comma_delimiter(lines, body) if sep in (None, ";", "\t", "whitespace") else None
+    if comma_delim is not None and sep in (None, comma_delim):
+        lines, changed = _decimal_points(lines, comma_delim)
+        notes.append(f"read decimal commas as decimal points in {_plural(changed, 'row')} ({_SEP_NAMES[comma_delim]} "
+                     "delimiter)")
+        delim = comma_delim
     if delim is None:
-        _check_decimal_comma(path, lines, body)
         delim = _sniff(lines, body)
         if delim is None and len(body) == _SNIFF_LINES:  # a very long preamble
             delim = _sniff(lines, list(_body_lines(lines)))
