@@ -251,3 +251,17 @@ def test_a_wrong_shear_convention_is_caught_against_the_exports_own_sed(tmp_path
     out = capsys.readouterr().out
     assert ("cross-check  1/2 sigma:eps from the tensors vs the SED array 'SENER' (step 0, relative L2 after the best scale, "
             "1 for 'abaqus'): abaqus/ansys/sfepy < 1e-7 % (round-off); comsol/") in out
+
+
+def test_points_listed_twice_merge_when_they_agree_and_are_refused_when_not(tmp_path):
+    same = tmp_path / "same.csv"
+    same.write_text("x,y,z,SED\n0,0,0,1\n1,0,0,3\n0,0,0,1\n0,1,0,3\n0,0,1,4\n")
+    f = read_sed(same, length_unit="mm", sed_unit="MPa")
+    assert f.n_points == 4 and "1 point(s) listed twice with the same SED merged" in " ".join(f.provenance.notes)
+    np.testing.assert_array_equal(f.sed[0], np.array([1, 3, 3, 4]) * 1e6)
+    differ = tmp_path / "element_nodal.csv"
+    differ.write_text("x,y,z,SED\n0,0,0,1\n1,0,0,3\n0,0,0,2\n0,1,0,3\n0,0,1,4\n")
+    with pytest.raises(SEDFormatError, match=re.escape(
+            f"SED file {str(differ)!r} lists the point (0, 0, 0) more than once with different SED (rows 0 and 2: "
+            "1e+06 and 2e+06 J/m^3); 1 point(s) repeat. These look like unaveraged element-nodal values")):
+        read_sed(differ, length_unit="mm", sed_unit="MPa")

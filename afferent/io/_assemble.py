@@ -426,6 +426,34 @@ def _check_values(raw: RawExport, values: np.ndarray, what: str) -> None:
         )
 
 
+def _merge_duplicate_points(raw: RawExport, xyz: np.ndarray, sed: np.ndarray):
+    """A point table listing a point twice: merged if the values agree, refused if not.
+
+    Tables written per element (element-nodal values) repeat shared nodes; where the values
+    agree the copies carry nothing, where they differ the table holds unaveraged element-nodal
+    values and no single SED belongs to the point.
+    """
+    _, first, inverse, counts = np.unique(xyz, axis=0, return_index=True, return_inverse=True, return_counts=True)
+    inverse = inverse.ravel()
+    if counts.max(initial=1) == 1:
+        return xyz, sed, 0
+    ref = sed[:, first[inverse]]  # each row's group's first value
+    scale = float(np.max(np.abs(sed))) or 1.0
+    differ = np.abs(sed - ref).max(axis=0) > 1e-12 * scale
+    if differ.any():
+        j = int(np.flatnonzero(differ)[0])
+        i = int(first[inverse[j]])
+        t = int(np.argmax(np.abs(sed[:, j] - sed[:, i])))
+        raise SEDFormatError(
+            f"SED file {_where(raw)!r} lists the point ({', '.join(f'{v:g}' for v in xyz[j])}) more than once with "
+            f"different SED (rows {i} and {j}: {sed[t, i]:.6g} and {sed[t, j]:.6g} J/m^3); {int(np.sum(counts > 1))} point(s) "
+            "repeat. These look like unaveraged element-nodal values: export one value per node (averaged, 'unique "
+            "nodal') or per element (centroid)."
+        )
+    keep = np.sort(first)
+    return xyz[keep], sed[:, keep], int(xyz.shape[0] - keep.size)
+
+
 def negative_sed_report(sed: np.ndarray, tolerance: float = NEGATIVE_SED_RTOL) -> dict | None:
     """Count and size the negative values of an SED array; None when there are none.
 
@@ -684,6 +712,10 @@ def assemble(raw: RawExport, opts: ReadOptions) -> SEDField:
             "SED is cell data (one value per FE cell, as exported): 'nearest' sampling takes the value of the "
             "cell containing the receptor; 'linear' first averages cells to nodes (volume-weighted)."
         )
+    if raw.cells is None:
+        xyz, sed, merged = _merge_duplicate_points(raw, xyz, sed)
+        if merged:
+            notes.append(f"{merged} point(s) listed twice with the same SED merged (a table written per element?).")
     unit_key = "sed_unit" if opts.sed_from == "field" else "stress_unit"
     for msg in (
         sed_warning(sed, what=f"SED file {_where(raw)!r} ({units.get('sed', units.get('stress'))} {units.get('sed_source', units.get('stress_source'))})",
