@@ -21,7 +21,7 @@ A full example, every key with its default (``#`` marks optional keys)::
     # stress_unit, time_unit, sed_from = "field"|"exact"|"equivalent", poisson, preset, shear,
     # location = "point"|"cell", sed_column, stress_columns, strain_columns, coord_columns,
     # times = [..] (in time_unit), coordinates = "nodes.csv", on_nan = "raise"|"drop",
-    # negative_tolerance = 1e-3 (accepted negative SED / largest SED), format
+    # negative_tolerance = 0.25 (accepted negative SED / largest SED), format
 
     [receptors]                   # exactly one of file / grid
     file = "../block4/receptors.csv"
@@ -325,7 +325,7 @@ class ExportSpec:
     times: tuple | None = _f("numbers")
     coordinates: str | None = _f("path")
     on_nan: str | None = _f("choice", "raise", choices=("raise", "drop"))
-    negative_tolerance: float | None = _f("number", 1e-3, doc="accepted negative SED, relative to the largest SED")
+    negative_tolerance: float | None = _f("number", 0.25, doc="accepted negative SED, relative to the largest SED")
     format: str | None = _f("choice", choices=tuple(FORMATS))
 
     def read_kwargs(self) -> dict:

@@ -148,16 +148,16 @@ def test_negative_sed_artefacts_in_info_and_one_warning_line(capsys, tmp_path, r
     meshio.write(path, meshio.Mesh(points, [("hexahedron", hexes)], point_data={"ENER": sed}))
     code, out, _ = run(capsys, "info", path)
     assert code == 0
-    assert ("negative SED 1 of 27 values (down to -2e-05 x the largest); within the tolerance 0.001: "
-            "nodal-averaging artefacts, read as 0") in out
+    assert ("negative SED 1 of 27 values (down to -2e-05 x the largest, summing to 1e-06 x the positives); within "
+            "the tolerance 0.25: nodal-extrapolation artefacts, read as 0") in out
     code, _, err = run(capsys, "sample", path, "--receptors", receptors_csv[0], "--length-unit", "mm", "--sed-unit", "MPa",
                        "-o", tmp_path / "s.csv")
     assert code == 0, err
-    warning = [line for line in err.splitlines() if "slightly negative" in line]
+    warning = [line for line in err.splitlines() if "are negative (down to" in line]
     assert len(warning) == 1 and warning[0].startswith("afferent: warning: SED file ") and "Warning" not in warning[0]
     code, _, err = run(capsys, "sample", path, "--receptors", receptors_csv[0], "--length-unit", "mm", "--sed-unit", "MPa",
                        "--negative-tolerance", "1e-6", "-o", tmp_path / "s2.csv")
-    assert code == 2 and "beyond the tolerance 1e-06 x the largest SED" in err and not (tmp_path / "s2.csv").exists()
+    assert code == 2 and "beyond the tolerance 1e-06." in err and not (tmp_path / "s2.csv").exists()
 
 
 def test_errors_reached_from_the_cli_name_the_flags_not_python_keywords(capsys, tmp_path, box_vtu, receptors_csv):

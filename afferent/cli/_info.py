@@ -84,8 +84,9 @@ def describe(raw) -> list[str]:
         add("SED range", f"{np.nanmin(sed):.6g} .. {smax:.6g} (file units)")
         neg = negative_sed_report(np.where(np.isfinite(sed), sed, 0.0))  # NaN rows are reported by read_sed
         if neg is not None:
-            rel = f"down to {neg['min_relative']:.2g} x the largest" if np.isfinite(neg["min_relative"]) else "no value is positive"
-            verdict = (f"within the tolerance {neg['tolerance']:g}: nodal-averaging artefacts, read as 0"
+            rel = (f"down to {neg['min_relative']:.2g} x the largest, summing to {neg['negative_share']:.2g} x the positives"
+                   if np.isfinite(neg["min_relative"]) else "no value is positive")
+            verdict = (f"within the tolerance {neg['tolerance']:g}: nodal-extrapolation artefacts, read as 0"
                        if neg["within_tolerance"] else
                        f"beyond the tolerance {neg['tolerance']:g}: refused unless --negative-tolerance allows it")
             add("negative SED", f"{neg['count']:,} of {neg['n_values']:,} values ({rel}); {verdict}")

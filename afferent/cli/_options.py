@@ -28,9 +28,9 @@ def add_input_options(parser: argparse.ArgumentParser) -> None:
     g.add_argument("--coord-columns", metavar="X,Y,Z", help="names of the coordinate columns of a CSV")
     g.add_argument("--coordinates", metavar="NODES.csv", help="node/element table id,x,y,z to join on a table that has only labels")
     g.add_argument("--on-nan", choices=("raise", "drop"), default="raise", help="NaN rows of a point table: error (default) or leave them out")
-    g.add_argument("--negative-tolerance", type=float, default=1e-3, metavar="R",
-                   help="accept negative SED down to -R x the largest SED (nodal-averaging artefacts of FE tools; "
-                        "set to 0 and reported); default 1e-3")
+    g.add_argument("--negative-tolerance", type=float, default=0.25, metavar="R",
+                   help="accept negative SED down to -R x the largest SED, summing to at most R x the positive values "
+                        "(nodal-extrapolation artefacts of FE tools; set to 0 and reported); default 0.25")
     g.add_argument("--times", metavar="T0,T1,...", help="step times (s unless --time-unit), overriding the file")
     g.add_argument("--time-unit", metavar="U", help="unit of the step times (s, ms, us)")
     g.add_argument("--format", choices=tuple(FORMATS), help="file format, when the extension does not tell")

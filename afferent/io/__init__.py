@@ -30,6 +30,7 @@ FORMATS: dict[str, tuple[str, ...]] = {
     "vtk": (".vtk",),
     "pvd": (".pvd",),
     "xdmf": (".xdmf", ".xmf"),
+    "frd": (".frd", ".frd.gz"),
 }
 
 
@@ -82,13 +83,17 @@ def read_raw(path_or_paths, *, format: str | None = None, progress: bool = False
 
         return read_csv(paths if len(paths) > 1 else paths[0], progress=progress, **csv_kwargs)
     if len(paths) > 1:
-        if fmt in ("pvd", "xdmf"):
+        if fmt in ("pvd", "xdmf", "frd"):
             raise SEDFormatError(f"Pass one .{fmt} file, not a list: it lists its own time steps ({paths!r}).")
         return _meshio.read_vtu_series(paths, progress=progress)
     if fmt == "pvd":
         return _meshio.read_pvd(paths[0], progress=progress)
     if fmt == "xdmf":
         return _meshio.read_xdmf(paths[0], progress=progress)
+    if fmt == "frd":
+        from ._frd import read_frd
+
+        return read_frd(paths[0], progress=progress)
     return _meshio.read_mesh_file(paths[0])
 
 
@@ -160,12 +165,15 @@ def read_sed(
     on_nan : {'raise', 'drop'}, default='raise'
         NaN in a point table is an error; ``'drop'`` leaves those rows out (COMSOL writes NaN
         where an expression is not evaluated) and records how many in the provenance.
-    negative_tolerance : float, default=1e-3
-        Negative SED values down to ``-negative_tolerance`` times the field's largest SED (all
-        steps) are accepted as the artefacts FE tools write where they extrapolate
-        integration-point SED to the nodes: they are set to 0, counted in
-        ``provenance.negative_sed`` and reported with an :class:`~afferent.exceptions.AfferentWarning`.
-        More negative values are refused (a wrong column, sign or shear convention).
+    negative_tolerance : float, default=0.25
+        Negative SED is accepted as the artefact FE tools write where they extrapolate
+        integration-point SED to the nodes when the most negative value is at most this
+        fraction of the field's largest SED and the negatives sum to at most this fraction of
+        the positive values (real CalculiX nodal ENER: down to -0.02 x the largest for linear
+        hexahedra, -0.16 x for quadratic tetrahedra, near a punch edge). Accepted negatives are
+        set to 0, counted in ``provenance.negative_sed`` and reported with an
+        :class:`~afferent.exceptions.AfferentWarning`; anything more negative is refused (a
+        wrong column, sign or shear convention).
     format : {'csv', 'vtu', 'vtk', 'pvd', 'xdmf'}, optional
         Overrides the format deduced from the file name.
     progress : bool, default=False

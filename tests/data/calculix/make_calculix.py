@@ -1,0 +1,167 @@
+"""Write small CalculiX models of an indented skin-like block and run ccx on them.
+
+Regenerate (CalculiX ccx 2.20, Debian package calculix-ccx)::
+
+    python tests/data/calculix/make_calculix.py        # needs `ccx` on PATH
+
+The model, in mm / N / s (so stresses, ENER and E in MPa): a 2 x 2 x 1 mm block (x, y across,
+z up), bottom face z = 0 fixed, the nodes of a 1 x 1 mm patch at the centre of the top face
+pushed down by 0.1 mm in three linear *STATIC steps (1/3, 2/3 and 3/3 of the depth, step times
+1, 2, 3), linear elastic
+E = 0.1 MPa, nu = 0.45 (dermis-like). Every step writes U (nodes) and S, E, ENER
+(extrapolated to and averaged at the nodes) to the .frd. Three meshes: C3D8 (linear hexahedra),
+C3D20R (quadratic, reduced integration) and C3D10 (quadratic tetrahedra, the hexahedra split
+into 6). The C3D8 run also prints S, E, ENER at the integration points to the .dat (*EL PRINT);
+``block_c3d8_binary`` is the same C3D8 model written with *NODE OUTPUT / *ELEMENT OUTPUT, which
+make ccx write the .frd records in binary; ``block_c3d8.frd.gz`` is the ASCII .frd gzipped.
+"""
+
+from __future__ import annotations
+
+import gzip
+import subprocess
+from pathlib import Path
+
+import numpy as np
+
+HERE = Path(__file__).resolve().parent
+L, H = 2.0, 1.0          # block size, mm
+PATCH = 0.5              # half-width of the pushed patch, mm
+DEPTH = 0.1              # indentation, mm
+E_MPA, NU = 0.1, 0.45
+N_STEPS = 3              # depths 1/3, 2/3, 3/3 of DEPTH
+
+
+def _grid(n_xy: int, n_z: int, quadratic: bool):
+    """Nodes of a structured grid (mid-side nodes included when quadratic)."""
+    k = 2 if quadratic else 1
+    xs = np.linspace(0, L, k * n_xy + 1)
+    zs = np.linspace(0, H, k * n_z + 1)
+    ids = {}
+    nodes = []
+    for iz, z in enumerate(zs):
+        for iy, y in enumerate(xs):
+            for ix, x in enumerate(xs):
+                ids[(ix, iy, iz)] = len(nodes) + 1
+                nodes.append((x, y, z))
+    return np.array(nodes), ids, k
+
+
+def _hex8(n_xy, n_z, ids, k=1):
+    els = []
+    for iz in range(n_z):
+        for iy in range(n_xy):
+            for ix in range(n_xy):
+                a, b, c = k * ix, k * iy, k * iz
+                corner = lambda dx, dy, dz: ids[(a + k * dx, b + k * dy, c + k * dz)]  # noqa: E731
+                els.append([corner(0, 0, 0), corner(1, 0, 0), corner(1, 1, 0), corner(0, 1, 0),
+                            corner(0, 0, 1), corner(1, 0, 1), corner(1, 1, 1), corner(0, 1, 1)])
+    return els
+
+
+def _hex20(n_xy, n_z, ids):
+    """C3D20 node order: 8 corners, then mid-edges 9-12 (bottom), 13-16 (top), 17-20 (vertical)."""
+    els = []
+    for iz in range(n_z):
+        for iy in range(n_xy):
+            for ix in range(n_xy):
+                a, b, c = 2 * ix, 2 * iy, 2 * iz
+                n = lambda dx, dy, dz: ids[(a + dx, b + dy, c + dz)]  # noqa: E731
+                els.append([n(0, 0, 0), n(2, 0, 0), n(2, 2, 0), n(0, 2, 0), n(0, 0, 2), n(2, 0, 2), n(2, 2, 2), n(0, 2, 2),
+                            n(1, 0, 0), n(2, 1, 0), n(1, 2, 0), n(0, 1, 0), n(1, 0, 2), n(2, 1, 2), n(1, 2, 2), n(0, 1, 2),
+                            n(0, 0, 1), n(2, 0, 1), n(2, 2, 1), n(0, 2, 1)])
+    return els
+
+
+def _tet10(n_xy, n_z, ids, nodes):
+    """Each hexahedron split into 6 tetrahedra around its 0-6 diagonal; mid-edge nodes added."""
+    els = []
+    extra = {}
+    coords = list(map(tuple, nodes))
+    split = [(0, 1, 2, 6), (0, 2, 3, 6), (0, 3, 7, 6), (0, 7, 4, 6), (0, 4, 5, 6), (0, 5, 1, 6)]
+    for h in _hex8(n_xy, n_z, ids):
+        for t in split:
+            c = [h[i] for i in t]
+            # right-handed: positive volume
+            p = np.array([coords[i - 1] for i in c])
+            if np.linalg.det(np.array([p[1] - p[0], p[2] - p[0], p[3] - p[0]])) < 0:
+                c[1], c[2] = c[2], c[1]
+            mids = []
+            for i, j in ((0, 1), (1, 2), (2, 0), (0, 3), (1, 3), (2, 3)):
+                key = tuple(sorted((c[i], c[j])))
+                if key not in extra:
+                    coords.append(tuple((np.array(coords[c[i] - 1]) + np.array(coords[c[j] - 1])) / 2))
+                    extra[key] = len(coords)
+                mids.append(extra[key])
+            els.append(c + mids)
+    return np.array(coords), els
+
+
+def _lines(values, per_line=8):
+    out = []
+    for i in range(0, len(values), per_line):
+        out.append(", ".join(str(v) for v in values[i:i + per_line]))
+    return ",\n".join(out)
+
+
+def write_inp(path: Path, kind: str, n_xy: int = 4, n_z: int = 2, el_print: bool = False, binary: bool = False) -> None:
+    quadratic = kind in ("C3D20R", "C3D10")
+    nodes, ids, k = _grid(n_xy, n_z, quadratic and kind == "C3D20R")
+    if kind == "C3D8":
+        els = _hex8(n_xy, n_z, ids)
+    elif kind == "C3D20R":
+        els = _hex20(n_xy, n_z, ids)
+    else:
+        nodes, els = _tet10(n_xy, n_z, ids, nodes)
+    used = sorted({n for e in els for n in e})
+    x, y, z = nodes[:, 0], nodes[:, 1], nodes[:, 2]
+    idx = np.arange(1, len(nodes) + 1)
+    in_use = np.isin(idx, used)
+    bottom = idx[in_use & (np.abs(z) < 1e-9)]
+    top = idx[in_use & (np.abs(z - H) < 1e-9) & (np.abs(x - L / 2) <= PATCH + 1e-9) & (np.abs(y - L / 2) <= PATCH + 1e-9)]
+    with open(path, "w") as f:
+        f.write(f"** afferent test model: {kind}, {n_xy}x{n_xy}x{n_z}, mm/N/s\n*NODE, NSET=NALL\n")
+        for i in used:
+            f.write(f"{i}, {nodes[i - 1, 0]:.10g}, {nodes[i - 1, 1]:.10g}, {nodes[i - 1, 2]:.10g}\n")
+        f.write(f"*ELEMENT, TYPE={kind}, ELSET=EALL\n")
+        for j, e in enumerate(els, start=1):
+            f.write(f"{j}, " + _lines(e, 15).replace(",\n", ",\n") + "\n")
+        f.write("*NSET, NSET=BOTTOM\n" + _lines(list(bottom)) + "\n")
+        f.write("*NSET, NSET=PATCH\n" + _lines(list(top)) + "\n")
+        f.write(f"*MATERIAL, NAME=DERMIS\n*ELASTIC\n{E_MPA}, {NU}\n*SOLID SECTION, ELSET=EALL, MATERIAL=DERMIS\n")
+        f.write("*BOUNDARY\nBOTTOM, 1, 3\nPATCH, 1, 2\n")
+        for k in range(1, N_STEPS + 1):  # one linear step per depth: one result set (time k) each
+            f.write(f"*STEP\n*STATIC\n*BOUNDARY\nPATCH, 3, 3, {-DEPTH * k / N_STEPS:.6g}\n")
+            if binary:  # the Abaqus-style cards make ccx write the .frd records in binary
+                f.write("*NODE OUTPUT\nU\n*ELEMENT OUTPUT\nS, E, ENER\n")
+            else:
+                f.write("*NODE FILE\nU\n*EL FILE\nS, E, ENER\n")
+            if el_print:
+                f.write("*EL PRINT, ELSET=EALL\nS, E, ENER\n")
+            f.write("*END STEP\n")
+
+
+def run(job: str, *extra: str) -> None:
+    subprocess.run(["ccx", "-i", job, *extra], cwd=HERE, check=True, capture_output=True)
+    for junk in (".sta", ".cvg", ".12d"):
+        (HERE / f"{job}{junk}").unlink(missing_ok=True)
+    (HERE / "spooles.out").unlink(missing_ok=True)
+
+
+def main() -> None:
+    write_inp(HERE / "block_c3d8.inp", "C3D8", el_print=True)
+    run("block_c3d8")
+    write_inp(HERE / "block_c3d8_binary.inp", "C3D8", binary=True)
+    run("block_c3d8_binary")
+    (HERE / "block_c3d8_binary.dat").unlink(missing_ok=True)
+    write_inp(HERE / "block_c3d20r.inp", "C3D20R", n_xy=2, n_z=1)
+    run("block_c3d20r")
+    write_inp(HERE / "block_c3d10.inp", "C3D10", n_xy=2, n_z=1)
+    run("block_c3d10")
+    for job in ("block_c3d20r", "block_c3d10"):
+        (HERE / f"{job}.dat").unlink(missing_ok=True)  # empty: no *EL PRINT
+    (HERE / "block_c3d8.frd.gz").write_bytes(gzip.compress((HERE / "block_c3d8.frd").read_bytes(), mtime=0))
+
+
+if __name__ == "__main__":
+    main()
