@@ -66,9 +66,32 @@ def test_join_errors(tmp_path):
         read_sed(f"{CSV}/febio_log.txt", coordinates=nodes, length_unit="mm", sed_unit="MPa")
     elements = tmp_path / "elements.csv"
     elements.write_text("element,x,y,z\n1,0.1,0.0,1.0\n2,0.2,0.0,1.0\n")
-    with pytest.raises(SEDFormatError, match=re.escape("ids in column 'Element Label' repeat (integration-point rows?)")):
-        read_sed(f"{CSV}/abaqus_tensors.rpt", coordinates=elements, length_unit="mm", stress_unit="MPa",
+    repeated = tmp_path / "repeated.csv"
+    repeated.write_text("element,SED\n1,0.1\n1,0.2\n2,0.3\n")
+    with pytest.raises(SEDFormatError, match=re.escape(
+            "ids in column 'element' repeat (integration-point rows without an integration-point column?)")):
+        read_sed(repeated, coordinates=elements, length_unit="mm", sed_unit="MPa")
+
+
+def test_integration_point_rows_are_averaged_per_element_then_placed(tmp_path):
+    # abaqus_tensors.rpt: element 1 has integration points 1 and 2, element 2 point 1
+    elements = tmp_path / "elements.csv"
+    elements.write_text("element,x,y,z\n1,0.1,0.0,1.0\n2,0.2,0.0,1.0\n")
+    f = read_sed(f"{CSV}/abaqus_tensors.rpt", coordinates=elements, length_unit="mm", stress_unit="MPa",
                  sed_from="exact", preset="abaqus")
+    assert f.n_points == 2
+    assert "SED at 3 integration points averaged per element (2 elements, 1, 2 point(s) each, equal weights" in \
+        " ".join(f.provenance.notes)
+    from afferent.io import read_raw
+
+    a = read_raw(f"{CSV}/abaqus_tensors.rpt").arrays
+    stress = np.stack([a[k].values[0] for k in ("S.S11", "S.S22", "S.S33", "S.S12", "S.S23", "S.S13")], -1)
+    strain = np.stack([a[k].values[0] for k in ("LE.LE11", "LE.LE22", "LE.LE33", "LE.LE12", "LE.LE23", "LE.LE13")], -1)
+    strain[:, 3:] /= 2  # Abaqus LE shear is engineering
+    at_points = 0.5 * ((stress[:, :3] * strain[:, :3]).sum(1) + 2 * (stress[:, 3:] * strain[:, 3:]).sum(1))  # MPa
+    # SED at each integration point first, then the element mean (1/2 sigma:eps is quadratic)
+    np.testing.assert_allclose(f.sed[0], np.array([at_points[:2].mean(), at_points[2]]) * 1e6, rtol=1e-12)
+    np.testing.assert_allclose(f.points[:, 0], [0.1e-3, 0.2e-3])
 
 
 def test_no_coordinates_says_how_to_add_them():

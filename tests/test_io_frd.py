@@ -170,3 +170,42 @@ def test_info_describes_a_frd(capsys):
     assert "'STRESS'                     point 6 components" in out
     assert "negative SED 12 of 225 values" in out
     assert "CalculiX .frd (binary), written by CalculiX Version 2.20: 3 output step(s)" in out
+
+
+def _inp_mesh(path):
+    """Nodes and C3D8 elements of a .inp deck, parsed here independently of afferent."""
+    nodes, elements, block = {}, {}, None
+    for line in path.read_text().splitlines():
+        if line.startswith("*"):
+            block = line.split(",")[0].strip().upper()
+            continue
+        parts = [p.strip() for p in line.split(",") if p.strip()]
+        if block == "*NODE":
+            nodes[int(parts[0])] = [float(v) for v in parts[1:4]]
+        elif block == "*ELEMENT":
+            elements[int(parts[0])] = [int(v) for v in parts[1:9]]
+    return nodes, elements
+
+
+def test_integration_point_tables_average_per_element_at_the_frd_centroids():
+    """.dat *EL PRINT rows (8 integration points per C3D8) averaged per element and placed at the
+    element centroid (mean of its corner nodes) from the .frd of the same run."""
+    import pandas as pd
+
+    field = read_sed(CCX / "block_c3d8.dat", coordinates=CCX / "block_c3d8.frd", length_unit="mm", sed_unit="MPa")
+    assert field.n_points == 32 and field.n_times == 3
+    assert "SED at 256 integration points averaged per element (32 elements, 8 point(s) each" in " ".join(field.provenance.notes)
+    raw = read_raw(CCX / "block_c3d8.dat")
+    df = pd.DataFrame({"elem": raw.arrays["elem"].values[-1], "ener": raw.arrays["internal energy density"].values[-1]})
+    per_element = df.groupby("elem")["ener"].mean()
+    nodes, elements = _inp_mesh(CCX / "block_c3d8.inp")
+    centroids = np.array([np.mean([nodes[n] for n in elements[e]], axis=0) for e in per_element.index])
+    np.testing.assert_allclose(field.points, centroids * 1e-3, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(field.sed[-1], per_element.to_numpy() * 1e6, rtol=1e-12)
+    assert field.provenance.negative_sed is None  # integration points hold no extrapolation artefact
+    # from the tensors at the integration points (the .dat implies CalculiX's .dat order and tensor shear)
+    exact = read_sed(CCX / "block_c3d8.dat", coordinates=CCX / "block_c3d8.frd", length_unit="mm", stress_unit="MPa",
+                     sed_from="exact")
+    np.testing.assert_allclose(exact.sed, field.sed, rtol=2e-5)
+    assert exact.provenance.checks["shear_convention"]["consistent"]
+    assert exact.provenance.checks["tensor_sed_vs_export_sed"]["agree"]

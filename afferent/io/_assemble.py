@@ -139,9 +139,61 @@ def _id_array(raw: RawExport) -> RawArray | None:
     return None
 
 
-def join_coordinates(raw: RawExport, path: str) -> RawExport:
-    """Attach coordinates from a node (or element-centroid) table ``id, x, y, z`` to a table
-    keyed by node/element label (an Abaqus report, a FEBio logfile, a CalculiX .dat)."""
+_ELEMENT_IDS = frozenset(C.canonical(n) for n in ("element", "elementlabel", "elementnumber", "elementid", "elem", "eid"))
+_POINT_IDS = frozenset(C.canonical(n) for n in ("ip", "intpt", "integrationpoint", "integ.pnt.", "integpnt", "int pt"))
+
+
+def integration_point_groups(raw: RawExport) -> np.ndarray | None:
+    """For an integration-point table (element ids repeat, an integration-point column such as
+    CalculiX's ``integ.pnt.`` or Abaqus' ``Int Pt``), the element of each row as an index into
+    the unique element ids; None for any other table."""
+    rid = _id_array(raw)
+    ip = next((a for a in raw.arrays.values() if a.values.ndim == 2 and C.canonical(a.name) in _POINT_IDS), None)
+    if rid is None or ip is None or C.canonical(rid.name) not in _ELEMENT_IDS:
+        return None
+    ids = rid.values[0]
+    if np.unique(ids).size == ids.size:
+        return None
+    return np.unique(ids, return_inverse=True)[1].ravel()
+
+
+def average_per_element(values: np.ndarray, groups: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Average (n_times, n_rows) values over the rows of each element; returns (means, first row).
+
+    Equal weights: for the standard rules of C3D8 (2x2x2), C3D20R (2x2x2), C3D10 (4 points) and
+    C3D4/C3D8R (1 point) all Gauss weights are equal, so this is the element's Gauss average
+    (its volume average when the element is a parallelepiped); for C3D20 (3x3x3) and wedges it is
+    not. SED is averaged after it is computed at each integration point (1/2 sigma:eps is
+    quadratic: averaging the tensors first would underestimate it).
+    """
+    n = int(groups.max()) + 1
+    counts = np.bincount(groups, minlength=n)
+    sums = np.zeros((values.shape[0], n))
+    np.add.at(sums, (slice(None), groups), values)
+    first = np.full(n, values.shape[1])
+    np.minimum.at(first, groups, np.arange(values.shape[1]))
+    return sums / counts, first
+
+
+def _coordinate_table(path: str, rid: RawArray):
+    """(ids, xyz, length unit, what) from a node/element table (CSV) or a CalculiX .frd mesh."""
+    if path.lower().endswith((".frd", ".frd.gz")):
+        from ._frd import frd_mesh
+
+        node_ids, coords, elements = frd_mesh(path)
+        if C.canonical(rid.name) in _ELEMENT_IDS:
+            index = {int(i): k for k, i in enumerate(node_ids)}
+            from ._frd import FRD_ELEMENTS
+
+            corners = {"hexahedron": 8, "hexahedron20": 8, "wedge": 6, "wedge15": 6, "tetra": 4, "tetra10": 4}
+            ids, xyz = [], []
+            for eid, etype, nodes in elements:
+                k = corners.get(FRD_ELEMENTS[etype][0])
+                if k:
+                    ids.append(eid)
+                    xyz.append(coords[[index[n] for n in nodes[:k]]].mean(axis=0))
+            return np.asarray(ids, float), np.asarray(xyz), None, "element centroids (mean of the corner nodes)"
+        return node_ids.astype(float), coords, None, "node coordinates"
     from ._csv import read_csv
 
     table = read_csv(path)
@@ -152,18 +204,29 @@ def join_coordinates(raw: RawExport, path: str) -> RawExport:
             f"Coordinates file {path!r} must have an id column (e.g. 'Node Label', 'node', 'id') and x, y, z; "
             f"found {_names(table)}."
         )
+    return tid.values[0], xyz, table.length_unit, f"{tid.name!r} ({', '.join(names)})"
+
+
+def join_coordinates(raw: RawExport, path: str) -> RawExport:
+    """Attach coordinates to a table keyed by node/element label (an Abaqus report, a FEBio
+    logfile, a CalculiX .dat): from a node (or element-centroid) table ``id, x, y, z``, or from
+    the CalculiX ``.frd`` of the same run (node coordinates, or element centroids for a table
+    keyed by element). Rows of an integration-point table all get their element's coordinates;
+    :func:`assemble` averages their SED per element."""
     rid = _id_array(raw)
     if rid is None:
         raise SEDFormatError(
             f"SED file {_where(raw)!r} has no node/element id column to join coordinates on; found {_names(raw)}."
         )
-    t_ids, r_ids = tid.values[0], rid.values[0]
+    t_ids, xyz, length_unit, what = _coordinate_table(path, rid)
+    r_ids = rid.values[0]
     if len(np.unique(t_ids)) != t_ids.size:
-        raise SEDFormatError(f"Coordinates file {path!r}: ids in column {tid.name!r} must be unique.")
-    if len(np.unique(r_ids)) != r_ids.size:
+        raise SEDFormatError(f"Coordinates file {path!r}: the ids of its {what} must be unique.")
+    if len(np.unique(r_ids)) != r_ids.size and integration_point_groups(raw) is None:
         raise SEDFormatError(
-            f"SED file {_where(raw)!r}: ids in column {rid.name!r} repeat (integration-point rows?); export one value "
-            "per node or per element (centroid or averaged) to place it at one coordinate."
+            f"SED file {_where(raw)!r}: ids in column {rid.name!r} repeat (integration-point rows without an "
+            "integration-point column?); export one value per node or per element (centroid or averaged) to place it "
+            "at one coordinate."
         )
     order = np.argsort(t_ids)
     pos = np.searchsorted(t_ids[order], r_ids)
@@ -178,8 +241,8 @@ def join_coordinates(raw: RawExport, path: str) -> RawExport:
     points = xyz[order][pos]
     return RawExport(
         files=raw.files + (path,), format=raw.format, points=points, arrays=raw.arrays, times=raw.times,
-        cells=None, length_unit=table.length_unit, time_unit=raw.time_unit,
-        notes=raw.notes + (f"coordinates joined from {path!r} on {rid.name!r} = {tid.name!r} ({', '.join(names)}).",),
+        cells=None, length_unit=length_unit, time_unit=raw.time_unit,
+        notes=raw.notes + (f"coordinates joined from {path!r} on {rid.name!r}: {what}.",), preset=raw.preset,
     )
 
 
@@ -733,6 +796,14 @@ def assemble(raw: RawExport, opts: ReadOptions) -> SEDField:
             notes.append(msg)
             warnings.warn(msg, AfferentWarning, stacklevel=3)
 
+    groups = integration_point_groups(raw) if opts.coordinates is not None else None
+    if groups is not None:
+        sed, first = average_per_element(sed, groups)
+        xyz = xyz[first]
+        counts = np.unique(np.bincount(groups))
+        notes.append(f"SED at {groups.size} integration points averaged per element ({sed.shape[1]} elements, "
+                     f"{', '.join(map(str, counts))} point(s) each, equal weights: the Gauss average for C3D8, C3D20R, "
+                     "C3D10, C3D4, C3D8R; not for C3D20 or wedges) and placed at the element's coordinates.")
     negative = negative_sed_report(sed, opts.negative_tolerance)
     if negative is not None:
         unit_factor = factors.get("sed", factors.get("stress", 1.0))

@@ -952,6 +952,7 @@ class _FileArrays:
     time_unit: str | None
     length_unit: str | None
     notes: list[str]
+    preset: str | None = None
 
 
 def _unit_of(raw: str | None, name: str, notes: list[str]) -> str | None:
@@ -1155,7 +1156,9 @@ def _read_one(path: str, sep: str | None, time_column: str | None) -> _FileArray
         return _to_arrays(path, cols, time_column, n_records=n_rec, record_times=times)
     if "for set" in head.lower() and _CCX_START.search(head):
         cols, n_rec, times = _parse_ccx(path, lines, sep, notes)
-        return _to_arrays(path, cols, time_column, n_records=n_rec, record_times=times)
+        out = _to_arrays(path, cols, time_column, n_records=n_rec, record_times=times)
+        out.preset = "calculix-dat"  # *EL PRINT: sxx syy szz sxy sxz syz, tensor shear (CalculiX printout.f)
+        return out
     cols = _parse_table(path, lines, sep, notes)
     return _to_arrays(path, cols, time_column)
 
@@ -1343,9 +1346,11 @@ def _merge(files: list[str], per_file: list[_FileArrays]) -> RawExport:
                   else np.concatenate([fa.arrays[name][1] for fa in per_file], axis=0))
         arrays[name] = RawArray(name=name, values=np.ascontiguousarray(values, dtype=np.float64),
                                 location="point", unit=unit)
+    presets = {fa.preset for fa in per_file}
     return RawExport(
         files=tuple(files), format="csv", points=None, arrays=arrays, times=times,
         length_unit=length_unit, time_unit=time_unit, notes=_merge_notes(files, per_file),
+        preset=presets.pop() if len(presets) == 1 else None,
     )
 
 

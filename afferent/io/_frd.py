@@ -31,7 +31,7 @@ import numpy as np
 from ..exceptions import SEDFormatError
 from ._raw import RawArray, RawExport
 
-__all__ = ["read_frd"]
+__all__ = ["read_frd", "frd_mesh"]
 
 #: CalculiX .frd element type -> (meshio cell type, number of nodes).
 FRD_ELEMENTS = {
@@ -205,33 +205,8 @@ def _result(cur: _Blocks, header: bytes):
     return time, name, tuple(stored), ids, np.concatenate(parts, axis=1)
 
 
-def read_frd(path: str, *, progress: bool = False) -> RawExport:
-    """Read a CalculiX ``.frd`` result file (ASCII or binary, or ``.frd.gz``).
-
-    Parameters
-    ----------
-    path : str
-        The ``.frd`` (or ``.frd.gz``) file.
-    progress : bool
-        Unused (reading is a single pass); accepted for a uniform reader signature.
-
-    Returns
-    -------
-    RawExport
-        Points (the node coordinates, in the model's length unit), volume cells, one array
-        per result variable (``DISP``, ``STRESS``, ``TOSTRAIN``, ``ENER``, ...; point data,
-        shape (n_times, n_nodes[, n_components]) with CalculiX's component names), the time
-        of each output step, and ``preset='calculix-frd'``.
-
-    Raises
-    ------
-    SEDFormatError
-        Not a ``.frd`` file, a block that is truncated or malformed (the message gives the
-        line), results at nodes that are not in the node block, or a time step that lacks a
-        variable the first step has.
-    """
-    from ._meshio import cells_from_meshio
-
+def _parse(path: str):
+    """(node ids, coordinates, elements, result blocks, version, binary?) of a .frd file."""
     if not os.path.isfile(path):
         raise FileNotFoundError(f"SED file {path!r} not found.")
     with open(path, "rb") as fh:
@@ -277,6 +252,43 @@ def read_frd(path: str, *, progress: bool = False) -> RawExport:
             results.append(_result(cur, line))
     if node_ids is None or node_ids.size == 0:
         raise SEDFormatError(f"SED file {path!r} has no node block ('2C'): no coordinates to place the results at.")
+    return node_ids, coords, elements, results, version, b"\x00" in data[:65536]
+
+
+def frd_mesh(path: str):
+    """(node ids, node coordinates (n, 3), elements [(id, frd type, node ids)]) of a ``.frd``."""
+    node_ids, coords, elements, _, _, _ = _parse(path)
+    return node_ids, coords, elements
+
+
+def read_frd(path: str, *, progress: bool = False) -> RawExport:
+    """Read a CalculiX ``.frd`` result file (ASCII or binary, or ``.frd.gz``).
+
+    Parameters
+    ----------
+    path : str
+        The ``.frd`` (or ``.frd.gz``) file.
+    progress : bool
+        Unused (reading is a single pass); accepted for a uniform reader signature.
+
+    Returns
+    -------
+    RawExport
+        Points (the node coordinates, in the model's length unit), volume cells, one array
+        per result variable (``DISP``, ``STRESS``, ``TOSTRAIN``, ``ENER``, ...; point data,
+        shape (n_times, n_nodes[, n_components]) with CalculiX's component names), the time
+        of each output step, and ``preset='calculix-frd'``.
+
+    Raises
+    ------
+    SEDFormatError
+        Not a ``.frd`` file, a block that is truncated or malformed (the message gives the
+        line), results at nodes that are not in the node block, or a time step that lacks a
+        variable the first step has.
+    """
+    from ._meshio import cells_from_meshio
+
+    node_ids, coords, elements, results, version, binary = _parse(path)
     index = {int(i): k for k, i in enumerate(node_ids)}
     if len(index) != node_ids.size:
         raise SEDFormatError(f"SED file {path!r}: the node block lists a node id twice.")
@@ -331,7 +343,7 @@ def read_frd(path: str, *, progress: bool = False) -> RawExport:
     for arr in arrays.values():
         v = arr.values.reshape(arr.values.shape[0], node_ids.size, -1)
         has_value |= np.isfinite(v).all(axis=(0, 2))
-    kind = "binary" if b"\x00" in data[:65536] else "ASCII"
+    kind = "binary" if binary else "ASCII"
     notes = [f"CalculiX .frd ({kind})"
              + (f", written by CalculiX {version}" if version else "")
              + f": {len(times)} output step(s), results {', '.join(names)}; nodal values (ccx extrapolates "
