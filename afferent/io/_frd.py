@@ -80,23 +80,29 @@ def _int(cur: _Blocks, token: bytes, what: str) -> int:
 
 
 def _records(cur: _Blocks, what: str) -> list[bytes]:
-    """ASCII records of a block: the lines up to its ' -3' terminator."""
-    out = []
-    while True:
-        line = cur.line()
-        if line is None:
-            raise cur.error(f"the {what} block has no end (' -3'): the file is truncated.")
-        if line.startswith(b" -3"):
-            return out
-        out.append(line)
+    """ASCII records of a block: the lines up to its ' -3' terminator (found with one search)."""
+    data, start = cur.data, cur.pos
+    end = start if data.startswith(b" -3", start) else data.find(b"\n -3", start) + 1
+    if end <= 0:
+        raise cur.error(f"the {what} block has no end (' -3'): the file is truncated.")
+    lines = [line.rstrip(b"\r") for line in data[start:end].split(b"\n")[:-1]] if end > start else []
+    cur.line_no += len(lines)
+    cur.pos = start
+    cur.pos = end
+    cur.line()  # the ' -3' line itself
+    return lines
 
 
 def _fixed(lines: list[bytes], start: int, width: int, count: int, cur: _Blocks, what: str) -> np.ndarray:
     """Fixed-width numbers: ``count`` fields of ``width`` bytes from column ``start`` of each line."""
     span = width * count
     try:
-        raw = b"".join(line[start:start + span].ljust(span) for line in lines)
-        fields = np.frombuffer(raw, dtype=f"S{width}").reshape(len(lines), count)
+        if lines and len({len(line) for line in lines}) == 1 and len(lines[0]) >= start + span:
+            grid = np.frombuffer(b"".join(lines), dtype="S1").reshape(len(lines), len(lines[0]))
+            fields = np.ascontiguousarray(grid[:, start:start + span]).view(f"S{width}")
+        else:  # lines of different lengths (short last record line): pad each
+            raw = b"".join(line[start:start + span].ljust(span) for line in lines)
+            fields = np.frombuffer(raw, dtype=f"S{width}").reshape(len(lines), count)
         return fields.astype(np.float64)
     except ValueError as err:
         raise cur.error(f"the {what} block holds a field that is not a number ({err}).") from None
@@ -309,13 +315,17 @@ def read_frd(path: str, *, progress: bool = False) -> RawExport:
     cells = cells_from_meshio([_Block(t, c) for t, c in blocks.items()]) if blocks else None
 
     # results: group the blocks by output time, in file order
+    order = np.argsort(node_ids, kind="stable")
+    sorted_ids = node_ids[order]
     times: list[float] = []
     per_step: list[dict] = []
     for time, name, comps, ids, values in results:
         if not times or time != times[-1] or name in per_step[-1]:
             times.append(time)
             per_step.append({})
-        rows = np.fromiter((index.get(int(i), -1) for i in ids), dtype=np.int64, count=ids.size)
+        rows = np.searchsorted(sorted_ids, ids)
+        rows = np.where((rows < sorted_ids.size) & (sorted_ids[np.minimum(rows, sorted_ids.size - 1)] == ids),
+                        order[np.minimum(rows, sorted_ids.size - 1)], -1)
         if (rows < 0).any():
             raise SEDFormatError(f"SED file {path!r}: result {name!r} at t = {time:g} has values for node "
                                  f"{int(ids[rows < 0][0])}, which the node block does not list.")
