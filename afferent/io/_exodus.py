@@ -1,0 +1,224 @@
+"""Exodus II result files (``.e``, ``.exo``, ``.g``): MOOSE, Cubit, Sierra, SEACAS tools.
+
+An Exodus file is a netCDF file: netCDF-3 ("classic" or 64-bit offset, read with
+:class:`scipy.io.netcdf_file`) or netCDF-4 (an HDF5 file, read with h5py). It holds the node
+coordinates (``coordx/coordy/coordz`` or ``coord``), element blocks (``connect1..N``, 1-based,
+with an ``elem_type`` attribute), the output times (``time_whole``), nodal variables
+(``name_nod_var``; ``vals_nod_var1..N`` or one ``vals_nod_var``) and element variables
+(``name_elem_var``; ``vals_elem_var{i}eb{j}`` per block, present where the truth table
+``elem_var_tab`` says so). Every time step is read (meshio's Exodus reader keeps only the
+first). Nodal variables are point data; element variables are cell data over the volume blocks
+(hexahedra, tetrahedra, wedges, pyramids, linear or quadratic), NaN in a volume block that
+does not carry the variable. Surface, shell, bar and truss blocks are ignored.
+
+MOOSE writes tensor components as separate scalar variables (``stress_xx``, ``stress_xy``, ...
+from RankTwoAux); afferent matches them by name. Their shear is tensor shear (verified on a
+MOOSE file: stress = C : elastic_strain with tensor shear, tests/test_io_exodus.py). Exodus
+has no units: the user declares them.
+"""
+
+from __future__ import annotations
+
+import os
+
+import numpy as np
+
+from ..exceptions import SEDFormatError
+from ._raw import RawArray, RawExport
+
+__all__ = ["read_exodus", "EXODUS_ELEMENTS"]
+
+#: Exodus element type (upper case, leading letters and node count) -> meshio volume cell type.
+EXODUS_ELEMENTS = {
+    "HEX": "hexahedron", "HEX8": "hexahedron", "HEX20": "hexahedron20", "HEX27": "hexahedron27",
+    "TETRA": "tetra", "TETRA4": "tetra", "TET4": "tetra", "TETRA10": "tetra10", "TET10": "tetra10",
+    "TETRA14": "tetra14", "WEDGE": "wedge", "WEDGE6": "wedge", "WEDGE15": "wedge15", "WEDGE18": "wedge18",
+    "PYRAMID": "pyramid", "PYRAMID5": "pyramid", "PYRAMID13": "pyramid13", "PYRAMID14": "pyramid14",
+}
+
+
+class _NetCDF:
+    """The few things read from either netCDF flavour: variables by name, their attributes, dimensions."""
+
+    def __init__(self, path: str):
+        self.path = path
+        with open(path, "rb") as fh:
+            magic = fh.read(8)
+        try:
+            if magic[:3] == b"CDF":
+                from scipy.io import netcdf_file
+
+                self._nc = netcdf_file(path, "r", mmap=False)
+                self.kind = "netCDF-3 (64-bit offset)" if magic[3:4] == b"\x02" else "netCDF-3 (classic)"
+                self.names = set(self._nc.variables)
+            elif magic[:4] == b"\x89HDF":
+                import h5py
+
+                self._h5 = h5py.File(path, "r")
+                self.kind = "netCDF-4 (HDF5)"
+                self.names = {k for k, v in self._h5.items() if isinstance(v, h5py.Dataset)}
+            else:
+                raise SEDFormatError(
+                    f"SED file {path!r} is not an Exodus II file: it must be netCDF ('CDF' or HDF5 signature); got "
+                    f"{magic[:4]!r} instead."
+                )
+        except SEDFormatError:
+            raise
+        except Exception as err:  # a damaged header: ValueError, TypeError, OSError from the netCDF readers
+            raise SEDFormatError(
+                f"SED file {path!r} could not be read as Exodus II (netCDF; truncated or corrupt?): "
+                f"{type(err).__name__}: {err}"
+            ) from err
+
+    def __contains__(self, name: str) -> bool:
+        return name in self.names
+
+    def get(self, name: str) -> np.ndarray:
+        try:
+            if hasattr(self, "_nc"):
+                return np.array(self._nc.variables[name].data)
+            return np.array(self._h5[name][()])
+        except Exception as err:
+            raise SEDFormatError(
+                f"SED file {self.path!r}: Exodus variable {name!r} could not be read (truncated file?): "
+                f"{type(err).__name__}: {err}"
+            ) from err
+
+    def attr(self, name: str, key: str):
+        if hasattr(self, "_nc"):
+            value = getattr(self._nc.variables[name], key, None)
+        else:
+            value = self._h5[name].attrs.get(key)
+        if isinstance(value, (bytes, np.bytes_)):
+            return value.decode("latin-1").strip("\x00 ")
+        if isinstance(value, np.ndarray) and value.dtype.kind in "SU":
+            return b"".join(value.ravel()).decode("latin-1").strip("\x00 ") if value.dtype.kind == "S" else str(value)
+        return value
+
+    def strings(self, name: str) -> list[str]:
+        """A 2-D char array (one name per row) as Python strings."""
+        if name not in self:
+            return []
+        raw = self.get(name)
+        if raw.dtype.kind == "S":
+            raw = raw.reshape(raw.shape[0], -1) if raw.ndim > 1 else raw.reshape(1, -1)
+            return [b"".join(row).decode("latin-1").strip("\x00 ").strip() for row in raw]
+        return [str(v).strip() for v in raw]
+
+    def close(self):
+        if hasattr(self, "_nc"):
+            self._nc.close()
+        else:
+            self._h5.close()
+
+
+def read_exodus(path: str, *, progress: bool = False) -> RawExport:
+    """Read an Exodus II file: mesh, every time step, nodal and element variables.
+
+    Parameters
+    ----------
+    path : str
+        ``.e``, ``.exo``, ``.ex2`` or ``.g`` file.
+    progress : bool
+        Unused (the file is read in one pass); accepted for a uniform reader signature.
+
+    Returns
+    -------
+    RawExport
+        Points (model length unit), volume cells, one array per variable (nodal -> point data,
+        element -> cell data over the volume blocks), times (``time_whole``).
+
+    Raises
+    ------
+    SEDFormatError
+        Not a netCDF file, no coordinates, a variable whose size does not match the mesh, a
+        damaged or truncated file.
+    """
+    from ._meshio import cells_from_meshio
+
+    if not os.path.isfile(path):
+        raise FileNotFoundError(f"SED file {path!r} not found.")
+    if os.path.getsize(path) == 0:
+        raise SEDFormatError(f"SED file {path!r} is empty.")
+    nc = _NetCDF(path)
+    try:
+        if "coord" in nc:
+            coords = nc.get("coord").T
+        elif "coordx" in nc:
+            coords = np.column_stack([nc.get(f"coord{a}") for a in "xyz" if f"coord{a}" in nc])
+        else:
+            raise SEDFormatError(f"SED file {path!r} has no node coordinates ('coordx'/'coordy'/'coordz' or 'coord'): "
+                                 "is it an Exodus II file?")
+        coords = np.asarray(coords, dtype=float)
+        if coords.shape[1] < 3:
+            coords = np.column_stack([coords, np.zeros((coords.shape[0], 3 - coords.shape[1]))])
+        n_nodes = coords.shape[0]
+        n_blocks = sum(1 for k in nc.names if k.startswith("connect") and k[7:].isdigit())
+
+        class _Block:  # what cells_from_meshio reads: .type and .data
+            def __init__(self, ctype, conn):
+                self.type, self.data = ctype, conn
+
+        blocks, volume, skipped = [], [], []
+        for j in range(1, n_blocks + 1):
+            conn = nc.get(f"connect{j}").astype(np.int64) - 1
+            etype = str(nc.attr(f"connect{j}", "elem_type") or "").upper()
+            ctype = EXODUS_ELEMENTS.get(etype)
+            if ctype is None:
+                skipped.append(f"block {j} ({etype or 'no elem_type'}, {conn.shape[0]} elements)")
+                continue
+            if conn.size and (conn.min() < 0 or conn.max() >= n_nodes):
+                raise SEDFormatError(f"SED file {path!r}: element block {j} refers to node {int(conn.max()) + 1}, but "
+                                     f"the file has {n_nodes} nodes.")
+            blocks.append(_Block(ctype, conn))
+            volume.append((j, conn.shape[0]))
+        cells = cells_from_meshio(blocks) if blocks else None
+        times = nc.get("time_whole").astype(float).ravel() if "time_whole" in nc else np.zeros(0)
+        n_t = times.size  # 0: a mesh (Cubit .g) with no results
+        arrays: dict[str, RawArray] = {}
+        for i, name in enumerate(nc.strings("name_nod_var"), start=1):
+            if f"vals_nod_var{i}" in nc:
+                v = nc.get(f"vals_nod_var{i}")
+            elif "vals_nod_var" in nc:
+                v = nc.get("vals_nod_var")[:, i - 1, :]
+            else:
+                raise SEDFormatError(f"SED file {path!r} names the nodal variable {name!r} but holds no values for it.")
+            v = np.asarray(v, dtype=float).reshape(n_t, -1)
+            if v.shape[1] != n_nodes:
+                raise SEDFormatError(f"SED file {path!r}: nodal variable {name!r} must have one value per node "
+                                     f"({n_nodes}); got {v.shape[1]} instead.")
+            arrays[name] = RawArray(name, v, "point")
+        if cells is not None:
+            table = nc.get("elem_var_tab") if "elem_var_tab" in nc else None
+            n_cells = sum(n for _, n in volume)
+            for i, name in enumerate(nc.strings("name_elem_var"), start=1):
+                parts, present = [], False
+                for k, (j, n) in enumerate(volume):
+                    key = f"vals_elem_var{i}eb{j}"
+                    carried = key in nc and (table is None or bool(table[j - 1, i - 1]))
+                    if carried:
+                        v = np.asarray(nc.get(key), dtype=float).reshape(n_t, -1)
+                        if v.shape[1] != n:
+                            raise SEDFormatError(f"SED file {path!r}: element variable {name!r} of block {j} must have "
+                                                 f"one value per element ({n}); got {v.shape[1]} instead.")
+                        present = True
+                    else:
+                        v = np.full((n_t, n), np.nan)
+                    parts.append(v)
+                if present:
+                    key = name if name not in arrays else f"{name}@cell"
+                    arrays[key] = RawArray(name, np.concatenate(parts, axis=1).reshape(n_t, n_cells), "cell")
+        notes = [f"Exodus II, {nc.kind}: {n_t} time step(s), {len(volume)} volume block(s)"
+                 + (f"; ignored {', '.join(skipped)}" if skipped else "") + "."]
+    finally:
+        nc.close()
+    if cells is None:
+        notes.append("No volume elements in the file: the points are treated as scattered samples.")
+    if n_t == 0:
+        notes.append("The file holds a mesh and no time step: no results to read.")
+    if n_t > 1 and np.any(np.diff(times) <= 0):
+        k = int(np.flatnonzero(np.diff(times) <= 0)[0])
+        raise SEDFormatError(f"SED file {path!r}: time_whole must increase; got {times[k]!r} then {times[k + 1]!r} "
+                             f"(steps {k} and {k + 1}).")
+    return RawExport(files=(path,), format="exodus", points=coords, arrays=arrays, times=times if n_t else None, cells=cells,
+                     notes=tuple(notes))
