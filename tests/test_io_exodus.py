@@ -7,7 +7,6 @@ straight from the netCDF file with scipy here, and Hooke's law for the MOOSE mod
 from __future__ import annotations
 
 import re
-import warnings
 
 import numpy as np
 import pytest
@@ -15,7 +14,7 @@ from scipy.io import netcdf_file
 
 from afferent import read_sed, sample_sed
 from afferent.cli import main
-from afferent.exceptions import AfferentWarning, SEDFormatError
+from afferent.exceptions import SEDFormatError
 from afferent.io import read_raw
 from afferent.receptors import ReceptorLayout
 from afferent.strain_energy import sed_exact
