@@ -336,42 +336,15 @@ def read_pvd(path: str, *, progress: bool = False) -> RawExport:
 
 
 def read_xdmf(path: str, *, progress: bool = False) -> RawExport:
-    """An XDMF file: a time series (meshio ``TimeSeriesReader``, mesh read once) or a single mesh."""
-    import meshio
-    from tqdm.auto import tqdm
+    """An XDMF file: grid collections over time (FEniCS/DOLFINx ``write_function``, meshio time
+    series) through :mod:`afferent.io._xdmf`; a single grid through meshio."""
+    from ._xdmf import has_collections, read_xdmf_collections
 
     if not os.path.isfile(path):
         raise FileNotFoundError(f"SED file {path!r} not found.")
-    try:
-        reader = meshio.xdmf.TimeSeriesReader(path)
-        points, cells = reader.read_points_cells()
-        n_steps = reader.num_steps
-    except Exception:
-        raw = read_mesh_file(path)
-        return RawExport(raw.files, "xdmf", raw.points, raw.arrays, None, raw.cells, notes=raw.notes)
-    cells_obj = cells_from_meshio(cells)
-    times, stacks, first = [], {}, None
-    try:
-        for k in tqdm(range(n_steps), desc="reading xdmf", unit="step", disable=not progress):
-            t, point_data, cell_data = reader.read_data(k)
-            step = meshio.Mesh(points, cells, point_data=point_data, cell_data=cell_data)
-            arrays = _arrays_from_mesh(step, path, cells_obj)
-            if first is None:
-                first = arrays
-            elif set(arrays) != set(first):
-                raise SEDFormatError(f"SED file {path!r}: step {k} carries arrays {sorted(arrays)}, step 0 {sorted(first)}.")
-            times.append(float(t))
-            for key, arr in arrays.items():
-                stacks.setdefault(key, []).append(arr.values[0])
-    except SEDFormatError:
-        raise
-    except Exception as err:
-        raise SEDFormatError(f"SED file {path!r} could not be read as an XDMF time series: {type(err).__name__}: {err}") from err
-    pts = np.asarray(points, dtype=float)
-    if pts.shape[1] == 2:
-        pts = np.column_stack([pts, np.zeros(len(pts))])
-    arrays = {key: RawArray(first[key].name, np.stack(v), first[key].location) for key, v in stacks.items()}
-    return RawExport(
-        files=(path,), format="xdmf", points=pts, arrays=arrays, times=np.asarray(times), cells=cells_obj,
-        notes=(f"XDMF time series of {n_steps} step(s); mesh read once.",),
-    )
+    if os.path.getsize(path) == 0:
+        raise SEDFormatError(f"SED file {path!r} is empty.")
+    if has_collections(path):
+        return read_xdmf_collections(path, progress=progress)
+    raw = read_mesh_file(path)
+    return RawExport(raw.files, "xdmf", raw.points, raw.arrays, None, raw.cells, notes=raw.notes)

@@ -1,0 +1,255 @@
+"""XDMF files with time series: FEniCS/DOLFINx ``write_function`` output, meshio time series.
+
+``XDMFFile.write_mesh`` + ``write_function`` (DOLFINx, legacy FEniCS) write one uniform grid
+for the mesh and, per function, a temporal collection of grids, one per time, each pointing at
+the mesh grid's topology and geometry (``xi:include``) and holding one attribute. meshio's
+reader refuses such a file ("only supports one grid"); this reader parses the XML itself and
+reads the heavy data from HDF5 with h5py (or inline XML numbers):
+
+- every collection's grids are grouped by their ``Time``: grids with the same time are one
+  step, so several functions written at each time come out side by side;
+- attributes are point data (``Center="Node"``) or cell data (``Center="Cell"``); ``Tensor``
+  attributes are the 9 components of a 3x3 tensor, row-major (DOLFINx writes ``sym(grad(u))``
+  as such: tensor shear);
+- the mesh (topology, geometry) is read once.
+
+A file with a single grid and no collection is read by meshio (:mod:`afferent.io._meshio`).
+"""
+
+from __future__ import annotations
+
+import os
+import re
+from xml.etree import ElementTree as ET
+
+import numpy as np
+
+from ..exceptions import SEDFormatError
+from ._raw import RawArray, RawExport
+
+__all__ = ["read_xdmf_collections", "has_collections"]
+
+_XI = "{http://www.w3.org/2001/XInclude}include"
+#: XDMF topology type -> meshio cell type (volume cells; the rest are ignored).
+_TOPOLOGY = {
+    "tetrahedron": "tetra", "hexahedron": "hexahedron", "wedge": "wedge", "pyramid": "pyramid",
+    "tetrahedron_10": "tetra10", "hexahedron_20": "hexahedron20", "hexahedron_27": "hexahedron27",
+    "wedge_15": "wedge15", "wedge_18": "wedge18", "pyramid_13": "pyramid13",
+}
+_SURFACE = {"triangle", "quadrilateral", "triangle_6", "quadrilateral_8", "quadrilateral_9", "polyline", "polyvertex",
+            "edge_3", "mixed"}
+
+
+def _parse(path: str) -> ET.Element:
+    try:
+        return ET.parse(path).getroot()
+    except ET.ParseError as err:
+        raise SEDFormatError(f"SED file {path!r} is not valid XDMF (XML): {err}") from err
+
+
+def has_collections(path: str) -> bool:
+    """Whether an XDMF file holds grid collections (a time series) rather than a single grid."""
+    root = _parse(path)
+    return any(g.get("GridType") == "Collection" for g in root.iter("Grid"))
+
+
+class _Heavy:
+    """Reads DataItems: HDF5 datasets (one open file per .h5) or inline XML numbers."""
+
+    def __init__(self, path: str):
+        self.path, self.folder, self.files = path, os.path.dirname(path), {}
+
+    def read(self, item: ET.Element, what: str) -> np.ndarray:
+        fmt = item.get("Format", "XML").upper()
+        dims = tuple(int(d) for d in (item.get("Dimensions") or "").split()) or None
+        text = (item.text or "").strip()
+        if fmt == "HDF":
+            if ":" not in text:
+                raise SEDFormatError(f"SED file {self.path!r}: the HDF DataItem of {what} must read 'file.h5:/path'; "
+                                     f"got {text!r} instead.")
+            name, dataset = text.split(":", 1)
+            h5path = os.path.join(self.folder, name)
+            if h5path not in self.files:
+                if not os.path.isfile(h5path):
+                    raise SEDFormatError(f"SED file {self.path!r}: the heavy-data file {h5path!r} of {what} is missing "
+                                         "(keep the .h5 beside the .xdmf).")
+                import h5py
+
+                try:
+                    self.files[h5path] = h5py.File(h5path, "r")
+                except OSError as err:
+                    raise SEDFormatError(f"SED file {self.path!r}: the heavy-data file {h5path!r} could not be opened "
+                                         f"(truncated or corrupt?): {err}") from err
+            h5 = self.files[h5path]
+            if dataset not in h5:
+                raise SEDFormatError(f"SED file {self.path!r}: dataset {dataset!r} of {what} is not in {h5path!r}.")
+            try:
+                data = np.asarray(h5[dataset][()])
+            except OSError as err:
+                raise SEDFormatError(f"SED file {self.path!r}: dataset {dataset!r} of {what} in {h5path!r} could not "
+                                     f"be read (truncated?): {err}") from err
+        elif fmt == "XML":
+            try:
+                data = np.array(text.split(), dtype=float)
+            except ValueError as err:
+                raise SEDFormatError(f"SED file {self.path!r}: the inline numbers of {what} are not numbers: {err}") from err
+        else:
+            raise SEDFormatError(f"SED file {self.path!r}: {what} is stored as Format={fmt!r}; afferent reads HDF and "
+                                 "XML DataItems.")
+        if dims is not None:
+            if int(np.prod(dims)) != data.size:
+                raise SEDFormatError(f"SED file {self.path!r}: {what} must hold {' x '.join(map(str, dims))} values "
+                                     f"(its Dimensions); got {data.size} instead.")
+            data = data.reshape(dims)
+        return data
+
+    def close(self):
+        for f in self.files.values():
+            f.close()
+
+
+def _mesh_grid(domain: ET.Element, grid: ET.Element) -> ET.Element:
+    """The grid whose Topology/Geometry a grid uses: its own, or the one its xi:include names."""
+    if grid.find("Topology") is not None and grid.find("Geometry") is not None:
+        return grid
+    inc = grid.find(_XI)
+    uniform = [g for g in domain.iter("Grid") if g.get("GridType", "Uniform") == "Uniform"
+               and g.find("Topology") is not None and g.find("Geometry") is not None]
+    if inc is not None:
+        m = re.search(r"@Name\s*=\s*[\"']([^\"']+)[\"']", inc.get("xpointer", ""))
+        if m:
+            named = [g for g in uniform if g.get("Name") == m.group(1)]
+            if named:
+                return named[0]
+    if not uniform:
+        raise SEDFormatError("no grid with a Topology and a Geometry")
+    return uniform[0]
+
+
+def read_xdmf_collections(path: str, *, progress: bool = False) -> RawExport:
+    """Read an XDMF file made of grid collections (one or several functions over time).
+
+    Parameters
+    ----------
+    path : str
+        The ``.xdmf``/``.xmf`` file; its ``.h5`` heavy-data file(s) beside it.
+    progress : bool
+        Show a progress bar over the grids.
+
+    Returns
+    -------
+    RawExport
+        Points (file length unit), volume cells, one array per attribute name (point or cell
+        data; (n_times, n[, n_components])), the step times.
+
+    Raises
+    ------
+    SEDFormatError
+        Invalid XML, a missing .h5 or dataset, sizes that do not match the mesh, grids on
+        different meshes, a function missing at a time the others have.
+    """
+    from tqdm.auto import tqdm
+
+    from ._meshio import cells_from_meshio
+
+    root = _parse(path)
+    domain = root.find("Domain")
+    if domain is None:
+        raise SEDFormatError(f"SED file {path!r} has no <Domain>: not an XDMF file?")
+    heavy = _Heavy(path)
+    try:
+        leaves = []  # (time, grid) of every uniform grid inside a temporal collection
+        for coll in domain.iter("Grid"):
+            if coll.get("GridType") != "Collection":
+                continue
+            if coll.get("CollectionType", "Temporal") != "Temporal":
+                raise SEDFormatError(f"SED file {path!r}: grid collection {coll.get('Name')!r} is "
+                                     f"{coll.get('CollectionType')!r}; afferent reads temporal collections.")
+            for k, grid in enumerate(coll.findall("Grid")):
+                t = grid.find("Time")
+                if t is None or t.get("Value") is None:
+                    raise SEDFormatError(f"SED file {path!r}: grid {k} of collection {coll.get('Name')!r} has no <Time>.")
+                try:
+                    leaves.append((float(t.get("Value")), grid))
+                except ValueError:
+                    raise SEDFormatError(f"SED file {path!r}: grid {k} of collection {coll.get('Name')!r} has the time "
+                                         f"{t.get('Value')!r}, not a number.") from None
+        if not leaves:
+            raise SEDFormatError(f"SED file {path!r} has no grid inside a temporal collection.")
+        try:
+            meshes = {id(_mesh_grid(domain, g)): _mesh_grid(domain, g) for _, g in leaves}
+        except SEDFormatError as err:
+            raise SEDFormatError(f"SED file {path!r}: {err}.") from None
+        if len(meshes) > 1:
+            raise SEDFormatError(f"SED file {path!r}: its grids use {len(meshes)} different meshes; afferent reads "
+                                 "functions on one mesh.")
+        mesh = next(iter(meshes.values()))
+        topo, geo = mesh.find("Topology"), mesh.find("Geometry")
+        points = heavy.read(geo.find("DataItem"), f"the geometry of grid {mesh.get('Name')!r}").astype(float)
+        gtype = geo.get("GeometryType", "XYZ").upper()
+        if gtype not in ("XYZ", "XY"):
+            raise SEDFormatError(f"SED file {path!r}: GeometryType {gtype!r} is not supported (XYZ or XY).")
+        points = points.reshape(-1, 3 if gtype == "XYZ" else 2)
+        if points.shape[1] == 2:
+            points = np.column_stack([points, np.zeros(len(points))])
+        ttype = (topo.get("TopologyType") or topo.get("Type") or "").lower()
+        cells, notes = None, []
+        if ttype in _TOPOLOGY:
+            conn = heavy.read(topo.find("DataItem"), f"the topology of grid {mesh.get('Name')!r}").astype(np.int64)
+            conn = conn.reshape(int(topo.get("NumberOfElements", conn.shape[0])), -1)
+            if conn.size and (conn.min() < 0 or conn.max() >= len(points)):
+                raise SEDFormatError(f"SED file {path!r}: the topology refers to point {int(conn.max())}, but the "
+                                     f"geometry has {len(points)} points.")
+
+            class _Block:  # what cells_from_meshio reads
+                def __init__(self, ctype, data):
+                    self.type, self.data = ctype, data
+
+            cells = cells_from_meshio([_Block(_TOPOLOGY[ttype], conn)])
+        elif ttype in _SURFACE:
+            notes.append(f"topology {topo.get('TopologyType')!r} has no volume cells: the points are treated as "
+                         "scattered samples.")
+        else:
+            raise SEDFormatError(f"SED file {path!r}: TopologyType {topo.get('TopologyType')!r} is not supported.")
+        n_cells = cells.n_cells if cells is not None else 0
+        times = sorted({t for t, _ in leaves})
+        index = {t: k for k, t in enumerate(times)}
+        found: dict[str, dict] = {}
+        for t, grid in tqdm(leaves, desc="reading xdmf", unit="grid", disable=not progress):
+            for att in grid.findall("Attribute"):
+                name = att.get("Name") or "unnamed"
+                center = (att.get("Center") or "Node").lower()
+                if center not in ("node", "cell"):
+                    raise SEDFormatError(f"SED file {path!r}: attribute {name!r} has Center={att.get('Center')!r}; "
+                                         "afferent reads Node and Cell data.")
+                location = "point" if center == "node" else "cell"
+                expected = len(points) if location == "point" else n_cells
+                what = f"attribute {name!r} at t = {t:g}"
+                data = heavy.read(att.find("DataItem"), what).astype(float)
+                data = data.reshape(data.shape[0], -1) if data.ndim > 1 else data.reshape(-1, 1)
+                if location == "cell" and cells is None:
+                    continue
+                if data.shape[0] != expected:
+                    raise SEDFormatError(f"SED file {path!r}: {what} must have one row per "
+                                         f"{'point' if location == 'point' else 'cell'} ({expected}); got {data.shape[0]}.")
+                slot = found.setdefault(name, {"location": location, "type": att.get("AttributeType", "Scalar"),
+                                               "steps": {}})
+                if slot["location"] != location:
+                    raise SEDFormatError(f"SED file {path!r}: attribute {name!r} is point data at one time and cell data "
+                                         "at another.")
+                slot["steps"][index[t]] = data
+        arrays = {}
+        for name, slot in found.items():
+            missing = [times[k] for k in range(len(times)) if k not in slot["steps"]]
+            if missing:
+                raise SEDFormatError(f"SED file {path!r}: function {name!r} has no value at t = {missing[0]:g}, a time "
+                                     "the other functions have; write every function at every time.")
+            stacked = np.stack([slot["steps"][k] for k in range(len(times))])
+            values = stacked[..., 0] if stacked.shape[2] == 1 else stacked
+            arrays[name] = RawArray(name, values, slot["location"])
+    finally:
+        heavy.close()
+    notes.insert(0, f"XDMF with {len({id(g) for _, g in leaves})} grids in temporal collections: {len(times)} time "
+                    f"step(s), functions {', '.join(arrays) or 'none'}; mesh read once.")
+    return RawExport(files=(path,), format="xdmf", points=points, arrays=arrays, times=np.asarray(times, dtype=float),
+                     cells=cells, notes=tuple(notes))

@@ -1,0 +1,94 @@
+"""XDMF written by DOLFINx 0.5.2 itself (tests/data/dolfinx/make_dolfinx.py): one grid per
+function and time step, which meshio's XDMF reader refuses. References: the HDF5 datasets read
+with h5py here, and DOLFINx's own SED (DG0 interpolation of 1/2 sigma:eps) against the SED
+afferent computes from the written stress and strain tensors.
+"""
+
+from __future__ import annotations
+
+import re
+import shutil
+
+import h5py
+import numpy as np
+import pytest
+
+from afferent import read_sed, sample_sed
+from afferent.cli import main
+from afferent.exceptions import SEDFormatError
+from afferent.io import read_raw
+from afferent.receptors import ReceptorLayout
+
+from conftest import DATA_DIR
+
+DX = DATA_DIR / "dolfinx"
+MU = 0.1 / (2 * 1.45)  # MPa: E = 0.1 MPa, nu = 0.45
+
+
+def test_every_function_and_time_of_a_dolfinx_file():
+    raw = read_raw(DX / "block.xdmf")
+    np.testing.assert_array_equal(raw.times, [1.0, 2.0, 3.0])
+    assert raw.cells.cell_types == ("hexahedron",) and raw.cells.n_cells == 32 and raw.points.shape == (75, 3)
+    assert {k: (a.location, a.values.shape) for k, a in raw.arrays.items()} == {
+        "u": ("point", (3, 75, 3)), "stress": ("cell", (3, 32, 9)), "strain": ("cell", (3, 32, 9)),
+        "sed": ("cell", (3, 32)), "sed_nodal": ("point", (3, 75)),
+    }
+    with h5py.File(DX / "block.h5") as h5:
+        for k in (1, 2, 3):
+            np.testing.assert_array_equal(raw.arrays["stress"].values[k - 1], h5[f"Function/stress/{k}"][()])
+            np.testing.assert_array_equal(raw.arrays["sed"].values[k - 1], h5[f"Function/sed/{k}"][()][:, 0])
+        np.testing.assert_array_equal(raw.points, h5["Mesh/mesh/geometry"][()])
+    # the patch goes down by d = 1/3, 2/3, 3/3 of 0.1 mm
+    np.testing.assert_allclose(raw.arrays["u"].values[:, :, 2].min(axis=1), [-0.1 / 3, -0.2 / 3, -0.1], rtol=1e-12)
+
+
+@pytest.mark.parametrize("preset", ["abaqus", "comsol", "sfepy"])
+def test_sed_from_dolfinx_tensors_equals_dolfinx_own_sed(preset):
+    """3x3 tensors hold tensor components whatever a preset says about 6-vectors."""
+    own = read_sed(DX / "block.xdmf", length_unit="mm", sed_unit="MPa")
+    assert own.location == "cell" and own.provenance.columns["sed"] == "sed"
+    exact = read_sed(DX / "block.xdmf", length_unit="mm", stress_unit="MPa", sed_from="exact", preset=preset)
+    np.testing.assert_allclose(exact.sed, own.sed, rtol=1e-12)
+    shear = exact.provenance.checks["shear_convention"]
+    assert shear["consistent"] and shear["k_shear"] == pytest.approx(2 * MU * 1e6, rel=1e-10)
+    assert exact.provenance.checks["tensor_sed_vs_export_sed"]["relative_difference"] < 1e-12
+
+
+def test_nodal_function_samples_exactly_at_the_nodes():
+    field = read_sed(DX / "block.xdmf", length_unit="mm", sed_unit="MPa", sed_column="sed_nodal")
+    assert field.location == "point"
+    raw = read_raw(DX / "block.xdmf")
+    layout = ReceptorLayout(raw.points[::7] * 1e-3)
+    np.testing.assert_allclose(sample_sed(field, layout).values, field.sed[:, ::7], rtol=1e-12, atol=1e-12)
+    # and the projected nodal SED stays close to the cell SED where the field is smooth: same order of magnitude
+    assert 0.3 < field.sed.max() / read_sed(DX / "block.xdmf", length_unit="mm", sed_unit="MPa").sed.max() < 3
+
+
+def test_a_single_function_file():
+    raw = read_raw(DX / "sed_only.xdmf")
+    np.testing.assert_array_equal(raw.times, [3.0])
+    assert list(raw.arrays) == ["sed"] and raw.arrays["sed"].location == "cell"
+
+
+def test_missing_heavy_data_and_damaged_files_are_named(tmp_path):
+    shutil.copy(DX / "block.xdmf", tmp_path / "block.xdmf")
+    with pytest.raises(SEDFormatError, match=re.escape(
+            f"SED file {str(tmp_path / 'block.xdmf')!r}: the heavy-data file {str(tmp_path / 'block.h5')!r} of the geometry "
+            "of grid 'mesh' is missing (keep the .h5 beside the .xdmf).")):
+        read_raw(tmp_path / "block.xdmf")
+    with h5py.File(DX / "block.h5") as src, h5py.File(tmp_path / "block.h5", "w") as dst:
+        for name in ("Mesh", "Function/u", "Function/stress"):
+            src.copy(src[name], dst, name)
+    with pytest.raises(SEDFormatError, match=re.escape("dataset '/Function/strain/1' of attribute 'strain' at t = 1 is not in")):
+        read_raw(tmp_path / "block.xdmf")
+    text = (DX / "block.xdmf").read_text()
+    (tmp_path / "cut.xdmf").write_text(text[: len(text) // 2])
+    with pytest.raises(SEDFormatError, match=re.escape(f"SED file {str(tmp_path / 'cut.xdmf')!r} is not valid XDMF (XML)")):
+        read_raw(tmp_path / "cut.xdmf")
+
+
+def test_info_lists_the_functions_and_steps(capsys):
+    assert main(["info", str(DX / "block.xdmf")]) == 0
+    out = capsys.readouterr().out
+    assert "time steps   3, t = 1 .. 3" in out and "32 volume cells (hexahedron)" in out
+    assert "XDMF with 15 grids in temporal collections: 3 time step(s), functions u, stress, strain, sed, sed_nodal" in out
