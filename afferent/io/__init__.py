@@ -32,6 +32,7 @@ FORMATS: dict[str, tuple[str, ...]] = {
     "xdmf": (".xdmf", ".xmf"),
     "frd": (".frd", ".frd.gz"),
     "exodus": (".e", ".exo", ".ex2", ".g"),
+    "rst": (".rst", ".rth"),
 }
 
 
@@ -84,13 +85,17 @@ def read_raw(path_or_paths, *, format: str | None = None, progress: bool = False
 
         return read_csv(paths if len(paths) > 1 else paths[0], progress=progress, **csv_kwargs)
     if len(paths) > 1:
-        if fmt in ("pvd", "xdmf", "frd", "exodus"):
+        if fmt in ("pvd", "xdmf", "frd", "exodus", "rst"):
             raise SEDFormatError(f"Pass one .{fmt} file, not a list: it lists its own time steps ({paths!r}).")
         return _meshio.read_vtu_series(paths, progress=progress)
     if fmt == "pvd":
         return _meshio.read_pvd(paths[0], progress=progress)
     if fmt == "xdmf":
         return _meshio.read_xdmf(paths[0], progress=progress)
+    if fmt == "rst":
+        from ._ansys import read_rst
+
+        return read_rst(paths[0], progress=progress)
     if fmt == "exodus":
         from ._exodus import read_exodus
 

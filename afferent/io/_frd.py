@@ -29,7 +29,7 @@ import re
 import numpy as np
 
 from ..exceptions import SEDFormatError
-from ._raw import RawArray, RawExport
+from ._raw import RawArray, RawExport, drop_valueless_nodes
 
 __all__ = ["read_frd", "frd_mesh"]
 
@@ -348,31 +348,13 @@ def read_frd(path: str, *, progress: bool = False) -> RawExport:
         stacked = np.stack(steps)
         values = stacked[..., 0] if stacked.shape[2] == 1 else stacked
         arrays[name] = RawArray(name, values, "point", None, comps if stacked.shape[2] > 1 else ())
-    # nodes without any result (e.g. outside *EL FILE's set) and outside every volume cell carry nothing
-    has_value = np.zeros(node_ids.size, bool)
-    for arr in arrays.values():
-        v = arr.values.reshape(arr.values.shape[0], node_ids.size, -1)
-        has_value |= np.isfinite(v).all(axis=(0, 2))
     kind = "binary" if binary else "ASCII"
     notes = [f"CalculiX .frd ({kind})"
              + (f", written by CalculiX {version}" if version else "")
              + f": {len(times)} output step(s), results {', '.join(names)}; nodal values (ccx extrapolates "
              "integration-point values to the nodes and averages them)."]
     points = coords
-    if not has_value.all():
-        used = np.zeros(node_ids.size, bool)
-        if cells is not None:
-            used[np.unique(cells.tetra)] = True
-        if not (used & ~has_value).any():
-            keep = np.flatnonzero(has_value)
-            remap = np.full(node_ids.size, -1)
-            remap[keep] = np.arange(keep.size)
-            points = coords[keep]
-            arrays = {k: RawArray(a.name, a.values[:, keep], a.location, a.unit, a.components) for k, a in arrays.items()}
-            if cells is not None:
-                cells = type(cells)(remap[cells.tetra], cells.parent, cells.n_cells, cells.cell_types)
-            notes.append(f"{int((~has_value).sum())} node(s) without results and outside every volume element left out.")
-    return RawExport(
+    return drop_valueless_nodes(RawExport(
         files=(path,), format="frd", points=points, arrays=arrays, times=np.asarray(times, dtype=float),
         cells=cells, notes=tuple(notes), preset="calculix-frd",
-    )
+    ))

@@ -14,7 +14,7 @@ import numpy as np
 
 from ..field import Cells
 
-__all__ = ["RawExport", "RawArray"]
+__all__ = ["RawExport", "RawArray", "drop_valueless_nodes"]
 
 
 @dataclass(frozen=True)
@@ -91,3 +91,39 @@ class RawExport:
         for arr in self.arrays.values():
             return arr.values.shape[0]
         return 0
+
+
+def drop_valueless_nodes(raw: RawExport) -> RawExport:
+    """Leave out the nodes that lack a value in some point array and belong to no volume cell's tets.
+
+    FE tools average results only at some nodes (the corner nodes of quadratic elements, the
+    nodes of the elements an output set covers); the others come back as NaN and carry nothing.
+    Nodes used by the cells' tetrahedra are always kept (their NaN is then an error later).
+    """
+    import numpy as np
+
+    n = raw.points.shape[0]
+    has_value = np.ones(n, bool)  # a value in every point array, at every step
+    for arr in raw.arrays.values():
+        if arr.location == "point":
+            v = arr.values.reshape(arr.values.shape[0], n, -1)
+            has_value &= np.isfinite(v).all(axis=(0, 2))
+    if has_value.all() or not has_value.any():
+        return raw
+    used = np.zeros(n, bool)
+    if raw.cells is not None:
+        used[np.unique(raw.cells.tetra)] = True
+    if (used & ~has_value).any():
+        return raw
+    keep = np.flatnonzero(has_value)
+    remap = np.full(n, -1)
+    remap[keep] = np.arange(keep.size)
+    arrays = {k: (RawArray(a.name, a.values[:, keep], a.location, a.unit, a.components) if a.location == "point" else a)
+              for k, a in raw.arrays.items()}
+    cells = raw.cells
+    if cells is not None:
+        cells = Cells(remap[cells.tetra], cells.parent, cells.n_cells, cells.cell_types)
+    note = f"{n - keep.size} node(s) without results and outside every volume cell's corners left out."
+    return RawExport(files=raw.files, format=raw.format, points=raw.points[keep], arrays=arrays, times=raw.times,
+                     cells=cells, length_unit=raw.length_unit, time_unit=raw.time_unit, notes=raw.notes + (note,),
+                     preset=raw.preset)

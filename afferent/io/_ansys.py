@@ -1,0 +1,142 @@
+"""ANSYS MAPDL binary result files (``.rst``), through ``ansys-mapdl-reader`` (optional extra).
+
+``pip install 'afferent-skin[ansys]'`` installs the reader (it brings pyvista and VTK, several
+hundred MB, which is why it is not a core dependency). Read per result set: the nodal
+displacement, the nodal stress (``S``: SX SY SZ SXY SYZ SXZ) and the nodal elastic strain
+(``EPEL``: X Y Z XY YZ XZ, **engineering** shear, verified on the reader's shipped MAPDL file:
+stress = C : EPEL holds with G gamma, not 2G eps), each averaged at the nodes by MAPDL's
+post-processing as the reader returns it. MAPDL has no units: the user declares them. The
+implied preset is 'ansys'.
+
+Result sets are steps in time when their time values increase; a modal or harmonic analysis
+(whose "time" values are frequencies, possibly repeated) is read with steps numbered by set,
+as the note says.
+"""
+
+from __future__ import annotations
+
+import os
+import warnings
+
+import numpy as np
+
+from ..exceptions import SEDFormatError
+from ._raw import RawArray, RawExport, drop_valueless_nodes
+
+__all__ = ["read_rst"]
+
+#: VTK cell type -> meshio cell type for the volume elements pyvista's grid carries.
+_VTK_VOLUME = {10: "tetra", 12: "hexahedron", 13: "wedge", 14: "pyramid", 24: "tetra10", 25: "hexahedron20"}
+
+
+def _check_header(path: str) -> None:
+    """Refuse what the reader's compiled code would crash on: a file that is not an MAPDL binary
+    file, or one shorter than its standard header says (truncated).
+
+    The standard header is the first record: a length word (100), a flag, then 100 items;
+    item 27 is the number of 4-byte words the file uses (MAPDL's binary-file format).
+    """
+    try:
+        head = np.fromfile(path, dtype="<i4", count=31)
+    except OSError as err:
+        raise SEDFormatError(f"SED file {path!r} could not be read: {err}") from err
+    if head.size < 31 or head[0] != 100:
+        raise SEDFormatError(f"SED file {path!r} is not an ANSYS MAPDL binary file: it must start with the 100-word "
+                             "standard header record.")
+    used = int(head[28]) * 4
+    size = os.path.getsize(path)
+    if used <= 0 or size < used:
+        raise SEDFormatError(f"SED file {path!r} is truncated: its header says the file uses {used} bytes; it has "
+                             f"{size} bytes.")
+
+
+def read_rst(path: str, *, progress: bool = False) -> RawExport:
+    """Read an ANSYS MAPDL ``.rst`` result file.
+
+    Parameters
+    ----------
+    path : str
+        The ``.rst`` file.
+    progress : bool
+        Show a progress bar over the result sets.
+
+    Returns
+    -------
+    RawExport
+        Points (model length unit), volume cells, per result set the arrays ``U``
+        (displacement), ``S`` (stress, components SX..SXZ) and ``EPEL`` (elastic strain,
+        EPELX..EPELXZ, engineering shear) as point data; ``preset='ansys'``.
+
+    Raises
+    ------
+    SEDFormatError
+        The optional reader is not installed, or the file is not a readable MAPDL result file.
+    """
+    from tqdm.auto import tqdm
+
+    from ._meshio import cells_from_meshio
+
+    if not os.path.isfile(path):
+        raise FileNotFoundError(f"SED file {path!r} not found.")
+    _check_header(path)
+    try:
+        from ansys.mapdl.reader import read_binary
+    except ImportError as err:
+        raise SEDFormatError(
+            f"SED file {path!r} is an ANSYS .rst result file; reading it needs the optional extra: "
+            "pip install 'afferent-skin[ansys]' (ansys-mapdl-reader)."
+        ) from err
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            rst = read_binary(path)
+            grid = rst.grid
+            node_numbers = np.asarray(grid.point_data["ansys_node_num"], dtype=np.int64)
+            points = np.asarray(grid.points, dtype=float)
+            blocks = []
+            for vtk_type, conn in grid.cells_dict.items():
+                ctype = _VTK_VOLUME.get(int(vtk_type))
+                if ctype is not None:
+                    k = {"tetra": 4, "hexahedron": 8, "wedge": 6, "pyramid": 5}.get(ctype, conn.shape[1])
+                    base = {"tetra10": "tetra", "hexahedron20": "hexahedron"}.get(ctype, ctype)
+                    blocks.append((base, np.asarray(conn)[:, :{"tetra": 4, "hexahedron": 8}.get(base, k)]))
+            order = np.argsort(node_numbers)
+            sets = range(rst.nsets)
+            stacks = {"U": [], "S": [], "EPEL": []}
+            for k in tqdm(sets, desc="reading rst", unit="set", disable=not progress):
+                for key, getter, ncomp in (("U", rst.nodal_displacement, 3), ("S", rst.nodal_stress, 6),
+                                           ("EPEL", rst.nodal_elastic_strain, 6)):
+                    nnum, values = getter(k)
+                    values = np.asarray(values, dtype=float)[:, :ncomp]
+                    full = np.full((points.shape[0], ncomp), np.nan)
+                    pos = np.searchsorted(node_numbers[order], np.asarray(nnum))
+                    full[order[pos]] = values
+                    stacks[key].append(full)
+            times = np.asarray(rst.time_values, dtype=float)
+    except SEDFormatError:
+        raise
+    except Exception as err:
+        raise SEDFormatError(
+            f"SED file {path!r} could not be read as an ANSYS MAPDL result file (ansys-mapdl-reader): "
+            f"{type(err).__name__}: {err}"
+        ) from err
+
+    class _Block:
+        def __init__(self, ctype, data):
+            self.type, self.data = ctype, np.asarray(data, dtype=np.int64)
+
+    cells = cells_from_meshio([_Block(t, c) for t, c in blocks]) if blocks else None
+    notes = [f"ANSYS MAPDL result file (ansys-mapdl-reader): {len(times)} result set(s) at the sets' time values "
+             "(frequencies in a modal analysis); nodal S and EPEL as MAPDL averages them at the nodes; EPEL shear is "
+             "engineering (preset 'ansys')."]
+    if times.size > 1 and np.any(np.diff(times) <= 0):
+        notes.append(f"the result sets' time values ({', '.join(f'{t:g}' for t in times[:6])}"
+                     f"{', ...' if times.size > 6 else ''}) do not increase (a modal or harmonic analysis: frequencies?): "
+                     "steps are numbered by result set 0, 1, ...")
+        times = np.arange(times.size, dtype=float)
+    components = {"U": ("UX", "UY", "UZ"), "S": ("SX", "SY", "SZ", "SXY", "SYZ", "SXZ"),
+                  "EPEL": ("EPELX", "EPELY", "EPELZ", "EPELXY", "EPELYZ", "EPELXZ")}
+    arrays = {k: RawArray(k, np.stack(v), "point", None, components[k]) for k, v in stacks.items()}
+    raw = RawExport(files=(path,), format="rst", points=points, arrays=arrays, times=times, cells=cells,
+                    notes=tuple(notes), preset="ansys")
+    return drop_valueless_nodes(raw)

@@ -1,0 +1,93 @@
+"""ANSYS MAPDL binary results (.rst), read through ansys-mapdl-reader (the `ansys` extra, part of
+the test extra so CI runs these). The file is the real MAPDL result the reader ships
+(`ansys.mapdl.reader.examples.rstfile`: 40 SOLID186 hexahedra, a modal analysis, 6 result
+sets, material EX = 1.69e7, NUXY = 0.31). References: the reader's own arrays and Hooke's law
+for that material.
+"""
+
+from __future__ import annotations
+
+import re
+import sys
+import warnings
+
+import numpy as np
+import pytest
+
+from afferent import read_sed
+from afferent.cli import main
+from afferent.exceptions import AfferentWarning, SEDFormatError
+from afferent.io import read_raw
+from afferent.strain_energy import sed_exact
+
+reader = pytest.importorskip("ansys.mapdl.reader", reason="the 'ansys' extra (ansys-mapdl-reader) is part of [test]")
+RST = reader.examples.rstfile
+
+
+def _read(**kw):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", AfferentWarning)  # the file is in psi and inches: implausible for skin
+        return read_sed(RST, length_unit="m", **kw)
+
+
+def test_result_sets_mesh_and_components():
+    raw = read_raw(RST)
+    assert raw.format == "rst" and raw.preset == "ansys" and raw.times.size == 6
+    assert raw.cells.cell_types == ("hexahedron",) and raw.cells.n_cells == 40
+    assert raw.points.shape == (99, 3)  # MAPDL averages S and EPEL at the corner nodes only: 222 mid-side nodes left out
+    assert raw.arrays["S"].components == ("SX", "SY", "SZ", "SXY", "SYZ", "SXZ")
+    rst = reader.read_binary(RST)
+    nnum, stress = rst.nodal_stress(3)
+    ok = np.isfinite(stress).all(axis=1)
+    got = raw.arrays["S"].values[3]
+    np.testing.assert_allclose(np.sort(got, axis=0), np.sort(stress[ok], axis=0), rtol=0, atol=0)
+
+
+def test_elastic_strain_shear_is_engineering_by_hookes_law_of_the_files_material():
+    raw = read_raw(RST)
+    mat = reader.read_binary(RST).materials[1]
+    young, nu = mat["EX"], mat["NUXY"]
+    lam, g = young * nu / ((1 + nu) * (1 - 2 * nu)), young / (2 * (1 + nu))
+    s, e = raw.arrays["S"].values, raw.arrays["EPEL"].values  # X Y Z XY YZ XZ
+    scale = np.abs(s).max()
+    normal = lam * e[..., :3].sum(-1, keepdims=True) + 2 * g * e[..., :3]
+    assert np.abs(normal - s[..., :3]).max() < 1e-7 * scale
+    assert np.abs(g * e[..., 3:] - s[..., 3:]).max() < 1e-7 * scale  # engineering: tau = G gamma
+    shear_scale = np.abs(s[..., 3:]).max()
+    assert np.abs(2 * g * e[..., 3:] - s[..., 3:]).max() > 0.9 * shear_scale  # tensor shear would be off by 2
+    field = _read(stress_unit="Pa", sed_from="exact")  # the 'ansys' preset is implied by the file
+    shear = field.provenance.checks["shear_convention"]
+    assert shear["consistent"] and shear["ratio"] == pytest.approx(1.0, abs=1e-8)
+    half = e.copy()
+    half[..., 3:] /= 2
+    np.testing.assert_allclose(field.sed, sed_exact(s, half), rtol=1e-12)
+    with pytest.warns(AfferentWarning, match=re.escape("the file's shear strain looks engineering")):
+        read_sed(RST, length_unit="m", stress_unit="Pa", sed_from="exact", shear="tensor")
+
+
+def test_without_the_extra_the_error_says_how_to_install_it(monkeypatch):
+    monkeypatch.setitem(sys.modules, "ansys.mapdl.reader", None)
+    with pytest.raises(SEDFormatError, match=re.escape(
+            f"SED file {RST!r} is an ANSYS .rst result file; reading it needs the optional extra: "
+            "pip install 'afferent-skin[ansys]' (ansys-mapdl-reader).")):
+        read_raw(RST)
+
+
+def test_a_damaged_rst_is_named(tmp_path):
+    # the reader's compiled code crashes the interpreter on a truncated file: refused before it
+    bad = tmp_path / "cut.rst"
+    bad.write_bytes(open(RST, "rb").read()[:5000])
+    with pytest.raises(SEDFormatError, match=re.escape(
+            f"SED file {str(bad)!r} is truncated: its header says the file uses 907600 bytes; it has 5000 bytes.")):
+        read_raw(bad)
+    text = tmp_path / "text.rst"
+    text.write_text("x,y,z\n" * 40)
+    with pytest.raises(SEDFormatError, match=re.escape(f"SED file {str(text)!r} is not an ANSYS MAPDL binary file")):
+        read_raw(text)
+
+
+def test_info_describes_an_rst(capsys):
+    assert main(["info", RST]) == 0
+    out = capsys.readouterr().out
+    assert "format       rst" in out and "40 volume cells (hexahedron)" in out and "time steps   6" in out
+    assert "tensors      stress S; strain EPEL (point data)" in out
