@@ -1104,6 +1104,8 @@ def _group_by_time(path, cols: _Columns, entries, tcol, notes):
             f"Time column {header!r} of SED file {path!r} must hold a time on every row; got an empty "
             f"or NaN cell at line {cols.row_lines[nan[0]]} instead."
         )
+    if tvals.size == 0:
+        raise SEDFormatError(f"SED file {path!r} has a time column {header!r} but no data rows.")
     codes, uniques = pd.factorize(tvals, sort=False)
     counts = np.bincount(codes)
     if np.any(counts != counts[0]):
