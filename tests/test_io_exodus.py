@@ -127,3 +127,40 @@ def test_info_describes_an_exodus_file(capsys):
     assert "format       exodus" in out and "time steps   11, t = 0 .. 10" in out
     assert "'stress_xy'                  cell " in out
     assert "Exodus II, netCDF-3 (64-bit offset): 11 time step(s), 1 volume block(s)" in out
+
+
+PATCH = EXO / "elastic_patch_quadratic_out.e"  # MOOSE patch test: 7 irregular HEX20, closed-form state
+
+
+def test_moose_patch_test_closed_form_and_its_own_energy_density():
+    """Every exterior node displaced so that exx = eyy = ezz = 1e-4 and (tensor) exy = eyz = exz = 5e-5
+    everywhere; lambda = G = 4e5: sxx = 200, sxy = 40, and MOOSE's own elastic energy density
+    (ElasticEnergyAux, 1/2 sigma:eps) 0.036, at the nodes and in the cells."""
+    raw = read_raw(PATCH)
+    assert raw.cells.cell_types == ("hexahedron20",) and raw.cells.n_cells == 7
+    last = {k: a.values[-1] for k, a in raw.arrays.items()}
+    for name in ("stress_xx", "stress_yy", "stress_zz", "stress_xx@cell"):
+        np.testing.assert_allclose(last[name], 200.0, rtol=1e-8)
+    for name in ("stress_xy", "stress_yz", "stress_zx", "stress_xy@cell"):
+        np.testing.assert_allclose(last[name], 40.0, rtol=1e-8)  # = 2 G eps_xy: tensor shear
+    # 1/2 sigma:eps with tensor shear: 1/2 (3 x 200 x 1e-4 + 2 x 3 x 40 x 5e-5) = 0.036
+    assert 0.5 * (3 * 200 * 1e-4 + 2 * 3 * 40 * 5e-5) == pytest.approx(0.036)
+    for location in ("point", "cell"):
+        field = read_sed(PATCH, length_unit="mm", sed_unit="MPa", sed_column="elastic_energy", location=location)
+        np.testing.assert_allclose(field.sed[-1], 0.036e6, rtol=1e-8)
+        assert field.location == location
+
+
+def test_moose_plasticity_file_with_total_and_plastic_strain():
+    raw = read_raw(EXO / "pull_push.e")
+    assert raw.times.size == 31 and raw.cells.n_cells == 2
+    np.testing.assert_allclose(raw.times, np.round(np.arange(31) * 0.1, 10), atol=1e-12)
+    np.testing.assert_array_equal(raw.arrays["straint_xz"].values, _netcdf(EXO / "pull_push.e", "vals_elem_var15eb1"))
+    assert _names(EXO / "pull_push.e", "name_elem_var")[14] == "straint_xz"
+
+
+def test_netcdf4_exodus_written_by_seacas():
+    raw = read_raw(EXO / "aero_blunt_wedge_wall_test3.ex2")  # IOSS, netCDF-4 (HDF5), SHELL4 only
+    assert raw.notes[0].startswith("Exodus II, netCDF-4 (HDF5): 5 time step(s), 0 volume block(s); ignored block 1 (SHELL4")
+    assert raw.cells is None and raw.points.shape == (10, 3)
+    np.testing.assert_allclose(raw.times[[0, -1]], [3.08136e-4, 1.66369e-3], rtol=1e-5)

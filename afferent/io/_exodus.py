@@ -102,7 +102,8 @@ class _NetCDF:
         raw = self.get(name)
         if raw.dtype.kind == "S":
             raw = raw.reshape(raw.shape[0], -1) if raw.ndim > 1 else raw.reshape(1, -1)
-            return [b"".join(row).decode("latin-1").strip("\x00 ").strip() for row in raw]
+            # a name ends at its first NUL: MOOSE files carry leftover bytes after it
+            return [b"".join(row).split(b"\x00", 1)[0].decode("latin-1").strip() for row in raw]
         return [str(v).strip() for v in raw]
 
     def close(self):
