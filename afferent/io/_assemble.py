@@ -41,14 +41,16 @@ SED_FROM = ("field", "exact", "equivalent")
 
 #: Relative L2 difference (at the most loaded step, after the best scale factor) above which
 #: the SED computed from an export's tensors and the export's own SED array are said to
-#: disagree, by where the values live. At integration points or per cell the two agree to the
-#: file's precision (CalculiX .dat: 6e-7); at nodes they cannot: the tool extrapolates the SED
-#: and each tensor to the nodes separately, and 1/2 sigma:eps of averaged tensors is not the
-#: average of 1/2 sigma:eps (measured on CalculiX 2.20 indentation models, tests/data/calculix:
-#: 8-12 % for C3D8 meshes of 8-24 elements across, 18-40 % for coarse and quadratic meshes),
-#: which is as large as what a wrong shear convention does (15-40 %). Nodal data are therefore
-#: checked by :func:`shear_consistency`, which nodal averaging does not disturb.
-CROSSCHECK_RTOL = {"cell": 0.01, "point": 0.5}
+#: disagree. They agree to the file's precision only where both are values at the same points
+#: (CalculiX .dat integration points: 6e-7; DOLFINx DG0 interpolations and the bundled
+#: scikit-fem sample at cell centroids: round-off). Wherever either is an average they cannot:
+#: 1/2 sigma:eps of averaged tensors is not the average of 1/2 sigma:eps. Measured on real
+#: files: CalculiX nodal ENER vs nodal tensors 8-40 % (tests/data/calculix), SfePy element
+#: averages ('el_avg' tensors vs its element-average energy) 9 % (tests/data/sfepy) - as large
+#: as what a wrong shear convention does (15-40 %). So this comparison flags only gross errors
+#: (a wrong column, a mismatched unit shows in the recorded scale); the shear convention is
+#: checked by :func:`shear_consistency`, which averaging does not disturb.
+CROSSCHECK_RTOL = {"cell": 0.5, "point": 0.5}
 
 #: Accepted range of the shear-to-normal stiffness ratio of :func:`shear_consistency`: 1 when the
 #: strain's shear is read with the right convention, 0.5 when engineering shear is read as

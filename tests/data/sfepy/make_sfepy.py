@@ -12,9 +12,10 @@ Written the way SfePy's examples write derived quantities: ``ev_cauchy_strain`` 
 ``ev_cauchy_stress`` evaluated with ``mode='el_avg'`` and stored as cell data
 ``cauchy_strain`` / ``cauchy_stress`` (SfePy's 6-vector order 11 22 33 12 13 23; the strain's
 shear is doubled: engineering), plus SfePy's own strain energy density per element:
-``dw_lin_elastic`` evaluated on (u, u) with ``mode='el_avg'`` is eps:D:eps averaged over the
-element, so ``sed`` = 1/2 of it. ``pb.save_state`` writes ``block.vtk`` through SfePy's meshio
-writer.
+``dw_lin_elastic`` evaluated on (u, u) with ``mode='el_eval'`` is the element integral of eps:D:eps and
+``ev_volume`` the element volume, so ``sed`` = 1/2 of their ratio: SfePy's own element-average
+SED, computed from its elasticity matrix, not from the written tensors. ``pb.save_state``
+writes ``block.vtk`` through SfePy's meshio writer.
 """
 
 from pathlib import Path
@@ -52,10 +53,11 @@ state = pb.solve(save_results=False)
 
 strain = pb.evaluate("ev_cauchy_strain.2.Omega(u)", mode="el_avg")
 stress = pb.evaluate("ev_cauchy_stress.2.Omega(m.D, u)", mode="el_avg", copy_materials=False)
-energy = pb.evaluate("dw_lin_elastic.2.Omega(m.D, u, u)", mode="el_avg", copy_materials=False)
+energy = pb.evaluate("dw_lin_elastic.2.Omega(m.D, u, u)", mode="el_eval", copy_materials=False)  # int eps:D:eps
+volume = pb.evaluate("ev_volume.2.Omega(u)", mode="el_eval")
 out = state.create_output()
 out["cauchy_strain"] = Struct(name="output_data", mode="cell", data=strain)
 out["cauchy_stress"] = Struct(name="output_data", mode="cell", data=stress)
-out["sed"] = Struct(name="output_data", mode="cell", data=0.5 * energy)
+out["sed"] = Struct(name="output_data", mode="cell", data=0.5 * energy / volume)
 pb.save_state(str(HERE / "block.vtk"), out=out)
 print("sfepy written", strain.shape, stress.shape, energy.shape)
