@@ -1,0 +1,88 @@
+"""Benchmark: time to read each real FE test file, and a large CalculiX .frd.
+
+Run:  python benchmarks/bench_readers.py [--frd-elements 40]
+
+For every file under tests/data that a real FE tool wrote (CalculiX, DOLFINx, MOOSE/Cubit/SEACAS
+Exodus, SfePy, and the MAPDL file ansys-mapdl-reader ships), ``afferent.io.read_raw`` is timed
+(first call, including the reader's imports, then the best of 5). With ``ccx`` on the PATH a
+C3D8 version of tests/data/calculix's model with N x N x N/2 elements is solved and its .frd
+read (the default N = 40 gives 35,301 nodes and a 34 MB file).
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib.util
+import os
+import shutil
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+FILES = [
+    "tests/data/calculix/block_c3d8.frd", "tests/data/calculix/block_c3d8_binary.frd", "tests/data/calculix/block_c3d8.frd.gz",
+    "tests/data/calculix/block_c3d20r.frd", "tests/data/calculix/block_c3d10.frd", "tests/data/calculix/block_c3d8.dat",
+    "tests/data/dolfinx/block.xdmf", "tests/data/exodus/EqualValueEmbeddedConstraint_out.e",
+    "tests/data/exodus/tensile_bar_out.e", "tests/data/exodus/elastic_patch_quadratic_out.e",
+    "tests/data/exodus/aero_blunt_wedge_wall_test3.ex2", "tests/data/sfepy/block.vtk",
+]
+
+
+def timed(path) -> tuple[float, float, object]:
+    from afferent.io import read_raw
+
+    t = time.perf_counter()
+    raw = read_raw(str(path))
+    first = time.perf_counter() - t
+    best = min(_once(path) for _ in range(5))
+    return first, best, raw
+
+
+def _once(path) -> float:
+    from afferent.io import read_raw
+
+    t = time.perf_counter()
+    read_raw(str(path))
+    return time.perf_counter() - t
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--frd-elements", type=int, default=40, help="elements across the block for the large .frd")
+    args = parser.parse_args()
+    print(f"$ python benchmarks/bench_readers.py --frd-elements {args.frd_elements}")
+    files = [ROOT / f for f in FILES]
+    try:
+        from ansys.mapdl.reader import examples
+
+        files.append(Path(examples.rstfile))
+    except ImportError:
+        print("(ansys-mapdl-reader not installed: the .rst file is skipped)")
+    print(f"{'file':<52} {'size':>9} {'nodes':>7} {'steps':>5} {'first s':>8} {'best s':>8}")
+    for f in files:
+        first, best, raw = timed(f)
+        n = raw.points.shape[0] if raw.points is not None else 0
+        print(f"{f.name:<52} {f.stat().st_size / 1e3:>7.0f}KB {n:>7} {raw.n_times:>5} {first:>8.3f} {best:>8.4f}")
+    if shutil.which("ccx") is None:
+        print("(ccx not on the PATH: no large .frd)")
+        return
+    spec = importlib.util.spec_from_file_location("mk", ROOT / "tests/data/calculix/make_calculix.py")
+    mk = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mk)
+    with tempfile.TemporaryDirectory() as tmp:
+        mk.HERE = Path(tmp)
+        n = args.frd_elements
+        t = time.perf_counter()
+        mk.write_inp(Path(tmp) / "big.inp", "C3D8", n_xy=n, n_z=n // 2)
+        mk.run("big")
+        solve = time.perf_counter() - t
+        first, best, raw = timed(Path(tmp) / "big.frd")
+        size = os.path.getsize(Path(tmp) / "big.frd")
+        print(f"large .frd: {raw.points.shape[0]:,} nodes, {raw.cells.n_cells:,} C3D8, {raw.n_times} steps, "
+              f"{size / 1e6:.1f} MB (ccx solve {solve:.0f} s): read {first:.2f} s first, {best:.2f} s best of 5")
+
+
+if __name__ == "__main__":
+    sys.exit(main())
