@@ -25,6 +25,7 @@ from __future__ import annotations
 import gzip
 import os
 import re
+import zlib
 
 import numpy as np
 
@@ -220,7 +221,7 @@ def _parse(path: str):
     if data[:2] == b"\x1f\x8b":
         try:
             data = gzip.decompress(data)
-        except (OSError, EOFError) as err:
+        except (OSError, EOFError, zlib.error) as err:
             raise SEDFormatError(f"SED file {path!r} is a damaged gzip file: {err}") from err
     if not data.strip():
         raise SEDFormatError(f"SED file {path!r} is empty.")
