@@ -180,13 +180,41 @@ def locate_in_tets(points: np.ndarray, xyz: np.ndarray, tetra: np.ndarray, *, k:
     return tet_index, bary
 
 
-def _node_average(cells: Cells, xyz: np.ndarray, n_points: int) -> sp.csr_matrix:
-    """(n_points, n_cells) matrix averaging cell values to nodes, weighted by cell volume."""
+def cell_volumes(cells: Cells, xyz: np.ndarray) -> np.ndarray:
+    """Volume of each original FE cell, ndarray of shape (n_cells,), in the unit of ``xyz`` cubed.
+
+    The sum of the volumes of the cell's tetrahedra (exact for cells with planar faces; for a
+    hexahedron with warped faces, the volume of its tetrahedral split).
+    """
     t = xyz[cells.tetra]
     vol = np.abs(np.linalg.det(t[:, 1:] - t[:, :1])) / 6.0
-    rows = cells.tetra.reshape(-1)
-    cols = np.repeat(cells.parent, 4)
-    m = sp.csr_matrix((np.repeat(vol, 4), (rows, cols)), shape=(n_points, cells.n_cells))
+    return np.bincount(cells.parent, weights=vol, minlength=cells.n_cells)
+
+
+def node_average(cells: Cells, xyz: np.ndarray, n_points: int) -> sp.csr_matrix:
+    """Matrix of shape (n_points, n_cells) averaging cell values to nodes, weighted by cell volume.
+
+    Each cell gives its whole volume (:func:`cell_volumes`) as weight to each of its corner
+    nodes (the nodes of its tetrahedra), once: a node's value is
+    ``sum_c V_c s_c / sum_c V_c`` over the cells ``c`` that have it as a corner. Nodes of no
+    cell (mid-side nodes of quadratic cells, stray points) get an all-zero row.
+
+    Parameters
+    ----------
+    cells : Cells
+    xyz : ndarray of shape (n_points, 3)
+        Node coordinates (any length unit: only volume ratios matter).
+    n_points : int
+
+    Returns
+    -------
+    scipy.sparse.csr_matrix
+        Rows sum to 1 (or 0 for nodes of no cell); ``node_values = matrix @ cell_values``.
+    """
+    vol = cell_volumes(cells, xyz)
+    pairs = np.unique(np.column_stack([cells.tetra.reshape(-1), np.repeat(cells.parent, 4)]), axis=0)
+    nodes, owner = pairs[:, 0], pairs[:, 1]
+    m = sp.csr_matrix((vol[owner], (nodes, owner)), shape=(n_points, cells.n_cells))
     norm = np.asarray(m.sum(axis=1)).ravel()
     norm[norm == 0] = 1.0
     return sp.diags(1.0 / norm) @ m
@@ -226,7 +254,7 @@ def build_sampler(field: SEDField, layout: ReceptorLayout, *, method: str = "lin
                 (bary[inside].ravel(), (np.repeat(inside, 4), nodes.ravel())), shape=(n_r, field.n_points)
             )
             if field.location == "cell":
-                w = w @ _node_average(field.cells, xyz, field.n_points)
+                w = w @ node_average(field.cells, xyz, field.n_points)
         return Sampler(w.tocsr(), outside, method)
     # Scattered points (a CSV table): no connectivity.
     lo, hi = xyz.min(axis=0), xyz.max(axis=0)
