@@ -41,7 +41,17 @@ class Provenance:
     factors : dict
         Factors applied to reach SI, e.g. ``{'length': 1e-3, 'sed': 1e6}``.
     notes : tuple of str
-        Free-text remarks recorded by the reader (how cell data was placed, rows skipped, ...).
+        Free-text remarks recorded by the reader (rows skipped, units assumed, ...).
+    location : {'point', 'cell', ''}
+        Where the values used (the SED array, or the stress and strain) live in the export:
+        ``'point'`` (one value per node or table row) or ``'cell'`` (one value per FE cell).
+        Empty for a field built by hand.
+    location_source : str
+        How that location was chosen: ``'declared'`` (``location=`` was passed), ``'only point
+        data'`` / ``'only cell data'`` (the export holds the values at that location only), or
+        ``'point preferred over cell'`` (it holds both; point data is the default). Empty for a
+        field built by hand. How the values are then placed at the receptors is recorded by
+        sampling (:attr:`afferent.sampling.ReceptorSED.placement`).
     """
 
     files: tuple[str, ...] = ()
@@ -51,6 +61,8 @@ class Provenance:
     units: dict = field(default_factory=dict)
     factors: dict = field(default_factory=dict)
     notes: tuple[str, ...] = ()
+    location: str = ""
+    location_source: str = ""
 
     def to_dict(self) -> dict:
         """Plain-dict form, for JSON records."""
@@ -62,6 +74,8 @@ class Provenance:
             "units": dict(self.units),
             "factors": dict(self.factors),
             "notes": list(self.notes),
+            "location": self.location,
+            "location_source": self.location_source,
         }
 
 

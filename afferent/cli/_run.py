@@ -164,7 +164,8 @@ def run(args: argparse.Namespace) -> int:
         "field": field.provenance.to_dict(),
         "receptors": {"file": args.receptors, "grid": args.grid, "length_unit": unit, "n": layout.n_receptors},
         "transduction": {"alpha_a": params.alpha, "gamma_per_pa": params.gamma, "lambda_pa": params.lambda_},
-        "synthesis": args.synthesis, "sampling": args.method, "normalise": args.normalise,
+        "synthesis": args.synthesis, "sampling": {"method": result.sed.method, "placement": result.sed.placement},
+        "normalise": args.normalise,
         "waveform": None if waveform is None else {"spec": args.waveform, "kind": waveform.kind,
                                                    "parameters": dict(waveform.parameters), "d_ref_m": args.d_ref_mm * 1e-3},
     }

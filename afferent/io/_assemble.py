@@ -7,7 +7,7 @@ when asked, and validate what the FE export holds.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -400,6 +400,23 @@ def _check_values(raw: RawExport, values: np.ndarray, what: str) -> None:
         )
 
 
+def _location_source(raw: RawExport, opts: ReadOptions, location: str) -> str:
+    """How the location of the values used was chosen, for the provenance: ``'declared'``,
+    ``'only point data'`` / ``'only cell data'``, or ``'point preferred over cell'`` when the
+    export holds the same quantity (SED, or stress and strain) at both locations."""
+    if opts.location is not None:
+        return "declared"
+    other = "cell" if location == "point" else "point"
+    try:
+        if opts.sed_from == "field":
+            found = find_sed_array(raw, replace(opts, location=other))[0].location
+        else:
+            found = find_tensors(raw, replace(opts, location=other), need_convention=False)[0][2]
+    except SEDFormatError:
+        found = None
+    return f"{location} preferred over {other}" if found == other else f"only {location} data"
+
+
 def assemble(raw: RawExport, opts: ReadOptions) -> SEDField:
     """Build the SI :class:`SEDField` from a reader's raw export and the user's declarations."""
     if opts.coordinates is not None:
@@ -514,14 +531,9 @@ def assemble(raw: RawExport, opts: ReadOptions) -> SEDField:
         )
     if location == "cell" and raw.cells is None:
         raise SEDFormatError(f"SED file {_where(raw)!r}: SED is cell data but the file has no volume cells.")
-    if location == "cell":
-        notes.append(
-            "SED is cell data (one value per FE cell, as exported): 'nearest' sampling takes the value of the "
-            "cell containing the receptor; 'linear' first averages cells to nodes (volume-weighted)."
-        )
     prov = Provenance(
         files=raw.files, format=raw.format, sed_from=opts.sed_from, columns=columns, units=units,
-        factors=factors, notes=tuple(notes),
+        factors=factors, notes=tuple(notes), location=location, location_source=_location_source(raw, opts, location),
     )
     try:
         return SEDField(xyz * lf, sed, times, location=location, cells=raw.cells, provenance=prov)
