@@ -414,7 +414,8 @@ def _scattered_linear(field: SEDField, layout: ReceptorLayout) -> Sampler:
         hit = simplex >= 0
         idx = on_plane[hit]
         rows[idx, :3], weights[idx, :3], found[idx] = tri.simplices[simplex[hit]], w[hit], True
-        normal = ", ".join(f"{v:.4g}" for v in axes[2])
+        normal = axes[2] * np.sign(axes[2][np.argmax(np.abs(axes[2]))])
+        normal = ", ".join(f"{v:.4g}" for v in np.round(normal, 6) + 0.0)
         domain = (f"the field is a surface: its {n} points lie in one plane (normal [{normal}]); receptors farther "
                   f"than {PLANE_RTOL * extent:.3g} m from it, or off its points' hull in it, are outside")
         placement = PLACEMENTS[("plane", "linear")]
