@@ -235,10 +235,12 @@ def node_average(cells: Cells, xyz: np.ndarray, n_points: int) -> sp.csr_matrix:
     scipy.sparse.csr_matrix
         Rows sum to 1 (or 0 for nodes of no cell); ``node_values = matrix @ cell_values``.
     """
-    vol = cell_volumes(cells, xyz)
-    pairs = np.unique(np.column_stack([cells.tetra.reshape(-1), np.repeat(cells.parent, 4)]), axis=0)
-    nodes, owner = pairs[:, 0], pairs[:, 1]
-    m = sp.csr_matrix((vol[owner], (nodes, owner)), shape=(n_points, cells.n_cells))
+    corners = sp.csr_matrix(
+        (np.ones(cells.tetra.size), (cells.tetra.reshape(-1), np.repeat(cells.parent, 4))), shape=(n_points, cells.n_cells)
+    )
+    corners.sum_duplicates()
+    corners.data[:] = 1.0  # node-cell incidence: a corner shared by several of a cell's tetrahedra counts once
+    m = corners @ sp.diags(cell_volumes(cells, xyz))
     norm = np.asarray(m.sum(axis=1)).ravel()
     norm[norm == 0] = 1.0
     return sp.diags(1.0 / norm) @ m
