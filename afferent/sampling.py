@@ -31,7 +31,8 @@ from .exceptions import AfferentWarning, FieldCoverageError, SEDFormatError
 from .field import Cells, SEDField
 from .receptors import ReceptorLayout
 
-__all__ = ["ReceptorSED", "Sampler", "build_sampler", "sample_sed", "read_receptor_sed", "METHODS"]
+__all__ = ["ReceptorSED", "Sampler", "build_sampler", "sample_sed", "read_receptor_sed", "node_average", "cell_volumes",
+           "METHODS", "PLACEMENTS"]
 
 METHODS = ("linear", "nearest")
 ON_OUTSIDE = ("raise", "warn", "nan")
