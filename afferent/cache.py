@@ -58,7 +58,8 @@ __all__ = [
 ]
 
 #: Bumped whenever the entry layout, the meaning of a key or the sampling results change: old entries then miss.
-CACHE_VERSION = 1
+#: 2: cell data averaged to nodes by whole cell volumes ('linear' on cell data changed); placement recorded.
+CACHE_VERSION = 2
 
 _SUBDIR = "sed"
 _ARRAYS = ("values", "times", "positions", "ids", "longitudinal", "cross", "outside", "meta")
@@ -179,7 +180,7 @@ class CachedSED:
     outside : ndarray of shape (n_receptors,), bool
         Receptors outside the field.
     meta : dict
-        The key, the method, the field's provenance and size, when it was written.
+        The key, the method and placement, the field's provenance and size, when it was written.
     path : str
         The entry's file.
     """
@@ -205,7 +206,8 @@ class CachedSED:
         from .sampling import ReceptorSED
 
         layout = self.layout() if layout is None else layout
-        return ReceptorSED(self.values.copy(), self.times.copy(), layout, self.meta["method"], self.outside.copy())
+        return ReceptorSED(self.values.copy(), self.times.copy(), layout, self.meta["method"], self.outside.copy(),
+                           self.meta.get("placement", ""))
 
 
 class SEDCache:
@@ -290,14 +292,15 @@ class SEDCache:
     def put(self, key: str, sed, *, meta: dict | None = None) -> Path:
         """Store a :class:`~afferent.sampling.ReceptorSED` under ``key`` (atomically); returns the file.
 
-        ``meta`` (JSON-able) is stored beside the arrays, with the key, the method and
-        :data:`CACHE_VERSION` added.
+        ``meta`` (JSON-able) is stored beside the arrays, with the key, the method, the
+        placement (:attr:`~afferent.sampling.ReceptorSED.placement`) and :data:`CACHE_VERSION` added.
         """
         path = self.path_for(key)
         path.parent.mkdir(parents=True, exist_ok=True)
         lay = sed.layout
         info = dict(meta or {})
-        info.update({"key": key, "cache_version": CACHE_VERSION, "method": sed.method})
+        info.update({"key": key, "cache_version": CACHE_VERSION, "method": sed.method,
+                     "placement": getattr(sed, "placement", "")})
         fd, tmp = tempfile.mkstemp(prefix=f".{key[:16]}.", suffix=".part", dir=path.parent)
         try:
             with os.fdopen(fd, "wb") as f:

@@ -41,7 +41,7 @@ class Provenance:
     factors : dict
         Factors applied to reach SI, e.g. ``{'length': 1e-3, 'sed': 1e6}``.
     notes : tuple of str
-        Free-text remarks recorded by the reader (how cell data was placed, rows skipped, ...).
+        Free-text remarks recorded by the reader (rows skipped, units assumed, ...).
     negative_sed : dict or None
         The export's negative SED values, when it had any (nodal-averaging artefacts of the FE
         tool): ``count``, ``n_values``, ``min_pa`` (J/m^3, after unit conversion),
@@ -51,6 +51,16 @@ class Provenance:
         Cross-checks made while reading, by name, e.g. ``'tensor_sed_vs_export_sed'`` (SED from
         the tensors against the export's own SED array; see
         :func:`afferent.io._assemble.tensor_sed_crosscheck`).
+    location : {'point', 'cell', ''}
+        Where the values used (the SED array, or the stress and strain) live in the export:
+        ``'point'`` (one value per node or table row) or ``'cell'`` (one value per FE cell).
+        Empty for a field built by hand.
+    location_source : str
+        How that location was chosen: ``'declared'`` (``location=`` was passed), ``'only point
+        data'`` / ``'only cell data'`` (the export holds the values at that location only), or
+        ``'point preferred over cell'`` (it holds both; point data is the default). Empty for a
+        field built by hand. How the values are then placed at the receptors is recorded by
+        sampling (:attr:`afferent.sampling.ReceptorSED.placement`).
     """
 
     files: tuple[str, ...] = ()
@@ -62,6 +72,8 @@ class Provenance:
     notes: tuple[str, ...] = ()
     negative_sed: dict | None = None
     checks: dict = field(default_factory=dict)
+    location: str = ""
+    location_source: str = ""
 
     def to_dict(self) -> dict:
         """Plain-dict form, for JSON records."""
@@ -75,6 +87,8 @@ class Provenance:
             "notes": list(self.notes),
             "negative_sed": None if self.negative_sed is None else dict(self.negative_sed),
             "checks": {k: dict(v) for k, v in self.checks.items()},
+            "location": self.location,
+            "location_source": self.location_source,
         }
 
 

@@ -6,8 +6,14 @@
 
 ``'nearest'`` takes the value of the nearest mesh node (for cell data: of the cell holding
 the receptor). ``'linear'`` interpolates inside the mesh's own cells (split into linear
-tetrahedra), with barycentric weights computed once and reused for every time step; for a
-CSV without connectivity it triangulates only the points around the receptors.
+tetrahedra), with barycentric weights computed once and reused for every time step; cell
+data is first averaged to the nodes, each cell weighing its volume on each of its corners.
+A table of points without connectivity (CSV) is triangulated (scipy ``Delaunay``) around the
+receptors, in 3-D, or in the points' plane for a surface-only table.
+
+How the values were placed is recorded with the result (:attr:`ReceptorSED.placement`,
+:data:`PLACEMENTS`), next to where they came from (:class:`afferent.field.Provenance`:
+``location``, ``location_source``).
 """
 
 from __future__ import annotations
@@ -25,7 +31,8 @@ from .exceptions import AfferentWarning, FieldCoverageError, SEDFormatError
 from .field import Cells, SEDField
 from .receptors import ReceptorLayout
 
-__all__ = ["ReceptorSED", "Sampler", "build_sampler", "sample_sed", "read_receptor_sed", "METHODS"]
+__all__ = ["ReceptorSED", "Sampler", "build_sampler", "sample_sed", "read_receptor_sed", "node_average", "cell_volumes",
+           "METHODS", "PLACEMENTS"]
 
 METHODS = ("linear", "nearest")
 ON_OUTSIDE = ("raise", "warn", "nan")
@@ -51,9 +58,13 @@ class ReceptorSED:
     layout : ReceptorLayout
         The receptor sites.
     method : str
-        ``'linear'`` or ``'nearest'``.
+        ``'linear'`` or ``'nearest'`` (``'csv'`` when read back by :func:`read_receptor_sed`).
     outside : ndarray of shape (n_receptors,), bool
         Receptors found outside the field.
+    placement : str
+        How the field's values were placed at the receptors, one of :data:`PLACEMENTS` (e.g.
+        ``'cell value of the containing cell'``, ``'cells averaged to nodes by cell volume, then
+        linear'``); empty when unknown (a table read back).
     """
 
     values: np.ndarray
@@ -61,6 +72,7 @@ class ReceptorSED:
     layout: ReceptorLayout
     method: str
     outside: np.ndarray
+    placement: str = ""
 
     def __array__(self, dtype=None, copy=None):
         return np.asarray(self.values, dtype=dtype)
@@ -107,11 +119,18 @@ class Sampler:
     weights : scipy.sparse.csr_matrix of shape (n_receptors, n_values)
     outside : ndarray of shape (n_receptors,), bool
     method : str
+    placement : str
+        How values are placed at the receptors, one of :data:`PLACEMENTS`.
+    domain : str
+        What "inside the field" means when it is not the mesh's cells (a table of points: its
+        convex hull, its plane, its bounding box), for messages; empty for a mesh.
     """
 
     weights: sp.csr_matrix
     outside: np.ndarray
     method: str
+    placement: str = ""
+    domain: str = ""
 
     def apply(self, sed: np.ndarray) -> np.ndarray:
         """(n_times, n_values) -> (n_times, n_receptors); NaN where outside."""
@@ -121,11 +140,17 @@ class Sampler:
 
 
 def _barycentric(points: np.ndarray, tet_xyz: np.ndarray) -> np.ndarray:
-    """Barycentric coordinates of points (m, 3) in tets (m, 4, 3) -> (m, 4); NaN for degenerate tets."""
+    """Barycentric coordinates of points (m, 3) in tets (m, 4, 3) -> (m, 4); NaN for degenerate tets.
+
+    A tetrahedron is degenerate (flat) when its volume is below 1e-12 of the product of its
+    three edge lengths from the first vertex: scale-free, so flat cells of a mesh in m are
+    skipped whatever their size (a fixed threshold let their round-off determinants through
+    to a singular solve).
+    """
     t = tet_xyz[:, 1:, :] - tet_xyz[:, :1, :]  # (m, 3, 3) rows = edges
     rhs = points - tet_xyz[:, 0, :]
     det = np.linalg.det(t)
-    ok = np.abs(det) > 1e-30 * np.maximum(1.0, np.abs(t).max(axis=(1, 2)) ** 3)
+    ok = np.abs(det) > 1e-12 * np.prod(np.linalg.norm(t, axis=2), axis=1)
     lam = np.full((points.shape[0], 3), np.nan)
     if ok.any():
         lam[ok] = np.linalg.solve(np.transpose(t[ok], (0, 2, 1)), rhs[ok][..., None])[..., 0]
@@ -180,16 +205,59 @@ def locate_in_tets(points: np.ndarray, xyz: np.ndarray, tetra: np.ndarray, *, k:
     return tet_index, bary
 
 
-def _node_average(cells: Cells, xyz: np.ndarray, n_points: int) -> sp.csr_matrix:
-    """(n_points, n_cells) matrix averaging cell values to nodes, weighted by cell volume."""
+def cell_volumes(cells: Cells, xyz: np.ndarray) -> np.ndarray:
+    """Volume of each original FE cell, ndarray of shape (n_cells,), in the unit of ``xyz`` cubed.
+
+    The sum of the volumes of the cell's tetrahedra (exact for cells with planar faces; for a
+    hexahedron with warped faces, the volume of its tetrahedral split).
+    """
     t = xyz[cells.tetra]
     vol = np.abs(np.linalg.det(t[:, 1:] - t[:, :1])) / 6.0
-    rows = cells.tetra.reshape(-1)
-    cols = np.repeat(cells.parent, 4)
-    m = sp.csr_matrix((np.repeat(vol, 4), (rows, cols)), shape=(n_points, cells.n_cells))
+    return np.bincount(cells.parent, weights=vol, minlength=cells.n_cells)
+
+
+def node_average(cells: Cells, xyz: np.ndarray, n_points: int) -> sp.csr_matrix:
+    """Matrix of shape (n_points, n_cells) averaging cell values to nodes, weighted by cell volume.
+
+    Each cell gives its whole volume (:func:`cell_volumes`) as weight to each of its corner
+    nodes (the nodes of its tetrahedra), once: a node's value is
+    ``sum_c V_c s_c / sum_c V_c`` over the cells ``c`` that have it as a corner. Nodes of no
+    cell (mid-side nodes of quadratic cells, stray points) get an all-zero row.
+
+    Parameters
+    ----------
+    cells : Cells
+    xyz : ndarray of shape (n_points, 3)
+        Node coordinates (any length unit: only volume ratios matter).
+    n_points : int
+
+    Returns
+    -------
+    scipy.sparse.csr_matrix
+        Rows sum to 1 (or 0 for nodes of no cell); ``node_values = matrix @ cell_values``.
+    """
+    corners = sp.csr_matrix(
+        (np.ones(cells.tetra.size), (cells.tetra.reshape(-1), np.repeat(cells.parent, 4))), shape=(n_points, cells.n_cells)
+    )
+    corners.sum_duplicates()
+    corners.data[:] = 1.0  # node-cell incidence: a corner shared by several of a cell's tetrahedra counts once
+    m = corners @ sp.diags(cell_volumes(cells, xyz))
     norm = np.asarray(m.sum(axis=1)).ravel()
     norm[norm == 0] = 1.0
     return sp.diags(1.0 / norm) @ m
+
+
+#: How the values reach the receptors, by (data location or 'scattered', method): recorded as
+#: :attr:`Sampler.placement` and :attr:`ReceptorSED.placement`.
+PLACEMENTS = {
+    ("point", "nearest"): "value of the nearest node",
+    ("point", "linear"): "linear in the mesh's cells (split into tetrahedra)",
+    ("cell", "nearest"): "cell value of the containing cell",
+    ("cell", "linear"): "cells averaged to nodes by cell volume, then linear",
+    ("scattered", "nearest"): "value of the nearest point",
+    ("scattered", "linear"): "linear in a Delaunay tetrahedralisation of the points",
+    ("plane", "linear"): "linear in a Delaunay triangulation of the points' plane (surface-only table)",
+}
 
 
 def build_sampler(field: SEDField, layout: ReceptorLayout, *, method: str = "linear") -> Sampler:
@@ -198,7 +266,7 @@ def build_sampler(field: SEDField, layout: ReceptorLayout, *, method: str = "lin
     Parameters
     ----------
     field : SEDField
-        Only its geometry (points, cells, location) is used.
+        Only its geometry (points in m, cells, location) is used.
     layout : ReceptorLayout
         Receptor positions in m.
     method : {'linear', 'nearest'}
@@ -206,11 +274,20 @@ def build_sampler(field: SEDField, layout: ReceptorLayout, *, method: str = "lin
     Returns
     -------
     Sampler
+        Weights, the receptors outside the field, and how values are placed
+        (:data:`PLACEMENTS`).
+
+    Raises
+    ------
+    FieldCoverageError
+        ``'linear'`` on a table of points that lie on a line (or fewer than 3 points): there is
+        nothing to interpolate in.
     """
     check_option("method", method, METHODS)
     xyz, pos = field.points, layout.positions
     n_r = layout.n_receptors
     if field.cells is not None:
+        placement = PLACEMENTS[(field.location, method)]
         tet, bary = locate_in_tets(pos, xyz, field.cells.tetra)
         outside = tet < 0
         inside = np.flatnonzero(~outside)
@@ -226,39 +303,160 @@ def build_sampler(field: SEDField, layout: ReceptorLayout, *, method: str = "lin
                 (bary[inside].ravel(), (np.repeat(inside, 4), nodes.ravel())), shape=(n_r, field.n_points)
             )
             if field.location == "cell":
-                w = w @ _node_average(field.cells, xyz, field.n_points)
-        return Sampler(w.tocsr(), outside, method)
+                w = w @ node_average(field.cells, xyz, field.n_points)
+        return Sampler(w.tocsr(), outside, method, placement)
     # Scattered points (a CSV table): no connectivity.
-    lo, hi = xyz.min(axis=0), xyz.max(axis=0)
-    span = float(np.max(hi - lo)) or 1.0
-    tree = cKDTree(xyz)
     if method == "nearest":
+        lo, hi = xyz.min(axis=0), xyz.max(axis=0)
+        span = float(np.max(hi - lo)) or 1.0
         outside = np.any((pos < lo - 1e-9 * span) | (pos > hi + 1e-9 * span), axis=1)
-        _, idx = tree.query(pos)
+        _, idx = cKDTree(xyz).query(pos)
         inside = np.flatnonzero(~outside)
         w = sp.csr_matrix((np.ones(inside.size), (inside, idx[inside])), shape=(n_r, field.n_points))
-        return Sampler(w, outside, method)
-    from scipy.spatial import Delaunay, QhullError
+        return Sampler(w, outside, method, PLACEMENTS[("scattered", "nearest")],
+                       f"the bounding box of its {field.n_points} points")
+    return _scattered_linear(field, layout)
 
-    k = min(SCATTER_NEIGHBOURS, field.n_points)
-    _, nb = tree.query(pos, k=k)
-    local = np.unique(nb.reshape(-1))
-    try:
-        tri = Delaunay(xyz[local])
-    except QhullError as err:
+
+#: A point table thinner than this, relative to its extent, is a plane (a surface-only export):
+#: coordinates written with 6 significant digits lie off their true plane by up to 5e-6 of
+#: their magnitude (5e-5 of the extent for a model offset from the origin by 10 extents), and
+#: no FE volume is that thin. Receptors farther than this from the plane are outside it.
+PLANE_RTOL = 1e-4
+
+
+def _source(field: SEDField) -> str:
+    files = field.provenance.files
+    return f" of SED file {files[0]!r}" if files else ""
+
+
+#: Joggle, relative to the points' extent, applied before triangulating a point table. FE nodes
+#: on a structured grid have co-spherical subsets whose Delaunay tetrahedralisation holds
+#: zero-volume simplices; scipy's ``find_simplex`` cannot walk through those and falls back to a
+#: brute-force search (1.2 ms per receptor on the bundled 22,099-point COMSOL table). Joggling
+#: the points (seeded), as Qhull's ``QJ`` option does, gives every simplex a volume; the
+#: weights are those of the joggled simplex, so a value moves by at most this fraction of the
+#: extent times the SED gradient.
+JOGGLE = 1e-9
+
+
+def _triangulate(points: np.ndarray):
+    """scipy ``Delaunay`` of points normalised to extent ~1, joggled by :data:`JOGGLE` (seeded)."""
+    from scipy.spatial import Delaunay
+
+    return Delaunay(points + np.random.default_rng(0).uniform(-JOGGLE, JOGGLE, points.shape))
+
+
+def _find(tri, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Simplex of ``tri`` holding each point of ``x`` (-1 where none) and its barycentric weights.
+
+    ``find_simplex`` walks from the simplex it found last, so the points are visited in a
+    spatial order (rows of a coarse grid); the weights come from ``tri.transform``, in the
+    order of ``tri.simplices``.
+    """
+    simplex = np.full(len(x), -1, dtype=np.int64)
+    weights = np.zeros((len(x), tri.ndim + 1))
+    if not len(x):
+        return simplex, weights
+    span = np.ptp(x, axis=0)
+    bins = max(1, round(len(x) ** (1 / 3)))
+    cell = np.floor((x - x.min(axis=0)) / np.where(span > 0, span, 1.0) * bins)
+    order = np.lexsort(cell.T[::-1])
+    simplex[order] = tri.find_simplex(x[order], tol=BARY_TOL)
+    hit = np.flatnonzero(simplex >= 0)
+    t = tri.transform[simplex[hit]]
+    b = np.einsum("mij,mj->mi", t[:, :tri.ndim], x[hit] - t[:, tri.ndim])
+    weights[hit] = np.column_stack([b, 1.0 - b.sum(axis=1)])
+    bad = hit[~np.all(np.isfinite(weights[hit]), axis=1)]
+    simplex[bad], weights[bad] = -1, 0.0
+    return simplex, weights
+
+
+def _inside_hull(points: np.ndarray, equations: np.ndarray, tol: float) -> np.ndarray:
+    """Points within ``tol`` of the convex hull whose facets are ``equations`` (scipy ConvexHull)."""
+    inside = np.empty(points.shape[0], dtype=bool)
+    step = max(1, 4_000_000 // max(1, equations.shape[0]))  # bounded memory: (step, n_facets) at a time
+    for a in range(0, points.shape[0], step):
+        d = points[a:a + step] @ equations[:, :-1].T + equations[:, -1]
+        inside[a:a + step] = np.all(d <= tol, axis=1)
+    return inside
+
+
+def _scattered_linear(field: SEDField, layout: ReceptorLayout) -> Sampler:
+    """'linear' weights for a table of points: Delaunay in 3-D, or in their plane when they are one.
+
+    A receptor is inside when it lies in the points' convex hull (3-D), or on the plane of a
+    planar table and inside the hull of its points there; its weights are barycentric in the
+    Delaunay simplex holding it. In 3-D only the points near the receptors are triangulated;
+    receptors inside the hull that this does not cover are retried with 8x more neighbours,
+    then with every point.
+    """
+    from scipy.spatial import ConvexHull, QhullError
+
+    n, n_r = field.n_points, layout.n_receptors
+    centre = field.points.mean(axis=0)
+    axes = np.linalg.svd(field.points - centre, full_matrices=False)[2] if n >= 2 else np.eye(3)
+    widths = np.ptp((field.points - centre) @ axes.T, axis=0) if n else np.zeros(3)  # along the principal axes, m
+    extent = float(widths[0])
+    if n < 3 or widths[1] <= PLANE_RTOL * extent:
         raise FieldCoverageError(
-            "Linear sampling of scattered points needs a 3-D point cloud around the receptors; the points are "
-            f"degenerate there (coplanar?): {str(err).splitlines()[0]}. Use method='nearest'."
-        ) from err
-    # Locate in the local tetrahedra with the same code as for mesh cells (scipy's
-    # find_simplex is orders of magnitude slower here).
-    tets = local[tri.simplices]
-    tet, bary = locate_in_tets(pos, xyz, tets)
-    outside = tet < 0
-    inside = np.flatnonzero(~outside)
-    nodes = tets[tet[inside]]
-    w = sp.csr_matrix((bary[inside].ravel(), (np.repeat(inside, 4), nodes.ravel())), shape=(n_r, field.n_points))
-    return Sampler(w, outside, method)
+            f"Linear sampling needs the points{_source(field)} to span a volume or a surface; its {n} point(s) "
+            f"lie on a line (extent {extent:.6g} m, width across {float(widths[1]):.3g} m). Use method='nearest'."
+        )
+    # normalised coordinates (extent 1) along the principal axes: conditioning for Qhull
+    xyz = (field.points - centre) @ axes.T / extent
+    pos = (layout.positions - centre) @ axes.T / extent
+    rows = np.zeros((n_r, 4), dtype=np.int64)
+    weights = np.zeros((n_r, 4))
+    found = np.zeros(n_r, dtype=bool)
+    if widths[2] <= PLANE_RTOL * extent:
+        # A surface-only table: triangulate in the plane; receptors off the plane are outside.
+        on_plane = np.flatnonzero(np.abs(pos[:, 2]) <= PLANE_RTOL)
+        tri = _triangulate(xyz[:, :2])
+        simplex, w = _find(tri, pos[on_plane, :2])
+        hit = simplex >= 0
+        idx = on_plane[hit]
+        rows[idx, :3], weights[idx, :3], found[idx] = tri.simplices[simplex[hit]], w[hit], True
+        normal = axes[2] * np.sign(axes[2][np.argmax(np.abs(axes[2]))])
+        normal = ", ".join(f"{v:.4g}" for v in np.round(normal, 6) + 0.0)
+        domain = (f"the field is a surface: its {n} points lie in one plane (normal [{normal}]); receptors farther "
+                  f"than {PLANE_RTOL * extent:.3g} m from it, or off its points' hull in it, are outside")
+        placement = PLACEMENTS[("plane", "linear")]
+    else:
+        try:
+            hull = ConvexHull(xyz)
+        except QhullError as err:
+            raise FieldCoverageError(
+                f"Linear sampling could not build the convex hull of the {n} points{_source(field)} (nearly flat: "
+                f"widths {', '.join(f'{float(v):.3g}' for v in widths)} m along their principal axes): "
+                f"{str(err).splitlines()[0]}. Use method='nearest'."
+            ) from err
+        todo = np.flatnonzero(_inside_hull(pos, hull.equations, BARY_TOL))
+        tree = cKDTree(xyz)
+        for k in (SCATTER_NEIGHBOURS, 8 * SCATTER_NEIGHBOURS, n):
+            if not todo.size:
+                break
+            subset = np.arange(n) if k >= n else np.unique(tree.query(pos[todo], k=k)[1].reshape(-1))
+            try:
+                tri = _triangulate(xyz[subset])
+            except QhullError as err:
+                if subset.size < n:
+                    continue  # the receptors' neighbours are degenerate (one layer of a layered table): grow
+                raise FieldCoverageError(
+                    f"Linear sampling could not triangulate the {n} points{_source(field)}: "
+                    f"{str(err).splitlines()[0]}. Use method='nearest'."
+                ) from err
+            simplex, w = _find(tri, pos[todo])
+            hit = simplex >= 0
+            idx = todo[hit]
+            rows[idx], weights[idx], found[idx] = subset[tri.simplices[simplex[hit]]], w[hit], True
+            todo = todo[~hit]
+        domain = f"the field is the convex hull of its {n} points"
+        placement = PLACEMENTS[("scattered", "linear")]
+    inside = np.flatnonzero(found)
+    w = sp.csr_matrix((weights[inside].ravel(), (np.repeat(inside, 4), rows[inside].ravel())), shape=(n_r, n))
+    w.eliminate_zeros()
+    return Sampler(w, ~found, "linear", placement, domain)
 
 
 def report_outside(layout: ReceptorLayout, outside, on_outside: str, *, where: str, hint: str, stacklevel: int = 2):
@@ -302,24 +500,31 @@ def sample_sed(
         Receptor sites in m (from :func:`afferent.read_receptors`).
     method : {'linear', 'nearest'}, default='linear'
         ``'linear'``: barycentric interpolation in the mesh's cells (exact for a field linear
-        in space). ``'nearest'``: value of the nearest node, or of the containing cell for
-        cell data. ``'nearest'`` is cheaper and cruder; ``benchmarks/bench_sampling.py`` measures both.
+        in space); cell data is first averaged to the nodes, weighted by cell volume (exact at
+        interior nodes of a regular grid for cell values linear in space); a table of points
+        is triangulated (Delaunay, in its plane when the points are coplanar). ``'nearest'``:
+        value of the nearest node, or of the containing cell for cell data. ``'nearest'`` is
+        cheaper and cruder; ``benchmarks/bench_sampling.py`` measures both.
     on_outside : {'raise', 'warn', 'nan'}, default='raise'
-        What to do with receptors outside the mesh (or outside the points' hull / bounding
-        box for a CSV without cells): raise :class:`FieldCoverageError`, or keep them as NaN
-        (with an :class:`AfferentWarning` for ``'warn'``).
+        What to do with receptors outside the mesh (for a table of points with ``'linear'``:
+        outside the points' convex hull, or off the plane of a planar table; with
+        ``'nearest'``: outside their bounding box): raise :class:`FieldCoverageError` naming
+        them, or keep them as NaN (with an :class:`AfferentWarning` for ``'warn'``).
     sampler : Sampler, optional
         Weights from :func:`build_sampler` to reuse (same geometry, same layout).
 
     Returns
     -------
     ReceptorSED
-        Values of shape (n_times, n_receptors) in J/m^3.
+        Values of shape (n_times, n_receptors) in J/m^3, times in s, the receptors outside,
+        and ``placement``: how the values were placed (e.g. ``'cell value of the containing
+        cell'``, ``'cells averaged to nodes by cell volume, then linear'``).
 
     Raises
     ------
     FieldCoverageError
-        Receptors outside the field with ``on_outside='raise'``.
+        Receptors outside the field with ``on_outside='raise'``; ``'linear'`` on a table of
+        points that lie on a line.
     """
     check_option("method", method, METHODS)
     check_option("on_outside", on_outside, ON_OUTSIDE)
@@ -328,9 +533,11 @@ def sample_sed(
     if sampler.outside.any():
         lo, hi = field.bounds
         bounds = " ".join(f"{a} [{l:.6g}, {h:.6g}]" for a, l, h in zip("xyz", lo, hi))
-        report_outside(layout, sampler.outside, on_outside, where=f"field bounds {bounds} m",
+        where = f"{sampler.domain}; field bounds {bounds} m" if sampler.domain else f"field bounds {bounds} m"
+        report_outside(layout, sampler.outside, on_outside, where=where,
                        hint="Pass on_outside='nan' to keep them as NaN or on_outside='warn' to continue.", stacklevel=3)
-    return ReceptorSED(sampler.apply(field.sed), field.times.copy(), layout, method, sampler.outside.copy())
+    return ReceptorSED(sampler.apply(field.sed), field.times.copy(), layout, method, sampler.outside.copy(),
+                       sampler.placement)
 
 
 #: Columns of the long-form table written by ``afferent sample`` (:meth:`ReceptorSED.to_dataframe`).

@@ -1519,6 +1519,7 @@ def _compute(scene, planned, skipped, steps, record, inputs, comp, *, cache_dir,
                f"content with the same read options and method (key {key[:12]}, {entry.path})")
         skipped["reading"] = skipped["sampling"] = why
         record["field"] = dict(entry.meta.get("field", {}), from_cache=True)
+        record["sampling"] = {"method": sed.method, "placement": sed.placement}
     else:
         from .io import read_sed
         from .sampling import build_sampler, sample_sed
@@ -1536,8 +1537,9 @@ def _compute(scene, planned, skipped, steps, record, inputs, comp, *, cache_dir,
             cropped, crop_info = _crop(field, layout.positions, method)
             sampler = build_sampler(cropped, layout, method=method)
             sed = sample_sed(field, layout, method=method, on_outside=scene.sampling.on_outside, sampler=sampler)
+        record["sampling"] = {"method": sed.method, "placement": sed.placement}
         if crop_info:
-            record["sampling"] = {"mesh_cropped_to_receptors": crop_info}
+            record["sampling"]["mesh_cropped_to_receptors"] = crop_info
         del field, cropped, sampler
         if cache is not None:
             with steps("cache"):

@@ -671,7 +671,8 @@ def scale_static(sed, waveform: Waveform, *, d_ref: float, time_index: int | Non
     factor = (waveform.depth / d_ref) ** 2
     values = factor[:, None] * static[None, :]
     outside = np.asarray(getattr(sed, "outside", np.zeros(static.size, bool)), dtype=bool).copy()
-    return ReceptorSED(values, waveform.times.copy(), sed.layout, getattr(sed, "method", "linear"), outside)
+    return ReceptorSED(values, waveform.times.copy(), sed.layout, getattr(sed, "method", "linear"), outside,
+                       getattr(sed, "placement", ""))
 
 
 #: Relative L2 error of the d^2 scaling, measured on an export's own loading series, above

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import re
 import warnings
 
@@ -37,7 +38,30 @@ def test_cell_data_on_request(box_vtu):
     points, hexes = hex_box()
     assert field.location == "cell"
     np.testing.assert_allclose(field.sed[0], linear_sed(points[hexes].mean(axis=1)) * 1e3, rtol=1e-15)
-    assert any("cell data" in n for n in field.provenance.notes)
+    assert (field.provenance.location, field.provenance.location_source) == ("cell", "declared")
+
+
+def test_provenance_records_where_the_values_live_and_why(box_vtu, tmp_path, sample_sed_dir):
+    # box_vtu holds 'SED' as point and as cell data: point data is the default
+    prov = read_sed(box_vtu, length_unit="mm", sed_unit="MPa").provenance
+    assert (prov.location, prov.location_source) == ("point", "point preferred over cell")
+    assert read_sed(box_vtu, length_unit="mm", sed_unit="MPa", location="point").provenance.location_source == "declared"
+    points, hexes = hex_box(2, 1, 1)
+    only_cells = tmp_path / "cells.vtu"
+    meshio.write(only_cells, meshio.Mesh(points, [("hexahedron", hexes)], cell_data={"SED": [np.array([1.0, 2.0])]}))
+    prov = read_sed(only_cells, length_unit="mm", sed_unit="MPa").provenance
+    assert (prov.location, prov.location_source) == ("cell", "only cell data")
+    only_points = tmp_path / "points.vtu"
+    meshio.write(only_points, meshio.Mesh(points, [("hexahedron", hexes)], point_data={"SED": points[:, 0] + 1.0},
+                                          cell_data={"layer": [np.array([1, 2])]}))
+    prov = read_sed(only_points, length_unit="mm", sed_unit="MPa").provenance
+    assert (prov.location, prov.location_source) == ("point", "only point data")
+    # tensors: the bundled tensor file holds stress and strain as cell data only
+    prov = read_sed(sample_sed_dir / "block4" / "indent_0p88mm_tensors.vtu", length_unit="mm", stress_unit="MPa",
+                    sed_from="exact", preset="vtk").provenance
+    assert (prov.location, prov.location_source) == ("cell", "only cell data")
+    d = prov.to_dict()
+    assert json.loads(json.dumps(d)) == d and d["location"] == "cell" and d["location_source"] == "only cell data"
 
 
 def test_units_are_required_not_guessed(box_vtu):

@@ -112,6 +112,8 @@ def test_run_cli_writes_every_output(capsys, tmp_path, bump):
     record = json.loads((out / "run.json").read_text())
     assert record["transduction"]["alpha_a"] == STUDY_PARAMS["start"].alpha
     assert record["field"]["units"]["sed"] == "MPa" and len(record["inputs"]) == 3
+    assert (record["field"]["location"], record["field"]["location_source"]) == ("point", "only point data")
+    assert record["sampling"] == {"method": "linear", "placement": "linear in the mesh's cells (split into tetrahedra)"}
     vtk = meshio.read(out / "receptors.vtu")
     assert vtk.points.shape == (n, 3) and "sed_pa" in vtk.point_data
     # a second run into the same folder refuses, and leaves it intact
@@ -196,3 +198,19 @@ def test_run_cli_waveform_on_a_series_needs_the_reference_step(capsys, tmp_path)
     assert len([line for line in err.splitlines() if line.startswith("afferent: warning: The d^2 scaling of export step 5")]) == 1
     scaling = json.loads((out / "run.json").read_text())["waveform"]["scaling"]
     assert scaling["reference_step"] == 5 and scaling["measured"]["rel_error_l2"][1] > 0.5
+
+
+def test_run_json_records_cell_data_and_its_placement(capsys, tmp_path, bump):
+    _, receptors, *_ = bump
+    points, hexes = hex_box(16, 4, 16, size=(4.0, 3.1, 4.0))
+    vtu = tmp_path / "cells.vtu"
+    meshio.write(vtu, meshio.Mesh(points, [("hexahedron", hexes)], cell_data={"SED": [np.full(len(hexes), 1e-4)]}))
+    for method, placement in (("linear", "cells averaged to nodes by cell volume, then linear"),
+                              ("nearest", "cell value of the containing cell")):
+        out = tmp_path / method
+        code = main(["run", str(vtu), "--receptors", str(receptors), "--length-unit", "mm", "--sed-unit", "MPa",
+                     "--params", "start", "--method", method, "--no-plots", "-o", str(out)])
+        assert code == 0, capsys.readouterr().err
+        record = json.loads((out / "run.json").read_text())
+        assert (record["field"]["location"], record["field"]["location_source"]) == ("cell", "only cell data")
+        assert record["sampling"] == {"method": method, "placement": placement}

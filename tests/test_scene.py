@@ -282,6 +282,8 @@ def test_sed_only_scene_never_imports_brian2(tmp_path):
     assert record["inputs"][str(EXPORT)] == file_sha256(str(EXPORT))
     assert record["inputs"][str(RECEPTORS)] == file_sha256(str(RECEPTORS))
     assert record["scene"]["sampling"]["method"] == "linear"
+    assert record["sampling"] == {"method": "linear", "placement": "linear in the mesh's cells (split into tetrahedra)"}
+    assert (record["field"]["location"], record["field"]["location_source"]) == ("point", "point preferred over cell")
     assert record["scene_file"]["path"] == str(SCENES / "sed_map.toml")
     assert {"python", "numpy", "afferent-skin"} <= set(record["versions"]) and record["warnings"] == []
 
@@ -307,6 +309,7 @@ def test_cache_hit_then_invalidated_by_a_changed_export(tmp_path):
     rec = json.loads((tmp_path / "r2" / "run.json").read_text())
     assert rec["cache"]["hit"] is True and {"reading", "sampling"} <= {s["stage"] for s in rec["skipped"]}
     assert rec["field"]["from_cache"] is True and rec["field"]["n_points"] == 41595
+    assert rec["sampling"]["placement"] == first.record["sampling"]["placement"] == second.sed.placement != ""
     np.testing.assert_array_equal(second.sed.values, first.sed.values)
     np.testing.assert_array_equal(second.sed.layout.ids, first.sed.layout.ids)
     assert not np.allclose(second.current.values, first.current.values, rtol=1e-3, atol=0)  # new parameters applied

@@ -36,6 +36,10 @@ def run(args: argparse.Namespace) -> int:
     sed = sample_sed(field, layout, method=args.method, on_outside=args.on_outside)
     write_csv(sed.to_dataframe(), args.output, overwrite=args.overwrite)
     if not args.quiet:
-        print(f"wrote {args.output}: {layout.n_receptors} receptors x {field.n_times} step(s), method={args.method}, "
-              f"SED {sed.values.min():.4g} .. {sed.values.max():.4g} J/m^3", file=sys.stderr)
+        inside = sed.values[:, ~sed.outside]
+        span = f"SED {inside.min():.4g} .. {inside.max():.4g} J/m^3" if inside.size else "no receptor inside the field"
+        if sed.outside.any():
+            span += f"; {int(sed.outside.sum())} receptor(s) outside the field written as NaN"
+        print(f"wrote {args.output}: {layout.n_receptors} receptors x {field.n_times} step(s), method={args.method} "
+              f"({sed.placement}), {span}", file=sys.stderr)
     return 0

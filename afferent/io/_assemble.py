@@ -720,6 +720,21 @@ def negative_sed_report(sed: np.ndarray, tolerance: float = NEGATIVE_SED_RTOL) -
         "negative_share": share, "tolerance": float(tolerance), "within_tolerance": ok,
         "action": "set to 0" if ok else "refused", "first_step": int(t), "first_row": int(i),
     }
+def _location_source(raw: RawExport, opts: ReadOptions, location: str) -> str:
+    """How the location of the values used was chosen, for the provenance: ``'declared'``,
+    ``'only point data'`` / ``'only cell data'``, or ``'point preferred over cell'`` when the
+    export holds the same quantity (SED, or stress and strain) at both locations."""
+    if opts.location is not None:
+        return "declared"
+    other = "cell" if location == "point" else "point"
+    try:
+        if opts.sed_from == "field":
+            found = find_sed_array(raw, replace(opts, location=other))[0].location
+        else:
+            found = find_tensors(raw, replace(opts, location=other), need_convention=False)[0][2]
+    except SEDFormatError:
+        found = None
+    return f"{location} preferred over {other}" if found == other else f"only {location} data"
 
 
 def assemble(raw: RawExport, opts: ReadOptions) -> SEDField:
@@ -860,11 +875,6 @@ def assemble(raw: RawExport, opts: ReadOptions) -> SEDField:
         )
     if location == "cell" and raw.cells is None:
         raise SEDFormatError(f"SED file {_where(raw)!r}: SED is cell data but the file has no volume cells.")
-    if location == "cell":
-        notes.append(
-            "SED is cell data (one value per FE cell, as exported): 'nearest' sampling takes the value of the "
-            "cell containing the receptor; 'linear' first averages cells to nodes (volume-weighted)."
-        )
     if raw.cells is None:
         xyz, sed, merged = _merge_duplicate_points(raw, xyz, sed)
         if merged:
@@ -881,6 +891,7 @@ def assemble(raw: RawExport, opts: ReadOptions) -> SEDField:
     prov = Provenance(
         files=raw.files, format=raw.format, sed_from=opts.sed_from, columns=columns, units=units,
         factors=factors, notes=tuple(notes), negative_sed=negative, checks=checks,
+        location=location, location_source=_location_source(raw, opts, location),
     )
     try:
         return SEDField(xyz * lf, sed, times, location=location, cells=raw.cells, provenance=prov)
