@@ -459,6 +459,27 @@ def _scattered_linear(field: SEDField, layout: ReceptorLayout) -> Sampler:
     return Sampler(w, ~found, "linear", placement, domain)
 
 
+#: Receptor extent over field extent beyond which the two were probably declared in different
+#: length units (mm vs m is 1e3): above, the receptors spread far wider than the model; below,
+#: they huddle in 1/300 of it (a region of interest is rarely that small).
+RECEPTOR_SPAN_BAND = (1 / 300, 30.0)
+
+
+def _unit_mismatch(layout: ReceptorLayout, field: SEDField) -> str:
+    """A sentence when receptors and field are orders of magnitude apart in extent, else ''."""
+    from ._plausibility import scale_ratio
+
+    if layout.n_receptors < 2:
+        return ""
+    ratio = scale_ratio(layout.positions, field.points)
+    lo, hi = RECEPTOR_SPAN_BAND
+    if not np.isfinite(ratio) or lo <= ratio <= hi:
+        return ""
+    of = f" of receptor file {layout.source!r}" if layout.source else ""
+    return (f"The receptors{of} span {ratio:.3g} x the field's extent: check the length unit declared for the "
+            "receptor positions (mm vs m is a factor 1e3).")
+
+
 def report_outside(layout: ReceptorLayout, outside, on_outside: str, *, where: str, hint: str, stacklevel: int = 2):
     """Raise or warn about receptors outside the SED field, per ``on_outside`` ('raise', 'warn', 'nan').
 
@@ -530,12 +551,16 @@ def sample_sed(
     check_option("on_outside", on_outside, ON_OUTSIDE)
     if sampler is None:
         sampler = build_sampler(field, layout, method=method)
+    units = _unit_mismatch(layout, field)
+    if units and not sampler.outside.any():
+        warnings.warn(units, AfferentWarning, stacklevel=2)
     if sampler.outside.any():
         lo, hi = field.bounds
         bounds = " ".join(f"{a} [{l:.6g}, {h:.6g}]" for a, l, h in zip("xyz", lo, hi))
         where = f"{sampler.domain}; field bounds {bounds} m" if sampler.domain else f"field bounds {bounds} m"
         report_outside(layout, sampler.outside, on_outside, where=where,
-                       hint="Pass on_outside='nan' to keep them as NaN or on_outside='warn' to continue.", stacklevel=3)
+                       hint="Pass on_outside='nan' to keep them as NaN or on_outside='warn' to continue."
+                       + (f" {units}" if units else ""), stacklevel=3)
     return ReceptorSED(sampler.apply(field.sed), field.times.copy(), layout, method, sampler.outside.copy(),
                        sampler.placement)
 

@@ -371,3 +371,19 @@ def test_bundled_comsol_table_matches_the_mesh_at_the_papilla_tips(sample_sed_di
     assert s.outside.sum() == 28
     inside = ~s.outside
     np.testing.assert_allclose(s.values[0, inside], sample_sed(mesh, layout).values[0, inside], rtol=1e-7)
+
+
+def test_receptors_declared_in_another_unit_are_named_as_such(tmp_path, field):
+    # field: the hex box of these tests (mm); receptors written in mm but declared m -> 1000x too far
+    path = tmp_path / "R.csv"
+    path.write_text("x,y,z\n0.2,0.3,0.4\n0.6,0.5,0.9\n")
+    far = read_receptors(path, length_unit="m")
+    with pytest.raises(FieldCoverageError, match=re.escape(
+            f"The receptors of receptor file {str(path)!r} span 263 x the field's extent: check the length unit declared "
+            "for the receptor positions (mm vs m is a factor 1e3).")):
+        sample_sed(field, far)
+    # written in um, declared mm: 1000x too close together, all inside one corner of the field: warned
+    path.write_text("x,y,z\n0.2,0.3,0.4\n0.6,0.5,0.9\n")
+    near = ReceptorLayout(read_receptors(path, length_unit="mm").positions * 1e-3, source=str(path))
+    with pytest.warns(AfferentWarning, match=re.escape("span 0.000263 x the field's extent")):
+        sample_sed(field, near)
