@@ -31,7 +31,7 @@ from types import SimpleNamespace
 
 import numpy as np
 
-from .export import write_receptor_vtu
+from .export import step_title, write_receptor_vtu
 
 __all__ = ["write_outputs", "write_json", "write_receptor_vtu"]
 
@@ -101,8 +101,9 @@ def write_outputs(folder: str, *, want, plots: bool, sed_static, sed, current=No
     if "vtu" in want:
         if current is not None:
             write_receptor_vtu(path("receptors.vtu"), sed, current=current, time_index=profile_index)
-        else:
-            write_receptor_vtu(path("receptors.vtu"), sed_static)
+        else:  # SED only: its own step of the largest total SED
+            write_receptor_vtu(path("receptors.vtu"), sed_static,
+                               time_index=int(np.argmax(np.nansum(np.asarray(sed_static.values), axis=1))))
     if waveform is not None:
         waveform.to_dataframe().to_csv(path("waveform.csv"), index=False)
     if plots:
@@ -118,9 +119,14 @@ def _figures(path, want, *, sed_static, sed, current, branching, afferent, fit, 
         import matplotlib.pyplot as plt
 
         fig, axes = plt.subplots(1, 2, figsize=(10, 4.2), layout="constrained")
-        plotting.plot_sed_map(sed_static, ax=axes[0])
-        plotting.plot_sed_map(sed_static, ax=axes[1], normalise=True, threshold=0.6,
-                              title="normalised SED, hot spots >= 0.6")
+        # the export's own steps: the same step as the profiles when no stimulus rescaled them, else
+        # the export step of the largest total SED (the static solution a waveform scales)
+        same = sed_static is sed
+        k = profile_index if same else int(np.argmax(np.nansum(np.asarray(sed_static.values), axis=1)))
+        n_t, times = sed_static.values.shape[0], sed_static.times
+        plotting.plot_sed_map(sed_static, ax=axes[0], time_index=k, title=step_title("SED at receptor sites", times, k, n_t))
+        plotting.plot_sed_map(sed_static, ax=axes[1], normalise=True, threshold=0.6, time_index=k,
+                              title=step_title("normalised SED, hot spots >= 0.6", times, k, n_t))
         plotting.save_figure(fig, path("sed_map.png"))
     if "profiles" in want:
         from .synthesis import Branching, synthesize
@@ -129,7 +135,9 @@ def _figures(path, want, *, sed_static, sed, current, branching, afferent, fit, 
         for axis, kind, name in (("x", "longitudinal", "profiles_x.png"), ("z", "cross", "profiles_z.png")):
             aff = afferent if branching.kind == kind else synthesize(
                 current, Branching.longitudinal(layout) if kind == "longitudinal" else Branching.cross(layout))
-            ax = plotting.plot_section_profiles(sed, current, aff, axis=axis, time_index=profile_index)
+            ax = plotting.plot_section_profiles(sed, current, aff, axis=axis, time_index=profile_index,
+                                                title=step_title(f"Profiles along {axis}", sed.times, profile_index,
+                                                                 sed.values.shape[0]))
             plotting.save_figure(ax, path(name))
     if "fit" in want and fit is not None:
         plotting.save_figure(plotting.plot_fit(fit), path("fit.png"))
@@ -137,6 +145,6 @@ def _figures(path, want, *, sed_static, sed, current, branching, afferent, fit, 
         plotting.save_figure(plotting.plot_waveform(waveform), path("waveform.png"))
     if "spikes" in want and spikes is not None:
         plotting.save_figure(plotting.plot_raster(spikes), path("raster.png"))
-        plotting.save_figure(plotting.plot_rates(spikes, positions=afferent), path("rates.png"))
+        plotting.save_figure(plotting.plot_rates(spikes, positions=afferent, waveform=waveform), path("rates.png"))
         bin_width = max(spikes.duration / 50, spikes.dt)
         plotting.save_figure(plotting.plot_psth(spikes, bin_width), path("psth.png"))

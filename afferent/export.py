@@ -82,6 +82,22 @@ def write_receptor_vtu(path: str, sed, *, current=None, time_index: int = -1) ->
                  file_format="vtu")
 
 
+def profile_step_record(afferent, index: int) -> dict:
+    """What the run record says about the step the static outputs show (figures, VTU, fit)."""
+    times = getattr(afferent, "times", None)
+    n = int(np.asarray(afferent.values).shape[0])
+    return {"index": int(index) % max(n, 1), "time_s": None if times is None else float(times[index]), "n_steps": n,
+            "chosen_as": "the step of the largest total afferent current (afferent.profiles.peak_step)"}
+
+
+def step_title(what: str, times, index: int, n_steps: int) -> str:
+    """A figure title that says which step it shows: 'SED ...' over 'step 51 of 2301, t = 0.1 s (peak)'."""
+    if n_steps <= 1:
+        return what
+    t = "" if times is None else f", t = {float(times[index]):.4g} s"
+    return f"{what}\nstep {int(index) % n_steps} of {n_steps}{t} (peak)"
+
+
 def write_pipeline_outputs(result, outdir: str, *, record: dict, overwrite: bool = False, plots: bool = True) -> list[str]:
     """Write every output of a static pipeline run into ``outdir`` (atomically, as a whole).
 
@@ -114,7 +130,9 @@ def write_pipeline_outputs(result, outdir: str, *, record: dict, overwrite: bool
                            "time_s": fit.time}]).to_csv(path("fit.csv"), index=False)
             pd.DataFrame({"position_m": fit.positions, "predicted": fit.predicted, "observed": fit.observed}).to_csv(
                 path("profile_fit.csv"), index=False)
-        write_receptor_vtu(path("receptors.vtu"), result.sed, current=result.current)
+        k = result.profile_index
+        n_t = result.sed.values.shape[0]
+        write_receptor_vtu(path("receptors.vtu"), result.sed, current=result.current, time_index=k)
         if result.waveform is not None:
             result.waveform.to_dataframe().to_csv(path("waveform.csv"), index=False)
         if result.spikes is not None:
@@ -129,14 +147,18 @@ def write_pipeline_outputs(result, outdir: str, *, record: dict, overwrite: bool
             import matplotlib.pyplot as plt
 
             fig, axes = plt.subplots(1, 2, figsize=(10, 4.2), layout="constrained")
-            plotting.plot_sed_map(result.sed, ax=axes[0])
-            plotting.plot_sed_map(result.sed, ax=axes[1], normalise=True, threshold=0.6, title="normalised SED, hot spots >= 0.6")
+            times = result.sed.times
+            plotting.plot_sed_map(result.sed, ax=axes[0], time_index=k,
+                                  title=step_title("SED at receptor sites", times, k, n_t))
+            plotting.plot_sed_map(result.sed, ax=axes[1], normalise=True, threshold=0.6, time_index=k,
+                                  title=step_title("normalised SED, hot spots >= 0.6", times, k, n_t))
             plotting.save_figure(fig, path("sed_map.png"))
             layout = result.sed.layout
             for axis, kind, name in (("x", "longitudinal", "profiles_x.png"), ("z", "cross", "profiles_z.png")):
                 aff = result.afferent if result.branching.kind == kind else synthesize(
                     result.current, Branching.longitudinal(layout) if kind == "longitudinal" else Branching.cross(layout))
-                ax = plotting.plot_section_profiles(result.sed, result.current, aff, axis=axis)
+                ax = plotting.plot_section_profiles(result.sed, result.current, aff, axis=axis, time_index=k,
+                                                    title=step_title(f"Profiles along {axis}", times, k, n_t))
                 plotting.save_figure(ax, path(name))
             if result.fit is not None:
                 plotting.save_figure(plotting.plot_fit(result.fit), path("fit.png"))
@@ -144,7 +166,8 @@ def write_pipeline_outputs(result, outdir: str, *, record: dict, overwrite: bool
                 plotting.save_figure(plotting.plot_waveform(result.waveform), path("waveform.png"))
             if result.spikes is not None:
                 plotting.save_figure(plotting.plot_raster(result.spikes), path("raster.png"))
-                plotting.save_figure(plotting.plot_rates(result.spikes, positions=result.afferent), path("rates.png"))
+                plotting.save_figure(plotting.plot_rates(result.spikes, positions=result.afferent, waveform=result.waveform),
+                                     path("rates.png"))
                 bin_width = max(result.spikes.duration / 50, result.spikes.dt)
                 plotting.save_figure(plotting.plot_psth(result.spikes, bin_width), path("psth.png"))
         full = dict(record)
@@ -168,6 +191,7 @@ def write_pipeline_outputs(result, outdir: str, *, record: dict, overwrite: bool
                 "notes": list(getattr(sp, "notes", ())),
                 "lif": {k: getattr(sp.params, k) for k in ("tau_m", "r_m", "v_rest", "v_thresh", "v_reset", "t_ref")},
             }
+        full["profile_step"] = profile_step_record(result.afferent, k)
         full["stage_seconds"] = result.timings
         full["outputs"] = sorted(written + ["run.json"])
         with open(path("run.json"), "w") as f:

@@ -15,7 +15,7 @@ import time
 from dataclasses import dataclass, field
 
 from ._validation import check_option
-from .profiles import ObservedProfile, ProfileFit, compare_profiles
+from .profiles import ObservedProfile, ProfileFit, compare_profiles, peak_step
 from .receptors import ReceptorLayout
 from .sampling import ReceptorSED, sample_sed
 from .synthesis import AfferentCurrent, Branching, synthesize
@@ -71,6 +71,7 @@ class PipelineResult:
     input: object | None = None
     spikes: object | None = None
     scaling: dict | None = None
+    profile_index: int = 0
 
 
 def run_pipeline(
@@ -104,7 +105,8 @@ def run_pipeline(
     method, on_outside : str
         Sampling options (:func:`afferent.sample_sed`).
     observed : ObservedProfile, optional
-        A recorded profile to compare the afferent profile with (last time step).
+        A recorded profile to compare the afferent profile with, at the step of the largest
+        total afferent current (:func:`afferent.profiles.peak_step`; ``profile_index``).
     normalise : {'both', 'prediction', 'observation', 'neither'}
         What is min-max normalised before comparing.
     rng : None, int or Generator
@@ -151,13 +153,14 @@ def run_pipeline(
     branching = make_branching(synthesis, layout, rng=rng)
     afferent = synthesize(current, branching)
     timings["synthesis"] = time.perf_counter() - t
+    profile_index = peak_step(afferent)
     fit = None
     if observed is not None:
         t = time.perf_counter()
-        fit = compare_profiles(afferent, observed, normalise=normalise)
+        fit = compare_profiles(afferent, observed, normalise=normalise, time_index=profile_index)
         timings["comparison"] = time.perf_counter() - t
     return PipelineResult(sed, current, branching, afferent, sat, fit, timings, waveform=waveform,
-                          scaling=scaling if waveform is not None else None)
+                          scaling=scaling if waveform is not None else None, profile_index=profile_index)
 
 
 INPUTS = ("static", "rate-sensitive")

@@ -10,7 +10,7 @@ import numpy as np
 
 __all__ = [
     "plot_sed_map", "plot_sed_profile", "plot_section_profiles", "plot_fit",
-    "plot_raster", "plot_rates", "plot_psth", "plot_waveform", "save_figure",
+    "plot_raster", "plot_rates", "rate_table", "plot_psth", "plot_waveform", "save_figure",
 ]
 
 
@@ -224,20 +224,66 @@ def plot_raster(spikes, ax=None, *, color: str = "k", title: str | None = None):
     return ax
 
 
-def plot_rates(spikes, positions=None, ax=None, *, label: str | None = None, title: str | None = None):
-    """Mean firing rate of each afferent, against its position when given.
+def rate_table(spikes, waveform=None, positions=None):
+    """The numbers ``rates.png`` shows, one row per afferent: the rate in each stimulus phase
+    (when a waveform is given: loading, hold, unloading, off; :meth:`Waveform.phases`), the mean
+    over the whole window and the peak instantaneous rate, all in Hz.
 
     Parameters
     ----------
     spikes : SpikeTrains
-        Rates are ``n_spikes / duration`` in Hz (:meth:`SpikeTrains.rates`).
+    waveform : Waveform, optional
+        The stimulus; its phases split the window.
+    positions : array_like or AfferentCurrent, optional
+        Afferent positions in m (a column ``position_m``).
+
+    Returns
+    -------
+    pandas.DataFrame
+        Columns ``afferent``, [``position_m``], ``<phase>_hz`` per phase (``loading_hz``,
+        ``hold_hz``, ...; a phase that repeats, as in a sinusoid, is pooled: its spikes over its
+        total time), ``mean_hz``, ``peak_instantaneous_hz``.
+    """
+    import pandas as pd
+
+    df = pd.DataFrame({"afferent": spikes.afferent_ids})
+    if positions is not None:
+        df["position_m"] = np.asarray(getattr(positions, "positions", positions), dtype=float)
+    if waveform is not None:
+        spans: dict[str, list] = {}
+        for name, t0, t1 in waveform.phases():
+            lo, hi = max(t0, spikes.t_start), min(t1, spikes.t_start + spikes.duration)
+            if hi > lo:
+                spans.setdefault(name, []).append((lo, hi))
+        for name, parts in spans.items():
+            n = sum(spikes.rates_between(lo, hi) * (hi - lo) for lo, hi in parts)
+            total = sum(hi - lo for lo, hi in parts)
+            df[f"{name}_hz"] = n / total
+    df["mean_hz"] = spikes.rates()
+    df["peak_instantaneous_hz"] = spikes.peak_rate()
+    return df
+
+
+def plot_rates(spikes, positions=None, ax=None, *, waveform=None, label: str | None = None, title: str | None = None):
+    """Firing rate of each afferent: per stimulus phase, the window mean, and the peak
+    instantaneous rate (1 / shortest ISI), against position when given.
+
+    A rate-sensitive RA-I afferent fires bursts at the onset and the release of a ramp-and-hold
+    and nothing through the hold: its window mean (e.g. 30 Hz) hides 300-400 Hz bursts, which
+    the peak instantaneous rate and the loading/unloading rates show.
+
+    Parameters
+    ----------
+    spikes : SpikeTrains
     positions : array_like of shape (n_afferents,) or AfferentCurrent, optional
         Afferent coordinate in m (an object with ``positions``, e.g. the AfferentCurrent or
         InputCurrent that was simulated, is accepted; its ``axis`` names the x label). Without
         it the rates are plotted against the afferent index.
     ax : matplotlib Axes, optional
+    waveform : Waveform, optional
+        Splits the window into its phases (:func:`rate_table`).
     label : str, optional
-        Legend label.
+        Legend label of the window mean.
     title : str, optional
 
     Returns
@@ -267,13 +313,16 @@ def plot_rates(spikes, positions=None, ax=None, *, label: str | None = None, tit
             )
         x = x * 1e3
         ax.set_xlabel(f"{axis or 'position'} (mm)")
-    order = np.argsort(x, kind="stable")
-    ax.plot(x[order], rates[order], "o-", ms=4, label=label)
+    table = rate_table(spikes, waveform)
+    order = np.argsort(x)
+    for col in [c for c in table.columns if c.endswith("_hz") and c not in ("mean_hz", "peak_instantaneous_hz")]:
+        ax.plot(x[order], table[col].to_numpy()[order], "o-", ms=3, label=f"{col[:-3]} phase")
+    ax.plot(x[order], table["mean_hz"].to_numpy()[order], "k:", lw=1.5, label=label or "mean over the window")
+    ax.plot(x[order], table["peak_instantaneous_hz"].to_numpy()[order], "^--", ms=4, color="crimson",
+            label="peak instantaneous (1 / shortest ISI)")
     ax.set_ylabel("rate (Hz)")
-    ax.set_ylim(bottom=0)
-    if label:
-        ax.legend(fontsize="small")
-    ax.set_title(title or f"mean rate over {spikes.duration:g} s")
+    ax.legend(fontsize="small")
+    ax.set_title(title or f"firing rates over {spikes.duration:g} s")
     return ax
 
 

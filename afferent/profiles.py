@@ -40,6 +40,7 @@ __all__ = [
     "observed_on",
     "ProfileFit",
     "compare_profiles",
+    "peak_step",
     "NEARLY_CONSTANT_RTOL",
 ]
 
@@ -459,6 +460,29 @@ class ProfileFit:
     time_index: int | None = None
     time: float | None = None
     dropped: int = 0
+
+
+def peak_step(afferent) -> int:
+    """The time step whose profile the static outputs show: the largest total afferent current.
+
+    A stimulus that indents and releases ends at zero: its last step is an empty profile, so
+    figures, the receptor VTU, the profile table and the fit all use this step instead, and the
+    run record names it.
+
+    Parameters
+    ----------
+    afferent : AfferentCurrent
+        Afferent currents of shape (n_times, n_afferents) in A.
+
+    Returns
+    -------
+    int
+        A non-negative step index (the first of equal maxima; 0 for a single step).
+    """
+    values = np.asarray(afferent.values, dtype=float)
+    if values.ndim != 2 or values.shape[0] == 0:
+        return 0
+    return int(np.argmax(np.nansum(values, axis=1)))
 
 
 def compare_profiles(predicted, observed, *, normalise: str = "both", time_index: int = -1,

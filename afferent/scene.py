@@ -120,6 +120,7 @@ from pathlib import Path
 
 from ._validation import suggest
 from .exceptions import AfferentError
+from .export import profile_step_record
 from .io import FORMATS
 
 __all__ = [
@@ -1449,7 +1450,6 @@ def _record(scene, planned, skipped, steps, record, inputs, caught, files, start
 
 def _compute(scene, planned, skipped, steps, record, inputs, comp, *, cache_dir, use_cache, progress):
     """Run the planned stages; fill ``comp`` (results), ``record`` (run.json entries), ``inputs``."""
-    import numpy as np
 
     from .cache import SEDCache, export_files, positions_digest, sampling_key
 
@@ -1604,10 +1604,12 @@ def _compute(scene, planned, skipped, steps, record, inputs, comp, *, cache_dir,
         branching, map_info = _branching(scene, layout, full_ids)
         afferent = synthesize(current, branching)
     record["synthesis"] = {"kind": branching.kind, "n_afferents": int(branching.n_afferents), **map_info}
-    total = np.nansum(np.asarray(afferent.values), axis=1)
-    profile_index = int(np.argmax(total)) if total.size else -1
+    from .profiles import peak_step
+
+    profile_index = peak_step(afferent)
     out.update(current=current, branching=branching, afferent=afferent, profile_index=profile_index)
     comp.update(current=current, afferent=afferent)
+    record["profile_step"] = profile_step_record(afferent, profile_index)
     if afferent.times is not None:
         record["profile_time_s"] = float(afferent.times[profile_index])
     if "comparison" in planned:

@@ -390,6 +390,17 @@ class SpikeTrains:
         """Mean firing rate over the simulated window, in Hz: ``n_spikes / duration``."""
         return self.n_spikes / self.duration
 
+    def rates_between(self, t0: float, t1: float) -> np.ndarray:
+        """Mean rate of each afferent over [t0, t1) in s, in Hz (NaN for an empty interval)."""
+        if not t1 > t0:
+            return np.full(self.n_afferents, np.nan)
+        return np.array([np.count_nonzero((t >= t0) & (t < t1)) for t in self.spike_times], dtype=float) / (t1 - t0)
+
+    def peak_rate(self) -> np.ndarray:
+        """Peak instantaneous rate of each afferent, 1 / (shortest inter-spike interval), in Hz;
+        0 below two spikes. Bursts at a ramp's onset show here, not in the window mean."""
+        return np.array([1.0 / np.diff(t).min() if t.size >= 2 else 0.0 for t in self.spike_times])
+
     def first_spike_latency(self) -> np.ndarray:
         """Time from ``t_start`` to each afferent's first spike in s; NaN if it never fired."""
         return np.array([t[0] - self.t_start if t.size else np.nan for t in self.spike_times])

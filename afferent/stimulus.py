@@ -199,6 +199,34 @@ class Waveform:
             return np.zeros(1)
         return np.gradient(self.depth, self.times)
 
+    def phases(self, *, rtol: float = 1e-6) -> list[tuple[str, float, float]]:
+        """The waveform cut where the depth changes direction: ``(name, t_start, t_end)`` in s.
+
+        Names: ``'loading'`` (depth increasing), ``'unloading'`` (decreasing), ``'hold'``
+        (constant above 0), ``'off'`` (constant at 0). A ramp-and-hold gives loading, hold,
+        unloading, off; a sinusoid alternates loading and unloading. Consecutive intervals of
+        the same kind are merged.
+
+        Parameters
+        ----------
+        rtol : float, default=1e-6
+            Depth changes below ``rtol`` x the largest depth count as constant.
+        """
+        if self.n_times < 2:
+            return [("hold" if self.depth[0] > 0 else "off", float(self.times[0]), float(self.times[0]))]
+        step = np.diff(self.depth)
+        tol = rtol * max(float(np.abs(self.depth).max()), 1e-300)
+        kinds = np.where(step > tol, "loading", np.where(step < -tol, "unloading",
+                                                          np.where(self.depth[1:] > tol, "hold", "off")))
+        out: list[tuple[str, float, float]] = []
+        for k, name in enumerate(kinds):
+            t0, t1 = float(self.times[k]), float(self.times[k + 1])
+            if out and out[-1][0] == name:
+                out[-1] = (name, out[-1][1], t1)
+            else:
+                out.append((str(name), t0, t1))
+        return out
+
     def to_dataframe(self):
         """Table with columns ``time_s`` and ``depth_m``."""
         import pandas as pd

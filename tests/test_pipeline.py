@@ -214,3 +214,48 @@ def test_run_json_records_cell_data_and_its_placement(capsys, tmp_path, bump):
         record = json.loads((out / "run.json").read_text())
         assert (record["field"]["location"], record["field"]["location_source"]) == ("cell", "only cell data")
         assert record["sampling"] == {"method": method, "placement": placement}
+
+
+def test_waveform_runs_show_the_peak_step_in_both_routes(capsys, tmp_path):
+    """A ramp-and-hold-and-release ends at SED 0: figures, receptors.vtu, the fit and the record
+    show the step of the largest afferent current in 'afferent run EXPORT' and in a scene alike
+    (was the last step - a one-colour map and flat profiles - in the first)."""
+    from conftest import SAMPLE_DIR
+
+    from afferent.scene import load_scene, run_scene
+
+    export, receptors = SAMPLE_DIR / "block4" / "indent_0p88mm.vtu", SAMPLE_DIR / "block4" / "receptors.csv"
+    if not export.is_file():
+        pytest.skip("bundled sample not generated")
+    out = tmp_path / "cli"
+    code = main(["run", str(export), "--receptors", str(receptors), "--length-unit", "mm", "--sed-unit", "MPa",
+                 "--params", "start", "--waveform", "ramp:0.5,5,0.2", "--d-ref-mm", "0.5", "-o", str(out)])
+    assert code == 0, capsys.readouterr().err
+    cli_step = json.loads((out / "run.json").read_text())["profile_step"]
+    vtu = meshio.read(out / "receptors.vtu")
+    assert vtu.point_data["sed_pa"].max() > 0  # not the released last step
+    scene_file = tmp_path / "scene.toml"
+    scene_file.write_text(f"""
+[export]
+file = {str(export)!r}
+length_unit = "mm"
+sed_unit = "MPa"
+[receptors]
+file = {str(receptors)!r}
+[transduction]
+params = "start"
+[stimulus]
+waveform = "ramp"
+d_ref_mm = 0.5
+hold_s = 0.2
+[outputs]
+want = ["profiles", "vtu"]
+""")
+    res = run_scene(load_scene(scene_file).with_output(tmp_path / "scene"), use_cache=False)
+    assert res.record["profile_step"] == cli_step
+    assert cli_step["index"] > 0 and cli_step["index"] < cli_step["n_steps"] - 1 and cli_step["time_s"] > 0.09
+    np.testing.assert_array_equal(meshio.read(tmp_path / "scene" / "receptors.vtu").point_data["sed_pa"],
+                                  vtu.point_data["sed_pa"])
+    from afferent.export import step_title
+
+    assert step_title("SED at receptor sites", [0.0, 0.1, 0.2], 1, 3) == "SED at receptor sites\nstep 1 of 3, t = 0.1 s (peak)"

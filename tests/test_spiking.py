@@ -551,3 +551,28 @@ def test_property_time_varying_extremes_backends_agree(seed, low, high):
         b = simulate_lif(current, RA, dt=1e-4, engine="fast-numpy")
     assert same_spikes(a, b)
     assert np.all(a.rates() <= 1.0 / (n_eff(RA, 1e-4) * 1e-4) * (1 + 1e-9))
+
+
+def test_rate_table_splits_the_window_by_stimulus_phase():
+    """Hand-built trains on a ramp-and-hold (load 0-0.1 s, hold to 0.3 s, unload to 0.4 s, off to
+    0.5 s): afferent 0 bursts 4 spikes 2.5 ms apart at onset and 2 at release; afferent 1 fires
+    once in the hold. The table must give the phase rates and the burst's peak rate, which the
+    window mean (12 Hz) hides."""
+    from afferent.plotting import rate_table
+    from afferent.spiking import LIFParams, SpikeTrains
+    from afferent.stimulus import ramp_and_hold
+
+    w = ramp_and_hold(0.5e-3, 5e-3, 0.2, dt=1e-3, post=0.1)
+    assert [p[0] for p in w.phases()] == ["loading", "hold", "unloading", "off"]
+    np.testing.assert_allclose([p[1:] for p in w.phases()], [[0, 0.1], [0.1, 0.3], [0.3, 0.4], [0.4, 0.5]], atol=1e-9)
+    trains = SpikeTrains(spike_times=(np.array([0.010, 0.0125, 0.015, 0.0175, 0.31, 0.32]), np.array([0.2])),
+                         afferent_ids=np.array(["a", "b"]), duration=0.5, dt=1e-4, engine="fast", backend="numpy",
+                         silent_skipped=np.array([], dtype=int), params=LIFParams.from_preset("ra"))
+    df = rate_table(trains, w, positions=np.array([1e-3, 2e-3]))
+    np.testing.assert_allclose(df["loading_hz"], [40.0, 0.0])
+    np.testing.assert_allclose(df["hold_hz"], [0.0, 5.0])
+    np.testing.assert_allclose(df["unloading_hz"], [20.0, 0.0])
+    np.testing.assert_allclose(df["off_hz"], [0.0, 0.0])
+    np.testing.assert_allclose(df["mean_hz"], [12.0, 2.0])
+    np.testing.assert_allclose(df["peak_instantaneous_hz"], [400.0, 0.0])
+    assert list(df["position_m"]) == [1e-3, 2e-3]
