@@ -13,6 +13,22 @@ from .exceptions import OutputExistsError
 __all__ = ["atomic_file", "atomic_dir", "check_writable"]
 
 
+def _umask() -> int:
+    """The process umask (read by setting it and putting it back: os has no getter)."""
+    mask = os.umask(0o022)
+    os.umask(mask)
+    return mask
+
+
+def _public(path: str, *, folder: bool) -> None:
+    """Give a temporary file or folder the mode ordinary creation would have given it.
+
+    ``tempfile`` creates them private (0600 files, 0700 folders) whatever the umask; results
+    renamed into place would keep that, and colleagues on a shared server could not read them.
+    """
+    os.chmod(path, (0o777 if folder else 0o666) & ~_umask())
+
+
 def check_writable(path: str, *, overwrite: bool, what: str = "Output file") -> None:
     """Raise :class:`OutputExistsError` if ``path`` exists and ``overwrite`` is False; create
     its missing parent folders (``results/`` on a fresh checkout)."""
@@ -38,6 +54,7 @@ def atomic_file(path: str, *, overwrite: bool = False):
     os.close(fd)
     try:
         yield tmp
+        _public(tmp, folder=False)
         os.replace(tmp, path)
     finally:
         if os.path.exists(tmp):
@@ -53,6 +70,14 @@ def atomic_dir(path: str, *, overwrite: bool = False):
     tmp = tempfile.mkdtemp(prefix=f".{base}.", suffix=".part", dir=parent)
     try:
         yield tmp
+        _public(tmp, folder=True)
+        for root, dirs, files in os.walk(tmp):  # files written inside keep the umask already; mkstemp ones do not
+            for name in files:
+                full = os.path.join(root, name)
+                if os.stat(full).st_mode & 0o777 == 0o600:
+                    _public(full, folder=False)
+            for name in dirs:
+                _public(os.path.join(root, name), folder=True)
         if os.path.lexists(path):
             old = tempfile.mkdtemp(prefix=f".{base}.", suffix=".old", dir=parent)
             os.replace(path, os.path.join(old, base))

@@ -129,6 +129,11 @@ def _norm(v):
     return (v - np.nanmin(v)) / span if span > 0 else np.zeros_like(v)
 
 
+#: Profiles with this few points are shown raw beside the normalised curve (min-max normalising
+#: 2 or 3 values yields a fixed 0-1 or 0-1-0 shape that carries no information).
+FEW_POINTS = 3
+
+
 def plot_section_profiles(sed, current, afferent=None, *, axis: str = "x", time_index: int = -1, ax=None, title=None):
     """Normalised SED, receptor current and afferent current along one axis, on one axes.
 
@@ -156,8 +161,17 @@ def plot_section_profiles(sed, current, afferent=None, *, axis: str = "x", time_
     ax.plot(coord * 1e3, _norm(current.values[time_index, idx]), "s--", ms=3, label="receptor current")
     if afferent is not None and getattr(afferent, "axis", axis) == axis:
         order = np.argsort(afferent.positions)
-        ax.plot(afferent.positions[order] * 1e3, _norm(afferent.values[time_index, order]), "^-", ms=4, lw=2,
+        raw = np.asarray(afferent.values[time_index, order], dtype=float)
+        ax.plot(afferent.positions[order] * 1e3, _norm(raw), "^-", ms=4, lw=2,
                 label=f"afferent current ({afferent.kind} sections)")
+        if raw.size <= FEW_POINTS:
+            # min-max normalising 2 or 3 values always gives 0-1 or 0-1-0: show the values themselves
+            twin = ax.twinx()
+            twin.plot(afferent.positions[order] * 1e3, raw * 1e9, "^:", ms=6, color="crimson", label="afferent current (nA)")
+            twin.set_ylabel("afferent current, raw (nA)", color="crimson")
+            ax.text(0.02, 0.98, f"only {raw.size} afferents: their min-max normalised profile is 0-1 by construction;\n"
+                                "the raw currents are on the right axis", transform=ax.transAxes, va="top", fontsize="x-small",
+                    color="crimson")
     ax.set_xlabel(f"{axis} ({'across' if axis == 'x' else 'along'} the ridges) (mm)")
     ax.set_ylabel("normalised (min-max)")
     ax.set_ylim(-0.05, 1.1)

@@ -189,3 +189,24 @@ def test_speak_cli_rewrites_only_the_commands_own_options():
         "--length-unit is 'm' but ...; pass --overwrite to replace it; --format csv."
     # not an option of this command, or part of a longer word: unchanged
     assert speak_cli("pass time_unit='s'; my_length_unit=3; x.format='a'", flags) == "pass time_unit='s'; my_length_unit=3; x.format='a'"
+
+
+@pytest.mark.parametrize("umask, file_mode, dir_mode", [(0o022, 0o644, 0o755), (0o027, 0o640, 0o750)])
+def test_outputs_honour_the_umask(capsys, tmp_path, box_vtu, receptors_csv, umask, file_mode, dir_mode):
+    """Temporary files renamed into place were 0600 and folders 0700 whatever the umask."""
+    old = os.umask(umask)
+    try:
+        out = tmp_path / "sed.csv"
+        code, _, err = run(capsys, "sample", box_vtu, "--receptors", receptors_csv[0], "--length-unit", "mm",
+                           "--sed-unit", "MPa", "-o", out)
+        assert code == 0, err
+        assert out.stat().st_mode & 0o777 == file_mode
+        folder = tmp_path / "run"
+        code, _, err = run(capsys, "run", box_vtu, "--receptors", receptors_csv[0], "--length-unit", "mm",
+                           "--sed-unit", "MPa", "--params", "start", "-o", folder)
+        assert code == 0, err
+        assert folder.stat().st_mode & 0o777 == dir_mode
+        for name in ("receptors.csv", "run.json", "receptors.vtu", "sed_map.png"):
+            assert (folder / name).stat().st_mode & 0o777 == file_mode, name
+    finally:
+        os.umask(old)

@@ -10,7 +10,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from afferent import read_sed
+from afferent import read_sed, sample_sed
 from afferent.cli import main
 from afferent.pipeline import make_branching, run_pipeline
 from afferent.profiles import ObservedProfile
@@ -259,3 +259,33 @@ want = ["profiles", "vtu"]
     from afferent.export import step_title
 
     assert step_title("SED at receptor sites", [0.0, 0.1, 0.2], 1, 3) == "SED at receptor sites\nstep 1 of 3, t = 0.1 s (peak)"
+
+
+def test_profiles_of_three_afferents_show_the_raw_currents(bump):
+    import matplotlib
+
+    matplotlib.use("Agg")
+    from afferent import plotting
+    from afferent.receptors import read_receptors
+    from afferent.synthesis import Branching, synthesize
+
+    vtu, receptors, *_ = bump
+    field = read_sed(vtu, length_unit="mm", sed_unit="MPa")
+    layout = read_receptors(receptors, length_unit="mm")
+    res = run_pipeline(field, layout, STUDY_PARAMS["start"])
+    keep = np.isin(layout.longitudinal, np.unique(layout.longitudinal)[:3])
+    sub = layout.subset(keep)
+    sed = sample_sed(field, sub)
+    from afferent.transduction import transduce
+
+    cur = transduce(sed, STUDY_PARAMS["start"])
+    aff = synthesize(cur, Branching.longitudinal(sub))
+    assert aff.n_afferents == 3
+    ax = plotting.plot_section_profiles(sed, cur, aff, axis="x")
+    texts = " ".join(t.get_text() for t in ax.texts)
+    assert "only 3 afferents: their min-max normalised profile is 0-1 by construction" in texts
+    twin = [a for a in ax.figure.axes if a is not ax][0]
+    assert twin.get_ylabel() == "afferent current, raw (nA)"
+    np.testing.assert_allclose(np.sort(twin.lines[0].get_ydata()), np.sort(aff.values[-1] * 1e9))
+    full = plotting.plot_section_profiles(res.sed, res.current, res.afferent, axis="x")
+    assert not full.texts and len(full.figure.axes) == 1  # enough afferents: no raw axis
