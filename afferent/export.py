@@ -176,6 +176,8 @@ def write_pipeline_outputs(result, outdir: str, *, record: dict, overwrite: bool
             "fraction_sensitive": result.saturation.fraction_sensitive,
             "fraction_high": result.saturation.fraction_high,
             "fraction_low": result.saturation.fraction_low,
+            "modulation": result.saturation.modulation,
+            "gamma_sed_range": result.saturation.gamma_sed_range,
             "message": result.saturation.message,
         }
         if result.fit is not None:

@@ -42,13 +42,19 @@ __all__ = [
     "compare_profiles",
     "peak_step",
     "NEARLY_CONSTANT_RTOL",
+    "TINY_MODULATION_RTOL",
 ]
 
 #: A slice whose range (max - min) is positive but at most this fraction of its largest
-#: magnitude is "nearly constant": :func:`minmax_normalise` still normalises it but warns,
-#: because the normalised shape is then made of rounding noise (e.g. the currents of
-#: receptors saturated by the study's longitudinal parameters).
-NEARLY_CONSTANT_RTOL = 1e-9
+#: magnitude is "nearly constant": its min-max normalised shape is made of rounding (float64
+#: resolves a shape to about 2.2e-16 / (range / magnitude): 2e-4 at this threshold), e.g. the
+#: currents of receptors saturated by the study's longitudinal parameters (1e-15 of their level).
+#: :func:`minmax_normalise` still normalises it but warns; calibration sets such runs aside.
+NEARLY_CONSTANT_RTOL = 1e-12
+#: Above :data:`NEARLY_CONSTANT_RTOL` and up to this fraction, a slice is a tiny but resolved
+#: modulation (e.g. SED deep in the sigmoid's exponential tail: a range of 1e-10 of the level
+#: is resolved to ~2e-6 of the shape and matches the analytic tail): warned as such, kept.
+TINY_MODULATION_RTOL = 1e-6
 
 #: Relative slack (of the observed span) within which a position counts as inside the observed
 #: range: float round-off between a computed section position and one read from a CSV.
@@ -98,9 +104,10 @@ def minmax_normalise(a, *, axis: int | None = -1) -> np.ndarray:
     Warns
     -----
     AfferentWarning
-        If a slice is constant (it is mapped to zeros: it carries no shape), or nearly
-        constant, ``0 < max - min <= NEARLY_CONSTANT_RTOL * max(|min|, |max|)`` (1e-9): its
-        normalised shape is then dominated by rounding.
+        If a slice is constant (it is mapped to zeros: it carries no shape), nearly
+        constant, ``0 < max - min <= NEARLY_CONSTANT_RTOL * max(|min|, |max|)`` (1e-12: its
+        normalised shape is then dominated by rounding), or a tiny modulation, up to
+        ``TINY_MODULATION_RTOL`` (1e-6: resolved, but the normalisation hides how small it is).
 
     Examples
     --------
@@ -126,6 +133,7 @@ def minmax_normalise(a, *, axis: int | None = -1) -> np.ndarray:
     scale = np.maximum(np.abs(lo), np.abs(hi))
     constant = span == 0
     nearly = (span > 0) & (span <= NEARLY_CONSTANT_RTOL * scale)
+    tiny = (span > NEARLY_CONSTANT_RTOL * scale) & (span <= TINY_MODULATION_RTOL * scale)
     if constant.any():
         warnings.warn(
             f"{int(constant.sum())} of {constant.size} profile(s) are constant; min-max normalisation maps "
@@ -137,6 +145,16 @@ def minmax_normalise(a, *, axis: int | None = -1) -> np.ndarray:
         warnings.warn(
             f"{int(nearly.sum())} of {nearly.size} profile(s) are nearly constant (max - min <= "
             f"{NEARLY_CONSTANT_RTOL:g} of their magnitude); their normalised shape is dominated by rounding.",
+            AfferentWarning,
+            stacklevel=2,
+        )
+    if tiny.any():
+        rel = float(np.max(np.where(tiny, span / np.where(scale > 0, scale, 1.0), 0.0)))
+        warnings.warn(
+            f"{int(tiny.sum())} of {tiny.size} profile(s) vary by only up to {rel:.2g} of their level (<= "
+            f"{TINY_MODULATION_RTOL:g}): a tiny modulation (e.g. SED in the sigmoid's exponential tail), resolved in "
+            f"float64 to about {2.2e-16 / rel:.1g} of the normalised shape, not rounding noise; the normalised "
+            "profile hides how small it is.",
             AfferentWarning,
             stacklevel=2,
         )

@@ -1598,7 +1598,8 @@ def _compute(scene, planned, skipped, steps, record, inputs, comp, *, cache_dir,
         sat = saturation_report(sed_t, params)
     record["transduction"] = {"alpha_a": params.alpha, "gamma_per_pa": params.gamma, "lambda_pa": params.lambda_, **source}
     record["saturation"] = {"fraction_sensitive": sat.fraction_sensitive, "fraction_high": sat.fraction_high,
-                            "fraction_low": sat.fraction_low, "message": sat.message}
+                            "fraction_low": sat.fraction_low, "modulation": sat.modulation,
+                            "gamma_sed_range": sat.gamma_sed_range, "message": sat.message}
     with steps("synthesis"):
         full_ids = None if full_layout is None else full_layout.ids
         branching, map_info = _branching(scene, layout, full_ids)
@@ -1704,6 +1705,11 @@ def run_scene_cli(path, *, output=None, overwrite: bool = False, quiet: bool = F
         sp = result.record["spikes"]
         print(f"  spikes: {sp['n_spikes']} from {sp['n_afferents']} afferents in {sp['duration_s']:g} s "
               f"({sp['engine']}, {sp['input']} input)", file=err)
+    sat = result.record.get("saturation")
+    if sat:
+        print(f"  transduction: {sat['fraction_sensitive']:.1%} of receptor samples in the sigmoid's sensitive range, "
+              f"currents vary by {sat['modulation']:.3g} of their mean across receptors "
+              f"(gamma x SED range {sat['gamma_sed_range']:.3g})", file=err)
     if result.fit is not None:
         print(f"  fit: R2(study) {result.fit.r2_study:.3f}, R2 {result.fit.r2:.3f}, ssd {result.fit.ssd:.3g}", file=err)
     for msg in dict.fromkeys(str(w.message) for w in caught if not issubclass(w.category, _QUIET_CATEGORIES)):

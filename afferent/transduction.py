@@ -418,8 +418,8 @@ def transduce(sed, params: SigmoidParams, *, times=None) -> ReceptorCurrent:
     if msg:
         raise ValueError(msg)
     rel = _relative(arr, params)
-    report = _report_from_relative(rel, params, low=0.05, high=0.95)
-    if report.n_samples and report.fraction_sensitive == 0.0:
+    report = _report_from_relative(rel, params, low=0.05, high=0.95, sed=arr)
+    if report.n_samples and report.unmodulated:
         warnings.warn(report.message, AfferentWarning, stacklevel=2)
     return ReceptorCurrent(params.alpha * rel, times, layout, params)
 
@@ -444,6 +444,15 @@ class SaturationReport:
         The thresholds used, as fractions of alpha.
     message : str
         One-sentence verdict, suitable for a warning or a log.
+    modulation : float
+        How much the current varies across the receptors: ``(max I - min I) / mean I`` over the
+        receptors, at the time step where it is largest (dimensionless; NaN without receptors,
+        0 when every current is 0). The position on the sigmoid alone cannot tell this: with
+        gamma = 0 or 1e-9 /Pa every sample sits mid-sigmoid (100 % "sensitive") while the
+        currents differ by 1e-6 or less.
+    gamma_sed_range : float
+        ``gamma x (max SED - min SED)`` over the receptors at the step of the largest SED range
+        (dimensionless): how far along the sigmoid the receptors' SEDs spread.
     """
 
     fraction_sensitive: float
@@ -455,11 +464,30 @@ class SaturationReport:
     low: float
     high: float
     message: str
+    modulation: float = float("nan")
+    gamma_sed_range: float = float("nan")
 
     @property
     def saturated(self) -> bool:
         """True if no sample is in the sensitive range (the current is insensitive to SED)."""
         return self.n_samples > 0 and self.fraction_sensitive == 0.0
+
+    @property
+    def unmodulated(self) -> bool:
+        """True if the currents differ across receptors by at most :data:`MIN_MODULATION` of
+        their mean: the profile carries (almost) no information about the SED pattern."""
+        return self.saturated or (np.isfinite(self.modulation) and self.modulation <= MIN_MODULATION)
+
+    def summary(self) -> str:
+        """One line for a command's output: the sensitive fraction and the modulation."""
+        return (f"transduction: {self.fraction_sensitive:.1%} of receptor samples in the sigmoid's sensitive range, "
+                f"currents vary by {self.modulation:.3g} of their mean across receptors "
+                f"(gamma x SED range {self.gamma_sed_range:.3g})")
+
+
+#: A current that varies across receptors by at most this fraction of its mean is reported as
+#: unmodulated (the profile it gives carries almost no information about the SED pattern).
+MIN_MODULATION = 1e-3
 
 
 def _fmt_rel(r: float) -> str:
@@ -467,10 +495,24 @@ def _fmt_rel(r: float) -> str:
     return f"1 - {1.0 - r:.3g}" if r > 0.999 else f"{r:.4g}"
 
 
-def _report_from_relative(rel: np.ndarray, params: SigmoidParams, *, low: float, high: float) -> SaturationReport:
+def _modulation(rel: np.ndarray, sed: np.ndarray, params: SigmoidParams) -> tuple[float, float]:
+    """(max over steps of ptp(I)/mean(I) across receptors, gamma x max over steps of ptp(SED))."""
+    r = rel.reshape(-1, rel.shape[-1]) if rel.ndim else rel.reshape(1, 1)
+    x = np.asarray(sed, dtype=float).reshape(r.shape)
+    if r.shape[1] == 0:
+        return float("nan"), float("nan")
+    mean = r.mean(axis=1)
+    ptp = r.max(axis=1) - r.min(axis=1)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        mod = np.where(mean > 0, ptp / np.where(mean > 0, mean, 1.0), 0.0)
+    return float(mod.max()), float(params.gamma * np.max(x.max(axis=1) - x.min(axis=1)))
+
+
+def _report_from_relative(rel: np.ndarray, params: SigmoidParams, *, low: float, high: float, sed=None) -> SaturationReport:
     n = int(rel.size)
     if n == 0:
         return SaturationReport(0.0, 0.0, 0.0, float("nan"), float("nan"), 0, low, high, "No receptor samples.")
+    mod, gs = _modulation(rel, sed, params) if sed is not None else (float("nan"), float("nan"))
     f_high = float(np.count_nonzero(rel >= high)) / n
     f_low = float(np.count_nonzero(rel <= low)) / n
     f_sens = float(np.count_nonzero((rel > low) & (rel < high))) / n
@@ -496,11 +538,15 @@ def _report_from_relative(rel: np.ndarray, params: SigmoidParams, *, low: float,
             f"{f_sens:.1%} of {n} receptor samples are in the sensitive range {low:g} < I/alpha < {high:g} "
             f"({f_high:.1%} saturated, {f_low:.1%} near zero; {rng_txt})."
         )
+    if np.isfinite(mod) and mod <= MIN_MODULATION and f_sens > 0:
+        msg = (f"The receptor currents differ by only {mod:.3g} of their mean across receptors (gamma x SED range = "
+               f"{gs:.3g}) with {params!r}: although {f_sens:.1%} of the samples sit in the sigmoid's sensitive range, "
+               "the profile carries almost no information about the SED pattern.")
     if params.gamma == 0.0:
         msg += " gamma = 0: I = alpha/2 whatever the SED."
     if params.alpha == 0.0:
         msg += " alpha = 0: every current is 0 A."
-    return SaturationReport(f_sens, f_high, f_low, rmin, rmax, n, low, high, msg)
+    return SaturationReport(f_sens, f_high, f_low, rmin, rmax, n, low, high, msg, mod, gs)
 
 
 def saturation_report(sed, params: SigmoidParams, *, low: float = 0.05, high: float = 0.95) -> SaturationReport:
@@ -552,4 +598,6 @@ def saturation_report(sed, params: SigmoidParams, *, low: float = 0.05, high: fl
         raise ValueError(f"'low' and 'high' must satisfy 0 <= low < high <= 1; got low={_plain(low)!r}, high={_plain(high)!r} instead.")
     values, _, layout = _unwrap_sed(sed)
     arr = _as_float_array("sed", values)
-    return _report_from_relative(_relative(arr, params), params, low=float(low), high=float(high))
+    if arr.ndim == 1:
+        arr = arr[np.newaxis, :]
+    return _report_from_relative(_relative(arr, params), params, low=float(low), high=float(high), sed=arr)

@@ -277,3 +277,18 @@ def test_observed_positions_in_another_unit_are_named_as_such():
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         observed_on(afferents, right)
+
+
+def test_a_tiny_but_resolved_modulation_is_named_as_such_and_kept():
+    """Currents deep in the sigmoid's exponential tail: a range of 1e-10 of their level is
+    resolved in float64 (the normalised shape matches the analytic tail to ~1e-6), so it is called
+    a tiny modulation, not rounding noise (which begins near 1e-12)."""
+    from afferent.transduction import SigmoidParams, transduce
+
+    sed = np.linspace(0.0, 100.0, 6)  # Pa
+    p = SigmoidParams(alpha=1e-8, gamma=1e-12, lambda_=0.0)  # gamma x SED range = 1e-10
+    current = np.asarray(transduce(sed[np.newaxis, :], p))[0]
+    with pytest.warns(AfferentWarning, match=re.escape("1 of 1 profile(s) vary by only up to 5e-11 of their level")) as rec:
+        shape = minmax_normalise(current)
+    assert "not rounding noise" in str(rec[0].message)
+    np.testing.assert_allclose(shape, sed / 100.0, atol=1e-5)  # linear tail: the analytic shape

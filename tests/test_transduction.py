@@ -334,3 +334,46 @@ def test_saturation_report_custom_thresholds_and_errors():
         saturation_report([0.0], STUDY_PARAMS["start"], low=0.9, high=0.1)
     with pytest.raises(ValueError, match=re.escape("'sed' must not contain NaN")):
         saturation_report([np.nan], STUDY_PARAMS["start"])
+
+
+@pytest.mark.parametrize("gamma", [0.0, 1e-9])
+def test_mid_sigmoid_but_unmodulated_currents_are_reported(gamma):
+    """gamma 0 or 1e-9 /Pa puts every sample mid-sigmoid ('100 % sensitive') while the currents
+    differ by 1e-6 or less: the report measures the modulation itself."""
+    import warnings as _w
+
+    from afferent.transduction import MIN_MODULATION, SigmoidParams, saturation_report, transduce
+
+    sed = np.linspace(0.0, 1000.0, 20)[np.newaxis, :]
+    p = SigmoidParams(alpha=2e-8, gamma=gamma, lambda_=300.0)
+    rep = saturation_report(sed, p)
+    assert rep.fraction_sensitive == 1.0 and rep.unmodulated
+    assert rep.modulation == pytest.approx(gamma * 1000 / 2, rel=1e-6, abs=1e-15)  # ptp(I)/mean(I) ~ gamma x range / 2
+    assert rep.gamma_sed_range == pytest.approx(gamma * 1000)
+    assert rep.message.startswith(f"The receptor currents differ by only {rep.modulation:.3g} of their mean")
+    with pytest.warns(AfferentWarning, match="differ by only"):
+        transduce(sed, p)
+    ok = saturation_report(sed, SigmoidParams(alpha=2e-8, gamma=4.6e-3, lambda_=300.0))
+    assert not ok.unmodulated and ok.modulation > MIN_MODULATION
+    with _w.catch_warnings():
+        _w.simplefilter("error")
+        transduce(sed, SigmoidParams(alpha=2e-8, gamma=4.6e-3, lambda_=300.0))
+
+
+def test_every_cli_run_prints_the_sensitive_fraction_and_warns_once(capsys, tmp_path):
+    from conftest import SAMPLE_DIR
+
+    from afferent.cli import main
+
+    export, receptors = SAMPLE_DIR / "block4" / "indent_0p88mm.vtu", SAMPLE_DIR / "block4" / "receptors.csv"
+    if not export.is_file():
+        pytest.skip("bundled sample not generated")
+    base = ["run", str(export), "--receptors", str(receptors), "--length-unit", "mm", "--sed-unit", "MPa", "--no-plots"]
+    assert main(base + ["--params", "start", "-o", str(tmp_path / "a")]) == 0
+    err = capsys.readouterr().err
+    assert "transduction: " in err and "of receptor samples in the sigmoid's sensitive range" in err
+    assert "afferent: warning" not in err
+    assert main(base + ["--params", "longitudinal", "-o", str(tmp_path / "b")]) == 0
+    err = capsys.readouterr().err
+    assert "transduction: 0.0% of receptor samples in the sigmoid's sensitive range" in err
+    assert len([line for line in err.splitlines() if "saturated" in line and line.startswith("afferent: warning")]) == 1

@@ -201,6 +201,5 @@ def run(args: argparse.Namespace) -> int:
             print(f"spikes: {n} in {result.spikes.duration:g} s ({result.spikes.engine}, dt {args.dt_ms:g} ms, "
                   f"{args.input} input); {len(result.spikes.silent_skipped)} afferent(s) provably silent, not simulated",
                   file=sys.stderr)
-        if result.saturation.saturated:
-            print(f"afferent: warning: {result.saturation.message}", file=sys.stderr)
+        print(result.saturation.summary(), file=sys.stderr)  # a warning, if any, was printed once by transduce
     return 0
