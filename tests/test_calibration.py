@@ -527,3 +527,35 @@ def test_cli_refuses_to_overwrite(tmp_path, cli_inputs, capsys):
     with pytest.raises(OutputExistsError, match=re.escape(
             f"Output folder {str(out)!r} already exists; pass overwrite=True to replace it.")):
         run(args)
+
+
+def test_a_ridge_is_reported_where_the_profile_leaves_gamma_and_lambda_free(sed, observed):
+    """The bundled sample's 1.32 mm synthetic profile (7 afferents; made from gamma 2e-3 /Pa,
+    lambda 900 Pa) constrains one combination of gamma and lambda only: least squares ends at a
+    negative lambda with the same ssd, and the report says both things. On this module's synthetic
+    data (143 receptors, SED 0-193 Pa spanning the sigmoid) least squares lands near the truth
+    and the parameters are identified."""
+    from conftest import SAMPLE_DIR
+
+    from afferent import read_receptors, read_sed, sample_sed
+    from afferent.calibration._loop import IDENTIFIABLE_COND
+    from afferent.profiles import read_observed
+
+    if not (SAMPLE_DIR / "block4" / "indent_1p32mm.vtu").is_file():
+        pytest.skip("bundled sample not generated")
+    s = sample_sed(read_sed(SAMPLE_DIR / "block4" / "indent_1p32mm.vtu", length_unit="mm", sed_unit="MPa"),
+                   read_receptors(SAMPLE_DIR / "block4" / "receptors.csv", length_unit="mm"))
+    obs = read_observed(SAMPLE_DIR / "observed" / "synthetic_1p32mm_longitudinal.csv", length_unit="mm")
+    with pytest.warns(AfferentWarning, match="does not determine the parameters separately"):
+        ridge = calibrate(s, obs, method="least_squares")
+    ident = ridge.identifiability
+    assert not ident["identifiable"] and ident["condition_number"] > 10 * IDENTIFIABLE_COND
+    assert ident["parameters"] == ["gamma", "lambda"]  # alpha cancels under min-max normalisation
+    values = list(ident["ssd_along_ridge"].values())
+    assert max(values) - min(values) < 1e-3 * min(values)  # flat along the ridge
+    assert ridge.params.lambda_ < 0 and ident["out_of_range"][0].startswith("lambda = ")
+    assert "Outside the physical range: lambda = " in ridge.message
+    good = calibrate(sed, observed, method="least_squares")
+    assert good.identifiability["identifiable"] and good.identifiability["condition_number"] < IDENTIFIABLE_COND
+    assert not good.identifiability["out_of_range"]
+    assert good.to_dict()["identifiability"]["condition_number"] == good.identifiability["condition_number"]

@@ -128,6 +128,12 @@ class CalibrationResult:
         evaluated point.
     canonical : CanonicalAnalysis or None
         Last iteration's canonical analysis ('rsm2' only).
+    identifiability : dict or None
+        What the data determine at ``params`` (:func:`identifiability`): the singular values of
+        the residuals' Jacobian in scaled parameters, the condition number, the ridge direction
+        (the combination the data leave free), ssd along that ridge, the verdict
+        ``identifiable`` (condition number <= :data:`IDENTIFIABLE_COND`), and the parameters
+        outside their physical range (``out_of_range``: lambda < 0 Pa, gamma <= 0 /Pa).
     """
 
     params: SigmoidParams
@@ -149,6 +155,7 @@ class CalibrationResult:
     fit: ProfileFit
     clipped: tuple = ()
     canonical: object = None
+    identifiability: dict | None = None
 
     @property
     def n_iterations(self) -> int:
@@ -182,6 +189,7 @@ class CalibrationResult:
             "message": self.message,
             "n_evaluations": self.n_evaluations,
             "n_iterations": self.n_iterations,
+            "identifiability": self.identifiability,
         }
 
     def __repr__(self) -> str:
@@ -836,12 +844,104 @@ def _least_squares(obj, start, inc, max_iter, n_starts, gen):
 
 
 # ------------------------------------------------------------------------------- finish
+#: Largest condition number (of the residuals' Jacobian in scaled parameters) for which the
+#: fitted parameters count as identified: beyond it one combination is determined over 100x less
+#: well than the best one, and the fit slides along a ridge (gamma-lambda trade-off).
+IDENTIFIABLE_COND = 100.0
+#: Scaled steps along the ridge direction at which ssd is evaluated (units: see identifiability).
+RIDGE_STEPS = (-1.0, -0.5, -0.25, 0.0, 0.25, 0.5, 1.0)
+
+
+def identifiability(obj, vec, no_effect=()) -> dict:
+    """Which parameter combinations the compared profiles determine at ``vec``.
+
+    The residuals r = predicted - observed (as compared) are differentiated by central finite
+    differences with respect to scaled parameters: ``ln gamma`` (relative change of gamma) and
+    ``gamma x lambda`` (lambda in units of the sigmoid's width 1/gamma); alpha too unless it has
+    no effect (min-max normalisation cancels it). The singular values of that Jacobian say how
+    well each combination is determined; the right singular vector of the smallest is the ridge
+    along which the ssd barely changes.
+
+    Returns
+    -------
+    dict
+        ``parameters`` and their ``scales``, ``singular_values``, ``condition_number``,
+        ``ridge_direction`` (unit vector in the scaled parameters), ``ssd_along_ridge``
+        (``{step: ssd}`` for :data:`RIDGE_STEPS`), ``identifiable``, ``out_of_range`` (list of
+        texts), ``n_evaluations`` spent.
+    """
+    vec = np.asarray(vec, dtype=float)
+    alpha, gamma, lam = vec
+    names = [p for p in PARAMETERS if p not in no_effect]
+    n_before = obj.n_evaluations
+
+    def to_vec(u):
+        v = vec.copy()
+        for name, x in zip(names, u):
+            if name == "alpha":
+                v[0] = alpha * np.exp(x)
+            elif name == "gamma":
+                v[1] = gamma * np.exp(x)
+            else:
+                v[2] = lam + x / gamma if gamma > 0 else lam + x
+        return v
+
+    def residual(u):
+        _, fit, _ = obj(to_vec(u))
+        return np.asarray(fit.predicted, float) - np.asarray(fit.observed, float)
+
+    h = 1e-4
+    cols = []
+    for k in range(len(names)):
+        e = np.zeros(len(names))
+        e[k] = h
+        cols.append((residual(e) - residual(-e)) / (2 * h))
+    jac = np.column_stack(cols) if cols else np.zeros((0, 0))
+    out_of_range = []
+    if lam < 0:
+        out_of_range.append(f"lambda = {lam:.4g} Pa < 0: the sigmoid's midpoint lies below zero SED, so every receptor "
+                            "is above half-height even unloaded; the fit uses the sigmoid's exponential tail")
+    if gamma <= 0:
+        out_of_range.append(f"gamma = {gamma:.4g} /Pa <= 0: the current does not increase with SED")
+    if jac.size == 0 or not np.all(np.isfinite(jac)):
+        return {"parameters": names, "singular_values": [], "condition_number": float("nan"), "identifiable": False,
+                "ridge_direction": [], "ssd_along_ridge": {}, "out_of_range": out_of_range,
+                "n_evaluations": obj.n_evaluations - n_before}
+    _, sv, vt = np.linalg.svd(jac, full_matrices=False)
+    cond = float(sv[0] / sv[-1]) if sv[-1] > 0 else float("inf")
+    ridge = vt[-1] * np.sign(vt[-1][np.argmax(np.abs(vt[-1]))])
+    along = {float(t): float(obj(to_vec(t * ridge))[1].ssd) for t in RIDGE_STEPS}
+    return {
+        "parameters": names,
+        "scales": {"alpha": "ln alpha", "gamma": "ln gamma", "lambda": "gamma x lambda (sigmoid widths)"},
+        "singular_values": [float(v) for v in sv], "condition_number": cond,
+        "ridge_direction": {n: float(v) for n, v in zip(names, ridge)}, "ssd_along_ridge": along,
+        "identifiable": bool(cond <= IDENTIFIABLE_COND), "out_of_range": out_of_range,
+        "n_evaluations": obj.n_evaluations - n_before,
+    }
+
+
 def _finish(out, obj, method, synthesis, normalise, start) -> CalibrationResult:
     vec = out["base"]
     params = vector_to_params(vec)
     _, fit, _ = obj(vec)
     sat = saturation_report(obj.sed_row, params)
+    n_evaluations = int(obj.n_evaluations)  # the method's own; the identifiability check counts its own
+    ident = identifiability(obj, vec, out["no_effect"])
     notes = [out["status"]]
+    if not ident["identifiable"] and np.isfinite(ident["condition_number"]):
+        d = ", ".join(f"{v:+.2f} {k}" for k, v in ident["ridge_direction"].items())
+        ssd_r = ident["ssd_along_ridge"]
+        notes.append(
+            f"The profile does not determine the parameters separately: the condition number of the residuals' Jacobian "
+            f"is {ident['condition_number']:.3g} (> {IDENTIFIABLE_COND:g}); along the ridge ({d}, scaled: ln gamma, "
+            f"gamma x lambda) the ssd goes {ssd_r[-1.0]:.4g} / {ssd_r[0.0]:.4g} / {ssd_r[1.0]:.4g} at -1 / 0 / +1: "
+            "other (gamma, lambda) on it fit as well."
+        )
+    for text in ident["out_of_range"]:
+        notes.append(f"Outside the physical range: {text}.")
+    if ident["out_of_range"] or (not ident["identifiable"] and np.isfinite(ident["condition_number"])):
+        warnings.warn(" ".join(notes[1:]), AfferentWarning, stacklevel=3)
     if out["no_effect"]:
         notes.append(_no_effect_note(out, vec, normalise, method))
     if out["clipped"]:
@@ -860,8 +960,8 @@ def _finish(out, obj, method, synthesis, normalise, start) -> CalibrationResult:
         params=params, ssd=float(fit.ssd), r2_study=float(fit.r2_study), r2=float(fit.r2),
         iterations=out["iterations"], design_runs=out["runs"], coefficients=out["coefficients"],
         no_effect=tuple(out["no_effect"]), saturation=sat, success=bool(out["success"]), message=" ".join(notes),
-        n_evaluations=int(obj.n_evaluations), method=method, synthesis=synthesis, normalise=normalise,
-        start=start, fit=fit, clipped=tuple(out["clipped"]), canonical=out["canonical"],
+        n_evaluations=n_evaluations, method=method, synthesis=synthesis, normalise=normalise,
+        start=start, fit=fit, clipped=tuple(out["clipped"]), canonical=out["canonical"], identifiability=ident,
     )
 
 
