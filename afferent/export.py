@@ -192,6 +192,7 @@ def write_pipeline_outputs(result, outdir: str, *, record: dict, overwrite: bool
                 "silent_skipped": [str(sp.afferent_ids[i]) for i in sp.silent_skipped],
                 "notes": list(getattr(sp, "notes", ())),
                 "lif": {k: getattr(sp.params, k) for k in ("tau_m", "r_m", "v_rest", "v_thresh", "v_reset", "t_ref")},
+                "drive": result.drive,
             }
         full["profile_step"] = profile_step_record(result.afferent, k)
         full["stage_seconds"] = result.timings

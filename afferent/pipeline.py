@@ -12,9 +12,11 @@ and keeps every intermediate result.
 from __future__ import annotations
 
 import time
+import warnings
 from dataclasses import dataclass, field
 
 from ._validation import check_option
+from .exceptions import AfferentWarning
 from .profiles import ObservedProfile, ProfileFit, compare_profiles, peak_step
 from .receptors import ReceptorLayout
 from .sampling import ReceptorSED, sample_sed
@@ -72,6 +74,7 @@ class PipelineResult:
     spikes: object | None = None
     scaling: dict | None = None
     profile_index: int = 0
+    drive: dict | None = None
 
 
 def run_pipeline(
@@ -167,7 +170,9 @@ INPUTS = ("static", "rate-sensitive")
 
 
 def run_spikes(result: PipelineResult, lif, *, dt: float, engine: str = "auto", input: str = "static",
-               gain: float | None = None, tau: float | None = None, duration: float | None = None) -> PipelineResult:
+               gain: float | None = None, tau: float | None = None, duration: float | None = None,
+               drive: str = "resistance", rheobase_multiple: float = 2.0,
+               reference_current: float | None = None) -> PipelineResult:
     """Add spikes to a pipeline result: input current -> leaky integrate-and-fire.
 
     Parameters
@@ -190,32 +195,57 @@ def run_spikes(result: PipelineResult, lif, *, dt: float, engine: str = "auto", 
         Time constant of the rate-sensitive input in s (default that of ``adapting_input``).
     duration : float, optional
         Simulated time in s; default: to the last sample (``dt`` past it for a single sample).
+    drive : {'resistance', 'rheobase'}, default='resistance'
+        How the input current becomes the membrane drive (:data:`afferent.spiking.DRIVE_MAPPINGS`):
+        through ``r_m`` as is, or rescaled so that ``reference_current`` (default: the largest
+        input current) is ``rheobase_multiple`` x the rheobase.
+    rheobase_multiple : float, default=2.0
+        With ``drive='rheobase'``: the reference current's multiple of the rheobase.
+    reference_current : float, optional
+        With ``drive='rheobase'``: the reference current in A (default the run's largest).
 
     Returns
     -------
     PipelineResult
-        ``result`` with ``input`` (the current fed to the LIF, tagged with its kind) and ``spikes``.
+        ``result`` with ``input`` (the current fed to the LIF, tagged with its kind), ``spikes``,
+        and ``drive``: the mapping used and :func:`afferent.spiking.drive_report` (per afferent
+        drive / rheobase, predicted and simulated rates; a warning when every afferent sits at
+        the 1 / t_ref ceiling or all are silent).
+
+    Warns
+    -----
+    AfferentWarning
+        When all afferents fire at >= 90 % of 1 / t_ref, or none fires.
     """
     from dataclasses import replace
 
     from . import stimulus
-    from .spiking import simulate_lif
+    from .spiking import DRIVE_MAPPINGS, drive_report, rheobase_scale, simulate_lif
 
     check_option("input", input, INPUTS)
     timings = dict(result.timings)
     t = time.perf_counter()
     if input == "static":
-        drive = stimulus.static_input(result.afferent)
+        drive_current = stimulus.static_input(result.afferent)
     else:
         if gain is None:
             raise ValueError("input='rate-sensitive' needs gain= (s): how much input current (A) per A/s of rate.")
         kw = {} if tau is None else {"tau": tau}
-        drive = stimulus.adapting_input(result.current, gain=gain, **kw).synthesize(result.branching)
+        drive_current = stimulus.adapting_input(result.current, gain=gain, **kw).synthesize(result.branching)
+    check_option("drive", drive, DRIVE_MAPPINGS)
+    mapping = {"mapping": drive, "r_m_ohm": lif.r_m, "rheobase_a": lif.rheobase}
+    if drive == "rheobase":
+        scale, ref = rheobase_scale(drive_current.values, lif, multiple=rheobase_multiple, reference=reference_current)
+        drive_current = replace(drive_current, values=drive_current.values * scale)
+        mapping.update(rheobase_multiple=rheobase_multiple, reference_current_a=ref, scale=scale)
     timings["input"] = time.perf_counter() - t
     if duration is None:
         times = result.afferent.times
         duration = float(times[-1] - times[0]) if times is not None and len(times) > 1 else None
     t = time.perf_counter()
-    spikes = simulate_lif(drive, lif, dt=dt, engine=engine, duration=duration)
+    spikes = simulate_lif(drive_current, lif, dt=dt, engine=engine, duration=duration)
     timings["spiking"] = time.perf_counter() - t
-    return replace(result, input=drive, spikes=spikes, timings=timings)
+    report = drive_report(drive_current.values, lif, spikes)
+    if report["warning"]:
+        warnings.warn(report["warning"], AfferentWarning, stacklevel=2)
+    return replace(result, input=drive_current, spikes=spikes, timings=timings, drive={**mapping, **report})

@@ -452,6 +452,10 @@ class SpikesSpec:
     v_reset_v: float | None = _f("number", quantity="voltage")
     t_ref_s: float | None = _f("number", quantity="time")
     input: str | None = _f("choice", "static", choices=("static", "rate-sensitive"))
+    drive: str | None = _f("choice", "resistance", choices=("resistance", "rheobase"),
+                           doc="current -> membrane: through r_m as is, or the largest current -> k x rheobase")
+    rheobase_multiple: float | None = _f("number", 2.0, doc="drive = 'rheobase': the reference current's multiple")
+    reference_current_a: float | None = _f("number", quantity="current", doc="drive = 'rheobase': default the largest")
     gain_s: float | None = _f("number", quantity="time")
     tau_s: float | None = _f("number", quantity="time")
     duration_s: float | None = _f("number", quantity="time")
@@ -1637,7 +1641,8 @@ def _compute(scene, planned, skipped, steps, record, inputs, comp, *, cache_dir,
             duration = 1.0
         pr = PipelineResult(sed_t, current, branching, afferent, sat, out["fit"], {}, waveform=out["waveform"])
         pr = run_spikes(pr, lif, dt=sp.dt_s, engine=sp.engine, input=sp.input, gain=sp.gain_s, tau=sp.tau_s,
-                        duration=duration)
+                        duration=duration, drive=sp.drive, rheobase_multiple=sp.rheobase_multiple,
+                        reference_current=sp.reference_current_a)
         steps.seconds["input"] = pr.timings["input"]
         steps.seconds["spiking"] = pr.timings["spiking"]
         spikes = pr.spikes
@@ -1651,6 +1656,7 @@ def _compute(scene, planned, skipped, steps, record, inputs, comp, *, cache_dir,
             "silent_skipped": [str(spikes.afferent_ids[i]) for i in spikes.silent_skipped],
             "notes": list(getattr(spikes, "notes", ())),
             "lif": {k: getattr(lif, k) for k in ("tau_m", "r_m", "v_rest", "v_thresh", "v_reset", "t_ref")},
+            "drive": pr.drive,
         }
     if span:
         record["time_span"] = span

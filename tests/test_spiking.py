@@ -576,3 +576,52 @@ def test_rate_table_splits_the_window_by_stimulus_phase():
     np.testing.assert_allclose(df["mean_hz"], [12.0, 2.0])
     np.testing.assert_allclose(df["peak_instantaneous_hz"], [400.0, 0.0])
     assert list(df["position_m"]) == [1e-3, 2e-3]
+
+
+def test_drive_mapping_and_the_ceiling_and_silence_warnings(tmp_path, capsys):
+    """The study's longitudinal fit drives every afferent of the bundled sample at 158 x the 'ra'
+    rheobase (834 Hz, the 1/t_ref ceiling): warned; drive='rheobase' maps the largest current to
+    2 x the rheobase, whose rate is the closed form 1 / (t_ref + tau_m ln 2)."""
+    from conftest import SAMPLE_DIR
+
+    from afferent import read_receptors, read_sed
+    from afferent.cli import main
+    from afferent.exceptions import AfferentWarning
+    from afferent.pipeline import run_pipeline, run_spikes
+    from afferent.spiking import LIFParams, rheobase_scale
+    from afferent.transduction import STUDY_PARAMS
+
+    export = SAMPLE_DIR / "block4" / "indent_0p88mm.vtu"
+    if not export.is_file():
+        pytest.skip("bundled sample not generated")
+    field = read_sed(export, length_unit="mm", sed_unit="MPa")
+    layout = read_receptors(SAMPLE_DIR / "block4" / "receptors.csv", length_unit="mm")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", AfferentWarning)  # the saturated sigmoid
+        res = run_pipeline(field, layout, STUDY_PARAMS["longitudinal"])
+    ra = LIFParams.from_preset("ra")
+    with pytest.warns(AfferentWarning, match=re.escape("All 7 afferents fire at >= 90% of 1/t_ref (833.3 Hz): their drive is 158-158 x the rheobase")):
+        hot = run_spikes(res, ra, dt=1e-4, duration=0.5)
+    assert hot.drive["all_at_ceiling"] and hot.drive["mapping"] == "resistance"
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", AfferentWarning)
+        mapped = run_spikes(res, ra, dt=1e-5, duration=0.5, drive="rheobase", rheobase_multiple=2.0)
+    d = mapped.drive
+    np.testing.assert_allclose(d["drive_over_rheobase"], 2.0, rtol=1e-9)
+    expected = 1.0 / (ra.t_ref + ra.tau_m * np.log(2.0))  # V from v_reset = v_rest to theta under 2 x rheobase
+    np.testing.assert_allclose(d["predicted_rate_hz"], expected, rtol=1e-6)  # the 7 currents differ by ~1e-9
+    np.testing.assert_allclose(d["rate_hz"], expected, rtol=0.02)  # simulated, on a 0.01 ms grid over 0.5 s
+    scale, ref = rheobase_scale(np.array([[1e-6, 3e-6]]), ra, multiple=4.0)
+    assert ref == 3e-6 and scale * ref == pytest.approx(4 * ra.rheobase)
+    with pytest.warns(AfferentWarning, match="All 7 afferents are silent: their drive peaks at 0.5 x the rheobase"):
+        run_spikes(res, ra, dt=1e-4, duration=0.2, drive="rheobase", rheobase_multiple=0.5)
+    out = tmp_path / "run"
+    code = main(["run", str(export), "--receptors", str(SAMPLE_DIR / "block4" / "receptors.csv"), "--length-unit", "mm",
+                 "--sed-unit", "MPa", "--params", "longitudinal", "--spikes", "--duration-s", "0.2", "--no-plots",
+                 "--drive", "rheobase", "--rheobase-multiple", "3", "-o", str(out)])
+    assert code == 0, capsys.readouterr().err
+    import json
+
+    rec = json.loads((out / "run.json").read_text())["spikes"]["drive"]
+    assert rec["mapping"] == "rheobase" and rec["rheobase_multiple"] == 3.0
+    np.testing.assert_allclose(rec["drive_over_rheobase"], 3.0, rtol=1e-9)

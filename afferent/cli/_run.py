@@ -81,6 +81,11 @@ def add_args(parser: argparse.ArgumentParser) -> None:
                         "fires at onset and offset (needs --gain-s)")
     g.add_argument("--gain-s", type=float, help="gain of the rate-sensitive input, s (A of input per A/s)")
     g.add_argument("--tau-ms", type=float, help="time constant of the rate-sensitive input, ms (default 5)")
+    g.add_argument("--drive", choices=("resistance", "rheobase"), default="resistance",
+                   help="current -> membrane: through the preset's r_m as is (default), or rescaled so that the largest "
+                        "input current is --rheobase-multiple x the rheobase")
+    g.add_argument("--rheobase-multiple", type=float, default=2.0, metavar="K",
+                   help="with --drive rheobase: the largest current becomes K x the rheobase (default 2)")
     g.add_argument("--duration-s", type=float, help="simulated time, s (default: the stimulus; 1 s for a static export)")
     parser.add_argument("--no-plots", action="store_true", help="skip the PNG figures")
     add_receptor_options(parser, required=False)
@@ -176,7 +181,8 @@ def run(args: argparse.Namespace) -> int:
         if duration is None and result.afferent.n_times == 1:
             duration = 1.0
         result = run_spikes(result, lif, dt=args.dt_ms * 1e-3, engine=args.engine, input=args.input, gain=args.gain_s,
-                            tau=None if args.tau_ms is None else args.tau_ms * 1e-3, duration=duration)
+                            tau=None if args.tau_ms is None else args.tau_ms * 1e-3, duration=duration,
+                            drive=args.drive, rheobase_multiple=args.rheobase_multiple)
     files = list(field.provenance.files) + ([args.receptors] if args.receptors else []) + ([args.observed] if args.observed else [])
     record = {
         "command": "afferent " + " ".join(sys.argv[1:]) if sys.argv and sys.argv[0].endswith("afferent") else None,
