@@ -40,6 +40,7 @@ TARGETS: list[tuple[str, str]] = [
     ("csv", ".csv"), ("txt", ".txt"), ("dat", ".dat"), ("rpt", ".rpt"), ("csv.gz", ".csv.gz"),
     ("vtu", ".vtu"), ("vtk", ".vtk"), ("pvd", ".pvd"), ("xdmf", ".xdmf"), ("frd", ".frd"),
     ("receptors", ".csv"), ("observed", ".csv"), ("waveform", ".csv"), ("scene", ".toml"), ("sed_table", ".csv"),
+    ("exodus", ".e"),  # appended: existing findings keep their target (their first byte is below 15)
 ]
 
 
@@ -113,11 +114,12 @@ def _seed_corpus(corpus: Path) -> None:
         "rpt": ROOT / "tests/data/csv", "vtu": HERE / "seeds", "vtk": HERE / "seeds", "pvd": HERE / "seeds",
         "xdmf": HERE / "seeds", "scene": ROOT / "sample_sed/scenes", "receptors": HERE / "seeds",
         "observed": ROOT / "sample_sed/observed", "waveform": HERE / "seeds", "sed_table": HERE / "seeds",
-        "frd": ROOT / "tests/data/calculix",
+        "frd": ROOT / "tests/data/calculix", "exodus": ROOT / "tests/data/exodus",
     }
     suffixes = {"csv": (".csv",), "txt": (".txt",), "dat": (".dat",), "rpt": (".rpt",), "vtu": (".vtu",),
                 "vtk": (".vtk",), "pvd": (".pvd",), "xdmf": (".xdmf",), "scene": (".toml",), "receptors": ("receptors.csv",),
-                "observed": (".csv",), "waveform": ("waveform.csv",), "sed_table": ("sed_table.csv",), "frd": (".frd",)}
+                "observed": (".csv",), "waveform": ("waveform.csv",), "sed_table": ("sed_table.csv",), "frd": (".frd",),
+                "exodus": (".e", ".ex2", ".g")}
     for target, folder in picks.items():
         if not folder.is_dir():
             continue
@@ -147,7 +149,10 @@ def main() -> None:
         import afferent  # noqa: F401
         import afferent.io._assemble  # noqa: F401
         import afferent.io._csv  # noqa: F401
+        import afferent.io._exodus  # noqa: F401
+        import afferent.io._frd  # noqa: F401
         import afferent.io._meshio  # noqa: F401
+        import afferent.io._xdmf  # noqa: F401
         import afferent.profiles  # noqa: F401
         import afferent.receptors  # noqa: F401
         import afferent.sampling  # noqa: F401
