@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["SED_BAND_PA", "SPAN_BAND_M", "robust_level", "sed_warning", "span_warning", "scale_ratio"]
+__all__ = ["SED_BAND_PA", "SPAN_BAND_M", "robust_level", "extent", "sed_warning", "span_warning", "scale_ratio"]
 
 #: Robust SED level (99th percentile of the nonzero |SED|) of skin under touch, in J/m^3 = Pa.
 #: The study's peak is ~190 Pa; the bundled sample's tip medians 51-688 Pa and peaks up to 4.4 kPa;
@@ -34,6 +34,25 @@ def robust_level(values) -> float:
     return float(np.percentile(v, LEVEL_PERCENTILE)) if v.size else 0.0
 
 
+def _outside(value: float, band: tuple[float, float], words: tuple[str, str]) -> str | None:
+    """``words[0]`` below the band, ``words[1]`` above it, None inside it or for 0 (no data)."""
+    if value == 0.0 or band[0] <= value <= band[1]:
+        return None
+    return words[0] if value < band[0] else words[1]
+
+
+def extent(x) -> float:
+    """Largest coordinate range of points (n, k), or the |value| range of a 1-D array; for
+    coincident points, their largest |coordinate| (NaN rows ignored; 0 when empty)."""
+    x = np.asarray(x, dtype=float)
+    x = x.reshape(-1, 1) if x.ndim == 1 else x
+    x = x[np.isfinite(x).all(axis=1)]
+    if x.shape[0] == 0:
+        return 0.0
+    rng = float(np.max(x.max(axis=0) - x.min(axis=0)))
+    return rng if rng > 0 else float(np.max(np.abs(x)))
+
+
 def sed_warning(sed_pa, *, what: str, unit_hint: str) -> str | None:
     """A warning text when the SED level lies outside :data:`SED_BAND_PA`, else None.
 
@@ -48,9 +67,9 @@ def sed_warning(sed_pa, *, what: str, unit_hint: str) -> str | None:
     """
     level = robust_level(sed_pa)
     lo, hi = SED_BAND_PA
-    if level == 0.0 or lo <= level <= hi:
+    side = _outside(level, SED_BAND_PA, ("below", "above"))
+    if side is None:
         return None
-    side = "below" if level < lo else "above"
     return (
         f"{what}: SED of {level:.3g} J/m^3 (99th percentile of the nonzero values) is far {side} what skin under "
         f"touch holds ({lo:g}..{hi:g} J/m^3); check {unit_hint} (MPa vs Pa is a factor 1e6)."
@@ -64,9 +83,9 @@ def span_warning(points_m, *, what: str, unit_hint: str) -> str | None:
         return None
     span = float(np.nanmax(np.nanmax(pts, axis=0) - np.nanmin(pts, axis=0)))
     lo, hi = SPAN_BAND_M
-    if span == 0.0 or lo <= span <= hi:
+    side = _outside(span, SPAN_BAND_M, ("smaller", "larger"))
+    if side is None:
         return None
-    side = "smaller" if span < lo else "larger"
     return (
         f"{what}: the points span {span:.3g} m, far {side} than a skin model ({lo * 1e3:g} mm..{hi:g} m); "
         f"check {unit_hint} (mm vs m is a factor 1e3)."
@@ -79,14 +98,5 @@ def scale_ratio(a, b) -> float:
     NaN when either extent is 0. Used to flag two sets of positions (receptors and mesh,
     observed and afferent positions) declared in different units: a ratio near 1e3 or 1e-3.
     """
-    def extent(x):
-        x = np.asarray(x, dtype=float)
-        x = x.reshape(-1, 1) if x.ndim == 1 else x
-        x = x[np.isfinite(x).all(axis=1)]
-        if x.shape[0] == 0:
-            return 0.0
-        rng = float(np.max(x.max(axis=0) - x.min(axis=0)))
-        return rng if rng > 0 else float(np.max(np.abs(x)))
-
     ea, eb = extent(a), extent(b)
     return ea / eb if ea > 0 and eb > 0 else float("nan")
