@@ -212,7 +212,8 @@ def read_receptors(path, *, length_unit: str, tol: float = SECTION_TOLERANCE_M) 
 
     path = os.fspath(path)
     factor = length_factor(length_unit)
-    df, cols = read_table(path, what="Receptor file", expected="x, y, z (optional id, longitudinal, cross)")
+    # as text, so that an error quotes a cell as written ('n/a', '')
+    df, cols = read_table(path, what="Receptor file", expected="x, y, z (optional id, longitudinal, cross)", as_text=True)
     missing = [c for c in ("x", "y", "z") if c not in cols]
     if missing:
         found = ", ".join(repr(str(c)) for c in df.columns) or "none"

@@ -105,7 +105,9 @@ def _main(argv: list[str] | None) -> int:
         return 2
     except (AfferentError, FileNotFoundError, FileExistsError, ValueError, TypeError, PermissionError,
             IsADirectoryError, NotADirectoryError) as err:
-        msg = speak_cli(" ".join(str(err).split()), flags)  # one line, in the command's own words
+        msg = " ".join(str(err).split())  # one line
+        if not getattr(err, "key", None) and type(err).__name__ not in ("SceneError", "SceneTypeError"):
+            msg = speak_cli(msg, flags)  # in the command's own words; a scene's errors name its TOML keys
         print(f"afferent: error: {msg}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
