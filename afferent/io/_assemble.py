@@ -422,15 +422,25 @@ def find_tensors(raw: RawExport, opts: ReadOptions, *, need_convention: bool = T
             arr = tensor_arrays[0]
             out.append((arr.name, _tensor_from_array(arr, kind, conv or PRESETS["vtk"], raw), arr.location))
             continue
-        found, missing = [], []
-        for comp in ("xx", "yy", "zz", "xy", "yz", "xz"):
-            hits = [a for a in raw.arrays.values() if a.values.ndim == 2 and C.canonical(a.name) in comp_table[comp]]
-            (found if hits else missing).append(hits[0] if hits else comp)
+        attempts = []
+        for loc in ((opts.location,) if opts.location else ("point", "cell")):  # all six at one location
+            found, missing = [], []
+            for comp in ("xx", "yy", "zz", "xy", "yz", "xz"):
+                hits = [a for a in raw.arrays.values() if a.values.ndim == 2 and a.location == loc
+                        and C.canonical(a.name) in comp_table[comp]]
+                (found if hits else missing).append(hits[0] if hits else comp)
+            attempts.append((found, missing))
+        found, missing = max(attempts, key=lambda fm: len(fm[0]))  # the location holding the most components
         if missing:
             have = f" (found {', '.join(repr(a.name) for a in found)})" if found else ""
             raise SEDFormatError(
                 f"SED file {_where(raw)!r} has no complete {kind} tensor{have}; missing component(s) "
                 f"{', '.join(missing)}. Found {_names(raw)}. Pass {kind}_columns=(6 names, xx yy zz xy yz xz)."
+            )
+        if len({a.values.shape for a in found}) > 1:
+            raise SEDFormatError(
+                f"SED file {_where(raw)!r}: the {kind} components {', '.join(repr(a.name) for a in found)} must have one "
+                f"value per point at every step alike; got shapes {', '.join(str(a.values.shape) for a in found)}."
             )
         values = np.stack([a.values for a in found], -1)
         out.append((", ".join(a.name for a in found), _halve_shear(values, kind, conv), found[0].location))

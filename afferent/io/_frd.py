@@ -190,10 +190,14 @@ def _result(cur: _Blocks, header: bytes):
         if c is None or not c.startswith(b" -5"):
             raise cur.error(f"result {name!r} must list {ncomp} components on ' -5' lines.")
         t5 = c.split()
+        if len(t5) < 2:
+            raise cur.error(f"a ' -5' line of result {name!r} must name its component; got {c.decode('latin-1')!r}.")
         computed = len(t5) > 6 and t5[6][:1] == b"1"  # e.g. 'ALL' (a magnitude ccx does not store)
         if not computed:
             stored.append(t5[1].decode("latin-1"))
     k = len(stored)
+    if k == 0:
+        raise cur.error(f"result {name!r} stores no component (every ' -5' line is a computed one).")
     if fmt >= 2:
         size = 8 if fmt == 3 else 4
         rec = np.dtype([("id", "<i4"), ("v", f"<f{size}", (k,))])
