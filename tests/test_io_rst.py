@@ -78,7 +78,7 @@ def test_a_damaged_rst_is_named(tmp_path):
     bad = tmp_path / "cut.rst"
     bad.write_bytes(open(RST, "rb").read()[:5000])
     with pytest.raises(SEDFormatError, match=re.escape(
-            f"SED file {str(bad)!r} is truncated: its header says the file uses 907600 bytes; it has 5000 bytes.")):
+            f"SED file {str(bad)!r} is truncated: its header says the file uses 907920 bytes; it has 5000 bytes.")):
         read_raw(bad)
     text = tmp_path / "text.rst"
     text.write_text("x,y,z\n" * 40)
@@ -91,3 +91,9 @@ def test_info_describes_an_rst(capsys):
     out = capsys.readouterr().out
     assert "format       rst" in out and "40 volume cells (hexahedron)" in out and "time steps   6" in out
     assert "tensors      stress S; strain EPEL (point data)" in out
+
+
+def test_a_modal_analysis_is_not_read_as_time_steps():
+    raw = read_raw(RST)
+    np.testing.assert_array_equal(raw.times, np.arange(6.0))
+    assert any("the result sets are not steps in time: a modal (frequencies, Hz) analysis" in n for n in raw.notes)

@@ -25,27 +25,37 @@ from ._raw import RawArray, RawExport, drop_valueless_nodes
 
 __all__ = ["read_rst"]
 
+#: MAPDL analysis types (result header 'kan') whose result sets are not steps in time.
+_NOT_TIME = {1: "buckling (load factors)", 2: "modal (frequencies, Hz)", 3: "harmonic (frequencies, Hz)",
+             8: "substructure", 9: "spectrum"}
 #: VTK cell type -> meshio cell type for the volume elements pyvista's grid carries.
 _VTK_VOLUME = {10: "tetra", 12: "hexahedron", 13: "wedge", 14: "pyramid", 24: "tetra10", 25: "hexahedron20"}
 
 
 def _check_header(path: str) -> None:
     """Refuse what the reader's compiled code would crash on: a file that is not an MAPDL binary
-    file, or one shorter than its standard header says (truncated).
+    file, or one shorter than its headers say (truncated).
 
-    The standard header is the first record: a length word (100), a flag, then 100 items;
-    item 27 is the number of 4-byte words the file uses (MAPDL's binary-file format).
+    MAPDL binary files start with the 100-word standard header (record length 100, then items;
+    item 2 is the file format, 12 for results). A result file's result header follows (its
+    length at word 103, its items from word 105); its item 10, ``ptrend``, is the file's length
+    in 4-byte words. (This check, and the reading of the headers, follow ansys-mapdl-reader's
+    ``rst.py``; verified on the MAPDL files that project ships.)
     """
-    try:
-        head = np.fromfile(path, dtype="<i4", count=31)
-    except OSError as err:
-        raise SEDFormatError(f"SED file {path!r} could not be read: {err}") from err
-    if head.size < 31 or head[0] != 100:
-        raise SEDFormatError(f"SED file {path!r} is not an ANSYS MAPDL binary file: it must start with the 100-word "
-                             "standard header record.")
-    used = int(head[28]) * 4
     size = os.path.getsize(path)
-    if used <= 0 or size < used:
+    words = np.fromfile(path, "<i4", count=min(size // 4, 105 + 80))
+    if words.size and words[0] != 100 and words[:1].byteswap()[0] == 100:
+        words = words.byteswap()
+    if words.size < 105 or words[0] != 100:
+        raise SEDFormatError(f"SED file {path!r} is not an ANSYS MAPDL binary file: it must start with the 100-word "
+                             f"standard header record ({size} bytes found).")
+    if words[2] != 12:
+        return  # another MAPDL binary file: the reader names its kind
+    n = int(words[103])
+    if not 0 < n <= 80 or words.size < 105 + n:
+        raise SEDFormatError(f"SED file {path!r} is truncated or corrupt: it has no MAPDL result header.")
+    used = 4 * int(words[105 + 9])  # ptrend, in 4-byte words
+    if size < used:
         raise SEDFormatError(f"SED file {path!r} is truncated: its header says the file uses {used} bytes; it has "
                              f"{size} bytes.")
 
@@ -113,6 +123,7 @@ def read_rst(path: str, *, progress: bool = False) -> RawExport:
                     full[order[pos]] = values
                     stacks[key].append(full)
             times = np.asarray(rst.time_values, dtype=float)
+            kan = int(getattr(rst, "_resultheader", {}).get("kan", 0))
     except SEDFormatError:
         raise
     except Exception as err:
@@ -126,13 +137,13 @@ def read_rst(path: str, *, progress: bool = False) -> RawExport:
             self.type, self.data = ctype, np.asarray(data, dtype=np.int64)
 
     cells = cells_from_meshio([_Block(t, c) for t, c in blocks]) if blocks else None
-    notes = [f"ANSYS MAPDL result file (ansys-mapdl-reader): {len(times)} result set(s) at the sets' time values "
-             "(frequencies in a modal analysis); nodal S and EPEL as MAPDL averages them at the nodes; EPEL shear is "
-             "engineering (preset 'ansys')."]
-    if times.size > 1 and np.any(np.diff(times) <= 0):
-        notes.append(f"the result sets' time values ({', '.join(f'{t:g}' for t in times[:6])}"
-                     f"{', ...' if times.size > 6 else ''}) do not increase (a modal or harmonic analysis: frequencies?): "
-                     "steps are numbered by result set 0, 1, ...")
+    notes = [f"ANSYS MAPDL result file (ansys-mapdl-reader): {len(times)} result set(s); nodal S and EPEL as MAPDL "
+             "averages them at the nodes; EPEL shear is engineering (preset 'ansys')."]
+    if kan in _NOT_TIME or (times.size > 1 and np.any(np.diff(times) <= 0)):
+        what = _NOT_TIME.get(kan, "values that do not increase")
+        notes.append(f"the result sets are not steps in time: a {what} analysis (set values "
+                     f"{', '.join(f'{t:g}' for t in times[:6])}{', ...' if times.size > 6 else ''}); steps are numbered "
+                     "by result set 0, 1, ...")
         times = np.arange(times.size, dtype=float)
     components = {"U": ("UX", "UY", "UZ"), "S": ("SX", "SY", "SZ", "SXY", "SYZ", "SXZ"),
                   "EPEL": ("EPELX", "EPELY", "EPELZ", "EPELXY", "EPELYZ", "EPELXZ")}
