@@ -164,3 +164,11 @@ def test_netcdf4_exodus_written_by_seacas():
     assert raw.notes[0].startswith("Exodus II, netCDF-4 (HDF5): 5 time step(s), 0 volume block(s); ignored block 1 (SHELL4")
     assert raw.cells is None and raw.points.shape == (10, 3)
     np.testing.assert_allclose(raw.times[[0, -1]], [3.08136e-4, 1.66369e-3], rtol=1e-5)
+
+
+def test_element_types_spelled_otherwise_are_recognised_by_family_and_nodes():
+    from afferent.io._exodus import _volume_type
+
+    assert [_volume_type(t, n) for t, n in (("HEXAHEDRON", 8), ("HEX", 20), ("TETRA", 4), ("TET10", 10),
+                                            ("WEDGE", 6), ("PYRAMID", 5), ("SHELL4", 4), ("BAR2", 2))] == [
+        "hexahedron", "hexahedron20", "tetra", "tetra10", "wedge", "pyramid", None, None]

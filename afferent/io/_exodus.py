@@ -37,6 +37,24 @@ EXODUS_ELEMENTS = {
 }
 
 
+#: Volume element families (the leading letters of elem_type) -> meshio type by node count.
+_FAMILIES = {
+    "HEX": {8: "hexahedron", 20: "hexahedron20", 27: "hexahedron27"},
+    "TET": {4: "tetra", 10: "tetra10", 14: "tetra14"},
+    "WEDGE": {6: "wedge", 15: "wedge15", 18: "wedge18"},
+    "PYRA": {5: "pyramid", 13: "pyramid13", 14: "pyramid14"},
+}
+
+
+def _volume_type(etype: str, n_nodes: int) -> str | None:
+    """meshio volume type of an Exodus element type spelled otherwise (``HEXAHEDRON``, ``TETRA``,
+    ``tet10``...): by its family and its number of nodes; None for surfaces, shells and bars."""
+    for prefix, by_nodes in _FAMILIES.items():
+        if etype.startswith(prefix):
+            return by_nodes.get(n_nodes)
+    return None
+
+
 class _NetCDF:
     """The few things read from either netCDF flavour: variables by name, their attributes, dimensions."""
 
@@ -164,7 +182,7 @@ def read_exodus(path: str, *, progress: bool = False) -> RawExport:
         for j in range(1, n_blocks + 1):
             conn = nc.get(f"connect{j}").astype(np.int64) - 1
             etype = str(nc.attr(f"connect{j}", "elem_type") or "").upper()
-            ctype = EXODUS_ELEMENTS.get(etype)
+            ctype = EXODUS_ELEMENTS.get(etype) or _volume_type(etype, conn.shape[1] if conn.ndim == 2 else 0)
             if ctype is None:
                 skipped.append(f"block {j} ({etype or 'no elem_type'}, {conn.shape[0]} elements)")
                 continue

@@ -248,10 +248,10 @@ def _parse(path: str):
             break
         m = _HEADER.match(line)
         if not m:
-            if line.strip():
+            if line.strip() and not line.startswith((b" -1", b" -2", b" -3", b" -4", b" -5")):
                 raise cur.error(f"expected a block header ('2C', '3C', '1P', '100C', '9999'); got "
                                 f"{line[:40].decode('latin-1')!r} (a damaged file?).")
-            continue
+            continue  # blank, or a record of a block afferent does not read
         key = m.group(1) + m.group(2)
         if key == b"1U" and line[6:13] == b"VERSION":
             version = line[13:].strip().decode("latin-1")
