@@ -92,3 +92,21 @@ def test_info_lists_the_functions_and_steps(capsys):
     out = capsys.readouterr().out
     assert "time steps   3, t = 1 .. 3" in out and "32 volume cells (hexahedron)" in out
     assert "XDMF with 15 grids in temporal collections: 3 time step(s), functions u, stress, strain, sed, sed_nodal" in out
+
+
+def test_a_meshio_time_series_with_mixed_cells(tmp_path, monkeypatch):
+    """meshio's TimeSeriesWriter: a 'Mixed' topology (hexahedron + tetrahedron) and xi:include in the
+    2003 XInclude namespace; decoded with meshio's own cell tables."""
+    import meshio
+
+    monkeypatch.chdir(tmp_path)  # meshio writes the .h5 beside the working folder
+    pts = np.array([[x, y, z] for z in (0, 1) for y in (0, 1) for x in (0, 1)] + [[0.5, 0.5, 2]], float)
+    cells = [("hexahedron", np.array([[0, 1, 3, 2, 4, 5, 7, 6]])), ("tetra", np.array([[4, 5, 6, 8]]))]
+    with meshio.xdmf.TimeSeriesWriter("mixed.xdmf") as w:
+        w.write_points_cells(pts, cells)
+        for t in (0.0, 1.0):
+            w.write_data(t, point_data={"SED": np.full(9, 1e-4 * (t + 1))})
+    raw = read_raw("mixed.xdmf")
+    assert raw.cells.cell_types == ("hexahedron", "tetra") and raw.cells.n_cells == 2
+    np.testing.assert_array_equal(raw.times, [0.0, 1.0])
+    np.testing.assert_allclose(raw.arrays["SED"].values[:, 0], [1e-4, 2e-4])

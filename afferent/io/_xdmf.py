@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import os
 import re
+from types import SimpleNamespace
 from xml.etree import ElementTree as ET
 
 import numpy as np
@@ -29,17 +30,8 @@ from ._raw import RawArray, RawExport
 
 __all__ = ["read_xdmf_collections", "has_collections"]
 
-_XI = "{http://www.w3.org/2001/XInclude}include"
-#: XDMF topology type -> meshio cell type (volume cells; the rest are ignored).
-_TOPOLOGY = {
-    "tetrahedron": "tetra", "hexahedron": "hexahedron", "wedge": "wedge", "pyramid": "pyramid",
-    "tetrahedron_10": "tetra10", "hexahedron_20": "hexahedron20", "hexahedron_27": "hexahedron27",
-    "wedge_15": "wedge15", "wedge_18": "wedge18", "pyramid_13": "pyramid13",
-}
-_SURFACE = {"triangle", "quadrilateral", "triangle_6", "quadrilateral_8", "quadrilateral_9", "polyline", "polyvertex",
-            "edge_3", "mixed"}
-
-
+#: xi:include, under the 2001 namespace (DOLFINx) or the 2003 one (meshio's time series writer).
+_XI_TAGS = ("{http://www.w3.org/2001/XInclude}include", "{http://www.w3.org/2003/XInclude}include")
 def _parse(path: str) -> ET.Element:
     try:
         return ET.parse(path).getroot()
@@ -112,7 +104,7 @@ def _mesh_grid(domain: ET.Element, grid: ET.Element) -> ET.Element:
     """The grid whose Topology/Geometry a grid uses: its own, or the one its xi:include names."""
     if grid.find("Topology") is not None and grid.find("Geometry") is not None:
         return grid
-    inc = grid.find(_XI)
+    inc = next((c for c in grid if c.tag in _XI_TAGS), None)
     uniform = [g for g in domain.iter("Grid") if g.get("GridType", "Uniform") == "Uniform"
                and g.find("Topology") is not None and g.find("Geometry") is not None]
     if inc is not None:
@@ -192,25 +184,32 @@ def read_xdmf_collections(path: str, *, progress: bool = False) -> RawExport:
         points = points.reshape(-1, 3 if gtype == "XYZ" else 2)
         if points.shape[1] == 2:
             points = np.column_stack([points, np.zeros(len(points))])
-        ttype = (topo.get("TopologyType") or topo.get("Type") or "").lower()
-        cells, notes = None, []
-        if ttype in _TOPOLOGY:
-            conn = heavy.read(topo.find("DataItem"), f"the topology of grid {mesh.get('Name')!r}").astype(np.int64)
-            conn = conn.reshape(int(topo.get("NumberOfElements", conn.shape[0])), -1)
-            if conn.size and (conn.min() < 0 or conn.max() >= len(points)):
-                raise SEDFormatError(f"SED file {path!r}: the topology refers to point {int(conn.max())}, but the "
-                                     f"geometry has {len(points)} points.")
+        # XDMF topology names and mixed-cell codes as meshio defines them (meshio.xdmf.common)
+        from meshio.xdmf.common import translate_mixed_cells, xdmf_to_meshio_type
 
-            class _Block:  # what cells_from_meshio reads
-                def __init__(self, ctype, data):
-                    self.type, self.data = ctype, data
-
-            cells = cells_from_meshio([_Block(_TOPOLOGY[ttype], conn)])
-        elif ttype in _SURFACE:
-            notes.append(f"topology {topo.get('TopologyType')!r} has no volume cells: the points are treated as "
-                         "scattered samples.")
+        ttype = topo.get("TopologyType") or topo.get("Type") or ""
+        names = {k.lower(): v for k, v in xdmf_to_meshio_type.items()}
+        notes = []
+        conn = heavy.read(topo.find("DataItem"), f"the topology of grid {mesh.get('Name')!r}").astype(np.int64)
+        if ttype.lower() == "mixed":
+            try:
+                blocks = translate_mixed_cells(conn.ravel())
+            except Exception as err:  # an unknown cell code or a short array
+                raise SEDFormatError(f"SED file {path!r}: the mixed topology of grid {mesh.get('Name')!r} could not be "
+                                     f"decoded: {type(err).__name__}: {err}") from err
+        elif ttype.lower() in names:
+            blocks = [SimpleNamespace(type=names[ttype.lower()],
+                                      data=conn.reshape(int(topo.get("NumberOfElements", conn.shape[0])), -1))]
         else:
-            raise SEDFormatError(f"SED file {path!r}: TopologyType {topo.get('TopologyType')!r} is not supported.")
+            raise SEDFormatError(f"SED file {path!r}: TopologyType {ttype!r} is not an XDMF topology afferent knows.")
+        for b in blocks:
+            data = np.asarray(b.data)
+            if data.size and (data.min() < 0 or data.max() >= len(points)):
+                raise SEDFormatError(f"SED file {path!r}: the topology refers to point {int(data.max())}, but the "
+                                     f"geometry has {len(points)} points.")
+        cells = cells_from_meshio(blocks)
+        if cells is None:
+            notes.append(f"topology {ttype!r} has no volume cells: the points are treated as scattered samples.")
         n_cells = cells.n_cells if cells is not None else 0
         times = sorted({t for t, _ in leaves})
         index = {t: k for k, t in enumerate(times)}
