@@ -209,3 +209,34 @@ def test_integration_point_tables_average_per_element_at_the_frd_centroids():
     np.testing.assert_allclose(exact.sed, field.sed, rtol=2e-5)
     assert exact.provenance.checks["shear_convention"]["consistent"]
     assert exact.provenance.checks["tensor_sed_vs_export_sed"]["agree"]
+
+
+def test_a_vtu_as_ccx2paraview_writes_it_is_ordered_by_its_component_names(tmp_path):
+    """ccx2paraview converts .frd to VTU with S and E as 6-component arrays named XX YY ZZ XY YZ ZX
+    (ComponentName attributes, which meshio drops): afferent reads the names, so even a preset
+    with another order (abaqus: 11 22 33 12 13 23) puts every component in its place. (No SED
+    measure can tell: 1/2 sigma:eps and the von Mises-based equivalent SED are both unchanged by
+    a consistent relabelling of the shear components.)"""
+    import meshio
+
+    from afferent.io._assemble import ReadOptions, find_tensors
+
+    raw = read_raw(CCX / "block_c3d8.frd")
+    s, e = raw.arrays["STRESS"].values[-1], raw.arrays["TOSTRAIN"].values[-1]
+    mesh = meshio.Mesh(raw.points, [("vertex", np.arange(len(raw.points)).reshape(-1, 1))], point_data={"S": s, "E": e})
+    path = tmp_path / "job.vtu"
+    meshio.write(path, mesh, binary=False)
+    names = ('ComponentName0="XX" ComponentName1="YY" ComponentName2="ZZ" ComponentName3="XY" ComponentName4="YZ" '
+             'ComponentName5="ZX"')
+    text = path.read_text()
+    for arr in ("S", "E"):
+        text = text.replace(f'Name="{arr}"', f'Name="{arr}" {names}', 1)
+    path.write_text(text)
+    named = read_raw(path)
+    assert named.arrays["S"].components == ("XX", "YY", "ZZ", "XY", "YZ", "ZX")
+    (_, stress, _), _ = find_tensors(named, ReadOptions(sed_from="exact", preset="abaqus", shear="tensor"))
+    np.testing.assert_array_equal(stress[0], s)  # canonical xx yy zz xy yz xz = the file's XX .. ZX
+    meshio.write(tmp_path / "unnamed.vtu", mesh, binary=False)
+    (_, by_preset, _), _ = find_tensors(read_raw(tmp_path / "unnamed.vtu"),
+                                        ReadOptions(sed_from="exact", preset="abaqus", shear="tensor"))
+    np.testing.assert_array_equal(by_preset[0][:, [4, 5]], s[:, [5, 4]])  # positions read as 13, 23: swapped

@@ -578,8 +578,10 @@ def tensor_sed_crosscheck(raw: RawExport, opts: ReadOptions) -> dict | None:
 
     What it can tell: the shear convention (engineering shear read as tensor shear doubles the
     shear terms). What it cannot: the order of the shear components, since relabelling yz and
-    xz in both tensors leaves 1/2 sigma:eps unchanged (it does change the 'equivalent' SED,
-    which uses principal values; the order comes from the component names or the preset).
+    xz in both tensors leaves 1/2 sigma:eps unchanged - and the 'equivalent' SED too (its von
+    Mises forms depend on the sum of the squared shear components). So a mix-up among the shear
+    components cannot change any SED afferent computes; the order comes from the component
+    names or the preset.
 
     Returns
     -------

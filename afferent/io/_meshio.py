@@ -8,6 +8,7 @@ arrays (a VTU series is checked to share the first step's points).
 from __future__ import annotations
 
 import os
+import re
 import warnings
 from xml.etree import ElementTree as ET
 
@@ -180,10 +181,36 @@ def read_mesh_file(path: str) -> RawExport:
     notes = []
     if cells_obj is None:
         notes.append("No volume cells in the file: the points are treated as scattered samples.")
+    arrays = _arrays_from_mesh(mesh, path, cells_obj)
+    if path.lower().endswith(".vtu"):  # meshio drops the arrays' ComponentName attributes: keep them
+        names = _vtu_component_names(path)
+        arrays = {k: (RawArray(a.name, a.values, a.location, a.unit, names[a.name])
+                      if a.name in names and a.values.ndim == 3 and a.values.shape[2] == len(names[a.name]) else a)
+                  for k, a in arrays.items()}
     return RawExport(
         files=(path,), format=os.path.splitext(path)[1].lstrip(".").lower(), points=points,
-        arrays=_arrays_from_mesh(mesh, path, cells_obj), cells=cells_obj, notes=tuple(notes),
+        arrays=arrays, cells=cells_obj, notes=tuple(notes),
     )
+
+
+_DATA_ARRAY = re.compile(rb"<DataArray\b[^>]*>")
+_ATTR = re.compile(rb'(\w+)="([^"]*)"')
+
+
+def _vtu_component_names(path: str) -> dict[str, tuple[str, ...]]:
+    """``{array name: (ComponentName0, ...)}`` from a VTU's DataArray tags (ccx2paraview writes
+    ``XX YY ZZ XY YZ ZX`` for S and E); arrays without names are left out."""
+    with open(path, "rb") as fh:
+        text = fh.read()
+    end = text.find(b"<AppendedData")
+    out = {}
+    for tag in _DATA_ARRAY.findall(text if end < 0 else text[:end]):
+        attrs = {k.decode(): v.decode("utf-8", "replace") for k, v in _ATTR.findall(tag)}
+        comps = [attrs[f"ComponentName{i}"] for i in range(int(attrs.get("NumberOfComponents", "1") or 1))
+                 if f"ComponentName{i}" in attrs]
+        if "Name" in attrs and comps and len(comps) == int(attrs.get("NumberOfComponents", "0") or 0):
+            out[attrs["Name"]] = tuple(comps)
+    return out
 
 
 class _VtuDataReader:
