@@ -124,8 +124,10 @@ def run_pipeline(
         Which step of a multi-step export was solved at ``d_ref`` (required with ``waveform``
         when the export has several steps; -1 for the last).
     series_depths : array_like of shape (n_steps,), optional
-        Depth in m of each step of a loading-series export: the d^2 scaling is then measured
-        against the series and recorded in ``scaling`` (:func:`afferent.stimulus.scaling_record`).
+        Depth in m of each step of a loading-series export: the time course is then interpolated
+        in depth between the series' steps (:func:`afferent.stimulus.interpolate_series`) instead
+        of scaled by d^2, and the d^2 law is measured against the series and recorded in
+        ``scaling`` (:func:`afferent.stimulus.scaling_record`).
 
     Returns
     -------
@@ -137,7 +139,7 @@ def run_pipeline(
     sed = sample_sed(field, layout, method=method, on_outside=on_outside)
     timings["sampling"] = time.perf_counter() - t
     if waveform is not None:
-        from .stimulus import no_reference_step_message, scale_static, scaling_record
+        from .stimulus import interpolate_series, no_reference_step_message, scale_static, scaling_record
 
         if d_ref is None:
             raise ValueError("A waveform needs d_ref, the indentation depth (m) of the static export; got d_ref=None.")
@@ -146,7 +148,8 @@ def run_pipeline(
         t = time.perf_counter()
         step = 0 if reference_step is None else reference_step
         scaling = scaling_record(sed, waveform, d_ref=d_ref, reference_step=step, series_depths=series_depths)
-        sed = scale_static(sed, waveform, d_ref=d_ref, time_index=step)
+        sed = (interpolate_series(sed, waveform, series_depths=series_depths) if series_depths is not None
+               else scale_static(sed, waveform, d_ref=d_ref, time_index=step))
         timings["stimulus"] = time.perf_counter() - t
     t = time.perf_counter()
     current = transduce(sed, params)

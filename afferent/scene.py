@@ -1569,7 +1569,7 @@ def _compute(scene, planned, skipped, steps, record, inputs, comp, *, cache_dir,
 
     span = {}
     if "stimulus" in planned:
-        from .stimulus import no_reference_step_message, scale_static, scaling_record
+        from .stimulus import interpolate_series, no_reference_step_message, scale_static, scaling_record
 
         st = scene.stimulus
         if st.reference_step is None and sed.values.shape[0] > 1:
@@ -1590,7 +1590,8 @@ def _compute(scene, planned, skipped, steps, record, inputs, comp, *, cache_dir,
                                    "is neither transduced nor simulated")
             record["stimulus"] = {"scaling": scaling_record(sed, waveform, d_ref=st.d_ref_m, reference_step=step,
                                                             series_depths=st.series_depths_m)}
-            sed_t = scale_static(sed, waveform, d_ref=st.d_ref_m, time_index=step)
+            sed_t = (interpolate_series(sed, waveform, series_depths=st.series_depths_m) if st.series_depths_m is not None
+                     else scale_static(sed, waveform, d_ref=st.d_ref_m, time_index=step))
         comp["waveform"] = out["waveform"] = waveform
         out["sed"] = sed_t
     else:

@@ -403,12 +403,14 @@ def test_spikes_ramp_scene_and_time_span(tmp_path):
     assert res.record["time_span"]["simulated_s"] == pytest.approx(2.3)
     assert {"spikes.csv", "spike_summary.csv", "raster.png", "profiles.csv", "waveform.csv", "run.json"} <= set(res.files)
     # only spikes over 0.3 s wanted: the stimulus is trimmed, only 0.3 s is transduced and simulated
-    short = load_scene(small_scene(tmp_path, ["spikes"], extra="""
+    short = load_scene(small_scene(tmp_path, ["spikes"], export=EXPORT.parent / "series_0p88mm" / "indent.pvd", extra="""
         [region]
         x_range_mm = [1.5, 2.5]
         [stimulus]
         waveform = "ramp"
         d_ref_mm = 0.5
+        reference_step = -1
+        series_depths_mm = [0.0, 0.1, 0.2, 0.3, 0.4, 0.5]
         [spikes]
         input = "rate-sensitive"
         gain_s = 0.2
@@ -416,12 +418,11 @@ def test_spikes_ramp_scene_and_time_span(tmp_path):
         duration_s = 0.3
         """))
     cut = run_scene(short.with_output(tmp_path / "short"), cache_dir=tmp_path / "c")
-    assert cut.cache_hit is False  # the full run read the loading series, this one the static 0.5 mm export
+    assert cut.cache_hit is True  # the same series, receptors and method as the full run
     assert cut.spikes.duration == pytest.approx(0.3)
     assert cut.waveform.times[-1] <= 0.3 + 1e-9 and cut.current.values.shape[0] == cut.waveform.n_times < 400
     assert cut.record["time_span"]["trimmed_to_s"][1] == pytest.approx(0.3)
-    # identical spikes to the full run over that window (the adaptation filter is causal; the series'
-    # last step is the static export)
+    # identical spikes to the full run over that window (the adaptation filter is causal)
     for a, b in zip(cut.spikes.spike_times, res.spikes.spike_times):
         np.testing.assert_allclose(a, b[b < 0.3 - 1e-9], rtol=0, atol=1e-12)
 
