@@ -131,6 +131,15 @@ class _NetCDF:
             self._h5.close()
 
 
+def _per_step(values, n_t: int, n: int, path: str, what: str, per: str) -> np.ndarray:
+    """Values as (n_times, n), or a SEDFormatError naming ``what`` when the sizes disagree."""
+    v = np.asarray(values, dtype=float)
+    if v.size != n_t * n:
+        raise SEDFormatError(f"SED file {path!r}: {what} must have one value per {per} ({n}) at each of the {n_t} "
+                             f"time step(s); got {v.size} values instead.")
+    return v.reshape(n_t, n)
+
+
 def read_exodus(path: str, *, progress: bool = False) -> RawExport:
     """Read an Exodus II file: mesh, every time step, nodal and element variables.
 
@@ -202,11 +211,7 @@ def read_exodus(path: str, *, progress: bool = False) -> RawExport:
                 v = nc.get("vals_nod_var")[:, i - 1, :]
             else:
                 raise SEDFormatError(f"SED file {path!r} names the nodal variable {name!r} but holds no values for it.")
-            v = np.asarray(v, dtype=float).reshape(n_t, -1)
-            if v.shape[1] != n_nodes:
-                raise SEDFormatError(f"SED file {path!r}: nodal variable {name!r} must have one value per node "
-                                     f"({n_nodes}); got {v.shape[1]} instead.")
-            arrays[name] = RawArray(name, v, "point")
+            arrays[name] = RawArray(name, _per_step(v, n_t, n_nodes, path, f"nodal variable {name!r}", "node"), "point")
         if cells is not None:
             table = nc.get("elem_var_tab") if "elem_var_tab" in nc else None
             n_cells = sum(n for _, n in volume)
@@ -214,12 +219,11 @@ def read_exodus(path: str, *, progress: bool = False) -> RawExport:
                 parts, present = [], False
                 for k, (j, n) in enumerate(volume):
                     key = f"vals_elem_var{i}eb{j}"
-                    carried = key in nc and (table is None or bool(table[j - 1, i - 1]))
+                    in_table = table is None or (table.ndim == 2 and j - 1 < table.shape[0] and i - 1 < table.shape[1]
+                                                 and bool(table[j - 1, i - 1]))
+                    carried = key in nc and in_table
                     if carried:
-                        v = np.asarray(nc.get(key), dtype=float).reshape(n_t, -1)
-                        if v.shape[1] != n:
-                            raise SEDFormatError(f"SED file {path!r}: element variable {name!r} of block {j} must have "
-                                                 f"one value per element ({n}); got {v.shape[1]} instead.")
+                        v = _per_step(nc.get(key), n_t, n, path, f"element variable {name!r} of block {j}", "element")
                         present = True
                     else:
                         v = np.full((n_t, n), np.nan)
