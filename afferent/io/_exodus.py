@@ -173,7 +173,11 @@ def read_exodus(path: str, *, progress: bool = False) -> RawExport:
         if "coord" in nc:
             coords = nc.get("coord").T
         elif "coordx" in nc:
-            coords = np.column_stack([nc.get(f"coord{a}") for a in "xyz" if f"coord{a}" in nc])
+            axes = [np.asarray(nc.get(f"coord{a}")).ravel() for a in "xyz" if f"coord{a}" in nc]
+            if len({a.size for a in axes}) > 1:
+                raise SEDFormatError(f"SED file {path!r}: the coordinate arrays coordx/coordy/coordz have different "
+                                     f"lengths ({', '.join(str(a.size) for a in axes)}); expected one value per node.")
+            coords = np.column_stack(axes)
         else:
             raise SEDFormatError(f"SED file {path!r} has no node coordinates ('coordx'/'coordy'/'coordz' or 'coord'): "
                                  "is it an Exodus II file?")

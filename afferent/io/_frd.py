@@ -348,6 +348,11 @@ def read_frd(path: str, *, progress: bool = False) -> RawExport:
             if name not in step:
                 raise SEDFormatError(f"SED file {path!r}: output step {k} (t = {times[k]:g}) lacks the result "
                                      f"{name!r} that step 0 has; every step must carry the same variables.")
+            if step[name][1].shape != per_step[0][name][1].shape:
+                raise SEDFormatError(
+                    f"SED file {path!r}: result {name!r} has {step[name][1].shape[1]} component(s) in output step "
+                    f"{k} (t = {times[k]:g}) but {per_step[0][name][1].shape[1]} in step 0; every step must carry "
+                    "the same components.")
             steps.append(step[name][1])
         comps = per_step[0][name][0]
         stacked = np.stack(steps)
