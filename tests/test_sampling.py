@@ -387,3 +387,39 @@ def test_receptors_declared_in_another_unit_are_named_as_such(tmp_path, field):
     near = ReceptorLayout(read_receptors(path, length_unit="mm").positions * 1e-3, source=str(path))
     with pytest.warns(AfferentWarning, match=re.escape("span 0.000263 x the field's extent")):
         sample_sed(field, near)
+
+
+# --------------------------------------------------------------------- properties
+from hypothesis import given, settings  # noqa: E402
+from hypothesis import strategies as st  # noqa: E402
+from scipy.spatial import Delaunay  # noqa: E402
+
+from afferent.field import Cells  # noqa: E402
+
+
+@settings(max_examples=120, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), log_length=st.floats(-6, 0), log_sed=st.floats(-6, 8),
+       with_cells=st.booleans(), n_points=st.integers(8, 200))
+def test_property_linear_sampling_reproduces_any_linear_field(seed, log_length, log_sed, with_cells, n_points):
+    """Any point cloud (1 um to 1 m across), tetrahedralised or scattered, any linear field
+    (1e-6 to 1e8 J/m^3, any gradient direction), receptors anywhere inside: 'linear' returns the
+    field's own value to float rounding."""
+    rng = np.random.default_rng(seed)
+    scale = 10.0**log_length
+    pts = rng.uniform(0, 1, (n_points, 3)) * scale * rng.uniform(0.2, 1.0, 3)
+    tri = Delaunay(pts)
+    keep = np.abs(np.linalg.det(pts[tri.simplices[:, 1:]] - pts[tri.simplices[:, :1]])) > 1e-9 * scale**3
+    simplices = tri.simplices[keep]
+    if simplices.size == 0:
+        return
+    grad = rng.standard_normal(3)
+    offset = 10.0**log_sed
+    slope = 0.5 * offset / (np.abs(grad).sum() * scale)  # the field stays positive inside the box
+    f = lambda x: offset + slope * (x @ grad)  # noqa: E731
+    cells = Cells(simplices, np.arange(len(simplices)), len(simplices), ("tetra",)) if with_cells else None
+    field = SEDField(pts, f(pts)[None, :], np.array([0.0]), cells=cells)
+    pick = rng.integers(0, len(simplices), 30)
+    bary = rng.dirichlet(np.ones(4), 30)
+    receptors = np.einsum("rk,rkj->rj", bary, pts[simplices[pick]])
+    got = sample_sed(field, ReceptorLayout(receptors), method="linear").values[0]
+    np.testing.assert_allclose(got, f(receptors), rtol=1e-9)

@@ -139,3 +139,51 @@ def test_bad_convention_and_shapes_are_errors():
         to_canonical([1, 2, 3], PRESETS["vtk"], is_strain=False)
     with pytest.raises(ValueError, match=re.escape("'poisson' must be in (-1, 0.5]; got 0.7 instead.")):
         sed_equivalent(np.zeros(6), np.zeros(6), 0.7)
+
+
+def _mandel(t):
+    """3x3 symmetric tensor -> Mandel 6-vector (xx yy zz, sqrt2 yz, sqrt2 xz, sqrt2 xy): a:b = m(a).m(b)."""
+    r2 = np.sqrt(2.0)
+    return np.array([t[0, 0], t[1, 1], t[2, 2], r2 * t[1, 2], r2 * t[0, 2], r2 * t[0, 1]])
+
+
+def _from_mandel(m):
+    r2 = np.sqrt(2.0)
+    return np.array([[m[0], m[5] / r2, m[4] / r2], [m[5] / r2, m[1], m[3] / r2], [m[4] / r2, m[3] / r2, m[2]]])
+
+
+def _canon(t):
+    return np.array([t[0, 0], t[1, 1], t[2, 2], t[0, 1], t[1, 2], t[0, 2]])
+
+
+@settings(max_examples=300, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), log_modulus=st.floats(2, 11), log_strain=st.floats(-9, -0.5),
+       preset=st.sampled_from(sorted(PRESETS)))
+def test_property_sed_from_tensors_is_non_negative_and_frame_invariant_under_every_preset(
+        seed, log_modulus, log_strain, preset):
+    """Any positive-definite (anisotropic) elasticity, moduli 100 Pa - 100 GPa, strains 1e-9 - 0.3,
+    written in each tool's own layout (WRITTEN, not PRESETS) and read back through its preset:
+    U = 1/2 sigma:eps equals the closed form 1/2 m(eps).C.m(eps) >= 0, and rotating the frame (both
+    tensors by the same random rotation) leaves it unchanged."""
+    rng = np.random.default_rng(seed)
+    a = rng.standard_normal((6, 6))
+    c = 10.0**log_modulus * (a @ a.T + 0.05 * np.eye(6))  # Mandel stiffness, positive definite
+    eps = rng.standard_normal((3, 3)) * 10.0**log_strain
+    eps = (eps + eps.T) / 2
+    sig = _from_mandel(c @ _mandel(eps))
+    expected = 0.5 * _mandel(eps) @ c @ _mandel(eps)
+    assert expected > 0
+    labels, shear_factor = WRITTEN[preset]
+    conv = PRESETS[preset]
+    q = rng.standard_normal(4)
+    q /= np.linalg.norm(q)
+    w, x, y, z = q
+    rot = np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+                    [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+                    [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]])
+    for s3, e3 in ((sig, eps), (rot @ sig @ rot.T, rot @ eps @ rot.T)):
+        slot = [CANONICAL_ORDER.index(_canonical_name(lab)) for lab in labels]
+        written_s = _canon(s3)[slot]
+        written_e = _canon(e3)[slot] * np.where(np.array(slot) >= 3, shear_factor, 1)
+        u = sed_exact(to_canonical(written_s, conv, is_strain=False), to_canonical(written_e, conv, is_strain=True))
+        np.testing.assert_allclose(u, expected, rtol=1e-9)

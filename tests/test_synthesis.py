@@ -280,3 +280,35 @@ def test_afferent_current_accessors(layout, current):
     assert (row.afferent, row.step, row.time_s) == ("L2", 1, 0.05)
     np.testing.assert_allclose([row.position_m, row.current_a], [out.positions[2], out.values[1, 2]], rtol=0)
     assert np.isnan(synthesize(current.values, Branching.longitudinal(layout)).to_dataframe().time_s).all()
+
+
+# --------------------------------------------------------------------- properties
+from hypothesis import HealthCheck, given, settings  # noqa: E402
+from hypothesis import strategies as st  # noqa: E402
+
+
+@settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(groups=st.lists(st.integers(0, NX * NZ - 1), min_size=NX * NZ, max_size=NX * NZ),
+       log_amp=st.floats(-30, 3), n_times=st.integers(1, 4), seed=st.integers(0, 2**32 - 1))
+def test_property_any_partition_conserves_current(layout, groups, log_amp, n_times, seed):
+    """Every grouping of the receptors into afferents (1 to 20 afferents, any sizes), with
+    currents from 1e-30 A to 1e3 A: the afferent currents sum to the receptor currents, each
+    afferent is the plain sum of its own receptors, and nothing is NaN."""
+    rng = np.random.default_rng(seed)
+    values = 10.0**log_amp * rng.uniform(0, 1, size=(n_times, layout.n_receptors))
+    cur = SimpleNamespace(values=values, times=np.arange(n_times) * 1e-3, layout=layout)
+    df = pd.DataFrame({"receptor": layout.ids, "afferent": [f"g{g}" for g in groups]})
+    b = Branching.from_map(df, layout)
+    out = synthesize(transduce_free(cur), b)
+    assert b.is_partition and np.isfinite(out.values).all()
+    np.testing.assert_allclose(out.values.sum(axis=1), values.sum(axis=1), rtol=1e-13, atol=0)
+    for k, aid in enumerate(out.afferent_ids):
+        members = np.array([f"g{g}" for g in groups]) == aid
+        np.testing.assert_allclose(out.values[:, k], values[:, members].sum(axis=1), rtol=1e-13, atol=0)
+
+
+def transduce_free(cur):
+    """Receptor currents given directly (A), as a ReceptorCurrent, without the sigmoid."""
+    from afferent.transduction import ReceptorCurrent
+
+    return ReceptorCurrent(cur.values, cur.times, cur.layout)
