@@ -22,11 +22,13 @@ __version__ = "0.1.0"
 # public name -> module that defines it (PEP 562 lazy loading, as scipy does)
 _LAZY = {
     "read_sed": "afferent.io",
+    "iter_sed": "afferent.io",
     "SEDField": "afferent.field",
     "Provenance": "afferent.field",
     "ReceptorLayout": "afferent.receptors",
     "read_receptors": "afferent.receptors",
     "sample_sed": "afferent.sampling",
+    "sample_steps": "afferent.sampling",
     "ReceptorSED": "afferent.sampling",
     "sed_exact": "afferent.strain_energy",
     "sed_equivalent": "afferent.strain_energy",

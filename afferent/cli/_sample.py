@@ -15,8 +15,10 @@ import argparse
 import sys
 
 from .._output import write_csv
-from ..io import read_sed
-from ..sampling import METHODS, sample_sed
+from itertools import chain
+
+from ..io import iter_sed
+from ..sampling import METHODS, sample_steps
 from ._options import add_input_options, add_receptor_options, layout_from_args, add_output_options, add_quiet, input_kwargs
 
 
@@ -31,15 +33,17 @@ def add_args(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    field = read_sed(args.exports if len(args.exports) > 1 else args.exports[0], **input_kwargs(args))
-    layout = layout_from_args(args, field)
-    sed = sample_sed(field, layout, method=args.method, on_outside=args.on_outside)
+    # one step at a time: memory is one step of the mesh plus the result (iter_sed, sample_steps)
+    steps = iter_sed(args.exports if len(args.exports) > 1 else args.exports[0], **input_kwargs(args))
+    first = next(steps)
+    layout = layout_from_args(args, first)
+    sed = sample_steps(chain([first], steps), layout, method=args.method, on_outside=args.on_outside)
     write_csv(sed.to_dataframe(), args.output, overwrite=args.overwrite)
     if not args.quiet:
         inside = sed.values[:, ~sed.outside]
         span = f"SED {inside.min():.4g} .. {inside.max():.4g} J/m^3" if inside.size else "no receptor inside the field"
         if sed.outside.any():
             span += f"; {int(sed.outside.sum())} receptor(s) outside the field written as NaN"
-        print(f"wrote {args.output}: {layout.n_receptors} receptors x {field.n_times} step(s), method={args.method} "
+        print(f"wrote {args.output}: {layout.n_receptors} receptors x {sed.values.shape[0]} step(s), method={args.method} "
               f"({sed.placement}), {span}", file=sys.stderr)
     return 0

@@ -15,13 +15,15 @@ from __future__ import annotations
 import os
 from collections.abc import Sequence
 
+import numpy as np
+
 from .._validation import check_option
 from ..exceptions import SEDFormatError
 from ..field import SEDField
 from ._assemble import NEGATIVE_SED_RTOL, ReadOptions, assemble
 from ._raw import RawExport
 
-__all__ = ["read_sed", "read_raw", "FORMATS"]
+__all__ = ["read_sed", "iter_sed", "read_raw", "FORMATS"]
 
 #: Known formats: name -> file-name endings. '.gz' CSV files are read by the CSV reader.
 FORMATS: dict[str, tuple[str, ...]] = {
@@ -215,7 +217,7 @@ def read_sed(
     >>> field = read_sed("sample_sed/block4/indent_0p88mm.vtu", length_unit="mm", sed_unit="MPa")  # doctest: +SKIP
     >>> field.sed.max()  # J/m^3  # doctest: +SKIP
     """
-    opts = ReadOptions(
+    opts = _read_options(
         length_unit=length_unit, sed_unit=sed_unit, stress_unit=stress_unit, time_unit=time_unit,
         sed_from=sed_from, poisson=poisson, preset=preset, shear=shear, location=location,
         sed_column=sed_column if sed_column is None or isinstance(sed_column, str) else tuple(sed_column),
@@ -228,3 +230,105 @@ def read_sed(
     )
     raw = read_raw(path_or_paths, format=format, progress=progress)
     return assemble(raw, opts)
+
+
+def _read_options(*, sed_column, stress_columns, strain_columns, coord_columns, times, coordinates, **kw) -> ReadOptions:
+    """The user's declarations as a :class:`ReadOptions` (sequences as tuples)."""
+    def seq(v):
+        return v if v is None or isinstance(v, str) else tuple(v)
+
+    return ReadOptions(
+        sed_column=seq(sed_column), stress_columns=seq(stress_columns), strain_columns=seq(strain_columns),
+        coord_columns=None if coord_columns is None else tuple(coord_columns),
+        times=None if times is None else tuple(float(t) for t in times),
+        coordinates=None if coordinates is None else os.fspath(coordinates), **kw,
+    )
+
+
+def _raw_steps(path_or_paths, fmt: str | None, progress: bool):
+    """(number of steps, iterator of one-step RawExports) for the formats read step by step, else None."""
+    from . import _meshio
+
+    paths = _paths(path_or_paths)
+    formats = {_format_of(p, fmt) for p in paths}
+    kind = formats.pop() if len(formats) == 1 else None
+    if kind == "vtu" and len(paths) > 1:
+        return len(paths), _meshio.iter_vtu_series(paths, progress=progress)
+    if kind == "pvd" and len(paths) == 1:
+        files, _ = _meshio.pvd_entries(paths[0])
+        return len(files), _meshio.iter_pvd(paths[0], progress=progress)
+    if kind == "xdmf" and len(paths) == 1 and os.path.isfile(paths[0]) and os.path.getsize(paths[0]) > 0:
+        from ._xdmf import has_collections, iter_xdmf_collections, step_count
+
+        if has_collections(paths[0]):
+            return step_count(paths[0]), iter_xdmf_collections(paths[0], progress=progress)
+    return None
+
+
+def iter_sed(path_or_paths, *, format: str | None = None, progress: bool = False, **declarations):
+    """Read the SED of an export one time step at a time, in SI units (memory: one step).
+
+    Takes the same arguments as :func:`read_sed` and yields :class:`SEDField` objects in time
+    order whose steps, concatenated, are what :func:`read_sed` returns for a series of
+    steps. A series of VTU files, a ParaView ``.pvd`` and an XDMF time series (FEniCS/DOLFINx,
+    meshio) are read one step at a time: the mesh once, then each step's arrays, and every
+    field shares the first step's cells. Other formats (CSV tables, ``.frd``, Exodus, ``.rst``)
+    are read whole and yielded as one field.
+
+    Each step is interpreted and checked on its own (units, the SED or tensor arrays, NaN,
+    negative nodal SED against ``negative_tolerance`` relative to that step's largest value,
+    plausibility); a warning that repeats from step to step (same text up to its numbers) is
+    shown once. Step times must increase from one field to the next.
+
+    Used by :func:`afferent.sampling.sample_steps` to sample long series of large meshes;
+    ``benchmarks/bench_large_series.py`` measures time and peak memory against
+    :func:`read_sed`.
+
+    Yields
+    ------
+    SEDField
+        One time step (or the whole export for formats read at once).
+
+    Raises
+    ------
+    Same as :func:`read_sed`; a step's error names its file (or its time).
+    """
+    import re
+    import warnings
+    from dataclasses import replace
+
+    defaults = dict(length_unit=None, sed_unit=None, stress_unit=None, time_unit=None, sed_from="field", poisson=None,
+                    preset=None, shear=None, location=None, sed_column=None, stress_columns=None, strain_columns=None,
+                    coord_columns=None, times=None, coordinates=None, on_nan="raise",
+                    negative_tolerance=NEGATIVE_SED_RTOL)
+    unknown = sorted(set(declarations) - set(defaults))
+    if unknown:
+        raise TypeError(f"iter_sed() got an unexpected keyword argument {unknown[0]!r}.")
+    opts = _read_options(**{**defaults, **declarations})
+    steps = None if opts.coordinates is not None else _raw_steps(path_or_paths, format, progress)
+    if steps is None:
+        yield read_sed(path_or_paths, format=format, progress=progress, **declarations)
+        return
+    n_steps, raws = steps
+    if opts.times is not None and len(opts.times) != n_steps:
+        raise ValueError(f"'times' must have one entry per time step ({n_steps}); got {len(opts.times)} instead.")
+    seen: set[str] = set()
+    previous = None
+    for k, raw in enumerate(raws):
+        if raw.times is None and opts.times is None:  # as read_sed numbers the steps of a series without times
+            raw = replace(raw, times=np.array([float(k)]), notes=raw.notes + (
+                "The export states no step times; steps are numbered 0, 1, ... (pass times= to set them).",))
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            field = assemble(raw, opts if opts.times is None else replace(opts, times=opts.times[k:k + 1]))
+        for w in caught:
+            key = re.sub(r"[-+]?\d[\d.eE+-]*", "#", str(w.message))
+            if key not in seen:
+                seen.add(key)
+                warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
+        t = float(field.times[0])
+        if previous is not None and not t > previous:
+            raise SEDFormatError(f"SED file {raw.files[0]!r}: time steps must be strictly increasing; got {previous!r} "
+                                 f"followed by {t!r} s (steps {k - 1} and {k}) instead.")
+        previous = t
+        yield field

@@ -16,7 +16,9 @@ import numpy as np
 
 from ..exceptions import SEDFormatError
 from ..field import Cells
-from ._raw import RawArray, RawExport
+from dataclasses import replace
+
+from ._raw import RawArray, RawExport, stack_steps
 
 __all__ = ["read_mesh_file", "read_vtu_series", "read_pvd", "read_xdmf", "cells_from_meshio"]
 
@@ -258,8 +260,12 @@ class _VtuDataReader:
             ) from err
 
 
-def read_vtu_series(paths: list[str], times=None, *, progress: bool = False) -> RawExport:
-    """Several VTU files, one per time step, on one mesh; the mesh is decoded once.
+def iter_vtu_series(paths: list[str], times=None, *, progress: bool = False):
+    """Several VTU files, one per time step, on one mesh: yield one one-step RawExport per file.
+
+    The first file is read whole (mesh and arrays); for the others only Points (to check that
+    the mesh is the same) and the data arrays are decoded, and each step shares the first
+    step's points and cells. Memory: one step at a time.
 
     Parameters
     ----------
@@ -268,15 +274,16 @@ def read_vtu_series(paths: list[str], times=None, *, progress: bool = False) -> 
     times : array_like of shape (n_files,), optional
         Step times (file units) when known (from a PVD); else None.
     progress : bool
-        Show a progress bar (tqdm) while reading.
+        Show a progress bar (tqdm) over the files.
     """
     from tqdm.auto import tqdm
 
+    times = None if times is None else np.asarray(times, dtype=float)
     first = read_mesh_file(paths[0])
     n_points = first.points.shape[0]
     n_cells = first.cells.n_cells if first.cells is not None else None
-    stacks = {key: [arr.values[0]] for key, arr in first.arrays.items()}
-    for path in tqdm(paths[1:], desc="reading series", unit="file", disable=not progress):
+    yield replace(first, times=None if times is None else times[:1])
+    for k, path in enumerate(tqdm(paths[1:], desc="reading series", unit="file", disable=not progress), start=1):
         if not os.path.isfile(path):
             raise FileNotFoundError(f"SED file {path!r} not found.")
         if not path.lower().endswith(".vtu"):
@@ -292,6 +299,7 @@ def read_vtu_series(paths: list[str], times=None, *, progress: bool = False) -> 
                 f"SED file {path!r} is not on the same mesh as {paths[0]!r} "
                 f"({npts} points vs {n_points}, or moved points); a series must share one mesh."
             )
+        arrays = {}
         for key, arr in first.arrays.items():
             source = pd if arr.location == "point" else cd
             if arr.name not in source:
@@ -305,20 +313,35 @@ def read_vtu_series(paths: list[str], times=None, *, progress: bool = False) -> 
                 raise SEDFormatError(
                     f"SED file {path!r}: array {arr.name!r} must have {expected} values; got {values.shape[0]} instead."
                 )
-            stacks[key].append(values)
-    arrays = {
-        key: RawArray(arr.name, np.stack(stacks[key]), arr.location, arr.unit, arr.components)
-        for key, arr in first.arrays.items()
-    }
-    return RawExport(
-        files=tuple(paths), format="vtu-series", points=first.points, arrays=arrays,
-        times=None if times is None else np.asarray(times, dtype=float), cells=first.cells,
-        notes=first.notes + (f"{len(paths)} steps read; mesh decoded once, from {paths[0]!r}.",),
-    )
+            if values.shape[1:] != arr.values.shape[2:]:
+                raise SEDFormatError(
+                    f"SED file {path!r}: array {arr.name!r} has shape {values.shape[1:]} per value; "
+                    f"{paths[0]!r} has {arr.values.shape[2:]}."
+                )
+            arrays[key] = replace(arr, values=values[None])
+        yield replace(first, files=(path,), arrays=arrays, times=None if times is None else times[k:k + 1])
 
 
-def read_pvd(path: str, *, progress: bool = False) -> RawExport:
-    """A ParaView ``.pvd`` collection: ``<DataSet timestep=... file=...>`` entries, sorted by time."""
+def read_vtu_series(paths: list[str], times=None, *, progress: bool = False) -> RawExport:
+    """Several VTU files, one per time step, on one mesh; the mesh is decoded once.
+
+    The steps of :func:`iter_vtu_series`, stacked (all in memory).
+    """
+    first_notes = []
+
+    def steps():
+        for k, step in enumerate(iter_vtu_series(paths, times, progress=progress)):
+            if k == 0:
+                first_notes.extend(step.notes)
+            yield step
+
+    raw = stack_steps(steps())
+    return replace(raw, files=tuple(paths), format="vtu-series",
+                       notes=tuple(first_notes) + (f"{len(paths)} steps read; mesh decoded once, from {paths[0]!r}.",))
+
+
+def pvd_entries(path: str) -> tuple[list[str], list[float]]:
+    """The files and times of a ParaView ``.pvd`` collection (``<DataSet timestep=... file=...>``)."""
     if not os.path.isfile(path):
         raise FileNotFoundError(f"SED file {path!r} not found.")
     try:
@@ -355,11 +378,21 @@ def read_pvd(path: str, *, progress: bool = False) -> RawExport:
             f"SED file {path!r}: timesteps must be strictly increasing; got {times[k]!r} followed by "
             f"{times[k + 1]!r} (DataSets {k} and {k + 1}) instead."
         )
-    raw = read_vtu_series([e[2] for e in entries], times, progress=progress)
-    return RawExport(
-        files=(path,) + raw.files, format="pvd", points=raw.points, arrays=raw.arrays, times=raw.times,
-        cells=raw.cells, notes=raw.notes,
-    )
+    return [e[2] for e in entries], times
+
+
+def iter_pvd(path: str, *, progress: bool = False):
+    """A ParaView ``.pvd`` collection, one one-step RawExport at a time (see :func:`iter_vtu_series`)."""
+    files, times = pvd_entries(path)
+    for step in iter_vtu_series(files, times, progress=progress):
+        yield replace(step, format="pvd")
+
+
+def read_pvd(path: str, *, progress: bool = False) -> RawExport:
+    """A ParaView ``.pvd`` collection, every step in memory, sorted by time."""
+    files, times = pvd_entries(path)
+    raw = read_vtu_series(files, times, progress=progress)
+    return replace(raw, files=(path,) + raw.files, format="pvd")
 
 
 def read_xdmf(path: str, *, progress: bool = False) -> RawExport:

@@ -14,7 +14,7 @@ import numpy as np
 
 from ..field import Cells
 
-__all__ = ["RawExport", "RawArray", "drop_valueless_nodes"]
+__all__ = ["RawExport", "RawArray", "drop_valueless_nodes", "split_steps", "stack_steps"]
 
 
 @dataclass(frozen=True)
@@ -91,6 +91,42 @@ class RawExport:
         for arr in self.arrays.values():
             return arr.values.shape[0]
         return 0
+
+
+def split_steps(raw: RawExport):
+    """Yield ``raw`` one time step at a time (one-step RawExports sharing points and cells).
+
+    For readers that read a whole file at once (CSV, .frd, Exodus, .rst): the steps are views,
+    nothing is copied.
+    """
+    from dataclasses import replace
+
+    for k in range(max(raw.n_times, 1)):
+        yield replace(raw, arrays={key: replace(a, values=a.values[k:k + 1]) for key, a in raw.arrays.items()},
+                      times=None if raw.times is None else raw.times[k:k + 1])
+
+
+def stack_steps(steps, **override) -> RawExport:
+    """One RawExport holding every step of an iterable of one-step RawExports (on one mesh).
+
+    The first step gives the mesh, names and units; its arrays' values are stacked along the
+    time axis. ``override`` replaces fields of the result (``files``, ``format``, ``notes``).
+    """
+    from dataclasses import replace
+
+    first, stacks, times = None, {}, []
+    for step in steps:
+        if first is None:
+            first = step
+            stacks = {key: [a.values] for key, a in step.arrays.items()}
+        else:
+            for key in stacks:
+                stacks[key].append(step.arrays[key].values)
+        if step.times is not None:
+            times.append(step.times)
+    arrays = {key: replace(first.arrays[key], values=np.concatenate(v)) for key, v in stacks.items()}
+    stacked_times = np.concatenate(times) if first.times is not None else None
+    return replace(first, arrays=arrays, times=stacked_times, **override)
 
 
 def drop_valueless_nodes(raw: RawExport) -> RawExport:

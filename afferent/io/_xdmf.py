@@ -118,8 +118,17 @@ def _mesh_grid(domain: ET.Element, grid: ET.Element) -> ET.Element:
     return uniform[0]
 
 
-def read_xdmf_collections(path: str, *, progress: bool = False) -> RawExport:
-    """Read an XDMF file made of grid collections (one or several functions over time).
+def step_count(path: str) -> int:
+    """Number of distinct times in the temporal grid collections of an XDMF file."""
+    root = _parse(path)
+    times = {t.get("Value") for coll in root.iter("Grid") if coll.get("GridType") == "Collection"
+             for grid in coll.findall("Grid") for t in grid.findall("Time")}
+    return len(times)
+
+
+def iter_xdmf_collections(path: str, *, progress: bool = False):
+    """Read an XDMF file made of grid collections (one or several functions over time), one time
+    step at a time: the mesh is read once, then each step's attributes (memory: one step).
 
     Parameters
     ----------
@@ -128,11 +137,12 @@ def read_xdmf_collections(path: str, *, progress: bool = False) -> RawExport:
     progress : bool
         Show a progress bar over the grids.
 
-    Returns
-    -------
+    Yields
+    ------
     RawExport
-        Points (file length unit), volume cells, one array per attribute name (point or cell
-        data; (n_times, n[, n_components])), the step times.
+        One per time step, in time order: points (file length unit), volume cells (shared by
+        every step), one array per attribute name (point or cell data; (1, n[, n_components])),
+        the step's time.
 
     Raises
     ------
@@ -212,43 +222,62 @@ def read_xdmf_collections(path: str, *, progress: bool = False) -> RawExport:
             notes.append(f"topology {ttype!r} has no volume cells: the points are treated as scattered samples.")
         n_cells = cells.n_cells if cells is not None else 0
         times = sorted({t for t, _ in leaves})
-        index = {t: k for k, t in enumerate(times)}
-        found: dict[str, dict] = {}
-        for t, grid in tqdm(leaves, desc="reading xdmf", unit="grid", disable=not progress):
-            for att in grid.findall("Attribute"):
-                name = att.get("Name") or "unnamed"
-                center = (att.get("Center") or "Node").lower()
-                if center not in ("node", "cell"):
-                    raise SEDFormatError(f"SED file {path!r}: attribute {name!r} has Center={att.get('Center')!r}; "
-                                         "afferent reads Node and Cell data.")
-                location = "point" if center == "node" else "cell"
-                expected = len(points) if location == "point" else n_cells
-                what = f"attribute {name!r} at t = {t:g}"
-                data = heavy.read(att.find("DataItem"), what).astype(float)
-                data = data.reshape(data.shape[0], -1) if data.ndim > 1 else data.reshape(-1, 1)
-                if location == "cell" and cells is None:
-                    continue
-                if data.shape[0] != expected:
-                    raise SEDFormatError(f"SED file {path!r}: {what} must have one row per "
-                                         f"{'point' if location == 'point' else 'cell'} ({expected}); got {data.shape[0]}.")
-                slot = found.setdefault(name, {"location": location, "type": att.get("AttributeType", "Scalar"),
-                                               "steps": {}})
-                if slot["location"] != location:
-                    raise SEDFormatError(f"SED file {path!r}: attribute {name!r} is point data at one time and cell data "
-                                         "at another.")
-                slot["steps"][index[t]] = data
-        arrays = {}
-        for name, slot in found.items():
-            missing = [times[k] for k in range(len(times)) if k not in slot["steps"]]
-            if missing:
-                raise SEDFormatError(f"SED file {path!r}: function {name!r} has no value at t = {missing[0]:g}, a time "
-                                     "the other functions have; write every function at every time.")
-            stacked = np.stack([slot["steps"][k] for k in range(len(times))])
-            values = stacked[..., 0] if stacked.shape[2] == 1 else stacked
-            arrays[name] = RawArray(name, values, slot["location"])
+        by_time: dict[float, list] = {t: [] for t in times}
+        for t, grid in leaves:
+            by_time[t].append(grid)
+        n_grids = len({id(g) for _, g in leaves})
+        first_names: dict[str, str] | None = None
+        first_shapes: dict[str, tuple] = {}
+        bar = tqdm(total=len(leaves), desc="reading xdmf", unit="grid", disable=not progress)
+        for t in times:
+            found: dict[str, RawArray] = {}
+            for grid in by_time[t]:
+                bar.update(1)
+                for att in grid.findall("Attribute"):
+                    name = att.get("Name") or "unnamed"
+                    center = (att.get("Center") or "Node").lower()
+                    if center not in ("node", "cell"):
+                        raise SEDFormatError(f"SED file {path!r}: attribute {name!r} has Center={att.get('Center')!r}; "
+                                             "afferent reads Node and Cell data.")
+                    location = "point" if center == "node" else "cell"
+                    expected = len(points) if location == "point" else n_cells
+                    what = f"attribute {name!r} at t = {t:g}"
+                    data = heavy.read(att.find("DataItem"), what).astype(float)
+                    data = data.reshape(data.shape[0], -1) if data.ndim > 1 else data.reshape(-1, 1)
+                    if location == "cell" and cells is None:
+                        continue
+                    if data.shape[0] != expected:
+                        raise SEDFormatError(f"SED file {path!r}: {what} must have one row per "
+                                             f"{'point' if location == 'point' else 'cell'} ({expected}); got {data.shape[0]}.")
+                    if (first_names or {}).get(name, location) != location or name in found and found[name].location != location:
+                        raise SEDFormatError(f"SED file {path!r}: attribute {name!r} is point data at one time and cell "
+                                             "data at another.")
+                    values = data[:, 0] if data.shape[1] == 1 else data
+                    found[name] = RawArray(name, values[None], location)
+            names = {name: a.location for name, a in found.items()}
+            if first_names is None:
+                first_names, first_shapes = names, {name: a.values.shape[2:] for name, a in found.items()}
+                notes.insert(0, f"XDMF with {n_grids} grids in temporal collections: {len(times)} time step(s), "
+                                f"functions {', '.join(found) or 'none'}; mesh read once.")
+            else:
+                missing = sorted(set(first_names) - set(names)) or sorted(set(names) - set(first_names))
+                if missing:
+                    at = t if set(first_names) - set(names) else times[0]
+                    raise SEDFormatError(f"SED file {path!r}: function {missing[0]!r} has no value at t = {at:g}, a time "
+                                         "the other functions have; write every function at every time.")
+                for name, a in found.items():
+                    if a.values.shape[2:] != first_shapes[name]:
+                        raise SEDFormatError(f"SED file {path!r}: function {name!r} has {a.values.shape[2:] or 1} "
+                                             f"component(s) at t = {t:g} but {first_shapes[name] or 1} at t = {times[0]:g}.")
+            yield RawExport(files=(path,), format="xdmf", points=points, arrays=found, times=np.array([t]),
+                            cells=cells, notes=tuple(notes))
+        bar.close()
     finally:
         heavy.close()
-    notes.insert(0, f"XDMF with {len({id(g) for _, g in leaves})} grids in temporal collections: {len(times)} time "
-                    f"step(s), functions {', '.join(arrays) or 'none'}; mesh read once.")
-    return RawExport(files=(path,), format="xdmf", points=points, arrays=arrays, times=np.asarray(times, dtype=float),
-                     cells=cells, notes=tuple(notes))
+
+
+def read_xdmf_collections(path: str, *, progress: bool = False) -> RawExport:
+    """Every step of :func:`iter_xdmf_collections` in memory: arrays of shape (n_times, n[, n_components])."""
+    from ._raw import stack_steps
+
+    return stack_steps(iter_xdmf_collections(path, progress=progress))
