@@ -212,7 +212,11 @@ def read_exodus(path: str, *, progress: bool = False) -> RawExport:
             if f"vals_nod_var{i}" in nc:
                 v = nc.get(f"vals_nod_var{i}")
             elif "vals_nod_var" in nc:
-                v = nc.get("vals_nod_var")[:, i - 1, :]
+                combined = nc.get("vals_nod_var")  # (time, variable, node) in old Exodus files
+                if combined.ndim != 3 or combined.shape[1] < i:
+                    raise SEDFormatError(f"SED file {path!r}: 'vals_nod_var' must be (time, variable, node) with a "
+                                         f"slot for nodal variable {i} ({name!r}); got shape {combined.shape} instead.")
+                v = combined[:, i - 1, :]
             else:
                 raise SEDFormatError(f"SED file {path!r} names the nodal variable {name!r} but holds no values for it.")
             arrays[name] = RawArray(name, _per_step(v, n_t, n_nodes, path, f"nodal variable {name!r}", "node"), "point")
