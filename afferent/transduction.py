@@ -205,7 +205,7 @@ def sigmoid(sed, params: SigmoidParams) -> np.ndarray:
     sed : array_like of any shape
         Strain-energy density in Pa (= J/m^3).
     params : SigmoidParams
-        alpha (A), gamma (1/Pa), lambda_ (Pa).
+        alpha (A), gamma (1/Pa), ``lambda_`` (Pa).
 
     Returns
     -------
@@ -366,7 +366,7 @@ def transduce(sed, params: SigmoidParams, *, times=None) -> ReceptorCurrent:
         SED at the receptor sites in Pa (= J/m^3). A ReceptorSED (any object with
         ``values``, ``times`` and ``layout``) passes its times and layout on.
     params : SigmoidParams
-        alpha (A), gamma (1/Pa), lambda_ (Pa).
+        alpha (A), gamma (1/Pa), ``lambda_`` (Pa).
     times : array_like of shape (n_times,), optional
         Time of each row in s, only for a plain-array ``sed``; without it the result's
         ``times`` is ``None``.
@@ -562,7 +562,7 @@ def saturation_report(sed, params: SigmoidParams, *, low: float = 0.05, high: fl
     sed : ReceptorSED or array_like
         SED at the receptor sites in Pa; any shape (every element is one sample).
     params : SigmoidParams
-        alpha (A), gamma (1/Pa), lambda_ (Pa).
+        alpha (A), gamma (1/Pa), ``lambda_`` (Pa).
     low, high : float, default=0.05, 0.95
         Thresholds as fractions of alpha, ``0 <= low < high <= 1``.
 
