@@ -58,6 +58,7 @@ def _lit(value) -> str:
 
 
 def _list_table(header: list[str], rows: list[list[str]], widths: str | None = None) -> list[str]:
+    """A list-table in reST syntax; :func:`_as_myst` rewrites it for Markdown (MyST) pages."""
     out = [".. list-table::", "   :header-rows: 1"]
     if widths:
         out.append(f"   :widths: {widths}")
@@ -65,6 +66,28 @@ def _list_table(header: list[str], rows: list[list[str]], widths: str | None = N
     for row in [header, *rows]:
         for i, cell in enumerate(row):
             out.append(("   * - " if i == 0 else "     - ") + (cell if cell else " "))
+    return out
+
+
+def _as_myst(lines: list[str]) -> list[str]:
+    """The same content for a MyST page: fenced directive, ``{role}`` instead of ``:role:``."""
+    out = []
+    in_table = False
+    for line in lines:
+        line = re.sub(r"(?<![\w`]):(\w+):`", r"{\1}`", line)
+        if line.startswith(".. list-table::"):
+            out.append("````{list-table}")
+            in_table = True
+        elif in_table and line.startswith("   :"):
+            out.append(line.strip())
+        elif in_table and line.startswith("   "):
+            out.append(line[3:])
+        elif in_table and not line.strip():
+            continue
+        else:
+            out.append(line)
+    if in_table:
+        out.append("````")
     return out
 
 
@@ -120,7 +143,14 @@ def _scene_keys() -> list[str]:
             kind = meta.get("kind", "")
             if meta.get("choices"):
                 kind += ": " + ", ".join(_lit(c) for c in meta["choices"])
-            default = "" if meta.get("default") is None else _lit(repr(meta["default"]).replace("'", '"'))
+            value = meta.get("default")
+            if value is None and table == "stimulus":
+                value = scene._RAMP_DEFAULTS.get(f.name)  # SI; the ramp's defaults (the study's)
+                default = "" if value is None else _lit(repr(value).replace("'", '"')) + " (ramp, SI)"
+            else:
+                if value is None and table == "receptors":
+                    value = scene._GRID_DEFAULTS.get(f.name)
+                default = "" if value is None else _lit(repr(value).replace("'", '"'))
             rows.append([f"``[{table}]``", key, kind, default, meta.get("doc", "")])
     return _list_table(["table", "key", "type", "default", "note"], rows, "12 28 30 12 18")
 
@@ -145,7 +175,10 @@ class AfferentTable(SphinxDirective):
         if name not in TABLES:
             raise self.error(f"afferent-table: unknown table {name!r}; pick one of {', '.join(TABLES)}.")
         container = nodes.container()
-        lines = StringList(TABLES[name](), source=f"<afferent-table {name}>")
+        text = TABLES[name]()
+        if self.env.doc2path(self.env.docname).suffix == ".md":
+            text = _as_myst(text)
+        lines = StringList(text, source=f"<afferent-table {name}>")
         self.state.nested_parse(lines, self.content_offset, container)
         return container.children
 
