@@ -45,6 +45,7 @@ __all__ = [
     "ReceptorCurrent",
     "SaturationReport",
     "saturation_report",
+    "MIN_MODULATION",
 ]
 
 

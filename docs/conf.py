@@ -86,6 +86,7 @@ nitpick_ignore = [
     ("py:data", "MAX_RASTER_LABELS"),
     ("py:data", "SCALING_ERROR_WARN"),
     ("py:data", "DEFAULT_TOL"),
+    ("py:data", "IDENTIFIABLE_COND"),
 ]
 
 # --- HTML -------------------------------------------------------------------------------------

@@ -9,7 +9,9 @@
 - ``scene-keys``: every table and key of a scene file (:mod:`afferent.scene`), its type,
   default, choices and accepted unit suffixes.
 
-It also works around a Sphinx autosummary bug: ``extract_summary`` cuts the first sentence
+It reads the package's plain-text docstrings as they are written: ``|x|`` is an absolute value
+and ``lambda_`` a Python name, not a reST substitution or hyperlink reference (see
+:func:`_plain_text`). It also works around a Sphinx autosummary bug: ``extract_summary`` cuts the first sentence
 at a period inside an inline literal (``coef . chi``), leaving an unterminated literal in
 the summary table; the summary is extended to the next sentence end outside a literal.
 """
@@ -50,6 +52,49 @@ def _extract_summary_outside_literals(doc, settings):
 
 
 autosummary.extract_summary = _extract_summary_outside_literals
+
+
+# ------------------------------------------------------------------ plain-text docstrings
+# The docstrings are written to be read in ``help()`` as well as here, with equations in plain
+# text: ``|x|`` (absolute value) and names ending in an underscore (``lambda_``). reST reads the
+# first as a substitution and the second as a hyperlink reference, both undefined (errors).
+# The package defines neither, so outside inline literals, roles, math and literal/directive
+# blocks, the two are escaped to render as written.
+_INLINE = re.compile(r"(``.+?``|:[\w:+.-]+:`[^`]*`|`[^`]*`_{0,2}|\*\*[^*\n]+\*\*)")
+_SUBSTITUTION = re.compile(r"(?<![\w\\])\|(?=\S)([^|\n]*?\S)\|(?!\w)")
+_NAME_REFERENCE = re.compile(r"\b([A-Za-z]\w*?)_(?=$|[\s.,;:!?)\]}'\"])")
+
+
+def _escape_plain(text: str) -> str:
+    parts = _INLINE.split(text)
+    for i in range(0, len(parts), 2):  # even items are outside inline markup
+        parts[i] = _NAME_REFERENCE.sub(r"\1\\_", _SUBSTITUTION.sub(r"\\|\1\\|", parts[i]))
+    return "".join(parts)
+
+
+def _plain_text(app, what, name, obj, options, lines):
+    """Escape ``|x|`` and ``name_`` in a docstring (after numpydoc has formatted it)."""
+    block_indent = None  # indentation of a line ending in '::' (literal block or directive)
+    doctest = False
+    for i, line in enumerate(lines):
+        stripped = line.strip()
+        indent = len(line) - len(line.lstrip())
+        if block_indent is not None:
+            if not stripped or indent > block_indent:
+                continue
+            block_indent = None
+        if doctest:
+            if stripped:
+                continue
+            doctest = False
+        if stripped.startswith(">>>"):
+            doctest = True
+            continue
+        if stripped.endswith("::"):
+            block_indent = indent
+        if stripped.startswith(".. "):
+            continue
+        lines[i] = _escape_plain(line)
 
 
 # ------------------------------------------------------------------------------- tables
@@ -214,4 +259,5 @@ def _resolve_missing(app, env, node, contnode):
 def setup(app):
     app.add_directive("afferent-table", AfferentTable)
     app.connect("missing-reference", _resolve_missing)
+    app.connect("autodoc-process-docstring", _plain_text, priority=600)  # after numpydoc (500)
     return {"parallel_read_safe": True, "parallel_write_safe": True}
