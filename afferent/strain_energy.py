@@ -10,7 +10,7 @@ strain is the tensor or the engineering value gamma = 2 eps; a :class:`Conventio
 and :data:`PRESETS` holds the conventions of the common tools (FE-FORMATS.md, each sourced
 there; unverified facts are marked so in the preset's ``note``).
 
-Two formulas (METHOD.md section 2):
+Two formulas (:ref:`method-sed`):
 
 - ``'exact'``: the linear-elastic strain energy density U = 1/2 sigma_ij eps_ij.
 - ``'equivalent'``: the study's equivalent SED (Glinka), U ~ 1/2 sigma_e eps_e with the von
@@ -152,7 +152,7 @@ def _equivalent(principal: np.ndarray) -> np.ndarray:
 
 
 def sed_equivalent(stress, strain, poisson) -> np.ndarray:
-    """The study's equivalent SED, U ~ 1/2 sigma_e eps_e (METHOD.md section 2, Glinka).
+    """The study's equivalent SED, U ~ 1/2 sigma_e eps_e (:ref:`method-sed`, after Glinka).
 
     Parameters
     ----------

@@ -1,4 +1,4 @@
-"""Stage 3, transduction: receptor SED -> receptor current (METHOD.md section 3).
+"""Stage 3, transduction: receptor SED -> receptor current (:ref:`method-transduction`).
 
 ::
 
@@ -20,7 +20,7 @@ which stays finite, monotone and within [0, alpha] over the whole real line.
 
 :func:`saturation_report` says how many receptor samples sit in the sigmoid's sensitive
 range: the study's own longitudinal-section parameters saturate every receptor
-(METHOD.md section 6, "second hazard"), so the current no longer depends on SED.
+(:ref:`method-saturation`), so the current no longer depends on SED.
 """
 
 from __future__ import annotations
@@ -145,7 +145,7 @@ class SigmoidParams:
         return f"SigmoidParams(alpha={self.alpha!r} A, gamma={self.gamma!r} 1/Pa, lambda_={self.lambda_!r} Pa)"
 
 
-#: The three parameter sets of the study's RSM calibration table (METHOD.md section 6),
+#: The three parameter sets of the study's RSM calibration table (:ref:`method-transduction`),
 #: converted to SI with :meth:`SigmoidParams.from_study`. Keys: ``'start'`` (first iteration,
 #: ssd 0.70), ``'longitudinal'`` (fit on longitudinal sections, ssd 0.24; saturates every
 #: receptor for SED >= 0, see :func:`saturation_report`) and ``'cross'`` (fit on
@@ -427,7 +427,7 @@ def transduce(sed, params: SigmoidParams, *, times=None) -> ReceptorCurrent:
 
 @dataclass(frozen=True)
 class SaturationReport:
-    """Where receptor samples sit on the sigmoid (METHOD.md section 6, "second hazard").
+    """Where receptor samples sit on the sigmoid (:ref:`method-saturation`).
 
     Parameters
     ----------
@@ -553,7 +553,7 @@ def _report_from_relative(rel: np.ndarray, params: SigmoidParams, *, low: float,
 def saturation_report(sed, params: SigmoidParams, *, low: float = 0.05, high: float = 0.95) -> SaturationReport:
     """Fraction of receptor samples in the sigmoid's sensitive range ``low < I/alpha < high``.
 
-    METHOD.md section 6: with SED >= 0 Pa, the study's longitudinal-section parameters
+    :ref:`method-saturation`: with SED >= 0 Pa, the study's longitudinal-section parameters
     (gamma 2.95e-2 /Pa, lambda -705 Pa) put every receptor at I/alpha >= 1 - 1e-9, so the
     current no longer depends on SED. This report makes such a parameter set visible.
     ``I/alpha`` is computed directly (``expit``), so it is defined even for ``alpha = 0``.
