@@ -46,8 +46,9 @@ def test_build_has_no_warnings(built):
     ("method", ["method-fe-model", "method-sed", "method-transduction", "method-saturation", "method-synthesis",
                 "method-comparison", "method-calibration", "method-identifiability", "method-spikes",
                 "method-scaling", "method-findings", "method-references"]),
-    ("fe-export", ["fe-presets", "fe-crosscheck", "fe-what-is-verified", "fe-abaqus", "fe-ansys", "fe-comsol",
-                   "fe-febio", "fe-calculix", "fe-fenics", "fe-lsdyna", "fe-code-aster", "fe-other"]),
+    ("fe-export", ["fe-checklist", "fe-presets", "fe-crosscheck", "fe-negative", "fe-what-is-verified", "fe-abaqus",
+                   "fe-ansys", "fe-comsol", "fe-febio", "fe-calculix", "fe-fenics", "fe-lsdyna", "fe-code-aster",
+                   "fe-moose", "fe-sfepy", "fe-other"]),
     ("scenes", ["scene-keys"]),
 ])
 def test_stable_labels(built, page, labels):
