@@ -99,6 +99,12 @@ def test_notebooks_rendered_not_executed(built):
             assert 'class="output' not in html, nb.name
 
 
-def test_readme_links_inside_the_repository():
+def test_readme_and_pages_cite_only_what_ships():
+    """The method write-up is docs/method.md: no page nor the README points outside the repository
+    for it (the study's summary and the format notes are not shipped), and the README links the docs."""
+    sources = [ROOT / "README.md", *sorted(DOCS.glob("*.md")), *sorted(DOCS.glob("*.rst"))]
+    cited = {p.name: m.group(0) for p in sources
+             if (m := re.search(r"\.\./shared|METHOD\.md|FE-FORMATS\.md", p.read_text(encoding="utf-8")))}
+    assert not cited
     readme = (ROOT / "README.md").read_text(encoding="utf-8")
-    assert not re.search(r"\.\./shared|METHOD\.md|FE-FORMATS\.md", readme)
+    assert "make docs" in readme and "(docs/method.md)" in readme
