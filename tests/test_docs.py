@@ -108,3 +108,21 @@ def test_readme_and_pages_cite_only_what_ships():
     assert not cited
     readme = (ROOT / "README.md").read_text(encoding="utf-8")
     assert "make docs" in readme and "(docs/method.md)" in readme
+
+
+def test_plain_text_docstrings_are_escaped_only_outside_markup():
+    """``|x|`` and ``name_`` in prose render as written; literals, roles, math and blocks are untouched."""
+    pytest.importorskip("sphinx")
+    sys.path.insert(0, str(DOCS / "_ext"))
+    try:
+        from afferent_tables import _escape_plain, _plain_text
+    finally:
+        sys.path.remove(str(DOCS / "_ext"))
+    assert _escape_plain("default the largest |value|.") == r"default the largest \|value\|."
+    assert _escape_plain("alpha (A), lambda_ (Pa)") == r"alpha (A), lambda\_ (Pa)"
+    assert _escape_plain("``lambda_`` and :math:`|x|` and `link`_") == "``lambda_`` and :math:`|x|` and `link`_"
+    assert _escape_plain("**lambda_** : float") == "**lambda_** : float"
+    assert _escape_plain("| a | b |") == "| a | b |"  # a table row is not a substitution
+    lines = ["Text |x|.", "", ".. math::", "", "    |x| = y_", "", ">>> f(a_)", "", "After b_."]
+    _plain_text(None, "function", "f", None, {}, lines)
+    assert lines == [r"Text \|x\|.", "", ".. math::", "", "    |x| = y_", "", ">>> f(a_)", "", r"After b\_."]
