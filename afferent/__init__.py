@@ -1,6 +1,6 @@
 """afferent: from finite-element strain-energy density of skin to tactile afferent signals.
 
-The package's modules are the pipeline's stages (METHOD.md)::
+The package's modules are the pipeline's stages (the method they follow: :ref:`method`, docs/method.md)::
 
     io.read_sed          FE export (CSV/VTU/PVD/XDMF)      -> SEDField        (m, J/m^3, s)
     receptors            receptor CSV / grid               -> ReceptorLayout  (m)

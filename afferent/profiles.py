@@ -1,4 +1,4 @@
-"""Comparison of predicted afferent profiles with recorded responses (METHOD.md section 5).
+"""Comparison of predicted afferent profiles with recorded responses (:ref:`method-comparison`).
 
 ::
 
@@ -174,7 +174,7 @@ def _pair(d, e) -> tuple[np.ndarray, np.ndarray]:
 
 
 def r2_study(d, e) -> float:
-    """The study's goodness of fit, ``1 - sum (d - e)^2 / sum d^2`` (METHOD.md section 5).
+    """The study's goodness of fit, ``1 - sum (d - e)^2 / sum d^2`` (:ref:`method-comparison`).
 
     Unlike the usual coefficient of determination (:func:`r2`), no mean is subtracted from
     ``d``; with min-max normalised profiles it is higher than :func:`r2` in general.
@@ -505,7 +505,7 @@ def peak_step(afferent) -> int:
 
 def compare_profiles(predicted, observed, *, normalise: str = "both", time_index: int = -1,
                      positions=None, on_outside: str = "raise") -> ProfileFit:
-    """Compare a predicted afferent profile with a recorded one (METHOD.md section 5).
+    """Compare a predicted afferent profile with a recorded one (:ref:`method-comparison`).
 
     The prediction's profile is taken at one time step: ``time_index`` (default -1, the last
     step, e.g. the end of the indentation or hold). The observation is interpolated onto

@@ -259,9 +259,9 @@ def read_receptors(path, *, length_unit: str, tol: float = SECTION_TOLERANCE_M) 
 # Layout generators: a regular ridge/papilla grid, and papilla tips found on an FE mesh
 # --------------------------------------------------------------------------------------
 
-#: Fingerprint-ridge pitch along x in m (METHOD.md section 1): one papilla row per ridge.
+#: Fingerprint-ridge pitch along x in m (:ref:`method-fe-model`): one papilla row per ridge.
 RIDGE_PITCH_M = 0.44e-3
-#: Dermal-papilla pitch along z (along a ridge) in m (METHOD.md section 1).
+#: Dermal-papilla pitch along z (along a ridge) in m (:ref:`method-fe-model`).
 PAPILLA_PITCH_M = 0.22e-3
 #: Default coordinate noise in m tolerated by :func:`interface_tips` (exported coordinates
 #: rounded to a few digits, jittered node positions): 1 um, 1/220 of the papilla pitch.
@@ -336,7 +336,7 @@ def grid_layout(
     pitch_z: float = PAPILLA_PITCH_M,
     origin=None,
 ) -> ReceptorLayout:
-    """Receptors on the study's regular ridge/papilla grid (METHOD.md section 1).
+    """Receptors on the study's regular ridge/papilla grid (:ref:`method-fe-model`).
 
     Receptor (i, j) sits at ``x = x0 + i * pitch_x`` (i-th papilla row, one per fingerprint
     ridge) and ``z = z0 + j * pitch_z`` (j-th papilla along the ridge), for every grid point

@@ -25,7 +25,7 @@ at most 1e-12 of the waveform's scale: ``sin`` of a full-depth sinusoid may give
 solution at depth ``d_ref`` gives the SED at every depth as ``SED(t) = SED_static (d(t) /
 d_ref)^2``. Where that holds, and where it does not, is spelled out in :func:`scale_static`.
 
-**RA-I adaptation** (:func:`adapting_input`, METHOD.md section 7): a static sigmoid of SED fed
+**RA-I adaptation** (:func:`adapting_input`, :ref:`method-spikes`): a static sigmoid of SED fed
 to the LIF fires through a hold; RA-I afferents do not. :func:`adapting_input` turns the
 static (receptor or afferent) current into a rate-sensitive one. It takes the full-wave
 rectified, low-pass-filtered rate of change: ``I_in = k_on [r]_+ + k_off [r]_-`` with
@@ -295,7 +295,7 @@ def ramp_and_hold(depth: float, ramp_speed: float, hold: float, *, release: bool
                   pre: float = 0.0, post: float = 0.0) -> Waveform:
     """Trapezoidal indentation: ramp in at ``ramp_speed``, hold, ramp out at the same speed.
 
-    The study's ramp-and-hold (METHOD.md section 1, chapter 4) is 0.5 mm at 5 mm/s held for
+    The study's ramp-and-hold (:ref:`method-fe-model`, chapter 4) is 0.5 mm at 5 mm/s held for
     2 s: ``ramp_and_hold(0.5e-3, 5e-3, 2.0, dt=1e-4)``. Each ramp takes
     ``depth / ramp_speed`` = 0.1 s.
 
@@ -381,7 +381,7 @@ def sinusoid(frequency: float, amplitude: float, *, offset: float | None = None,
              on_negative: str = "raise") -> Waveform:
     """Sinusoidal vibration ``d(t) = offset + amplitude sin(2 pi f t)``, from t = 0.
 
-    The study's vibration (METHOD.md section 1) is 20, 30, 50 and 80 Hz at 0.5 mm amplitude:
+    The study's vibration (:ref:`method-fe-model`) is 20, 30, 50 and 80 Hz at 0.5 mm amplitude:
     ``sinusoid(20.0, 0.5e-3, duration=0.5, dt=1e-5)``.
 
     Parameters
@@ -664,9 +664,12 @@ def scale_static(sed, waveform: Waveform, *, d_ref: float, time_index: int | Non
       full quadratic ``a d^2 + b d + c`` per point, not ``a d^2``. This is the case of the
       bundled series; :func:`depth_scaling_error` measures how far off d^2 it is. In
       ``sample_sed/block4/series_0p88mm`` (119 papilla tips), the last step (0.5 mm)
-      predicts the 0.4, 0.3, 0.2 and 0.1 mm steps with relative L2 errors of 3.4 %,
-      9.5 %, 23 % and 81 % over the receptors. The effective exponent is 2.15-2.36: the SED
-      falls faster than d^2, because the ridge valleys are pushed by less than d. A
+      predicts the 0.4, 0.3, 0.2 and 0.1 mm steps with relative L2 errors of 3.5 %,
+      9.8 %, 24 % and 85 % over the receptors (89 % at 0.1 mm over the 51 tips of the
+      ``spikes_ramp`` scene's region; measured with :func:`depth_scaling_error` on the
+      series sampled at ``sample_sed/block4/receptors.csv``, depths 0-0.5 mm in 0.1 mm
+      steps). The effective exponent is 2.15-2.38: the SED falls faster than d^2, because
+      the ridge valleys are pushed by less than d (:ref:`method-scaling`). A
       per-receptor fit of ``a d^2 + b d + c`` to the full-contact steps (d >= 0.1 mm)
       reproduces them to 3e-7, the float32 precision of the export.
 

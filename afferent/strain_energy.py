@@ -7,10 +7,11 @@
 Internally tensors are 6-vectors in the order ``xx yy zz xy yz xz`` with *tensor* shear
 (eps_xy = (du/dy + dv/dx) / 2). FE tools differ in component order and in whether shear
 strain is the tensor or the engineering value gamma = 2 eps; a :class:`Convention` says which,
-and :data:`PRESETS` holds the conventions of the common tools (FE-FORMATS.md, each sourced
-there; unverified facts are marked so in the preset's ``note``).
+and :data:`PRESETS` holds the conventions of the common tools, each with its source in the
+preset's ``note`` ([V] the tool's own source, manual or files, [3P] third-party material,
+[UNVERIFIED]; see :ref:`fe-presets` and :ref:`fe-what-is-verified`).
 
-Two formulas (METHOD.md section 2):
+Two formulas (:ref:`method-sed`):
 
 - ``'exact'``: the linear-elastic strain energy density U = 1/2 sigma_ij eps_ij.
 - ``'equivalent'``: the study's equivalent SED (Glinka), U ~ 1/2 sigma_e eps_e with the von
@@ -44,7 +45,7 @@ class Convention:
     shear : {'tensor', 'engineering'}
         Shear strain as written: tensor eps_ij, or engineering gamma_ij = 2 eps_ij.
     note : str
-        Source and verification status (FE-FORMATS.md).
+        Source and verification status ([V], [3P] or [UNVERIFIED]; see :ref:`fe-presets`).
     """
 
     order: tuple[str, ...]
@@ -62,7 +63,7 @@ class Convention:
 _VOIGT_VTK = ("xx", "yy", "zz", "xy", "yz", "xz")
 _VOIGT_ABQ = ("xx", "yy", "zz", "xy", "xz", "yz")
 
-#: Conventions of common FE tools for 6-component arrays (FE-FORMATS.md §1, §4.5-4.6).
+#: Conventions of common FE tools for 6-component arrays (:ref:`fe-presets`, tool by tool in docs/fe-export.md).
 #: Named columns (S12, EPXZ, solid.eXY, ...) are matched by name; the order only matters
 #: for unnamed 6-component arrays.
 PRESETS: dict[str, Convention] = {
@@ -152,7 +153,7 @@ def _equivalent(principal: np.ndarray) -> np.ndarray:
 
 
 def sed_equivalent(stress, strain, poisson) -> np.ndarray:
-    """The study's equivalent SED, U ~ 1/2 sigma_e eps_e (METHOD.md section 2, Glinka).
+    """The study's equivalent SED, U ~ 1/2 sigma_e eps_e (:ref:`method-sed`, after Glinka).
 
     Parameters
     ----------

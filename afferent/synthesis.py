@@ -1,4 +1,4 @@
-"""Stage 4, synthesis: receptor currents -> afferent currents (METHOD.md section 4).
+"""Stage 4, synthesis: receptor currents -> afferent currents (:ref:`method-synthesis`).
 
 ::
 
@@ -313,7 +313,7 @@ class Branching:
         one afferent (Meissner corpuscles are multi-afferented: Paré et al. 2001, J. Neurosci. 21:7236). Hence
         **a receptor may be shared** by several afferents, and a receptor may belong to
         none: this grouping is not a partition and does not conserve the summed current.
-        The human fingertip range is 9-17 receptors per afferent (METHOD.md section 4).
+        The human fingertip range is 9-17 receptors per afferent (:ref:`method-synthesis`).
 
         Parameters
         ----------

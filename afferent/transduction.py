@@ -1,4 +1,4 @@
-"""Stage 3, transduction: receptor SED -> receptor current (METHOD.md section 3).
+"""Stage 3, transduction: receptor SED -> receptor current (:ref:`method-transduction`).
 
 ::
 
@@ -20,7 +20,7 @@ which stays finite, monotone and within [0, alpha] over the whole real line.
 
 :func:`saturation_report` says how many receptor samples sit in the sigmoid's sensitive
 range: the study's own longitudinal-section parameters saturate every receptor
-(METHOD.md section 6, "second hazard"), so the current no longer depends on SED.
+(:ref:`method-saturation`), so the current no longer depends on SED.
 """
 
 from __future__ import annotations
@@ -45,6 +45,7 @@ __all__ = [
     "ReceptorCurrent",
     "SaturationReport",
     "saturation_report",
+    "MIN_MODULATION",
 ]
 
 
@@ -144,7 +145,7 @@ class SigmoidParams:
         return f"SigmoidParams(alpha={self.alpha!r} A, gamma={self.gamma!r} 1/Pa, lambda_={self.lambda_!r} Pa)"
 
 
-#: The three parameter sets of the study's RSM calibration table (METHOD.md section 6),
+#: The three parameter sets of the study's RSM calibration table (:ref:`method-transduction`),
 #: converted to SI with :meth:`SigmoidParams.from_study`. Keys: ``'start'`` (first iteration,
 #: ssd 0.70), ``'longitudinal'`` (fit on longitudinal sections, ssd 0.24; saturates every
 #: receptor for SED >= 0, see :func:`saturation_report`) and ``'cross'`` (fit on
@@ -205,7 +206,7 @@ def sigmoid(sed, params: SigmoidParams) -> np.ndarray:
     sed : array_like of any shape
         Strain-energy density in Pa (= J/m^3).
     params : SigmoidParams
-        alpha (A), gamma (1/Pa), lambda_ (Pa).
+        alpha (A), gamma (1/Pa), ``lambda_`` (Pa).
 
     Returns
     -------
@@ -366,7 +367,7 @@ def transduce(sed, params: SigmoidParams, *, times=None) -> ReceptorCurrent:
         SED at the receptor sites in Pa (= J/m^3). A ReceptorSED (any object with
         ``values``, ``times`` and ``layout``) passes its times and layout on.
     params : SigmoidParams
-        alpha (A), gamma (1/Pa), lambda_ (Pa).
+        alpha (A), gamma (1/Pa), ``lambda_`` (Pa).
     times : array_like of shape (n_times,), optional
         Time of each row in s, only for a plain-array ``sed``; without it the result's
         ``times`` is ``None``.
@@ -426,7 +427,7 @@ def transduce(sed, params: SigmoidParams, *, times=None) -> ReceptorCurrent:
 
 @dataclass(frozen=True)
 class SaturationReport:
-    """Where receptor samples sit on the sigmoid (METHOD.md section 6, "second hazard").
+    """Where receptor samples sit on the sigmoid (:ref:`method-saturation`).
 
     Parameters
     ----------
@@ -552,7 +553,7 @@ def _report_from_relative(rel: np.ndarray, params: SigmoidParams, *, low: float,
 def saturation_report(sed, params: SigmoidParams, *, low: float = 0.05, high: float = 0.95) -> SaturationReport:
     """Fraction of receptor samples in the sigmoid's sensitive range ``low < I/alpha < high``.
 
-    METHOD.md section 6: with SED >= 0 Pa, the study's longitudinal-section parameters
+    :ref:`method-saturation`: with SED >= 0 Pa, the study's longitudinal-section parameters
     (gamma 2.95e-2 /Pa, lambda -705 Pa) put every receptor at I/alpha >= 1 - 1e-9, so the
     current no longer depends on SED. This report makes such a parameter set visible.
     ``I/alpha`` is computed directly (``expit``), so it is defined even for ``alpha = 0``.
@@ -562,7 +563,7 @@ def saturation_report(sed, params: SigmoidParams, *, low: float = 0.05, high: fl
     sed : ReceptorSED or array_like
         SED at the receptor sites in Pa; any shape (every element is one sample).
     params : SigmoidParams
-        alpha (A), gamma (1/Pa), lambda_ (Pa).
+        alpha (A), gamma (1/Pa), ``lambda_`` (Pa).
     low, high : float, default=0.05, 0.95
         Thresholds as fractions of alpha, ``0 <= low < high <= 1``.
 

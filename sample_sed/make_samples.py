@@ -1,7 +1,7 @@
 #!/usr/bin/env python
 """Regenerate the finite-element sample data in ``sample_sed/``.
 
-A linear-elastic, three-layer block of fingertip skin (METHOD.md section 1) with
+A linear-elastic, three-layer block of fingertip skin (docs/method.md, "1. The FE skin model") with
 fingerprint ridges on the surface and dermal papillae on the epidermis/dermis
 interface is indented by a rigid, frictionless flat square punch.  The problem is
 solved with scikit-fem (trilinear 8-node hexahedra with selective reduced integration
@@ -57,7 +57,7 @@ except ImportError:  # pragma: no cover - pyamg is in the `samples` extra
     pyamg = None
 
 # --------------------------------------------------------------------------------------
-# Model constants (METHOD.md section 1).  Lengths mm, moduli MPa.
+# Model constants (docs/method.md, "1. The FE skin model").  Lengths mm, moduli MPa.
 # --------------------------------------------------------------------------------------
 LAYER_EPIDERMIS, LAYER_DERMIS, LAYER_SUBCUTIS = 1, 2, 3
 LAYER_NAMES = {1: "epidermis", 2: "dermis", 3: "subcutis"}

@@ -1,4 +1,4 @@
-"""Comparison of afferent profiles with recordings (afferent.profiles, METHOD.md section 5)."""
+"""Comparison of afferent profiles with recordings (afferent.profiles; docs/method.md, "5. Comparing with recordings")."""
 
 from __future__ import annotations
 

@@ -30,7 +30,7 @@ from afferent.receptors import (
 
 from conftest import hex_box
 
-PITCH_X, PITCH_Z = 0.44e-3, 0.22e-3  # m, METHOD.md section 1
+PITCH_X, PITCH_Z = 0.44e-3, 0.22e-3  # m, docs/method.md, "1. The FE skin model"
 
 
 # --------------------------------------------------------------------------------------

@@ -1,5 +1,5 @@
 """The bundled FE sample (sample_sed/, a scikit-fem solve; see its README) read back through
-every route, and the study's qualitative findings checked on it (METHOD.md section 8).
+every route, and the study's qualitative findings checked on it (docs/method.md, "8. What the study found").
 
 What holds and what does not is stated per test; the data are never adjusted to fit.
 """

@@ -26,7 +26,7 @@ from afferent.stimulus import (
 from afferent.synthesis import AfferentCurrent, Branching, synthesize
 from afferent.transduction import STUDY_PARAMS, transduce
 
-# The study's ramp-and-hold (METHOD.md section 1): 0.5 mm at 5 mm/s, hold 2 s.
+# The study's ramp-and-hold (docs/method.md, "1. The FE skin model"): 0.5 mm at 5 mm/s, hold 2 s.
 DEPTH_M = 0.5e-3
 SPEED_M_S = 5e-3
 HOLD_S = 2.0
@@ -397,7 +397,7 @@ def test_rate_sensitive_input_fires_at_onset_and_offset_not_in_hold():
     """Done-when of the issue: RA-I-like onset/offset firing on the study's ramp-and-hold.
 
     Study stimulus (0.5 mm at 5 mm/s, 2 s hold) through d^2 scaling of a static SED profile
-    (40-190 Pa, METHOD.md's typical range), the study's start sigmoid and longitudinal
+    (40-190 Pa, the study's typical range, docs/method.md), the study's start sigmoid and longitudinal
     synthesis (17 receptors per afferent), into the LIF with the 'ra' preset (fast engine).
     """
     layout = _layout(4, 17)

@@ -19,7 +19,7 @@ from afferent.strain_energy import (
     to_canonical,
 )
 
-E_PA, NU = 0.08e6, 0.48  # dermis (METHOD.md table)
+E_PA, NU = 0.08e6, 0.48  # dermis (docs/method.md, "1. The FE skin model")
 G_PA = E_PA / (2 * (1 + NU))
 
 

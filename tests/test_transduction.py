@@ -285,7 +285,7 @@ def test_transduce_warns_when_every_receptor_is_saturated():
 
 
 # --------------------------------------------------------------------- saturation_report
-SED_RANGE = np.linspace(0.0, 190.0, 191)  # METHOD.md section 6: SED 0-190 Pa
+SED_RANGE = np.linspace(0.0, 190.0, 191)  # the study's SED range, 0-190 Pa (docs/method.md, "Saturation")
 
 
 @pytest.mark.parametrize(
@@ -298,7 +298,7 @@ def test_saturation_report_reproduces_method_numbers(key, lo2, hi2):
     # Closed form: I/alpha is expit(gamma * (SED - lambda)), increasing in SED.
     np.testing.assert_allclose(rep.relative_min, 1 / (1 + np.exp(p.gamma * p.lambda_)), rtol=1e-14)
     np.testing.assert_allclose(rep.relative_max, 1 / (1 + np.exp(p.gamma * (p.lambda_ - 190.0))), rtol=1e-14)
-    # METHOD.md quotes these to two decimals.
+    # docs/method.md ("Saturation") quotes these to two decimals.
     assert (round(rep.relative_min, 2), round(rep.relative_max, 2)) == (lo2, hi2)
     assert rep.fraction_sensitive == 1.0 and rep.fraction_high == 0.0 and rep.fraction_low == 0.0
     assert not rep.saturated
