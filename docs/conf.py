@@ -9,10 +9,13 @@ from __future__ import annotations
 
 import shutil
 import sys
+import os
 from pathlib import Path
 
 DOCS = Path(__file__).resolve().parent
-ROOT = DOCS.parent
+# The test suite builds a copy of docs/ in a temporary folder (parallel workers must not write
+# generated stubs into the same tree) and names the repository here.
+ROOT = Path(os.environ.get("AFFERENT_DOCS_ROOT", DOCS.parent))
 sys.path.insert(0, str(DOCS / "_ext"))
 sys.path.insert(0, str(ROOT))
 

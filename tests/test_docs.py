@@ -8,6 +8,7 @@ machine (cold, including the API stubs), so the test is not marked slow.
 from __future__ import annotations
 
 import re
+import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -23,10 +24,14 @@ def built(tmp_path_factory):
     pytest.importorskip("sphinx")
     out = tmp_path_factory.mktemp("html")
     doctrees = tmp_path_factory.mktemp("doctrees")
+    # a copy of docs/: the build writes API stubs and notebook copies below its source folder,
+    # and parallel test workers must not do that in one tree
+    source = tmp_path_factory.mktemp("src") / "docs"
+    shutil.copytree(DOCS, source, ignore=shutil.ignore_patterns("generated", "notebooks", "_build"))
     proc = subprocess.run(
         [sys.executable, "-m", "sphinx", "-W", "--keep-going", "-q", "-b", "html", "-d", str(doctrees),
-         str(DOCS), str(out)],
-        capture_output=True, text=True, cwd=ROOT, env={"MPLBACKEND": "Agg", **_env()},
+         str(source), str(out)],
+        capture_output=True, text=True, cwd=ROOT, env={"MPLBACKEND": "Agg", **_env(), "AFFERENT_DOCS_ROOT": str(ROOT)},
     )
     assert proc.returncode == 0, f"sphinx-build failed:\n{proc.stderr[-6000:]}"
     return out
