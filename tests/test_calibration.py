@@ -538,7 +538,7 @@ def test_a_ridge_is_reported_where_the_profile_leaves_gamma_and_lambda_free(sed,
     from conftest import SAMPLE_DIR
 
     from afferent import read_receptors, read_sed, sample_sed
-    from afferent.calibration._loop import IDENTIFIABLE_COND
+    from afferent.calibration import IDENTIFIABLE_COND
     from afferent.profiles import read_observed
 
     if not (SAMPLE_DIR / "block4" / "indent_1p32mm.vtu").is_file():

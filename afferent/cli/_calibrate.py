@@ -98,7 +98,7 @@ def _write_tables(result, folder: str, *, plots: bool) -> list[str]:
     result.coefficients.to_csv(os.path.join(folder, "coefficients.csv"), index=False)
     written += ["iterations.csv", "design_runs.csv", "coefficients.csv"]
     if plots:
-        from ..calibration._plots import plot_calibrated_profile, plot_ssd_history
+        from ..calibration import plot_calibrated_profile, plot_ssd_history
         from ..plotting import save_figure
 
         save_figure(plot_calibrated_profile(result), os.path.join(folder, "profile.png"))
@@ -108,9 +108,9 @@ def _write_tables(result, folder: str, *, plots: bool) -> list[str]:
 
 
 def _comparison(results: dict):
-    from ..calibration._loop import _methods_table
+    from ..calibration import methods_table
 
-    return _methods_table(results).drop(columns=["params"])
+    return methods_table(results).drop(columns=["params"])
 
 
 def _record(results: dict, primary: str, extra: dict) -> dict:
