@@ -31,9 +31,9 @@ def compare_methods(sed, observed, *, methods=("rsm1", "least_squares", "rsm2"),
     Returns
     -------
     pandas.DataFrame
-        One row per method: ``method``, ``ssd``, ``r2_study``, ``r2``, ``evaluations``,
-        ``params`` (SigmoidParams), ``alpha`` (A), ``gamma`` (1/Pa), ``lambda`` (Pa),
-        ``success``, ``no_effect``, ``message``.
+        One row per method, as :func:`methods_table`: ``method``, ``ssd``, ``r2_study``, ``r2``,
+        ``evaluations``, ``jacobian_evaluations``, ``params`` (SigmoidParams), ``alpha`` (A),
+        ``gamma`` (1/Pa), ``lambda`` (Pa), ``success``, ``status``, ``no_effect``, ``message``.
     """
     return methods_table(_run_methods(sed, observed, methods=methods, **kwargs))
 
@@ -60,8 +60,9 @@ def methods_table(results: dict):
     pandas.DataFrame
         One row per method: ``method``, ``ssd`` (dimensionless for normalised profiles, else
         A^2), ``r2_study``, ``r2``, ``evaluations`` (model evaluations),
+        ``jacobian_evaluations`` (closed-form Jacobian evaluations; 0 for the RSM),
         ``params`` (SigmoidParams), ``alpha`` (A), ``gamma`` (1/Pa), ``lambda`` (Pa),
-        ``success``, ``no_effect`` (comma-separated names), ``message``.
+        ``success``, ``status``, ``no_effect`` (comma-separated names), ``message``.
 
     See Also
     --------
@@ -71,8 +72,9 @@ def methods_table(results: dict):
 
     return pd.DataFrame([
         {"method": m, "ssd": r.ssd, "r2_study": r.r2_study, "r2": r.r2, "evaluations": r.n_evaluations,
+         "jacobian_evaluations": r.n_jacobian_evaluations,
          "params": r.params, "alpha": r.params.alpha, "gamma": r.params.gamma, "lambda": r.params.lambda_,
-         "success": r.success, "no_effect": ",".join(r.no_effect), "message": r.message}
+         "success": r.success, "status": r.status, "no_effect": ",".join(r.no_effect), "message": r.message}
         for m, r in results.items()
     ])
 
@@ -87,7 +89,7 @@ class SynthesisComparison:
         One result per grouping, keyed by its spelling ('longitudinal', 'cross', ...).
     table : pandas.DataFrame
         One row per grouping: ``synthesis``, ``ssd``, ``r2_study``, ``r2``, ``alpha`` (A),
-        ``gamma`` (1/Pa), ``lambda`` (Pa), ``evaluations``, ``success``,
+        ``gamma`` (1/Pa), ``lambda`` (Pa), ``evaluations``, ``jacobian_evaluations``, ``success``, ``status``,
         ``fraction_sensitive``; sorted as given. ``best`` names the lowest ssd.
     best : str
         The grouping with the lowest ssd.
@@ -135,7 +137,8 @@ def compare_syntheses(sed, observed, *, synthesis=("longitudinal", "cross"), **k
     table = pd.DataFrame([
         {"synthesis": k, "method": r.method, "ssd": r.ssd, "r2_study": r.r2_study, "r2": r.r2,
          "alpha": r.params.alpha, "gamma": r.params.gamma, "lambda": r.params.lambda_,
-         "evaluations": r.n_evaluations, "success": r.success, "fraction_sensitive": r.saturation.fraction_sensitive}
+         "evaluations": r.n_evaluations, "jacobian_evaluations": r.n_jacobian_evaluations, "success": r.success,
+         "status": r.status, "fraction_sensitive": r.saturation.fraction_sensitive}
         for k, r in results.items()
     ])
     best = min(results, key=lambda k: results[k].ssd)

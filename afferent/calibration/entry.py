@@ -20,7 +20,7 @@ from ..synthesis import Branching
 from ..transduction import STUDY_PARAMS, SigmoidParams
 from .design import DEFAULT_INCREMENT, vector_to_params
 from .objective import Objective
-from .reference import DEFAULT_N_STARTS, least_squares_reference
+from .reference import DEFAULT_N_STARTS, JACOBIANS, RESTARTS, least_squares_reference
 from .result import CalibrationResult, finish
 from .rsm import DEFAULT_MAX_ITER, DEFAULT_MAX_STEPS, DEFAULT_TOL, rsm
 
@@ -129,12 +129,14 @@ def calibrate(
     method: str = "rsm1",
     design: str | None = None,
     n_starts: int = DEFAULT_N_STARTS,
+    restarts: str = "on_failure",
+    jac: str = "analytic",
     time_index: int = -1,
     on_outside: str = "raise",
     rng=None,
     progress: bool = False,
 ) -> CalibrationResult:
-    """Calibrate the sigmoid (alpha, gamma, lambda) against a recorded profile (METHOD.md section 6).
+    """Calibrate the sigmoid (alpha, gamma, lambda) against a recorded afferent profile.
 
     Objective, for a parameter set: :func:`~afferent.transduction.transduce` the SED at the
     compared time step -> :func:`~afferent.synthesis.synthesize` along ``synthesis`` ->
@@ -156,7 +158,8 @@ def calibrate(
     (canonical analysis; box-constrained when the stationary point is not a minimum inside)
     gives the step direction. ``method='least_squares'``: the reference,
     :func:`scipy.optimize.least_squares` (trf, bounds alpha >= 0, gamma >= 0) on the residual
-    vector ``d - e``, from ``start`` and ``n_starts - 1`` seeded random starts; the best is kept.
+    vector ``d - e`` with its closed-form Jacobian, from ``start``; only if that start fails,
+    from ``n_starts - 1`` seeded random starts too, and the best is kept.
 
     Parameters alpha and gamma are clipped at 0 when a design point or step would make them
     negative (reported in ``clipped`` and ``design_runs.clipped``). With ``normalise='both'``
@@ -202,7 +205,16 @@ def calibrate(
         Coded design per RSM iteration; default 'factorial' (9 runs) for 'rsm1' and 'ccd'
         (15 runs) for 'rsm2' ('factorial' cannot fit a second-order surface).
     n_starts : int, default=4
-        Starts of the least-squares reference.
+        Starts of the least-squares reference at most: ``start`` first, then ``n_starts - 1``
+        seeded random ones, run only if the first fails (see ``restarts``).
+    restarts : {'on_failure', 'always'}, default='on_failure'
+        Least squares: run the random starts only when the first start fails (scipy stopped
+        at its evaluation budget, the end point predicts a constant profile, or its R^2 is
+        below :data:`~afferent.calibration.reference.FALLBACK_R2` = 0.9), or always.
+    jac : {'analytic', '2-point', '3-point'}, default='analytic'
+        Least squares: the residuals' Jacobian in closed form (one Jacobian evaluation per
+        step, counted in ``n_jacobian_evaluations``), or scipy's finite differences (1 or 2
+        extra model evaluations per free parameter and step; for cross-checks).
     time_index : int, default=-1
         Time step of the SED that is compared (Python indexing; the last step by default).
     on_outside : {'raise', 'drop'}, default='raise'
@@ -256,6 +268,8 @@ def calibrate(
     max_iter = _check_int("max_iter", max_iter, 1)
     max_steps = _check_int("max_steps", max_steps, 1)
     n_starts = _check_int("n_starts", n_starts, 1)
+    check_option("restarts", restarts, RESTARTS)
+    check_option("jac", jac, JACOBIANS)
     refine = _check_int("refine", refine, 0)
     if design is None:
         design = "ccd" if method == "rsm2" else "factorial"
@@ -276,7 +290,7 @@ def calibrate(
     with tqdm(desc=f"calibrate {method}", unit="eval", disable=not progress, leave=False) as bar:
         obj = Objective(sed_row, times_row, branching, observed, normalise, on_outside, bar)
         if method == "least_squares":
-            out = least_squares_reference(obj, start, inc, max_iter, n_starts, gen)
+            out = least_squares_reference(obj, start, inc, max_iter, n_starts, gen, jac=jac, restarts=restarts)
         else:
             out = rsm(obj, start, inc, tol, max_iter, max_steps, method, design, refine)
     return finish(out, obj, method, _synthesis_label(synthesis), normalise, start)

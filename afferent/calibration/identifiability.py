@@ -28,8 +28,9 @@ RIDGE_STEPS = (-1.0, -0.5, -0.25, 0.0, 0.25, 0.5, 1.0)
 def identifiability(obj, vec, no_effect=()) -> dict:
     """Which parameter combinations the compared profiles determine at ``vec``.
 
-    The residuals r = predicted - observed (as compared) are differentiated by central finite
-    differences with respect to scaled parameters: ``ln gamma`` (relative change of gamma) and
+    The residuals r = predicted - observed (as compared) are differentiated in closed form
+    (:meth:`~afferent.calibration.objective.Objective.jacobian`, chain rule) with respect to
+    scaled parameters: ``ln gamma`` (relative change of gamma) and
     ``gamma x lambda`` (lambda in units of the sigmoid's width 1/gamma); alpha too unless it has
     no effect (min-max normalisation cancels it). The singular values of that Jacobian say how
     well each combination is determined; the right singular vector of the smallest is the ridge
@@ -51,7 +52,8 @@ def identifiability(obj, vec, no_effect=()) -> dict:
         ``parameters`` and their ``scales``, ``singular_values``, ``condition_number``,
         ``ridge_direction`` (unit vector in the scaled parameters), ``ssd_along_ridge``
         (``{step: ssd}`` for :data:`RIDGE_STEPS`), ``identifiable``, ``out_of_range`` (list of
-        texts), ``n_evaluations`` spent.
+        texts), ``n_evaluations`` (model evaluations, along the ridge) and
+        ``n_jacobian_evaluations`` spent.
     """
     vec = np.asarray(vec, dtype=float)
     alpha, gamma, lam = vec
@@ -69,17 +71,9 @@ def identifiability(obj, vec, no_effect=()) -> dict:
                 v[2] = lam + x / gamma if gamma > 0 else lam + x
         return v
 
-    def residual(u):
-        _, fit, _ = obj(to_vec(u))
-        return np.asarray(fit.predicted, float) - np.asarray(fit.observed, float)
-
-    h = 1e-4
-    cols = []
-    for k in range(len(names)):
-        e = np.zeros(len(names))
-        e[k] = h
-        cols.append((residual(e) - residual(-e)) / (2 * h))
-    jac = np.column_stack(cols) if cols else np.zeros((0, 0))
+    jac_params = obj.jacobian(vec)  # d(predicted)/d(alpha, gamma, lambda)
+    chain = {"alpha": alpha, "gamma": gamma, "lambda": 1.0 / gamma if gamma > 0 else 1.0}
+    jac = np.column_stack([jac_params[:, PARAMETERS.index(n)] * chain[n] for n in names]) if names else np.zeros((0, 0))
     out_of_range = []
     if lam < 0:
         out_of_range.append(f"lambda = {lam:.4g} Pa < 0: the sigmoid's midpoint lies below zero SED, so every receptor "
@@ -89,7 +83,7 @@ def identifiability(obj, vec, no_effect=()) -> dict:
     if jac.size == 0 or not np.all(np.isfinite(jac)):
         return {"parameters": names, "singular_values": [], "condition_number": float("nan"), "identifiable": False,
                 "ridge_direction": [], "ssd_along_ridge": {}, "out_of_range": out_of_range,
-                "n_evaluations": obj.n_evaluations - n_before}
+                "n_evaluations": obj.n_evaluations - n_before, "n_jacobian_evaluations": 1}
     _, sv, vt = np.linalg.svd(jac, full_matrices=False)
     cond = float(sv[0] / sv[-1]) if sv[-1] > 0 else float("inf")
     ridge = vt[-1] * np.sign(vt[-1][np.argmax(np.abs(vt[-1]))])
@@ -100,5 +94,5 @@ def identifiability(obj, vec, no_effect=()) -> dict:
         "singular_values": [float(v) for v in sv], "condition_number": cond,
         "ridge_direction": {n: float(v) for n, v in zip(names, ridge)}, "ssd_along_ridge": along,
         "identifiable": bool(cond <= IDENTIFIABLE_COND), "out_of_range": out_of_range,
-        "n_evaluations": obj.n_evaluations - n_before,
+        "n_evaluations": obj.n_evaluations - n_before, "n_jacobian_evaluations": 1,
     }

@@ -51,7 +51,7 @@ class Objective:
         The recording (positions in m).
     normalise : {'both', 'prediction', 'observation', 'neither'}
     on_outside : {'raise', 'drop'}
-    bar : tqdm progress bar
+    bar : tqdm progress bar, optional
         Updated once per model evaluation.
 
     Attributes
@@ -63,7 +63,7 @@ class Objective:
         evaluation: one sigmoid and one synthesis of three columns).
     """
 
-    def __init__(self, sed_row, times_row, branching, observed, normalise, on_outside, bar):
+    def __init__(self, sed_row, times_row, branching, observed, normalise="both", on_outside="raise", bar=None):
         self.sed_row = sed_row  # (1, n_receptors) Pa
         self.times_row = times_row
         self.branching = branching
@@ -106,9 +106,10 @@ class Objective:
         self.cache[key] = out
         if not degenerate and fit.ssd < self.best:
             self.best = fit.ssd
-        self.bar.update(1)
-        if math.isfinite(self.best):
-            self.bar.set_postfix(ssd=f"{self.best:.4g}", refresh=False)
+        if self.bar is not None:
+            self.bar.update(1)
+            if math.isfinite(self.best):
+                self.bar.set_postfix(ssd=f"{self.best:.4g}", refresh=False)
         return out
 
     def jacobian(self, vec) -> np.ndarray:

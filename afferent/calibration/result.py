@@ -24,7 +24,19 @@ from ..transduction import SaturationReport, SigmoidParams, saturation_report
 from .design import PARAMETERS, UNITS, vector_to_params
 from .identifiability import IDENTIFIABLE_COND, identifiability
 
-__all__ = ["CalibrationResult", "finish"]
+__all__ = ["STATUSES", "CalibrationResult", "finish"]
+
+#: How a calibration can end (``CalibrationResult.status``), and what each means:
+#:
+#: - ``'converged'``: RSM - an iteration lowered the ssd by at most ``tol`` (relative); least
+#:   squares - scipy met ftol, xtol or gtol. The only status with ``success=True``.
+#: - ``'flat'``: no descent direction exists around the base point (every design run gives the
+#:   same ssd or a constant predicted profile, or no parameter acts on the ssd); least
+#:   squares: every start ended at a constant predicted profile. The parameters reported are
+#:   the last base point (finite), not a fit.
+#: - ``'max_iter'``: the budget ran out (RSM: ``max_iter`` iterations; least squares: scipy's
+#:   ``max_nfev`` evaluations) while the ssd was still decreasing.
+STATUSES = ("converged", "flat", "max_iter")
 
 
 @dataclass(frozen=True)
@@ -71,10 +83,14 @@ class CalibrationResult:
     success : bool
         True if the loop converged (an iteration improved the ssd by at most ``tol``
         relative); False on a flat or degenerate objective or when ``max_iter`` ran out.
+        Always ``status == 'converged'``.
+    status : {'converged', 'flat', 'max_iter'}
+        How it ended (:data:`STATUSES` says what each means).
     message : str
         Why it stopped, plus notes on no-effect parameters, clipping and saturation.
     n_evaluations : int
-        Model evaluations (transduce -> synthesize -> compare) spent.
+        Model evaluations (transduce -> synthesize -> compare) spent by the method (the
+        identifiability check counts its own, in ``identifiability['n_evaluations']``).
     method : {'rsm1', 'rsm2', 'least_squares'}
     synthesis : str
         The grouping used ('longitudinal', 'cross', 'map', 'random').
@@ -88,6 +104,10 @@ class CalibrationResult:
         evaluated point.
     canonical : CanonicalAnalysis or None
         Last iteration's canonical analysis ('rsm2' only).
+    n_jacobian_evaluations : int, default=0
+        Evaluations of the closed-form Jacobian of the compared profile (least squares only;
+        each costs about one model evaluation). The method's total cost is
+        ``n_evaluations + n_jacobian_evaluations``.
     identifiability : dict or None
         What the data determine at ``params`` (:func:`identifiability`): the singular values of
         the residuals' Jacobian in scaled parameters, the condition number, the ridge direction
@@ -106,6 +126,7 @@ class CalibrationResult:
     no_effect: tuple
     saturation: SaturationReport
     success: bool
+    status: str
     message: str
     n_evaluations: int
     method: str
@@ -115,6 +136,7 @@ class CalibrationResult:
     fit: ProfileFit
     clipped: tuple = ()
     canonical: object = None
+    n_jacobian_evaluations: int = 0
     identifiability: dict | None = None
 
     @property
@@ -146,8 +168,10 @@ class CalibrationResult:
                 "message": s.message,
             },
             "success": self.success,
+            "status": self.status,
             "message": self.message,
             "n_evaluations": self.n_evaluations,
+            "n_jacobian_evaluations": self.n_jacobian_evaluations,
             "n_iterations": self.n_iterations,
             "identifiability": self.identifiability,
         }
@@ -156,9 +180,10 @@ class CalibrationResult:
         p = self.params
         return (
             f"<CalibrationResult {self.method} ({self.synthesis}, normalise={self.normalise!r}): "
-            f"success={self.success}, ssd {self.ssd:.4g}, R2(study) {self.r2_study:.3f}, "
+            f"success={self.success} ({self.status}), ssd {self.ssd:.4g}, R2(study) {self.r2_study:.3f}, "
             f"alpha {p.alpha:.4g} A, gamma {p.gamma:.4g} 1/Pa, lambda {p.lambda_:.4g} Pa, "
             f"{self.n_iterations} iteration(s), {self.n_evaluations} evaluations"
+            f"{f' + {self.n_jacobian_evaluations} Jacobian' if self.n_jacobian_evaluations else ''}"
             f"{', no effect: ' + ', '.join(self.no_effect) if self.no_effect else ''}>"
         )
 
@@ -167,16 +192,42 @@ def _params_dict(p: SigmoidParams) -> dict:
     return {"alpha_a": p.alpha, "gamma_per_pa": p.gamma, "lambda_pa": p.lambda_}
 
 
-
 def finish(out, obj, method, synthesis, normalise, start) -> CalibrationResult:
+    """Build the :class:`CalibrationResult` of a method's outcome, with every caveat in its message.
+
+    Parameters
+    ----------
+    out : dict
+        The method's outcome (:func:`.rsm.rsm`, :func:`.reference.least_squares_reference`).
+    obj : Objective
+        The objective it ran on (its evaluation counts are the method's cost).
+    method, synthesis, normalise : str
+        As given to :func:`~afferent.calibration.calibrate`.
+    start : SigmoidParams
+        The start point (A, 1/Pa, Pa).
+
+    Returns
+    -------
+    CalibrationResult
+
+    Warns
+    -----
+    AfferentWarning
+        If the end point saturates every receptor, lies outside the physical range, or sits on
+        a ridge the profile does not resolve.
+    """
     vec = out["base"]
     params = vector_to_params(vec)
     _, fit, _ = obj(vec)
     sat = saturation_report(obj.sed_row, params)
     n_evaluations = int(obj.n_evaluations)  # the method's own; the identifiability check counts its own
+    n_jacobians = int(obj.n_jacobians)
     ident = identifiability(obj, vec, out["no_effect"])
-    notes = [out["status"]]
-    if not ident["identifiable"] and np.isfinite(ident["condition_number"]):
+    notes = [out["note"]]
+    # An infinite condition number (a combination the profile does not see at all) is a ridge too;
+    # NaN means the check could not run.
+    ridge = not ident["identifiable"] and not np.isnan(ident["condition_number"])
+    if ridge:
         d = ", ".join(f"{v:+.2f} {k}" for k, v in ident["ridge_direction"].items())
         ssd_r = ident["ssd_along_ridge"]
         notes.append(
@@ -187,7 +238,7 @@ def finish(out, obj, method, synthesis, normalise, start) -> CalibrationResult:
         )
     for text in ident["out_of_range"]:
         notes.append(f"Outside the physical range: {text}.")
-    if ident["out_of_range"] or (not ident["identifiable"] and np.isfinite(ident["condition_number"])):
+    if ident["out_of_range"] or ridge:
         warnings.warn(" ".join(notes[1:]), AfferentWarning, stacklevel=3)
     if out["no_effect"]:
         notes.append(_no_effect_note(out, vec, normalise, method))
@@ -196,7 +247,7 @@ def finish(out, obj, method, synthesis, normalise, start) -> CalibrationResult:
     at_bound = [p for p, v in zip(PARAMETERS[:2], vec[:2]) if v <= 0.0]
     if at_bound:
         notes.append(f"The final {', '.join(at_bound)} sits at its bound 0.")
-    if (sat.saturated or sat.fraction_sensitive < 0.5) and sat.message not in out["status"]:
+    if (sat.saturated or sat.fraction_sensitive < 0.5) and sat.message not in out["note"]:
         notes.append(sat.message)
     if sat.saturated:
         warnings.warn(
@@ -206,8 +257,8 @@ def finish(out, obj, method, synthesis, normalise, start) -> CalibrationResult:
     return CalibrationResult(
         params=params, ssd=float(fit.ssd), r2_study=float(fit.r2_study), r2=float(fit.r2),
         iterations=out["iterations"], design_runs=out["runs"], coefficients=out["coefficients"],
-        no_effect=tuple(out["no_effect"]), saturation=sat, success=bool(out["success"]), message=" ".join(notes),
-        n_evaluations=n_evaluations, method=method, synthesis=synthesis, normalise=normalise,
+        no_effect=tuple(out["no_effect"]), saturation=sat, success=bool(out["success"]),
+        status=out["status"], message=" ".join(notes), n_evaluations=n_evaluations, n_jacobian_evaluations=n_jacobians, method=method, synthesis=synthesis, normalise=normalise,
         start=start, fit=fit, clipped=tuple(out["clipped"]), canonical=out["canonical"], identifiability=ident,
     )
 

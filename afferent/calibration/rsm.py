@@ -75,7 +75,8 @@ class _Loop:
     def add_iteration(self, it):
         self.iters.append(iter_row(it, self.base, self.base_ssd, self.obj.n_evaluations))
 
-    def outcome(self, success, status) -> dict:
+    def outcome(self, status, note) -> dict:
+        """The loop's outcome for :func:`.result.finish`; ``status`` 'converged', 'flat' or 'max_iter'."""
         import pandas as pd
 
         measured = self.no_effect_all if self.n_fits else np.zeros(self.n_fac, bool)
@@ -83,7 +84,7 @@ class _Loop:
         return dict(base=self.base, iterations=pd.DataFrame(self.iters), runs=self.runs.frame(),
                     coefficients=pd.DataFrame(self.coef_rows), no_effect=no_effect,
                     clipped=tuple(p for p, c in zip(PARAMETERS, self.clipped_any) if c),
-                    success=success, status=status, canonical=self.canonical)
+                    success=status == "converged", status=status, note=note, canonical=self.canonical)
 
 
 def rsm(obj, start, inc, tol, max_iter, max_steps, method, design_name, refine) -> dict:
@@ -109,7 +110,8 @@ def rsm(obj, start, inc, tol, max_iter, max_steps, method, design_name, refine) 
     -------
     dict
         ``base`` (end point, A, 1/Pa, Pa), ``iterations``, ``runs``, ``coefficients``,
-        ``no_effect``, ``clipped``, ``success``, ``status`` (text), ``canonical``.
+        ``no_effect``, ``clipped``, ``success``, ``status`` ('converged', 'flat' or
+        'max_iter'), ``note`` (why it stopped, in words), ``canonical``.
     """
     st = _Loop(obj, start, method, design_name)
     level, inc_it, last_decrease = 0, inc, math.nan
@@ -119,7 +121,7 @@ def rsm(obj, start, inc, tol, max_iter, max_steps, method, design_name, refine) 
         ok = ~deg
         if _is_flat(ssd, ok, st.n_fac):
             st.add_iteration(it)
-            return st.outcome(False, _flat_message(it, ssd, deg, st.base, obj))
+            return st.outcome("flat", _flat_message(it, ssd, deg, st.base, obj))
         row = {"iteration": it, "increment": inc_it,
                **{f"base_{p}": float(v) for p, v in zip(PARAMETERS, st.base)},
                **{f"dxi_{p}": float(v) for p, v in zip(PARAMETERS, dxi)}}
@@ -127,7 +129,7 @@ def rsm(obj, start, inc, tol, max_iter, max_steps, method, design_name, refine) 
         fitted = fitter(st, chis, ssd, ok, row)
         if fitted is None:  # no parameter acts on the ssd
             st.add_iteration(it)
-            return st.outcome(False, _flat_message(it, ssd, deg, st.base, obj))
+            return st.outcome("flat", _flat_message(it, ssd, deg, st.base, obj))
         direction, no_eff, fixed = fitted
         st.n_fits += 1
         st.no_effect_all &= no_eff
@@ -146,18 +148,18 @@ def rsm(obj, start, inc, tol, max_iter, max_steps, method, design_name, refine) 
                 level += 1
                 inc_it *= 0.5
                 continue
-            status = _converged_message(it, last_decrease, tol, start_ssd, inc_it, level,
-                                        stall_note=method == "rsm1" and refine == 0 and last_decrease == 0.0)
-            return st.outcome(True, status)
+            note = _converged_message(it, last_decrease, tol, start_ssd, inc_it, level,
+                                      stall_note=method == "rsm1" and refine == 0 and last_decrease == 0.0)
+            return st.outcome("converged", note)
     if level and last_decrease <= tol * abs(st.iters[-2]["ssd"]):
-        status = (f"Stopped at max_iter={max_iter} iterations while refining the increments (now {inc_it:.3g} of "
-                  "the base value); raise max_iter.")
+        note = (f"Stopped at max_iter={max_iter} iterations while refining the increments (now {inc_it:.3g} of "
+                "the base value); raise max_iter.")
     else:
-        status = (
+        note = (
             f"Stopped at max_iter={max_iter} iterations with the ssd still decreasing (by {last_decrease:.3g} in "
             f"the last one, > tol {tol:g} relative); raise max_iter or start closer."
         )
-    return st.outcome(False, status)
+    return st.outcome("max_iter", note)
 
 
 def _evaluate_design(st, it, dxi):
