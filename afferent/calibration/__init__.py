@@ -34,13 +34,14 @@ from .design import box_behnken, central_composite, decode, encode, factorial_de
 from .entry import METHODS, calibrate
 from .identifiability import IDENTIFIABLE_COND, identifiability
 from .reference import DEFAULT_N_STARTS
-from .result import CalibrationResult
+from .result import STATUSES, CalibrationResult
 from .rsm import DEFAULT_MAX_ITER, DEFAULT_MAX_STEPS, DEFAULT_TOL
 from .surface import canonical_analysis, fit_first_order, make_response_surface
 
 __all__ = [
     "calibrate",
     "CalibrationResult",
+    "STATUSES",
     "compare_methods",
     "methods_table",
     "compare_syntheses",
