@@ -1,4 +1,4 @@
-"""Calibration of the sigmoid (METHOD.md section 6): designs, surfaces, the RSM loop, the reference, the CLI.
+"""Calibration of the sigmoid against a profile: designs, surfaces, the RSM loop, the reference, the CLI.
 
 Synthetic data, built in code (no recording ships with the package): SED at the papilla tips
 of a 13 x 11 ridge/papilla grid (pitch 0.44 mm across the ridges, 0.22 mm along them) under a

@@ -105,7 +105,7 @@ class SynthesisComparison:
 
 
 def compare_syntheses(sed, observed, *, synthesis=("longitudinal", "cross"), **kwargs) -> SynthesisComparison:
-    """Calibrate once per receptor -> afferent grouping and compare the fits (METHOD.md section 4).
+    """Calibrate once per receptor -> afferent grouping and compare the fits.
 
     The study calibrated longitudinal sections (profile vs x) and cross-sections (profile
     vs z) against the same recording: longitudinal fitted better (R^2 0.95 vs 0.90).
