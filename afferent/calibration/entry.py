@@ -228,6 +228,10 @@ def calibrate(
     Returns
     -------
     CalibrationResult
+        ``status`` says how it ended, one of :data:`~afferent.calibration.STATUSES`
+        ('converged', 'flat', 'max_iter'; ``success`` is True for 'converged' only), and
+        ``message`` why, in words. ``n_evaluations`` and ``n_jacobian_evaluations`` are the
+        model and Jacobian evaluations spent.
 
     Raises
     ------
