@@ -1,4 +1,4 @@
-"""Calibration of the sigmoid (METHOD.md section 6): designs, surfaces, the RSM loop, the reference, the CLI.
+"""Calibration of the sigmoid against a profile: designs, surfaces, the RSM loop, the reference, the CLI.
 
 Synthetic data, built in code (no recording ships with the package): SED at the papilla tips
 of a 13 x 11 ridge/papilla grid (pitch 0.44 mm across the ridges, 0.22 mm along them) under a
@@ -440,12 +440,18 @@ def test_cli_end_to_end_writes_the_tables_the_json_and_the_figures(tmp_path, cli
     assert it.columns.tolist() == ["iteration", "alpha", "gamma", "lambda", "ssd", "evaluations"]
     rec = json.loads((out / "result.json").read_text())
     assert rec["method"] == "rsm1" and rec["no_effect"] == ["alpha"]
+    assert (rec["status"], rec["n_jacobian_evaluations"]) == ("converged", 0)
+    ref = rec["comparison"][1]
+    assert ref["status"] == "converged" and ref["jacobian_evaluations"] == rec["reference"]["jacobian_evaluations"] > 0
+    comp = pd.read_csv(out / "comparison.csv")
+    assert {"evaluations", "jacobian_evaluations", "status"} <= set(comp.columns)
     assert [c["method"] for c in rec["comparison"]] == ["rsm1", "least_squares"]
     assert rec["reference"]["ssd"] <= rec["ssd"] + 1e-9
     assert 0.0 <= rec["saturation"]["fraction_sensitive"] <= 1.0
     direct = calibrate(make_sed(), make_observed(make_sed()))
     np.testing.assert_allclose(rec["ssd"], direct.ssd, rtol=1e-9)  # CSV round trip keeps 17 digits
     assert "longitudinal, rsm1: ssd" in err
+    assert re.search(r"\| least_squares: ssd [0-9.e-]+ in \d+ evaluations \+ \d+ Jacobian evaluations", err)
 
 
 def test_cli_both_syntheses_and_all_methods(tmp_path, cli_inputs, capsys):
@@ -538,7 +544,7 @@ def test_a_ridge_is_reported_where_the_profile_leaves_gamma_and_lambda_free(sed,
     from conftest import SAMPLE_DIR
 
     from afferent import read_receptors, read_sed, sample_sed
-    from afferent.calibration._loop import IDENTIFIABLE_COND
+    from afferent.calibration import IDENTIFIABLE_COND
     from afferent.profiles import read_observed
 
     if not (SAMPLE_DIR / "block4" / "indent_1p32mm.vtu").is_file():

@@ -1,4 +1,4 @@
-"""Coded experimental designs for the RSM calibration (METHOD.md section 6), from pydoe.
+"""Coded experimental designs for the response-surface (RSM) calibration, from pydoe.
 
 ::
 
@@ -56,7 +56,7 @@ __all__ = [
 PARAMETERS = ("alpha", "gamma", "lambda")
 #: Their SI units.
 UNITS = {"alpha": "A", "gamma": "1/Pa", "lambda": "Pa"}
-#: The study's increment: dxi_k = 5 % of the base value (METHOD.md section 6, step 1).
+#: The study's increment: dxi_k = 5 % of the base value (the first step of its RSM procedure).
 DEFAULT_INCREMENT = 0.05
 
 

@@ -1,12 +1,13 @@
-"""Response surfaces of the calibration objective, in coded parameters (METHOD.md section 6).
+"""Response surfaces of the calibration objective (the ssd), in coded parameters.
 
 ::
 
     coded design (n_runs, 3) + ssd (n_runs,) --fit_first_order--> FirstOrderFit --steepest_descent--> dchi
                                               --make_response_surface().fit--> Pipeline --canonical_analysis--> CanonicalAnalysis
 
-- First order (the study's model, step 3): ``ssd ~ b0 + sum_k b_k chi_k``, fitted by
-  :class:`sklearn.linear_model.LinearRegression`; the steepest-descent step (step 4) is
+- First order (the study's model; steps 3 and 4 of the procedure listed in
+  :func:`~afferent.calibration.calibrate`): ``ssd ~ b0 + sum_k b_k chi_k``, fitted by
+  :class:`sklearn.linear_model.LinearRegression`; the steepest-descent step is
   ``dchi_k = -b_k / |b_max|``.
 - Second order (an extra method): ``ssd ~ b0 + chi^T b + chi^T B chi`` as scikit-learn's own
   ``Pipeline(PolynomialFeatures(2), LinearRegression())``; :func:`canonical_analysis` finds
@@ -132,7 +133,7 @@ def fit_first_order(coded, response, *, rtol: float = NO_EFFECT_RTOL) -> FirstOr
 
 
 def steepest_descent(coef, *, no_effect=None) -> np.ndarray:
-    """The study's step direction in coded units: ``dchi_k = -b_k / |b_max|`` (METHOD.md section 6, step 4).
+    """The study's step direction in coded units: ``dchi_k = -b_k / |b_max|`` (steepest descent on the plane).
 
     Parameters
     ----------

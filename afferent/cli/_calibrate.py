@@ -1,4 +1,4 @@
-"""Calibrate the receptor sigmoid (alpha, gamma, lambda) against a recorded profile (RSM, METHOD.md section 6).
+"""Calibrate the receptor sigmoid (alpha, gamma, lambda) against a recorded afferent profile (RSM by default).
 
 Input: SED_AT_RECEPTORS.csv as written by ``afferent sample`` (long form: receptor, x_m, y_m,
 z_m, time_s, sed_pa; SI units; sections are recomputed from the positions) and a recorded
@@ -7,8 +7,9 @@ The profile of the last time step is compared (--time-index to choose another).
 
 Methods: rsm1 (default; the study's two-level factorial + centre design, first-order fit,
 steepest descent at 5 % increments), rsm2 (second-order surface, central composite design),
-least_squares (scipy reference, multi-start, seeded) or all. Unless --no-reference, the
-least-squares reference is also run and reported beside the chosen method.
+least_squares (scipy reference with the closed-form Jacobian; seeded random restarts only when
+the first start fails) or all. Unless --no-reference, the least-squares reference is also run
+and reported beside the chosen method.
 
 --start is alpha,gamma,lambda in A, 1/Pa, Pa (the study's table is in mA:
 2.46e-5 mA = 2.46e-8 A), or a table-5.2 row name: start (default), longitudinal, cross.
@@ -16,8 +17,8 @@ least-squares reference is also run and reported beside the chosen method.
 Writes into OUTDIR (created whole, or not at all): iterations.csv (iteration, alpha, gamma,
 lambda, ssd, evaluations: the study's table 5.2 for your data), design_runs.csv (every
 evaluated point), coefficients.csv (fitted surface per iteration), comparison.csv
-(method, ssd, R2, evaluations, parameters), result.json, profile.png (calibrated vs observed)
-and ssd.png (ssd per evaluation). With --synthesis both: one such folder per grouping
+(method, ssd, R2, model and Jacobian evaluations, status, parameters), result.json,
+profile.png (calibrated vs observed) and ssd.png (ssd per evaluation). With --synthesis both: one such folder per grouping
 (OUTDIR/longitudinal, OUTDIR/cross), plus OUTDIR/syntheses.csv and OUTDIR/result.json.
 
 Example::
@@ -98,7 +99,7 @@ def _write_tables(result, folder: str, *, plots: bool) -> list[str]:
     result.coefficients.to_csv(os.path.join(folder, "coefficients.csv"), index=False)
     written += ["iterations.csv", "design_runs.csv", "coefficients.csv"]
     if plots:
-        from ..calibration._plots import plot_calibrated_profile, plot_ssd_history
+        from ..calibration import plot_calibrated_profile, plot_ssd_history
         from ..plotting import save_figure
 
         save_figure(plot_calibrated_profile(result), os.path.join(folder, "profile.png"))
@@ -108,9 +109,9 @@ def _write_tables(result, folder: str, *, plots: bool) -> list[str]:
 
 
 def _comparison(results: dict):
-    from ..calibration._loop import _methods_table
+    from ..calibration import methods_table
 
-    return _methods_table(results).drop(columns=["params"])
+    return methods_table(results).drop(columns=["params"])
 
 
 def _record(results: dict, primary: str, extra: dict) -> dict:
@@ -122,13 +123,15 @@ def _record(results: dict, primary: str, extra: dict) -> dict:
     out["units"] = {"alpha": "A", "gamma": "1/Pa", "lambda": "Pa", "positions": "m", "ssd": "square of the compared profiles"}
     out["comparison"] = [
         {"method": m, "ssd": r.ssd, "r2_study": r.r2_study, "r2": r.r2, "evaluations": r.n_evaluations,
+         "jacobian_evaluations": r.n_jacobian_evaluations,
          "params": {"alpha_a": r.params.alpha, "gamma_per_pa": r.params.gamma, "lambda_pa": r.params.lambda_},
-         "success": r.success, "no_effect": list(r.no_effect)}
+         "success": r.success, "status": r.status, "no_effect": list(r.no_effect)}
         for m, r in results.items()
     ]
     ref = results.get("least_squares")
     if ref is not None and primary != "least_squares":
         out["reference"] = {"method": "least_squares", "ssd": ref.ssd, "evaluations": ref.n_evaluations,
+                            "jacobian_evaluations": ref.n_jacobian_evaluations,
                             "ssd_excess_of_" + primary: main.ssd - ref.ssd}
     return _jsonable(out)
 
@@ -143,6 +146,12 @@ def _write_one(results: dict, primary: str, folder: str, *, plots: bool, extra: 
     _comparison(results).to_csv(os.path.join(folder, "comparison.csv"), index=False)
     with open(os.path.join(folder, "result.json"), "w") as f:
         json.dump(_record(results, primary, extra), f, indent=2)
+
+
+def _cost(result) -> str:
+    """'N evaluations' or 'N evaluations + M Jacobian evaluations'."""
+    jac = f" + {result.n_jacobian_evaluations} Jacobian evaluations" if result.n_jacobian_evaluations else ""
+    return f"{result.n_evaluations} evaluations{jac}"
 
 
 # ---------------------------------------------------------------------------------- run
@@ -201,7 +210,8 @@ def run(args: argparse.Namespace) -> int:
                 r = results[primary]
                 rows.append({"synthesis": syn, "method": primary, "ssd": r.ssd, "r2_study": r.r2_study, "r2": r.r2,
                              "alpha": r.params.alpha, "gamma": r.params.gamma, "lambda": r.params.lambda_,
-                             "evaluations": r.n_evaluations, "success": r.success,
+                             "evaluations": r.n_evaluations, "jacobian_evaluations": r.n_jacobian_evaluations,
+                             "success": r.success, "status": r.status,
                              "fraction_sensitive": r.saturation.fraction_sensitive})
             table = pd.DataFrame(rows)
             table.to_csv(os.path.join(tmp, "syntheses.csv"), index=False)
@@ -214,11 +224,11 @@ def run(args: argparse.Namespace) -> int:
         for syn, results in all_results.items():
             r = results[primary]
             p = r.params
-            line = (f"{syn}, {primary}: ssd {r.ssd:.4g} (R2 study {r.r2_study:.3f}) in {r.n_evaluations} evaluations; "
+            line = (f"{syn}, {primary}: ssd {r.ssd:.4g} (R2 study {r.r2_study:.3f}) in {_cost(r)}; "
                     f"alpha {p.alpha:.4g} A, gamma {p.gamma:.4g} 1/Pa, lambda {p.lambda_:.4g} Pa")
             for m, ref in results.items():
                 if m != primary:
-                    line += f" | {m}: ssd {ref.ssd:.4g} in {ref.n_evaluations} evaluations"
+                    line += f" | {m}: ssd {ref.ssd:.4g} in {_cost(ref)}"
             print(line, file=sys.stderr)
             print(f"  {r.message}", file=sys.stderr)
         for msg in dict.fromkeys(caught):
