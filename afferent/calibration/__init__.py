@@ -20,9 +20,9 @@ Two things the study left implicit are reported, not hidden: with min-max normal
 the prediction alpha cancels out of the ssd (``CalibrationResult.no_effect``), and a
 parameter set may saturate every receptor (``CalibrationResult.saturation``).
 
-Modules: :mod:`.entry` (:func:`calibrate`), :mod:`.objective` (the model evaluation and its
+Modules: :mod:`.entry` (:func:`~afferent.calibration.calibrate`), :mod:`.objective` (the model evaluation and its
 closed-form Jacobian), :mod:`.rsm`, :mod:`.reference`, :mod:`.result`
-(:class:`CalibrationResult`), :mod:`.identifiability`, :mod:`.compare` (several methods or
+(:class:`CalibrationResult`), :mod:`.conditioning` (identifiability), :mod:`.compare` (several methods or
 groupings at once), :mod:`.design`, :mod:`.surface`, and the figures of a result.
 """
 
@@ -32,7 +32,7 @@ from ._plots import plot_calibrated_profile, plot_ssd_history
 from .compare import SynthesisComparison, compare_methods, compare_syntheses, methods_table
 from .design import box_behnken, central_composite, decode, encode, factorial_design, increments
 from .entry import METHODS, calibrate
-from .identifiability import IDENTIFIABLE_COND, identifiability
+from .conditioning import IDENTIFIABLE_COND, identifiability
 from .reference import DEFAULT_N_STARTS
 from .result import STATUSES, CalibrationResult
 from .rsm import DEFAULT_MAX_ITER, DEFAULT_MAX_STEPS, DEFAULT_TOL

@@ -23,10 +23,10 @@ def compare_methods(sed, observed, *, methods=("rsm1", "least_squares", "rsm2"),
     Parameters
     ----------
     sed, observed
-        As :func:`calibrate` (SED in Pa; observed positions in m).
+        As :func:`~afferent.calibration.calibrate` (SED in Pa; observed positions in m).
     methods : sequence of {'rsm1', 'rsm2', 'least_squares'}, default=('rsm1', 'least_squares', 'rsm2')
     **kwargs
-        Passed to :func:`calibrate` (``synthesis``, ``start``, ``normalise``, ``rng``, ...).
+        Passed to :func:`~afferent.calibration.calibrate` (``synthesis``, ``start``, ``normalise``, ``rng``, ...).
 
     Returns
     -------
@@ -119,7 +119,7 @@ def compare_syntheses(sed, observed, *, synthesis=("longitudinal", "cross"), **k
         recording per grouping.
     synthesis : sequence of str or Branching, default=('longitudinal', 'cross')
     **kwargs
-        Passed to :func:`calibrate` (``method``, ``start``, ``normalise``, ...).
+        Passed to :func:`~afferent.calibration.calibrate` (``method``, ``start``, ``normalise``, ...).
 
     Returns
     -------

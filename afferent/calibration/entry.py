@@ -1,4 +1,4 @@
-"""The calibration entry point, :func:`calibrate`: checks the arguments, builds the objective, runs a method.
+"""The calibration entry point, :func:`~afferent.calibration.calibrate`: checks the arguments, builds the objective, runs a method.
 
 ::
 
@@ -178,7 +178,7 @@ def calibrate(
         Receptor sites (m), only with a plain-array ``sed``.
     synthesis : {'longitudinal', 'cross', 'map:FILE', 'random:N'} or Branching, default='longitudinal'
         Receptor -> afferent grouping (:func:`afferent.pipeline.make_branching`). To compare
-        groupings (the study: longitudinal vs cross) use :func:`compare_syntheses`.
+        groupings (the study: longitudinal vs cross) use :func:`~afferent.calibration.compare_syntheses`.
     start : SigmoidParams or tuple, default=STUDY_PARAMS['start']
         Start point, alpha (A) > 0, gamma (1/Pa) > 0, lambda (Pa) != 0; the default is the
         study's first iteration (2.46e-8 A, 4.6e-3 1/Pa, 300 Pa).
@@ -228,7 +228,7 @@ def calibrate(
     Returns
     -------
     CalibrationResult
-        ``status`` says how it ended, one of :data:`~afferent.calibration.STATUSES`
+        ``status`` says how it ended, one of :data:`~afferent.calibration.result.STATUSES`
         ('converged', 'flat', 'max_iter'; ``success`` is True for 'converged' only), and
         ``message`` why, in words. ``n_evaluations`` and ``n_jacobian_evaluations`` are the
         model and Jacobian evaluations spent.
@@ -236,7 +236,7 @@ def calibrate(
     Raises
     ------
     TypeError
-        Bad argument types (``synthesis`` given as a tuple: use :func:`compare_syntheses`).
+        Bad argument types (``synthesis`` given as a tuple: use :func:`~afferent.calibration.compare_syntheses`).
     ValueError
         Bad options, NaN SED at the compared step, a zero start value, afferents outside
         the observed range with ``on_outside='raise'``, or an all-zero normalised observation.
@@ -248,8 +248,8 @@ def calibrate(
 
     See Also
     --------
-    compare_methods : rsm1, least_squares and rsm2 on the same data.
-    compare_syntheses : the same calibration for several groupings.
+    afferent.calibration.compare_methods : rsm1, least_squares and rsm2 on the same data.
+    afferent.calibration.compare_syntheses : the same calibration for several groupings.
 
     Examples
     --------

@@ -5,7 +5,7 @@
     method outcome (base point, tables, status) + Objective --finish--> CalibrationResult
 
 :func:`finish` evaluates the end point once more, measures what the profile determines
-(:func:`~afferent.calibration.identifiability.identifiability`), and writes every caveat into
+(:func:`~afferent.calibration.conditioning.identifiability`), and writes every caveat into
 the result's message: parameters with no effect on the ssd (left at their start value, never
 "fitted"), clipping at the lower bounds, saturated receptors, an unidentifiable ridge, and
 parameters outside their physical range.
@@ -22,7 +22,7 @@ from ..exceptions import AfferentWarning
 from ..profiles import ProfileFit
 from ..transduction import SaturationReport, SigmoidParams, saturation_report
 from .design import PARAMETERS, UNITS, vector_to_params
-from .identifiability import IDENTIFIABLE_COND, identifiability
+from .conditioning import IDENTIFIABLE_COND, identifiability
 
 __all__ = ["STATUSES", "CalibrationResult", "finish"]
 
@@ -41,7 +41,7 @@ STATUSES = ("converged", "flat", "max_iter")
 
 @dataclass(frozen=True)
 class CalibrationResult:
-    """Outcome of :func:`calibrate` (scipy.optimize's result object, as a frozen dataclass).
+    """Outcome of :func:`~afferent.calibration.calibrate` (scipy.optimize's result object, as a frozen dataclass).
 
     Parameters
     ----------

@@ -51,7 +51,7 @@ def identifiability(obj, vec, no_effect=()) -> dict:
     dict
         ``parameters`` and their ``scales``, ``singular_values``, ``condition_number``,
         ``ridge_direction`` (unit vector in the scaled parameters), ``ssd_along_ridge``
-        (``{step: ssd}`` for :data:`RIDGE_STEPS`), ``identifiable``, ``out_of_range`` (list of
+        (``{step: ssd}`` for :data:`~afferent.calibration.conditioning.RIDGE_STEPS`), ``identifiable``, ``out_of_range`` (list of
         texts), ``n_evaluations`` (model evaluations, along the ridge) and
         ``n_jacobian_evaluations`` spent.
     """
