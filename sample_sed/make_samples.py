@@ -794,7 +794,7 @@ def write_packaged_sample(src: Path, dst: Path = PACKAGED_DIR) -> dict:
         shutil.rmtree(dst)
     sblk, sdir = PACKAGED_SERIES
     jobs = list(PACKAGED_STATIC) + [(sblk, f"{sdir}/{p.name}") for p in sorted((src / sblk / sdir).glob("indent_*.vtu"))]
-    tips = {}
+    tips, kept = {}, {}
     for blk, name in jobs:
         full = meshio.read(src / blk / name)
         if blk not in tips:
@@ -806,8 +806,8 @@ def write_packaged_sample(src: Path, dst: Path = PACKAGED_DIR) -> dict:
         assert np.array_equal(small.point_data["SED"][at], full.point_data["SED"][tips[blk]]), name
         (dst / blk / name).parent.mkdir(parents=True, exist_ok=True)
         meshio.write(str(dst / blk / name), small, file_format="vtu", binary=True, compression="zlib")
-        print(f"  {blk}/{name}: {len(small.cells[0].data)} of {len(full.cells[0].data)} hexahedra, "
-              f"{len(small.points)} of {len(full.points)} nodes")
+        kept[blk] = (len(small.cells[0].data), len(full.cells[0].data), len(small.points), len(full.points))
+        print(f"  {blk}/{name}: {kept[blk][0]} of {kept[blk][1]} hexahedra, {kept[blk][2]} of {kept[blk][3]} nodes")
     shutil.copyfile(src / sblk / sdir / "indent.pvd", dst / sblk / sdir / "indent.pvd")
     (dst / "scenes").mkdir()
     (dst / "scenes" / "spikes_ramp.toml").write_text(
@@ -819,15 +819,21 @@ def write_packaged_sample(src: Path, dst: Path = PACKAGED_DIR) -> dict:
 
     files = {p.relative_to(dst).as_posix(): (p.stat().st_size, sha256(p), sha256(src / p.relative_to(dst)))
              for p in sorted(dst.rglob("*")) if p.is_file()}
-    (dst / "README.md").write_text(packaged_readme(files))
+    (dst / "README.md").write_text(packaged_readme(files, kept))
     print(f"packaged sample: {len(files)} files, {sum(f[0] for f in files.values())} bytes -> {dst}")
     return files
 
 
-def packaged_readme(files: dict) -> str:
-    """README.md of the packaged sample: what it is, how it was derived, size and sha256 of each file."""
+def packaged_readme(files: dict, kept: dict) -> str:
+    """README.md of the packaged sample: what it is, how it was derived, size and sha256 of each file.
+
+    ``kept``: {block: (hexahedra kept, of, nodes kept, of)}.
+    """
     def spaced(n):
         return f"{n:,}".replace(",", " ")
+
+    counts = "\n".join(f"  * {blk}: {spaced(c)} of {spaced(cf)} hexahedra, {spaced(n)} of {spaced(nf)} nodes."
+                       for blk, (c, cf, n, nf) in kept.items())
 
     rows = "\n".join(f"| `{name}` | {spaced(size)} | `{sha}` | `{src_sha}` |" for name, (size, sha, src_sha) in files.items())
     total = spaced(sum(f[0] for f in files.values()))
@@ -863,8 +869,10 @@ python sample_sed/make_samples.py --packaged
   * both `receptors.csv` (copied: 119 and 595 papilla tips);
   * `scenes/spikes_ramp.toml` (copied, with a two-line header).
 * Each VTU keeps only the hexahedra that have a receptor (papilla-tip) node among their 8
-  corners (the 2 x 2 x 2 elements around each tip) and the nodes of those elements.
-  Nodes and elements keep their order in the full mesh, renumbered from 0.
+  corners (the 2 x 2 x 2 elements around each tip: 4 in the dermis, 4 in the epidermis) and
+  the nodes of those elements. Nodes and elements keep their order in the full mesh,
+  renumbered from 0. Kept:
+{counts}
 * Every value is copied, none is recomputed. The nodal `SED` stays the average over the
   elements of the full mesh. The arrays are those of the full files (point `SED`, cell `SED`,
   cell `layer`) without the displacement `U`.
@@ -903,7 +911,7 @@ def main(argv=None):
     args = ap.parse_args(argv)
     here = Path(__file__).resolve().parent
     if args.packaged:
-        write_packaged_sample(args.out or here)
+        write_packaged_sample(here)
         return
     if pyamg is None:
         sys.exit("pyamg is required: pip install -e .[samples]")
