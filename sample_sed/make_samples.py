@@ -16,6 +16,7 @@ Usage::
     python sample_sed/make_samples.py            # full data set into sample_sed/
     python sample_sed/make_samples.py --quick    # coarse smoke run into a temp dir
     python sample_sed/make_samples.py --check-mesh      # + 2x-refined mesh comparison
+    python sample_sed/make_samples.py --packaged # only rewrite afferent/data/sample/ (a crop, no solve)
 
 Requirements: ``pip install -e .[samples]`` (scikit-fem, pyamg, meshio, numpy, scipy).
 The run is deterministic (fixed solver settings; pyamg's random start vectors seeded).  The only
@@ -727,6 +728,174 @@ def specs(quick: bool):
     return b4, b8
 
 
+# --------------------------------------------------------------------------------------
+# The small sample shipped inside the package (afferent/data/sample/): a crop of the files
+# above, so that `afferent demo` runs from an installed wheel.
+# --------------------------------------------------------------------------------------
+PACKAGED_DIR = Path(__file__).resolve().parents[1] / "afferent" / "data" / "sample"
+PACKAGED_STATIC = [("block4", f"indent_{width_tag(w)}.vtu") for w in BLOCK4_WIDTHS] + \
+                  [("block8", f"indent_{width_tag(w)}.vtu") for w in BLOCK8_WIDTHS]
+PACKAGED_SERIES = ("block4", f"series_{width_tag(SERIES_WIDTH)}")
+
+
+def receptor_nodes(points: np.ndarray, receptors_csv: Path) -> np.ndarray:
+    """Index of the mesh node at each receptor of ``receptors_csv`` (``id,x,y,z`` in mm).
+
+    Every receptor is a papilla-tip node (``write_receptors``); one farther than ``TOL`` mm
+    from every node is an error.
+    """
+    from scipy.spatial import cKDTree
+
+    xyz = np.loadtxt(receptors_csv, delimiter=",", skiprows=1, ndmin=2)[:, 1:4]
+    dist, idx = cKDTree(points).query(xyz)
+    if dist.max() > TOL:
+        raise ValueError(f"{receptors_csv}: receptor {int(np.argmax(dist)) + 1} is {dist.max():.3g} mm from the "
+                         f"nearest mesh node; expected every receptor on a node (<= {TOL} mm).")
+    return idx
+
+
+def crop_to_receptors(mesh: meshio.Mesh, tip_nodes: np.ndarray, *, drop=("U",)) -> meshio.Mesh:
+    """The hexahedra of ``mesh`` that have a node of ``tip_nodes`` among their 8 corners, and their nodes.
+
+    Nodes and elements keep their order in the full mesh (renumbered from 0). Every value is
+    copied, none recomputed: the nodal SED stays the average over the elements of the full
+    mesh. Each receptor node keeps all the elements around it, so sampling at a receptor (point
+    or cell values, 'linear' or 'nearest', cells averaged to nodes) sees what it sees in the
+    full mesh. Arrays named in ``drop`` are left out.
+    """
+    (block,) = mesh.cells
+    hexes = block.data
+    keep = np.isin(hexes, tip_nodes).any(axis=1)
+    used = np.unique(hexes[keep])
+    new_index = np.full(len(mesh.points), -1, dtype=np.int64)
+    new_index[used] = np.arange(used.size)
+    return meshio.Mesh(
+        mesh.points[used],
+        [(block.type, new_index[hexes[keep]].astype(np.int32))],
+        point_data={k: v[used] for k, v in mesh.point_data.items() if k not in drop},
+        cell_data={k: [v[0][keep]] for k, v in mesh.cell_data.items() if k not in drop},
+    )
+
+
+def write_packaged_sample(src: Path, dst: Path = PACKAGED_DIR) -> dict:
+    """Write the packaged sample ``dst`` (replaced whole) from the full sample ``src``.
+
+    ``dst`` gets the layout of ``src`` for the files ``afferent demo`` reads: every
+    single-indenter VTU (block4 and block8), the 0.88 mm loading series (its PVD copied),
+    both ``receptors.csv`` and ``scenes/spikes_ramp.toml`` (copied). Each VTU is cropped by
+    :func:`crop_to_receptors` and written as zlib-compressed binary VTU, as ``write_vtu`` does.
+    ``dst/README.md`` states the derivation and the size and sha256 of every file.
+    Returns {relative path: (size in bytes, sha256 hex, sha256 hex of the file of ``src`` it comes from)}.
+    """
+    import hashlib
+    import shutil
+
+    if dst.exists():
+        shutil.rmtree(dst)
+    sblk, sdir = PACKAGED_SERIES
+    jobs = list(PACKAGED_STATIC) + [(sblk, f"{sdir}/{p.name}") for p in sorted((src / sblk / sdir).glob("indent_*.vtu"))]
+    tips, kept = {}, {}
+    for blk, name in jobs:
+        full = meshio.read(src / blk / name)
+        if blk not in tips:
+            tips[blk] = receptor_nodes(full.points, src / blk / "receptors.csv")
+            (dst / blk).mkdir(parents=True, exist_ok=True)
+            shutil.copyfile(src / blk / "receptors.csv", dst / blk / "receptors.csv")
+        small = crop_to_receptors(full, tips[blk])
+        at = receptor_nodes(small.points, src / blk / "receptors.csv")
+        assert np.array_equal(small.point_data["SED"][at], full.point_data["SED"][tips[blk]]), name
+        (dst / blk / name).parent.mkdir(parents=True, exist_ok=True)
+        meshio.write(str(dst / blk / name), small, file_format="vtu", binary=True, compression="zlib")
+        kept[blk] = (len(small.cells[0].data), len(full.cells[0].data), len(small.points), len(full.points))
+        print(f"  {blk}/{name}: {kept[blk][0]} of {kept[blk][1]} hexahedra, {kept[blk][2]} of {kept[blk][3]} nodes")
+    shutil.copyfile(src / sblk / sdir / "indent.pvd", dst / sblk / sdir / "indent.pvd")
+    (dst / "scenes").mkdir()
+    (dst / "scenes" / "spikes_ramp.toml").write_text(
+        "# Copied from sample_sed/scenes/spikes_ramp.toml by `make_samples.py --packaged`: the paths below\n"
+        "# resolve inside this packaged sample, whose files are crops of sample_sed/ (README.md).\n"
+        + (src / "scenes" / "spikes_ramp.toml").read_text())
+    def sha256(path):
+        return hashlib.sha256(path.read_bytes()).hexdigest()
+
+    files = {p.relative_to(dst).as_posix(): (p.stat().st_size, sha256(p), sha256(src / p.relative_to(dst)))
+             for p in sorted(dst.rglob("*")) if p.is_file()}
+    (dst / "README.md").write_text(packaged_readme(files, kept))
+    print(f"packaged sample: {len(files)} files, {sum(f[0] for f in files.values())} bytes -> {dst}")
+    return files
+
+
+def packaged_readme(files: dict, kept: dict) -> str:
+    """README.md of the packaged sample: what it is, how it was derived, size and sha256 of each file.
+
+    ``kept``: {block: (hexahedra kept, of, nodes kept, of)}.
+    """
+    def spaced(n):
+        return f"{n:,}".replace(",", " ")
+
+    counts = "\n".join(f"  * {blk}: {spaced(c)} of {spaced(cf)} hexahedra, {spaced(n)} of {spaced(nf)} nodes."
+                       for blk, (c, cf, n, nf) in kept.items())
+
+    rows = "\n".join(f"| `{name}` | {spaced(size)} | `{sha}` | `{src_sha}` |" for name, (size, sha, src_sha) in files.items())
+    total = spaced(sum(f[0] for f in files.values()))
+    return f"""\
+# The sample shipped with afferent (`afferent/data/sample/`)
+
+A crop of the finite-element sample of the source repository (`sample_sed/`, made by
+`sample_sed/make_samples.py`): real scikit-fem solutions for a block of fingertip skin in three
+linear-elastic layers (epidermis, dermis, subcutis). The surface carries fingerprint ridges and
+the epidermis/dermis interface carries dermal papillae. Rigid flat square punches indent it by
+0.5 mm. `afferent demo` runs on this crop, so the demo also works from an installed wheel.
+The full sample (27 MB) and its description (`sample_sed/README.md`: model, mesh, solver,
+checks) stay in the source repository.
+
+Units as in the full sample: coordinates in mm, SED in MPa (read with `length_unit="mm"`,
+`sed_unit="MPa"`).
+
+## How it was derived
+
+`write_packaged_sample` in `sample_sed/make_samples.py` wrote it from the committed
+`sample_sed/` files. A full `make_samples.py` run also rewrites it at the end. To rewrite only
+this crop:
+
+```
+pip install -e .[samples]
+python sample_sed/make_samples.py --packaged
+```
+
+* The layout and file names are those of `sample_sed/`, for the files the demo reads:
+  * the six single-indenter VTUs of `block4/` (0.44-2.00 mm) and `block8/indent_4p00mm.vtu`;
+  * the 0.88 mm loading series `block4/series_0p88mm/` (6 steps, t = 0 ... 0.1 s,
+    d = 0 ... 0.5 mm), with its PVD copied;
+  * both `receptors.csv` (copied: 119 and 595 papilla tips);
+  * `scenes/spikes_ramp.toml` (copied, with a two-line header).
+* Each VTU keeps only the hexahedra that have a receptor (papilla-tip) node among their 8
+  corners (the 2 x 2 x 2 elements around each tip: 4 in the dermis, 4 in the epidermis) and
+  the nodes of those elements. Nodes and elements keep their order in the full mesh,
+  renumbered from 0. Kept:
+{counts}
+* Every value is copied, none is recomputed. The nodal `SED` stays the average over the
+  elements of the full mesh. The arrays are those of the full files (point `SED`, cell `SED`,
+  cell `layer`) without the displacement `U`.
+* Every receptor node keeps all the elements around it. So the SED sampled at the receptors
+  equals the full sample's, with point or cell values and with 'linear' or 'nearest' sampling.
+  `tests/test_wheel.py` checks this file by file. It also checks that `afferent demo` gives
+  the same `summary.csv` on this crop and on the full sample.
+* Away from the receptors the field is absent: use the full sample for maps of the field.
+* meshio writes the VTUs as binary with zlib compression, like the full sample.
+
+## Files
+
+"source sha256" is that of the `sample_sed/` file of the same path (for `scenes/spikes_ramp.toml`:
+before the header was added) at the time of writing.
+
+| file | bytes | sha256 | source sha256 |
+|---|---|---|---|
+{rows}
+
+Total {total} bytes (README.md not counted).
+"""
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--quick", action="store_true", help="coarse mesh smoke run (into a temp dir)")
@@ -736,10 +905,16 @@ def main(argv=None):
     ap.add_argument("--check-mesh", action="store_true",
                     help="also solve the 0.88 mm case on the block4 mesh refined 2x in every "
                          "direction and compare (slow, ~8x the elements)")
+    ap.add_argument("--packaged", action="store_true",
+                    help="only rewrite the packaged sample afferent/data/sample/ from the existing sample_sed/ files "
+                         "(no FE solve)")
     args = ap.parse_args(argv)
+    here = Path(__file__).resolve().parent
+    if args.packaged:
+        write_packaged_sample(here)
+        return
     if pyamg is None:
         sys.exit("pyamg is required: pip install -e .[samples]")
-    here = Path(__file__).resolve().parent
     out = args.out or (Path(tempfile.gettempdir()) / "afferent_sample_sed_quick" if args.quick else here)
     out.mkdir(parents=True, exist_ok=True)
     T0 = time.perf_counter()
@@ -860,6 +1035,8 @@ def main(argv=None):
     info["total_size_MB"] = round(sum(info["files"].values()) / 1e6, 2)
     (out / "build_info.json").write_text(json.dumps(info, indent=1) + "\n")
     print(f"total {timings['total_s']:.1f} s, data {info['total_size_MB']} MB -> {out}")
+    if out == here:
+        write_packaged_sample(out)
 
 
 def compare_tips(sm, n1, n2, f1, f2, label1, label2):

@@ -1,16 +1,22 @@
-"""Run the main job on the bundled FE sample: every indenter, SED -> receptors -> afferents.
+"""Run the main job on the FE sample shipped with the package: every indenter, SED -> receptors -> afferents.
+
+The sample is ``afferent/data/sample/`` (installed with the package, so the demo runs from a
+wheel): a crop of the source repository's FE sample ``sample_sed/`` to the elements around the
+receptors, whose SED at the receptors is the full sample's (its README.md says how it was made).
+``--sample-dir sample_sed`` (or ``$AFFERENT_SAMPLE_DIR``) runs the demo on the full sample of a
+source checkout instead, with the same results.
 
 For each square indenter of the sample (0.44-2.0 mm on the 4 mm block, 4 mm on the 8 mm
-block) the static pipeline runs with the study's start parameters (METHOD.md table 5.2) and
-longitudinal synthesis, writing one folder per indenter (as ``afferent run`` does), plus:
+block) the static pipeline runs with the study's start parameters (``STUDY_PARAMS['start']``)
+and longitudinal synthesis, writing one folder per indenter (as ``afferent run`` does), plus:
 
 - ``summary.csv``: per indenter, SED at the receptors (max, median), whether the SED along the
   central cross-section shows an interchange zone (peak-valley-peak), and how many peaks the
   longitudinal and cross-section afferent profiles have;
 - ``indenters_x.png``: normalised receptor SED and longitudinal afferent current along x for
   every indenter on one figure (the study's chapter-5 comparison);
-- ``spikes_ramp/``: the bundled scene ``sample_sed/scenes/spikes_ramp.toml`` (the study's
-  ramp-and-hold on the 0.88 mm case, RA-I rate-sensitive input, leaky integrate-and-fire spikes).
+- ``spikes_ramp/``: the sample's scene ``scenes/spikes_ramp.toml`` (the study's ramp-and-hold on
+  the 0.88 mm loading series, RA-I rate-sensitive input, leaky integrate-and-fire spikes).
 
 Example::
 
@@ -41,16 +47,25 @@ CASES = [
 ]
 
 
+def packaged_sample_dir() -> Path:
+    """The sample installed with the package, ``afferent/data/sample/`` (lengths mm, SED MPa)."""
+    from importlib.resources import files
+
+    return Path(str(files("afferent").joinpath("data", "sample")))
+
+
 def default_sample_dir() -> Path:
-    """``$AFFERENT_SAMPLE_DIR``, else the ``sample_sed/`` folder beside the package's source tree."""
+    """``$AFFERENT_SAMPLE_DIR``, else the packaged sample (:func:`packaged_sample_dir`)."""
     env = os.environ.get("AFFERENT_SAMPLE_DIR")
-    return Path(env) if env else Path(__file__).resolve().parents[2] / "sample_sed"
+    return Path(env) if env else packaged_sample_dir()
 
 
 def add_args(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("-o", "--output", required=True, metavar="OUTDIR", help="output folder (created whole, or not at all)")
     parser.add_argument("--overwrite", action="store_true", help="replace an existing output folder")
-    parser.add_argument("--sample-dir", metavar="DIR", help="the sample folder (default: sample_sed/ of the source tree)")
+    parser.add_argument("--sample-dir", metavar="DIR",
+                        help="the sample folder, laid out as sample_sed/ (default: the sample installed with the package, "
+                             "a crop of sample_sed/ with the same SED at the receptors)")
     parser.add_argument("-q", "--quiet", action="store_true", help="no progress output")
 
 
@@ -83,24 +98,31 @@ def run(args: argparse.Namespace) -> int:
     sample = Path(args.sample_dir) if args.sample_dir else default_sample_dir()
     if not (sample / "block4" / "receptors.csv").is_file():
         raise FileNotFoundError(
-            f"The bundled sample was not found in {str(sample)!r} (expected block4/receptors.csv); "
-            "pass --sample-dir or set AFFERENT_SAMPLE_DIR."
+            f"The FE sample was not found in {str(sample)!r} (expected block4/receptors.csv); "
+            "pass --sample-dir or set AFFERENT_SAMPLE_DIR to a folder laid out as sample_sed/."
         )
+    packaged = sample.resolve() == packaged_sample_dir().resolve()
+    sample_record = {"dir": str(sample), "packaged": packaged}
+    if not args.quiet:
+        print(f"afferent demo: sample {str(sample)!r}" + (" (installed with the package)" if packaged else ""),
+              file=sys.stderr)
     params = STUDY_PARAMS["start"]
     rows, profiles = [], []
     with atomic_dir(args.output, overwrite=args.overwrite) as tmp:
         for name, block, fname, width in CASES:
             path = sample / block / fname
             if not path.is_file():
-                raise AfferentError(f"Sample file {str(path)!r} is missing; regenerate with 'make samples'.")
+                raise AfferentError(f"Sample file {str(path)!r} is missing: expected the layout of sample_sed/ "
+                                    "(block4/, block8/, scenes/); regenerate with 'make samples'.")
             if not args.quiet:
                 print(f"afferent demo: {name} ...", file=sys.stderr)
             field = read_sed(str(path), length_unit="mm", sed_unit="MPa")
             layout = read_receptors(sample / block / "receptors.csv", length_unit="mm")
             res = run_pipeline(field, layout, params, synthesis="longitudinal")
-            record = {"command": "afferent demo", "case": name, "indenter_mm": width, "field": field.provenance.to_dict(),
+            record = {"command": "afferent demo", "case": name, "indenter_mm": width, "sample": sample_record,
+                      "field": field.provenance.to_dict(),
                       "transduction": {"alpha_a": params.alpha, "gamma_per_pa": params.gamma, "lambda_pa": params.lambda_,
-                                       "source": "METHOD.md table 5.2, start row"}}
+                                       "source": "the study's start parameters, afferent.transduction.STUDY_PARAMS['start']"}}
             write_pipeline_outputs(res, os.path.join(tmp, name), record=record)
             idx, coord, _ = _central_line(layout, "x")
             sed_line = res.sed.values[-1, idx]
