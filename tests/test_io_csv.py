@@ -1,7 +1,7 @@
 """Tests of :func:`afferent.io._csv.read_csv` (text tables -> RawExport).
 
 Reference files live in ``tests/data/csv/`` (see its README: synthetic files following the
-layouts of the shared FE-FORMATS.md, not real tool output). Values are compared exactly:
+layouts documented in docs/fe-export.md, not real tool output). Values are compared exactly:
 the reader must hand back the decimal numbers of the file correctly rounded to float64,
 so any loss of precision shows (``assert_array_equal`` treats NaN as equal to NaN).
 """

@@ -1,4 +1,4 @@
-"""How FE tools spell coordinates, time, SED, stress and strain (see shared FE-FORMATS.md).
+"""How FE tools spell coordinates, time, SED, stress and strain (see the documentation's page on FE exports, docs/fe-export.md).
 
 Names are matched after :func:`canonical` (lower case; spaces, dots, dashes, colons and
 underscores removed), so ``S.S11``, ``S-S11``, ``S:S11`` and ``s_11`` all read ``ss11``/``s11``.
@@ -60,7 +60,7 @@ ID_ALIASES: frozenset[str] = _c(
     "elementnumber", "elementid", "elem", "eid", "id", "label", "ip", "intpt", "integrationpoint", "integ.pnt.",
 )
 
-#: SED *density* arrays, in order of preference (FE-FORMATS.md §1, §4.4).
+#: SED *density* arrays, in order of preference (:ref:`fe-checklist`).
 SED_ALIASES: tuple[str, ...] = tuple(
     canonical(n)
     for n in (
@@ -70,7 +70,7 @@ SED_ALIASES: tuple[str, ...] = tuple(
     )
 )
 
-#: Arrays that are element *energies*, not densities: refused with a hint (FE-FORMATS.md §4.4).
+#: Arrays that are element *energies*, not densities: refused with a hint (:ref:`fe-checklist`).
 ENERGY_NOT_DENSITY: dict[str, str] = {
     canonical("ELSE"): "Abaqus/CalculiX ELSE is the element's total strain energy (J), not a density",
     canonical("SENE"): "ANSYS SENE is the element strain energy (J), not a density; export SEND",

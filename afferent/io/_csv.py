@@ -4,7 +4,7 @@ This reader only turns bytes into numbers. It keeps the export's own column name
 units; which column is the SED, which are coordinates or tensor components, unit
 conversion and physical checks are done by :mod:`afferent.io._assemble`.
 
-Layouts handled (see the shared ``FE-FORMATS.md``, sections 2 and 4):
+Layouts handled (see :ref:`fe-checklist` and each tool's section of the FE-export page):
 
 * delimiters: comma, semicolon, tab or runs of whitespace, sniffed on the first data rows;
 * comment lines starting with ``#``, ``%`` (COMSOL), ``**`` (Abaqus) or ``!``, blank lines,
@@ -824,7 +824,7 @@ def _parse_ccx(path: str, lines: list[str], sep: str | None, notes: list[str]):
     """Read CalculiX ``.dat`` blocks; return (_Columns with all rows, n_times, times).
 
     Each block is a title line `` <what> (<names>) for set <SET> and time <t>`` followed by
-    rows (FE-FORMATS.md, CalculiX item 2). Blocks of the same ``<what>`` at the same time
+    rows (:ref:`fe-calculix`). Blocks of the same ``<what>`` at the same time
     (several sets) are concatenated; different ``<what>`` (stresses, strains, internal energy
     density) are put side by side when they have the same rows, their shared columns (``elem``,
     ``integ.pnt.``) kept once; each distinct time is one time step. A block with a single value
@@ -1242,8 +1242,8 @@ def read_csv(paths, *, sep: str | None = None, time_column: str | None = None,
 
     Notes
     -----
-    Layouts recognised (shared ``FE-FORMATS.md`` sections 2 and 4; several of these layouts
-    are marked unverified there):
+    Layouts recognised (:ref:`fe-checklist`, :ref:`fe-what-is-verified`; several of these
+    layouts are marked unverified there):
 
     - Comment lines start with ``#``, ``%``, ``**`` or ``!``; blank lines are skipped
       everywhere. The header is the last text line above the first row of numbers, with
