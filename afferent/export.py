@@ -14,7 +14,8 @@ import numpy as np
 
 from ._output import atomic_dir
 
-__all__ = ["write_pipeline_outputs", "file_sha256", "versions"]
+__all__ = ["write_pipeline_outputs", "file_sha256", "versions", "jsonable", "receptors_table", "write_receptor_vtu",
+           "step_title", "profile_step_record"]
 
 
 def file_sha256(path: str, chunk: int = 1 << 20) -> str:
@@ -37,11 +38,24 @@ def versions() -> dict:
     return out
 
 
-def _jsonable(obj):
+def jsonable(obj):
+    """``obj`` made plain for :func:`json.dump`: numpy scalars and arrays to Python numbers and lists,
+    tuples to lists, dict keys to str, non-finite floats to None (JSON has no NaN).
+
+    Parameters
+    ----------
+    obj : object
+        Nested dicts / lists / tuples of numbers, strings, numpy values.
+
+    Returns
+    -------
+    object
+        The same structure with only JSON types.
+    """
     if isinstance(obj, dict):
-        return {str(k): _jsonable(v) for k, v in obj.items()}
+        return {str(k): jsonable(v) for k, v in obj.items()}
     if isinstance(obj, (list, tuple)):
-        return [_jsonable(v) for v in obj]
+        return [jsonable(v) for v in obj]
     if isinstance(obj, np.generic):
         return obj.item()
     if isinstance(obj, np.ndarray):
@@ -49,6 +63,9 @@ def _jsonable(obj):
     if isinstance(obj, float) and not np.isfinite(obj):
         return None
     return obj
+
+
+_jsonable = jsonable  # the name afferent.cli._calibrate imports
 
 
 def receptors_table(result):
@@ -198,5 +215,5 @@ def write_pipeline_outputs(result, outdir: str, *, record: dict, overwrite: bool
         full["stage_seconds"] = result.timings
         full["outputs"] = sorted(written + ["run.json"])
         with open(path("run.json"), "w") as f:
-            json.dump(_jsonable(full), f, indent=2)
+            json.dump(jsonable(full), f, indent=2)
     return written

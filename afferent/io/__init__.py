@@ -21,7 +21,7 @@ from ..field import SEDField
 from ._assemble import NEGATIVE_SED_RTOL, ReadOptions, assemble
 from ._raw import RawExport
 
-__all__ = ["read_sed", "read_raw", "FORMATS"]
+__all__ = ["read_sed", "read_raw", "format_of", "FORMATS"]
 
 #: Known formats: name -> file-name endings. '.gz' CSV files are read by the CSV reader.
 FORMATS: dict[str, tuple[str, ...]] = {
@@ -36,7 +36,28 @@ FORMATS: dict[str, tuple[str, ...]] = {
 }
 
 
-def _format_of(path: str, fmt: str | None) -> str:
+def format_of(path: str, fmt: str | None = None) -> str:
+    """The reader (a key of :data:`FORMATS`) that reads ``path``: ``fmt`` if given (checked), else the one
+    its file-name ending selects.
+
+    Parameters
+    ----------
+    path : str
+        An FE export file.
+    fmt : str, optional
+        A format name from :data:`FORMATS`, overriding the ending.
+
+    Returns
+    -------
+    str
+
+    Raises
+    ------
+    ValueError
+        ``fmt`` is not a known format.
+    SEDFormatError
+        No known ending matches ``path``.
+    """
     if fmt is not None:
         return check_option("format", fmt, tuple(FORMATS))
     lower = path.lower()
@@ -48,6 +69,9 @@ def _format_of(path: str, fmt: str | None) -> str:
         f"Could not deduce the SED file format from {path!r}. Known extensions are {known}; "
         f"pass format='csv' (or one of {', '.join(map(repr, FORMATS))}) explicitly."
     )
+
+
+_format_of = format_of
 
 
 def _paths(path_or_paths) -> list[str]:

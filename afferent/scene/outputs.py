@@ -1,4 +1,4 @@
-"""Writing the outputs a scene asks for (:mod:`afferent.scene`), and nothing else.
+"""The one writer of ``afferent run``: the outputs a scene asks for, and nothing else.
 
 A variant of :func:`afferent.export.write_pipeline_outputs` that accepts partial results
 (SED only, no spikes, ...) and writes into a folder the caller made (the scene's
@@ -31,21 +31,20 @@ from types import SimpleNamespace
 
 import numpy as np
 
-from .export import step_title, write_receptor_vtu
+from ..export import jsonable, receptors_table, step_title, write_receptor_vtu
 
 __all__ = ["write_outputs", "write_json", "write_receptor_vtu"]
 
 
 def write_json(path: str, data: dict) -> None:
     """JSON with numpy scalars/arrays and non-finite floats made plain (NaN -> null)."""
-    from .export import _jsonable
-
     with open(path, "w") as f:
-        json.dump(_jsonable(data), f, indent=2)
+        json.dump(jsonable(data), f, indent=2)
 
 
 def write_outputs(folder: str, *, want, plots: bool, sed_static, sed, current=None, branching=None, afferent=None,
-                  fit=None, waveform=None, spikes=None, drive=None, profile_index: int = -1) -> list[str]:
+                  fit=None, waveform=None, spikes=None, drive=None, saturation=None,
+                  profile_index: int = -1) -> list[str]:
     """Write the tables and figures of ``want`` into ``folder``; returns the file names written.
 
     Parameters
@@ -60,14 +59,13 @@ def write_outputs(folder: str, *, want, plots: bool, sed_static, sed, current=No
         SED sampled from the export (J/m^3).
     sed : ReceptorSED
         SED over the stimulus' times (``sed_static`` without a waveform).
-    current, branching, afferent, fit, waveform, spikes, drive : optional
-        Later stages' results, None when not computed.
+    current, branching, afferent, fit, waveform, spikes, drive, saturation : optional
+        Later stages' results, None when not computed (``drive`` and ``saturation`` are in
+        run.json, not written here).
     profile_index : int
         Time step of the profiles, the fit and the VTU's currents (the step of the largest
         total afferent current).
     """
-    from .export import receptors_table
-
     written: list[str] = []
 
     def path(name: str) -> str:
@@ -113,7 +111,7 @@ def write_outputs(folder: str, *, want, plots: bool, sed_static, sed, current=No
 
 
 def _figures(path, want, *, sed_static, sed, current, branching, afferent, fit, waveform, spikes, profile_index):
-    from . import plotting
+    from .. import plotting
 
     if "sed_map" in want:
         import matplotlib.pyplot as plt
@@ -129,7 +127,7 @@ def _figures(path, want, *, sed_static, sed, current, branching, afferent, fit, 
                               title=step_title("normalised SED, hot spots >= 0.6", times, k, n_t))
         plotting.save_figure(fig, path("sed_map.png"))
     if "profiles" in want:
-        from .synthesis import Branching, synthesize
+        from ..synthesis import Branching, synthesize
 
         layout = sed.layout
         for axis, kind, name in (("x", "longitudinal", "profiles_x.png"), ("z", "cross", "profiles_z.png")):
