@@ -23,9 +23,37 @@ from .sampling import ReceptorSED, sample_sed
 from .synthesis import AfferentCurrent, Branching, synthesize
 from .transduction import ReceptorCurrent, SaturationReport, SigmoidParams, saturation_report, transduce
 
-__all__ = ["PipelineResult", "run_pipeline", "run_spikes", "make_branching", "SYNTHESES", "INPUTS"]
+__all__ = ["PipelineResult", "run_pipeline", "run_spikes", "make_branching", "parse_synthesis", "SYNTHESES", "INPUTS"]
 
 SYNTHESES = ("longitudinal", "cross", "map:FILE", "random:N")
+
+
+def parse_synthesis(spec: str) -> tuple[str, int | None]:
+    """Split a synthesis spelling into its kind and, for ``'random:N'``, N.
+
+    Parameters
+    ----------
+    spec : str
+        ``'longitudinal'``, ``'cross'``, ``'map:FILE'`` or ``'random:N'``.
+
+    Returns
+    -------
+    (str, int or None)
+        The kind (``'longitudinal'``, ``'cross'``, ``'map'``, ``'random'``) and N (None but for random).
+
+    Raises
+    ------
+    ValueError
+        An unknown kind, or N not a whole number.
+    """
+    kind, _, arg = str(spec).partition(":")
+    check_option("synthesis", kind if not arg else f"{kind}:", ("longitudinal", "cross", "map:", "random:"))
+    if kind != "random":
+        return kind, None
+    try:
+        return kind, int(arg)
+    except ValueError as err:
+        raise ValueError(f"'synthesis' random:N needs a whole number of receptors per afferent; got {arg!r} instead.") from err
 
 
 def make_branching(spec: str | Branching, layout: ReceptorLayout, *, rng=None) -> Branching:
@@ -43,18 +71,13 @@ def make_branching(spec: str | Branching, layout: ReceptorLayout, *, rng=None) -
     """
     if isinstance(spec, Branching):
         return spec
-    kind, _, arg = str(spec).partition(":")
-    check_option("synthesis", kind if not arg else f"{kind}:", ("longitudinal", "cross", "map:", "random:"))
+    kind, n = parse_synthesis(spec)
     if kind == "longitudinal":
         return Branching.longitudinal(layout)
     if kind == "cross":
         return Branching.cross(layout)
     if kind == "map":
-        return Branching.from_map(arg, layout)
-    try:
-        n = int(arg)
-    except ValueError as err:
-        raise ValueError(f"'synthesis' random:N needs a whole number of receptors per afferent; got {arg!r} instead.") from err
+        return Branching.from_map(str(spec).partition(":")[2], layout)
     return Branching.random(layout, n, rng=rng)
 
 

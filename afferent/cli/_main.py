@@ -96,6 +96,7 @@ def _main(argv: list[str] | None) -> int:
     flags = _flags_of(parser, argv)
     try:
         args = parser.parse_args(argv)
+        args.argv = [str(a) for a in (sys.argv[1:] if argv is None else argv)]  # for the run record
         if not getattr(args, "func", None):
             parser.print_help(sys.stderr)
             return 2

@@ -215,7 +215,7 @@ def _hash_inputs(run: _Run):
         exp_files = export_files(ex.files)
         for p in ex.files:
             if not os.path.exists(p):
-                raise FileNotFoundError(f"SED file {p!r} ([export] file) not found.")
+                raise FileNotFoundError(f"SED file {p!r}{' ([export] file)' if scene.source else ''} not found.")
         hashes = _hash_all({p: None for p in exp_files})
         run.inputs.update(hashes)
         extra_files = [ex.coordinates, scene.receptors.file]
@@ -340,10 +340,11 @@ def _stimulus(run: _Run, sed):
     scene = run.scene
     st = scene.stimulus
     if st.reference_step is None and sed.values.shape[0] > 1:
-        where = f"Scene file {scene.source!r}" if scene.source else "Scene"
-        raise SceneError(f"{where}: [stimulus] " + no_reference_step_message(sed.values.shape[0], sed.times)
-                         .replace("reference_step=K", "reference_step = K"), path=scene.source,
-                         key="[stimulus] reference_step")
+        message = no_reference_step_message(sed.values.shape[0], sed.times)
+        if scene.source is None:  # a scene built in code or from options: the library's words (reference_step=K)
+            raise ValueError(message)
+        raise SceneError(f"Scene file {scene.source!r}: [stimulus] " + message.replace("reference_step=K", "reference_step = K"),
+                         path=scene.source, key="[stimulus] reference_step")
     step = 0 if st.reference_step is None else st.reference_step
     with run.steps("stimulus"):
         waveform = _waveform(scene)
@@ -356,8 +357,10 @@ def _stimulus(run: _Run, sed):
                 run.span["trimmed_to_s"] = [float(waveform.times[0]), float(waveform.times[-1])]
                 run.span["why"] = (f"only spikes are wanted and [spikes] duration is {dur:g} s: the stimulus beyond "
                                    "it is neither transduced nor simulated")
-        run.record["stimulus"] = {"scaling": scaling_record(sed, waveform, d_ref=st.d_ref_m, reference_step=step,
-                                                            series_depths=st.series_depths_m)}
+        run.record["stimulus"] = {
+            "waveform": {"kind": waveform.kind, "parameters": dict(waveform.parameters), "notes": list(waveform.notes)},
+            "scaling": scaling_record(sed, waveform, d_ref=st.d_ref_m, reference_step=step,
+                                     series_depths=st.series_depths_m)}
         sed_t = (interpolate_series(sed, waveform, series_depths=st.series_depths_m) if st.series_depths_m is not None
                  else scale_static(sed, waveform, d_ref=st.d_ref_m, time_index=step))
     run.out.update(waveform=waveform, sed=sed_t)
