@@ -15,13 +15,17 @@ import time
 import warnings
 from dataclasses import dataclass, field
 
+from typing import TYPE_CHECKING
+
 from ._validation import check_option
 from .exceptions import AfferentWarning
-from .profiles import ObservedProfile, ProfileFit, compare_profiles, peak_step
-from .receptors import ReceptorLayout
-from .sampling import ReceptorSED, sample_sed
-from .synthesis import AfferentCurrent, Branching, synthesize
-from .transduction import ReceptorCurrent, SaturationReport, SigmoidParams, saturation_report, transduce
+
+if TYPE_CHECKING:  # the stage modules (scipy, pandas) load when a function below runs, not on import
+    from .profiles import ObservedProfile, ProfileFit
+    from .receptors import ReceptorLayout
+    from .sampling import ReceptorSED
+    from .synthesis import AfferentCurrent, Branching
+    from .transduction import ReceptorCurrent, SaturationReport, SigmoidParams
 
 __all__ = ["PipelineResult", "run_pipeline", "run_spikes", "make_branching", "parse_synthesis", "SYNTHESES", "INPUTS"]
 
@@ -69,6 +73,8 @@ def make_branching(spec: str | Branching, layout: ReceptorLayout, *, rng=None) -
     rng : None, int or numpy.random.Generator
         Seed for ``'random:N'``.
     """
+    from .synthesis import Branching
+
     if isinstance(spec, Branching):
         return spec
     kind, n = parse_synthesis(spec)
@@ -157,6 +163,11 @@ def run_pipeline(
     PipelineResult
         With ``timings``: wall time of each stage in s.
     """
+    from .profiles import compare_profiles, peak_step
+    from .sampling import sample_sed
+    from .synthesis import synthesize
+    from .transduction import saturation_report, transduce
+
     timings = {}
     t = time.perf_counter()
     sed = sample_sed(field, layout, method=method, on_outside=on_outside)

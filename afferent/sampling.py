@@ -21,15 +21,17 @@ from __future__ import annotations
 import os
 import warnings
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
-import scipy.sparse as sp
-from scipy.spatial import cKDTree
 
 from ._validation import check_option
 from .exceptions import AfferentWarning, FieldCoverageError, SEDFormatError
 from .field import Cells, SEDField
 from .receptors import ReceptorLayout
+
+if TYPE_CHECKING:  # scipy loads when a sampler is built, not for a cached ReceptorSED
+    import scipy.sparse as sp
 
 __all__ = ["ReceptorSED", "Sampler", "build_sampler", "sample_sed", "read_receptor_sed", "node_average", "cell_volumes",
            "METHODS", "PLACEMENTS"]
@@ -169,6 +171,8 @@ def locate_in_tets(points: np.ndarray, xyz: np.ndarray, tetra: np.ndarray, *, k:
     tet_index : ndarray of shape (n,), int (-1 where outside)
     bary : ndarray of shape (n, 4)
     """
+    from scipy.spatial import cKDTree
+
     n = points.shape[0]
     tet_index = np.full(n, -1, dtype=np.int64)
     bary = np.zeros((n, 4))
@@ -236,6 +240,8 @@ def node_average(cells: Cells, xyz: np.ndarray, n_points: int) -> sp.csr_matrix:
     scipy.sparse.csr_matrix
         Rows sum to 1 (or 0 for nodes of no cell); ``node_values = matrix @ cell_values``.
     """
+    import scipy.sparse as sp
+
     corners = sp.csr_matrix(
         (np.ones(cells.tetra.size), (cells.tetra.reshape(-1), np.repeat(cells.parent, 4))), shape=(n_points, cells.n_cells)
     )
@@ -283,6 +289,9 @@ def build_sampler(field: SEDField, layout: ReceptorLayout, *, method: str = "lin
         ``'linear'`` on a table of points that lie on a line (or fewer than 3 points): there is
         nothing to interpolate in.
     """
+    import scipy.sparse as sp
+    from scipy.spatial import cKDTree
+
     check_option("method", method, METHODS)
     xyz, pos = field.points, layout.positions
     n_r = layout.n_receptors
@@ -391,6 +400,9 @@ def _scattered_linear(field: SEDField, layout: ReceptorLayout) -> Sampler:
     receptors inside the hull that this does not cover are retried with 8x more neighbours,
     then with every point.
     """
+    import scipy.sparse as sp
+    from scipy.spatial import cKDTree
+
     from scipy.spatial import ConvexHull, QhullError
 
     n, n_r = field.n_points, layout.n_receptors

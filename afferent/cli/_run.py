@@ -38,10 +38,12 @@ import argparse
 import os
 import shlex
 
-from ..pipeline import SYNTHESES, parse_synthesis
-from ..sampling import METHODS
-from ..transduction import STUDY_PARAMS
 from ._options import add_input_options, add_output_options, add_quiet, add_receptor_options, input_kwargs
+
+# the stage modules (pandas, scipy) load when the run needs them, not to parse the command line
+SYNTHESES = ("longitudinal", "cross", "map:FILE", "random:N")  # afferent.pipeline.SYNTHESES
+METHODS = ("linear", "nearest")  # afferent.sampling.METHODS
+STUDY_ROWS = ("start", "longitudinal", "cross")  # the keys of afferent.transduction.STUDY_PARAMS
 
 
 def add_args(parser: argparse.ArgumentParser) -> None:
@@ -53,7 +55,7 @@ def add_args(parser: argparse.ArgumentParser) -> None:
                         help="receptor -> afferent grouping (default longitudinal)")
     parser.add_argument("--seed", type=int, default=0, help="seed for --synthesis random:N")
     g = parser.add_argument_group("transduction (sigmoid) parameters, SI units")
-    g.add_argument("--params", choices=tuple(STUDY_PARAMS), help="the study's table-5.2 row")
+    g.add_argument("--params", choices=STUDY_ROWS, help="the study's table-5.2 row")
     g.add_argument("--alpha", type=float, metavar="A", help="saturation current, A")
     g.add_argument("--gamma", type=float, metavar="G", help="slope, 1/Pa")
     g.add_argument("--lambda", dest="lambda_", type=float, metavar="L", help="midpoint SED, Pa")
@@ -109,7 +111,7 @@ def _transduction_table(args) -> dict:
         if missing:
             raise ValueError(
                 f"Transduction parameters {', '.join(missing)} are missing: give --alpha A --gamma G --lambda L "
-                f"(A, 1/Pa, Pa) or --params one of {', '.join(STUDY_PARAMS)}."
+                f"(A, 1/Pa, Pa) or --params one of {', '.join(STUDY_ROWS)}."
             )
     keys = {"alpha": "alpha_a", "gamma": "gamma_per_pa", "lambda_": "lambda_pa"}
     return {"params": args.params, **{keys[k]: v for k, v in given.items()}}
@@ -178,6 +180,8 @@ def _receptors_table(args) -> dict:
 
 
 def _synthesis_table(args) -> dict:
+    from ..pipeline import parse_synthesis
+
     kind, n = parse_synthesis(args.synthesis)
     table = {"kind": kind, "seed": args.seed}
     if kind == "map":
