@@ -19,9 +19,10 @@ from .._validation import check_option
 from ..exceptions import SEDFormatError
 from ..field import SEDField
 from ._assemble import NEGATIVE_SED_RTOL, ReadOptions, assemble
+from ._describe import describe_raw
 from ._raw import RawExport
 
-__all__ = ["read_sed", "read_raw", "format_of", "FORMATS"]
+__all__ = ["read_sed", "read_raw", "describe_raw", "format_of", "FORMATS"]
 
 #: Known formats: name -> file-name endings. '.gz' CSV files are read by the CSV reader.
 FORMATS: dict[str, tuple[str, ...]] = {
