@@ -27,7 +27,7 @@ if TYPE_CHECKING:  # the stage modules (scipy, pandas) load when a function belo
     from .synthesis import AfferentCurrent, Branching
     from .transduction import ReceptorCurrent, SaturationReport, SigmoidParams
 
-__all__ = ["PipelineResult", "run_pipeline", "run_spikes", "make_branching", "parse_synthesis", "SYNTHESES", "INPUTS"]
+__all__ = ["PipelineResult", "run_pipeline", "apply_waveform", "run_spikes", "make_branching", "parse_synthesis", "SYNTHESES", "INPUTS"]
 
 SYNTHESES = ("longitudinal", "cross", "map:FILE", "random:N")
 
@@ -106,6 +106,47 @@ class PipelineResult:
     drive: dict | None = None
 
 
+def apply_waveform(sed: ReceptorSED, waveform, *, d_ref: float, reference_step: int | None = None,
+                   series_depths=None) -> tuple[ReceptorSED, dict]:
+    """The stimulus stage: SED sampled from the export -> SED over the waveform's times.
+
+    Parameters
+    ----------
+    sed : ReceptorSED
+        SED at the receptors as sampled from the export, J/m^3.
+    waveform : afferent.stimulus.Waveform
+        Indentation depth (m) over time (s).
+    d_ref : float
+        Indentation depth of the export's reference step, m.
+    reference_step : int, optional
+        The step solved at ``d_ref`` (-1: the last); required when the export has several.
+    series_depths : array_like of shape (n_steps,), optional
+        Depth in m of every step of a loading series: the time course is interpolated in depth
+        between the steps (:func:`afferent.stimulus.interpolate_series`) instead of scaled by
+        (d / d_ref)^2 (:func:`afferent.stimulus.scale_static`).
+
+    Returns
+    -------
+    (ReceptorSED, dict)
+        SED over the waveform's times, and :func:`afferent.stimulus.scaling_record` (the d^2
+        law measured against the series, when given).
+
+    Raises
+    ------
+    ValueError
+        Several steps and no ``reference_step`` (:func:`afferent.stimulus.no_reference_step_message`).
+    """
+    from .stimulus import interpolate_series, no_reference_step_message, scale_static, scaling_record
+
+    if reference_step is None and sed.values.shape[0] > 1:
+        raise ValueError(no_reference_step_message(sed.values.shape[0], sed.times))
+    step = 0 if reference_step is None else reference_step
+    scaling = scaling_record(sed, waveform, d_ref=d_ref, reference_step=step, series_depths=series_depths)
+    timed = (interpolate_series(sed, waveform, series_depths=series_depths) if series_depths is not None
+             else scale_static(sed, waveform, d_ref=d_ref, time_index=step))
+    return timed, scaling
+
+
 def run_pipeline(
     field,
     layout: ReceptorLayout,
@@ -173,17 +214,11 @@ def run_pipeline(
     sed = sample_sed(field, layout, method=method, on_outside=on_outside)
     timings["sampling"] = time.perf_counter() - t
     if waveform is not None:
-        from .stimulus import interpolate_series, no_reference_step_message, scale_static, scaling_record
-
         if d_ref is None:
             raise ValueError("A waveform needs d_ref, the indentation depth (m) of the static export; got d_ref=None.")
-        if reference_step is None and sed.values.shape[0] > 1:
-            raise ValueError(no_reference_step_message(sed.values.shape[0], sed.times))
         t = time.perf_counter()
-        step = 0 if reference_step is None else reference_step
-        scaling = scaling_record(sed, waveform, d_ref=d_ref, reference_step=step, series_depths=series_depths)
-        sed = (interpolate_series(sed, waveform, series_depths=series_depths) if series_depths is not None
-               else scale_static(sed, waveform, d_ref=d_ref, time_index=step))
+        sed, scaling = apply_waveform(sed, waveform, d_ref=d_ref, reference_step=reference_step,
+                                      series_depths=series_depths)
         timings["stimulus"] = time.perf_counter() - t
     t = time.perf_counter()
     current = transduce(sed, params)

@@ -110,12 +110,14 @@ The package's modules::
 
     schema    the tables as frozen dataclasses, unit suffixes, TOML key lines, SceneError
     parse     TOML text / plain tables -> Scene (units converted, types checked)
-    resolve   defaults and requirements
-    plan      wanted outputs -> stages, and why the others are skipped
+    defaults  defaults and requirements (resolve)
+    planning  wanted outputs -> stages, and why the others are skipped
     stages    what each stage needs from a scene (layouts, region, crop, parameters, waveform)
     run       the executor: stages in order, the SED cache, run_scene, run_scene_cli
-    outputs   the writer: tables and figures of the wanted outputs
     record    run.json and the printed summary
+
+The writer is :func:`afferent.export.write_outputs`, shared with
+:func:`afferent.export.write_pipeline_outputs`.
 """
 
 from __future__ import annotations

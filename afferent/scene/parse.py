@@ -8,7 +8,7 @@ from __future__ import annotations
 import math
 import os
 import tomllib
-from dataclasses import fields
+from dataclasses import dataclass, fields
 from decimal import Decimal
 from pathlib import Path
 
@@ -62,7 +62,36 @@ def _type_name(v) -> str:
             "dict": "a table"}.get(type(v).__name__, type(v).__name__)
 
 
+@dataclass(frozen=True)
+class _Given:
+    """One key's value as written, with what its messages need."""
+
+    value: object
+    unit: str  # ' in ms' for a key with a unit suffix, else ''
+    origin: _Origin
+    table: str
+    key: str
+
+    def bad_type(self, expect):
+        return self.origin.error(self.table, self.key, f"[{self.table}] {self.key!r} must be {expect}; got "
+                                 f"{self.value!r} ({_type_name(self.value)}) instead.", cls=SceneTypeError)
+
+    def bad_value(self, expect, hint=""):
+        return self.origin.error(self.table, self.key,
+                                 f"[{self.table}] {self.key!r} must be {expect}; got {self.value!r} instead.{hint}")
+
+    def finite(self, v):
+        if isinstance(v, float) and not math.isfinite(v):
+            raise self.bad_value(f"a finite number{self.unit}")
+        return v
+
+    def path(self, v):
+        p = Path(os.path.expanduser(v))
+        return os.path.normpath(str(p if p.is_absolute() else Path(self.origin.base_dir) / p))
+
+
 def _convert(value, f, exp, *, origin: _Origin, table: str, key: str):
+    """A key's value checked against its schema field ``f`` and converted to SI (``exp``: power of ten)."""
     md = f.metadata
     kind, choices = md["kind"], md["choices"]
     q = md.get("quantity")
@@ -70,85 +99,81 @@ def _convert(value, f, exp, *, origin: _Origin, table: str, key: str):
     if q:  # the unit as written in the key: 'dt_ms' -> ' in ms'
         written = max((u for u in _QUANTITIES[q][1] if key.endswith("_" + u)), key=len)
         unit = f" in {written.replace('_per_', '/')}"
+    c = _Given(value, unit, origin, table, key)
+    if kind in ("str", "choice", "bool", "int", "number", "path"):
+        return _convert_scalar(c, kind, choices, exp)
+    return _convert_array(c, f, kind, choices, exp)
 
-    def bad_type(expect):
-        return origin.error(table, key, f"[{table}] {key!r} must be {expect}; got {value!r} ({_type_name(value)}) instead.",
-                            cls=SceneTypeError)
 
-    def bad_value(expect, hint=""):
-        return origin.error(table, key, f"[{table}] {key!r} must be {expect}; got {value!r} instead.{hint}")
-
-    def finite(v):
-        if isinstance(v, float) and not math.isfinite(v):
-            raise bad_value(f"a finite number{unit}")
-        return v
-
-    def path(v):
-        p = Path(os.path.expanduser(v))
-        return os.path.normpath(str(p if p.is_absolute() else Path(origin.base_dir) / p))
-
+def _convert_scalar(c: _Given, kind: str, choices: tuple, exp):
+    """A string, choice, boolean, integer, number (to SI) or path (against the scene's folder)."""
     if kind in ("str", "choice"):
-        if not isinstance(value, str):
-            raise bad_type("a string" + (f", one of {', '.join(map(repr, choices))}" if choices else ""))
-        if kind == "choice" and value not in choices:
-            raise bad_value(f"one of {', '.join(map(repr, choices))}", suggest(value, choices))
-        return value
+        if not isinstance(c.value, str):
+            raise c.bad_type("a string" + (f", one of {', '.join(map(repr, choices))}" if choices else ""))
+        if kind == "choice" and c.value not in choices:
+            raise c.bad_value(f"one of {', '.join(map(repr, choices))}", suggest(c.value, choices))
+        return c.value
     if kind == "bool":
-        if not isinstance(value, bool):
-            raise bad_type("true or false")
-        return value
+        if not isinstance(c.value, bool):
+            raise c.bad_type("true or false")
+        return c.value
     if kind == "int":
-        if not isinstance(value, int) or isinstance(value, bool):
-            raise bad_type("an integer")
-        return value
+        if not isinstance(c.value, int) or isinstance(c.value, bool):
+            raise c.bad_type("an integer")
+        return c.value
     if kind == "number":
-        if not _is_number(value):
-            raise bad_type(f"a number{unit}")
-        return _scale(finite(value), exp)
+        if not _is_number(c.value):
+            raise c.bad_type(f"a number{c.unit}")
+        return _scale(c.finite(c.value), exp)
     if kind == "path":
-        if not isinstance(value, str) or not value:
-            raise bad_type("a path (a non-empty string)")
-        return path(value)
+        if not isinstance(c.value, str) or not c.value:
+            raise c.bad_type("a path (a non-empty string)")
+        return c.path(c.value)
+    raise AssertionError(kind)  # pragma: no cover - schema bug
+
+
+def _convert_array(c: _Given, f, kind: str, choices: tuple, exp):
+    """Paths, strings, outputs, numbers (to SI), a [min, max] pair or integers, as tuples."""
     if kind == "paths":
-        items = [value] if isinstance(value, str) else value
+        items = [c.value] if isinstance(c.value, str) else c.value
         if not isinstance(items, list) or not items or not all(isinstance(v, str) and v for v in items):
-            raise bad_type("a path or a non-empty array of paths")
-        return tuple(path(v) for v in items)
+            raise c.bad_type("a path or a non-empty array of paths")
+        return tuple(c.path(v) for v in items)
     if kind in ("strs", "outputs"):
-        if not isinstance(value, list) or not all(isinstance(v, str) for v in value):
-            raise bad_type("an array of strings")
+        if not isinstance(c.value, list) or not all(isinstance(v, str) for v in c.value):
+            raise c.bad_type("an array of strings")
         if kind == "outputs":
-            for v in value:
+            for v in c.value:
                 if v not in choices:
-                    raise origin.error(table, key, f"[{table}] {key!r} must list outputs among "
-                                       f"{', '.join(map(repr, choices))}; got {v!r} instead.{suggest(v, choices)}")
-            if not value:
-                raise bad_value(f"a non-empty array of outputs among {', '.join(map(repr, choices))}")
-            return tuple(dict.fromkeys(value))
-        return tuple(value)
+                    raise c.origin.error(c.table, c.key, f"[{c.table}] {c.key!r} must list outputs among "
+                                         f"{', '.join(map(repr, choices))}; got {v!r} instead.{suggest(v, choices)}")
+            if not c.value:
+                raise c.bad_value(f"a non-empty array of outputs among {', '.join(map(repr, choices))}")
+            return tuple(dict.fromkeys(c.value))
+        return tuple(c.value)
     if kind == "str_or_strs":
-        if isinstance(value, str):
-            return value
-        if not isinstance(value, list) or not value or not all(isinstance(v, str) for v in value):
-            raise bad_type("a string or an array of strings")
-        return tuple(value)
+        if isinstance(c.value, str):
+            return c.value
+        if not isinstance(c.value, list) or not c.value or not all(isinstance(v, str) for v in c.value):
+            raise c.bad_type("a string or an array of strings")
+        return tuple(c.value)
     if kind == "numbers":
-        if not isinstance(value, list) or not all(_is_number(v) for v in value):
-            raise bad_type(f"an array of numbers{unit}")
-        return tuple(_scale(finite(v), exp) for v in value)
+        if not isinstance(c.value, list) or not all(_is_number(v) for v in c.value):
+            raise c.bad_type(f"an array of numbers{c.unit}")
+        return tuple(_scale(c.finite(v), exp) for v in c.value)
     if kind == "pair":
-        if not isinstance(value, list) or len(value) != 2 or not all(_is_number(v) for v in value):
-            raise bad_type(f"a pair [min, max] of numbers{unit}")
-        lo, hi = (_scale(finite(v), exp) for v in value)
+        if not isinstance(c.value, list) or len(c.value) != 2 or not all(_is_number(v) for v in c.value):
+            raise c.bad_type(f"a pair [min, max] of numbers{c.unit}")
+        lo, hi = (_scale(c.finite(v), exp) for v in c.value)
         if lo > hi and f.name != "origin_m":
-            raise bad_value(f"a pair [min, max]{unit} with min <= max")
+            raise c.bad_value(f"a pair [min, max]{c.unit} with min <= max")
         return (lo, hi)
     if kind == "int_or_ints":
-        ok = (isinstance(value, int) and not isinstance(value, bool)) or (
-            isinstance(value, list) and value and all(isinstance(v, int) and not isinstance(v, bool) for v in value))
+        ok = (isinstance(c.value, int) and not isinstance(c.value, bool)) or (
+            isinstance(c.value, list) and c.value and all(isinstance(v, int) and not isinstance(v, bool) for v in c.value))
         if not ok:
-            raise bad_type("an integer or an array of integers")
-        return value if isinstance(value, int) else tuple(value)
+            raise c.bad_type("an integer or an array of integers")
+        return c.value if isinstance(c.value, int) else tuple(c.value)
     raise AssertionError(kind)  # pragma: no cover - schema bug
 
 

@@ -135,7 +135,7 @@ def run_scene(scene: Scene, *, overwrite: bool = False, cache_dir=None, progress
     from datetime import datetime, timezone
 
     from .._output import atomic_dir, check_writable
-    from .outputs import write_json, write_outputs
+    from ..export import write_json, write_outputs
 
     t_run = time.perf_counter()
     started = datetime.now(timezone.utc).isoformat(timespec="seconds")
@@ -335,17 +335,17 @@ def _read_and_sample(run: _Run, layout, *, progress: bool):
 
 def _stimulus(run: _Run, sed):
     """Stage 'stimulus': the waveform (trimmed to the simulated span when only spikes are wanted) drives the SED."""
-    from ..stimulus import interpolate_series, no_reference_step_message, scale_static, scaling_record
+    from ..pipeline import apply_waveform
+
+    from ..stimulus import no_reference_step_message
 
     scene = run.scene
     st = scene.stimulus
-    if st.reference_step is None and sed.values.shape[0] > 1:
-        message = no_reference_step_message(sed.values.shape[0], sed.times)
-        if scene.source is None:  # a scene built in code or from options: the library's words (reference_step=K)
-            raise ValueError(message)
-        raise SceneError(f"Scene file {scene.source!r}: [stimulus] " + message.replace("reference_step=K", "reference_step = K"),
-                         path=scene.source, key="[stimulus] reference_step")
-    step = 0 if st.reference_step is None else st.reference_step
+    if st.reference_step is None and sed.values.shape[0] > 1 and scene.source is not None:
+        # a scene file's key; a scene built from options gets apply_waveform's own words (reference_step=K)
+        raise SceneError(f"Scene file {scene.source!r}: [stimulus] " + no_reference_step_message(
+            sed.values.shape[0], sed.times).replace("reference_step=K", "reference_step = K"), path=scene.source,
+            key="[stimulus] reference_step")
     with run.steps("stimulus"):
         waveform = _waveform(scene)
         run.span["waveform_s"] = [float(waveform.times[0]), float(waveform.times[-1])]
@@ -357,12 +357,11 @@ def _stimulus(run: _Run, sed):
                 run.span["trimmed_to_s"] = [float(waveform.times[0]), float(waveform.times[-1])]
                 run.span["why"] = (f"only spikes are wanted and [spikes] duration is {dur:g} s: the stimulus beyond "
                                    "it is neither transduced nor simulated")
-        run.record["stimulus"] = {
-            "waveform": {"kind": waveform.kind, "parameters": dict(waveform.parameters), "notes": list(waveform.notes)},
-            "scaling": scaling_record(sed, waveform, d_ref=st.d_ref_m, reference_step=step,
-                                     series_depths=st.series_depths_m)}
-        sed_t = (interpolate_series(sed, waveform, series_depths=st.series_depths_m) if st.series_depths_m is not None
-                 else scale_static(sed, waveform, d_ref=st.d_ref_m, time_index=step))
+        sed_t, scaling = apply_waveform(sed, waveform, d_ref=st.d_ref_m, reference_step=st.reference_step,
+                                        series_depths=st.series_depths_m)
+    run.record["stimulus"] = {
+        "waveform": {"kind": waveform.kind, "parameters": dict(waveform.parameters), "notes": list(waveform.notes)},
+        "scaling": scaling}
     run.out.update(waveform=waveform, sed=sed_t)
     return sed_t
 
