@@ -72,14 +72,31 @@ def describe_raw(raw) -> list[str]:
         with np.errstate(all="ignore"):
             rng = f"{np.nanmin(arr.values):.4g} .. {np.nanmax(arr.values):.4g}" if arr.values.size else "empty"
         lines.append(f"    {arr.name!r:<28} {arr.location:<5} {comp:<13} {rng}{unit}")
-    # recognition
+    _sed_lines(raw, opts, add)
+    _tensor_lines(raw, add)
+    if xyz is not None:
+        span = float(np.nanmax(np.nanmax(xyz, 0) - np.nanmin(xyz, 0)))
+        if raw.length_unit:
+            add("length unit", f"{raw.length_unit} (stated in the file)")
+        else:
+            add("length unit", "not stated: declare --length-unit")
+            if span > 0:
+                add("hint", f"a span of {span:.3g} is plausible for a fingertip block (0.5..50 mm) in: "
+                            f"{_unit_hint(span, LENGTH_UNITS, PLAUSIBLE_SPAN_M, ('m', 'mm', 'um'))}")
+    for note in raw.notes:
+        add("note", note)
+    return lines
+
+
+def _sed_lines(raw, opts, add) -> None:
+    """The SED array recognised, its range, negative values and unit."""
     try:
         sed_arrays = find_sed_array(raw, opts)
         sed = np.concatenate([a.values.reshape(a.values.shape[0], -1) for a in sed_arrays])
         add("SED", f"{', '.join(repr(a.name) for a in sed_arrays)} ({sed_arrays[0].location} data)")
         others = [a for a in raw.arrays.values() if a.name == sed_arrays[0].name and a.location != sed_arrays[0].location]
         if others:
-            lines.append(f"  {'':<12} {others[0].location} data of the same name also present: --location {others[0].location} to use it")
+            add("", f"{others[0].location} data of the same name also present: --location {others[0].location} to use it")
         stated = sed_arrays[0].unit
         smax = float(np.nanmax(sed)) if sed.size else float("nan")
         add("SED range", f"{np.nanmin(sed):.6g} .. {smax:.6g} (file units)")
@@ -101,6 +118,10 @@ def describe_raw(raw) -> list[str]:
                             f"(1..1e5 J/m^3) in: {_unit_hint(level, SED_UNITS, PLAUSIBLE_SED_PA, ('Pa', 'kPa', 'MPa'))}")
     except SEDFormatError as err:
         add("SED", f"no SED array: {str(err).split('. Found')[0].split(': ', 1)[-1]}")
+
+
+def _tensor_lines(raw, add) -> None:
+    """Stress and strain tensors, and 1/2 sigma:eps against the SED array under each preset."""
     try:
         (s_name, _, s_loc), (e_name, _, _) = find_tensors(raw, ReadOptions(sed_from="exact"), need_convention=False)
         add("tensors", f"stress {s_name}; strain {e_name} ({s_loc} data): --sed-from exact|equivalent with --preset")
@@ -115,15 +136,3 @@ def describe_raw(raw) -> list[str]:
         add("cross-check", f"1/2 sigma:eps from the tensors vs the SED array {check['sed_array']!r} (step {check['step']}, "
                            f"relative L2 after the best scale, {check['scale']:.4g} for {check['best_preset']!r}): "
                            + "; ".join(f"{'/'.join(names)} {pct}" for pct, names in ranked))
-    if xyz is not None:
-        span = float(np.nanmax(np.nanmax(xyz, 0) - np.nanmin(xyz, 0)))
-        if raw.length_unit:
-            add("length unit", f"{raw.length_unit} (stated in the file)")
-        else:
-            add("length unit", "not stated: declare --length-unit")
-            if span > 0:
-                add("hint", f"a span of {span:.3g} is plausible for a fingertip block (0.5..50 mm) in: "
-                            f"{_unit_hint(span, LENGTH_UNITS, PLAUSIBLE_SPAN_M, ('m', 'mm', 'um'))}")
-    for note in raw.notes:
-        add("note", note)
-    return lines
