@@ -101,14 +101,16 @@ want = ["profiles", "spikes"]
 ROOT = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..")
 
 
-def spikes_only_scene(folder: str) -> str:
-    """The bundled spikes_ramp scene asking only for spikes, with absolute paths, in ``folder``."""
+def spikes_only_scene(folder: str, engine: str = "auto") -> str:
+    """The bundled spikes_ramp scene asking only for spikes (with ``engine``), with absolute paths, in ``folder``."""
     src = os.path.join(ROOT, "sample_sed", "scenes", "spikes_ramp.toml")
     block4 = os.path.abspath(os.path.join(ROOT, "sample_sed", "block4"))
     lines = []
     for line in open(src).read().splitlines():
         if line.startswith("want ="):
             line = 'want = ["spikes"]'
+        if line.startswith("engine ="):
+            line = f"engine = {engine!r}"
         lines.append(line.replace('"../block4', f'"{block4}'))
     path = os.path.join(folder, "spikes_only.toml")
     with open(path, "w") as f:
@@ -116,17 +118,17 @@ def spikes_only_scene(folder: str) -> str:
     return path
 
 
-def shell(repeats: int, tree: str) -> None:
+def shell(repeats: int, tree: str, engine: str) -> None:
     import statistics
     import subprocess
 
     work = tempfile.mkdtemp(prefix="bench_scene_shell.")
-    scene = spikes_only_scene(work)
+    scene = spikes_only_scene(work, engine)
     base = [sys.executable, "-m", "afferent", "run", scene, "-o", os.path.join(work, "out"), "--overwrite", "-q"]
     warm = os.path.join(work, "cache")
     env = dict(os.environ, AFFERENT_CACHE_DIR=warm, MPLBACKEND="Agg")
     subprocess.run(base, env=env, check=True, cwd=tree)  # fills the cache and numba's; not timed
-    print(f"# package: {os.path.abspath(tree)}/afferent (python -m afferent, run from that folder)")
+    print(f"# package: {os.path.abspath(tree)}/afferent (python -m afferent, run from that folder); [spikes] engine = {engine!r}")
     for label in ("warm cache", "cold cache"):
         cmd = ["/usr/bin/time", "-f", "%e %U %S", *base]
         walls, cpus = [], []
@@ -154,7 +156,7 @@ def main(argv=None):
     ap.add_argument("--engine", default="auto")
     args = ap.parse_args(argv)
     if args.shell:
-        return shell(args.repeats, args.tree)
+        return shell(args.repeats, args.tree, args.engine)
     print(f"# command: python benchmarks/bench_scene.py {' '.join(sys.argv[1:]) if argv is None else ' '.join(argv)}")
     work = tempfile.mkdtemp(prefix="bench_scene.")
     t = time.perf_counter()
