@@ -1,5 +1,27 @@
-"""Writing a run's results: CSV tables (pandas), PNG figures, a VTU of the receptor sites
+"""The one writer of results: CSV tables (pandas), PNG figures, a VTU of the receptor sites
 (ParaView) and ``run.json``; all into a folder that appears whole or not at all.
+
+:func:`write_outputs` writes the tables and figures a run asks for (every ``afferent run``,
+through :func:`afferent.scene.run_scene`); :func:`write_pipeline_outputs` writes those of a
+:class:`~afferent.pipeline.PipelineResult` computed in Python, with the same function.
+matplotlib is imported only when figures are wanted.
+
+Files per output (``plots`` adds the PNGs):
+
+=========== ================================================ ===========================================
+output      tables                                           figures
+=========== ================================================ ===========================================
+sed_map     ``sed_map.csv`` (receptor, x_m, y_m, z_m,        ``sed_map.png`` (study fig. 5-5)
+            longitudinal, cross, time_s, sed_pa)
+currents    ``receptors.csv`` (+ current_a), ``afferents.csv``
+profiles    ``profiles.csv`` (afferent, position_m, time_s,   ``profiles_x.png``, ``profiles_z.png``
+            current_a at the profile step)                   (figs. 5-6, 5-7)
+fit         ``fit.csv``, ``profile_fit.csv``                 ``fit.png``
+spikes      ``spikes.csv``, ``spike_summary.csv``            ``raster.png``, ``rates.png``, ``psth.png``
+vtu         ``receptors.vtu`` (sed_pa [, current_a], sections)
+=========== ================================================ ===========================================
+
+With a stimulus waveform, ``waveform.csv`` (and ``waveform.png``) too.
 """
 
 from __future__ import annotations
@@ -9,12 +31,14 @@ import json
 import os
 import platform
 from importlib import metadata
+from types import SimpleNamespace
 
 import numpy as np
 
 from ._output import atomic_dir
 
-__all__ = ["write_pipeline_outputs", "file_sha256", "versions"]
+__all__ = ["write_outputs", "write_pipeline_outputs", "write_json", "file_sha256", "versions", "jsonable",
+           "receptors_table", "write_receptor_vtu", "step_title", "profile_step_record"]
 
 
 def file_sha256(path: str, chunk: int = 1 << 20) -> str:
@@ -37,11 +61,24 @@ def versions() -> dict:
     return out
 
 
-def _jsonable(obj):
+def jsonable(obj):
+    """``obj`` made plain for :func:`json.dump`: numpy scalars and arrays to Python numbers and lists,
+    tuples to lists, dict keys to str, non-finite floats to None (JSON has no NaN).
+
+    Parameters
+    ----------
+    obj : object
+        Nested dicts / lists / tuples of numbers, strings, numpy values.
+
+    Returns
+    -------
+    object
+        The same structure with only JSON types.
+    """
     if isinstance(obj, dict):
-        return {str(k): _jsonable(v) for k, v in obj.items()}
+        return {str(k): jsonable(v) for k, v in obj.items()}
     if isinstance(obj, (list, tuple)):
-        return [_jsonable(v) for v in obj]
+        return [jsonable(v) for v in obj]
     if isinstance(obj, np.generic):
         return obj.item()
     if isinstance(obj, np.ndarray):
@@ -49,6 +86,9 @@ def _jsonable(obj):
     if isinstance(obj, float) and not np.isfinite(obj):
         return None
     return obj
+
+
+_jsonable = jsonable  # the name afferent.cli._calibrate imports
 
 
 def receptors_table(result):
@@ -99,104 +139,182 @@ def step_title(what: str, times, index: int, n_steps: int) -> str:
 
 
 def write_pipeline_outputs(result, outdir: str, *, record: dict, overwrite: bool = False, plots: bool = True) -> list[str]:
-    """Write every output of a static pipeline run into ``outdir`` (atomically, as a whole).
+    """Write the outputs of a :class:`~afferent.pipeline.PipelineResult` into ``outdir`` (atomically, as a whole).
 
-    Files: ``receptors.csv``, ``afferents.csv``, ``fit.csv`` and ``profile_fit.csv`` (when a
-    fit was made), ``waveform.csv`` (with a stimulus waveform), ``spikes.csv`` (afferent,
-    spike_time_s) and ``spike_summary.csv`` (with spikes), ``receptors.vtu``, ``run.json``, and
-    with ``plots`` the PNG figures ``sed_map.png`` (study fig. 5-5), ``profiles_x.png``
-    (fig. 5-6), ``profiles_z.png`` (fig. 5-7), ``fit.png``, ``waveform.png``, ``raster.png``,
-    ``rates.png`` and ``psth.png``.
+    The outputs ``currents``, ``profiles``, ``sed_map`` and ``vtu``, ``fit`` when a fit was
+    made, ``spikes`` with spikes (files: see the module docstring; :func:`write_outputs`
+    writes them, as for ``afferent run``), and ``run.json``: ``record`` with versions,
+    saturation, fit, spikes, the profile step, stage timings and the list of outputs.
+
+    Parameters
+    ----------
+    result : PipelineResult
+        From :func:`afferent.pipeline.run_pipeline` [and :func:`~afferent.pipeline.run_spikes`].
+    outdir : str
+        The folder to create.
+    record : dict
+        Entries for run.json (the command, inputs, ...).
+    overwrite : bool, default=False
+        Replace an existing folder.
+    plots : bool, default=True
+        Also draw the figures.
 
     Returns
     -------
     list of str
         The files written (names inside ``outdir``).
     """
-    written = []
+    want = {"currents", "profiles", "sed_map", "vtu"} | ({"fit"} if result.fit is not None else set()) | (
+        {"spikes"} if result.spikes is not None else set())
     with atomic_dir(outdir, overwrite=overwrite) as tmp:
-        def path(name):
-            written.append(name)
-            return os.path.join(tmp, name)
-
-        receptors_table(result).to_csv(path("receptors.csv"), index=False)
-        result.afferent.to_dataframe()[["afferent", "position_m", "time_s", "current_a"]].to_csv(path("afferents.csv"), index=False)
-        if result.fit is not None:
-            import pandas as pd
-
-            fit = result.fit
-            pd.DataFrame([{"synthesis": result.branching.kind, "normalise": fit.normalise, "r2_study": fit.r2_study,
-                           "r2": fit.r2, "ssd": fit.ssd, "n_afferents": len(fit.predicted), "dropped": fit.dropped,
-                           "time_s": fit.time}]).to_csv(path("fit.csv"), index=False)
-            pd.DataFrame({"position_m": fit.positions, "predicted": fit.predicted, "observed": fit.observed}).to_csv(
-                path("profile_fit.csv"), index=False)
-        k = result.profile_index
-        n_t = result.sed.values.shape[0]
-        write_receptor_vtu(path("receptors.vtu"), result.sed, current=result.current, time_index=k)
-        if result.waveform is not None:
-            result.waveform.to_dataframe().to_csv(path("waveform.csv"), index=False)
-        if result.spikes is not None:
-            result.spikes.to_dataframe().to_csv(path("spikes.csv"), index=False)
-            summary = result.spikes.summary().reset_index()
-            summary.insert(1, "position_m", result.afferent.positions)
-            summary.to_csv(path("spike_summary.csv"), index=False)
-        if plots:
-            from . import plotting
-            from .synthesis import Branching, synthesize
-
-            import matplotlib.pyplot as plt
-
-            fig, axes = plt.subplots(1, 2, figsize=(10, 4.2), layout="constrained")
-            times = result.sed.times
-            plotting.plot_sed_map(result.sed, ax=axes[0], time_index=k,
-                                  title=step_title("SED at receptor sites", times, k, n_t))
-            plotting.plot_sed_map(result.sed, ax=axes[1], normalise=True, threshold=0.6, time_index=k,
-                                  title=step_title("normalised SED, hot spots >= 0.6", times, k, n_t))
-            plotting.save_figure(fig, path("sed_map.png"))
-            layout = result.sed.layout
-            for axis, kind, name in (("x", "longitudinal", "profiles_x.png"), ("z", "cross", "profiles_z.png")):
-                aff = result.afferent if result.branching.kind == kind else synthesize(
-                    result.current, Branching.longitudinal(layout) if kind == "longitudinal" else Branching.cross(layout))
-                ax = plotting.plot_section_profiles(result.sed, result.current, aff, axis=axis, time_index=k,
-                                                    title=step_title(f"Profiles along {axis}", times, k, n_t))
-                plotting.save_figure(ax, path(name))
-            if result.fit is not None:
-                plotting.save_figure(plotting.plot_fit(result.fit), path("fit.png"))
-            if result.waveform is not None:
-                plotting.save_figure(plotting.plot_waveform(result.waveform), path("waveform.png"))
-            if result.spikes is not None:
-                plotting.save_figure(plotting.plot_raster(result.spikes), path("raster.png"))
-                plotting.save_figure(plotting.plot_rates(result.spikes, positions=result.afferent, waveform=result.waveform),
-                                     path("rates.png"))
-                bin_width = max(result.spikes.duration / 50, result.spikes.dt)
-                plotting.save_figure(plotting.plot_psth(result.spikes, bin_width), path("psth.png"))
-        full = dict(record)
-        full.setdefault("versions", versions())
-        full["saturation"] = {
-            "fraction_sensitive": result.saturation.fraction_sensitive,
-            "fraction_high": result.saturation.fraction_high,
-            "fraction_low": result.saturation.fraction_low,
-            "modulation": result.saturation.modulation,
-            "gamma_sed_range": result.saturation.gamma_sed_range,
-            "message": result.saturation.message,
-        }
-        if result.fit is not None:
-            full["fit"] = {"r2_study": result.fit.r2_study, "r2": result.fit.r2, "ssd": result.fit.ssd,
-                           "normalise": result.fit.normalise, "dropped": result.fit.dropped}
-        if result.spikes is not None:
-            sp = result.spikes
-            full["spikes"] = {
-                "engine": sp.engine, "backend": getattr(sp, "backend", None), "dt_s": sp.dt, "duration_s": sp.duration,
-                "input": getattr(result.input, "kind", None), "input_level": getattr(result.input, "level", None),
-                "n_spikes": int(sum(len(t) for t in sp.spike_times)),
-                "silent_skipped": [str(sp.afferent_ids[i]) for i in sp.silent_skipped],
-                "notes": list(getattr(sp, "notes", ())),
-                "lif": {k: getattr(sp.params, k) for k in ("tau_m", "r_m", "v_rest", "v_thresh", "v_reset", "t_ref")},
-                "drive": result.drive,
-            }
-        full["profile_step"] = profile_step_record(result.afferent, k)
-        full["stage_seconds"] = result.timings
-        full["outputs"] = sorted(written + ["run.json"])
-        with open(path("run.json"), "w") as f:
-            json.dump(_jsonable(full), f, indent=2)
+        written = write_outputs(tmp, want=want, plots=plots, sed_static=result.sed, sed=result.sed,
+                                current=result.current, branching=result.branching, afferent=result.afferent,
+                                fit=result.fit, waveform=result.waveform, spikes=result.spikes,
+                                profile_index=result.profile_index)
+        written.append("run.json")
+        write_json(os.path.join(tmp, "run.json"), _pipeline_record(result, record, written))
     return written
+
+
+def _pipeline_record(result, record: dict, written: list) -> dict:
+    """run.json of :func:`write_pipeline_outputs`: ``record`` plus what the result says about itself."""
+    full = dict(record)
+    full.setdefault("versions", versions())
+    full["saturation"] = {
+        "fraction_sensitive": result.saturation.fraction_sensitive,
+        "fraction_high": result.saturation.fraction_high,
+        "fraction_low": result.saturation.fraction_low,
+        "modulation": result.saturation.modulation,
+        "gamma_sed_range": result.saturation.gamma_sed_range,
+        "message": result.saturation.message,
+    }
+    if result.fit is not None:
+        full["fit"] = {"r2_study": result.fit.r2_study, "r2": result.fit.r2, "ssd": result.fit.ssd,
+                       "normalise": result.fit.normalise, "dropped": result.fit.dropped}
+    if result.spikes is not None:
+        sp = result.spikes
+        full["spikes"] = {
+            "engine": sp.engine, "backend": getattr(sp, "backend", None), "dt_s": sp.dt, "duration_s": sp.duration,
+            "input": getattr(result.input, "kind", None), "input_level": getattr(result.input, "level", None),
+            "n_spikes": int(sum(len(t) for t in sp.spike_times)),
+            "silent_skipped": [str(sp.afferent_ids[i]) for i in sp.silent_skipped],
+            "notes": list(getattr(sp, "notes", ())),
+            "lif": {k: getattr(sp.params, k) for k in ("tau_m", "r_m", "v_rest", "v_thresh", "v_reset", "t_ref")},
+            "drive": result.drive,
+        }
+    full["profile_step"] = profile_step_record(result.afferent, result.profile_index)
+    full["stage_seconds"] = result.timings
+    full["outputs"] = sorted(written)
+    return full
+
+
+def write_json(path: str, data: dict) -> None:
+    """JSON with numpy scalars/arrays and non-finite floats made plain (NaN -> null)."""
+    with open(path, "w") as f:
+        json.dump(jsonable(data), f, indent=2)
+
+
+def write_outputs(folder: str, *, want, plots: bool, sed_static, sed, current=None, branching=None, afferent=None,
+                  fit=None, waveform=None, spikes=None, drive=None, saturation=None,
+                  profile_index: int = -1) -> list[str]:
+    """Write the tables and figures of ``want`` into ``folder``; returns the file names written.
+
+    Parameters
+    ----------
+    folder : str
+        An existing (temporary) folder.
+    want : set of str
+        Requested outputs (:data:`afferent.scene.OUTPUTS`).
+    plots : bool
+        Also draw the figures of those outputs.
+    sed_static : ReceptorSED
+        SED sampled from the export (J/m^3).
+    sed : ReceptorSED
+        SED over the stimulus' times (``sed_static`` without a waveform).
+    current, branching, afferent, fit, waveform, spikes, drive, saturation : optional
+        Later stages' results, None when not computed (``drive`` and ``saturation`` are in
+        run.json, not written here).
+    profile_index : int
+        Time step of the profiles, the fit and the VTU's currents (the step of the largest
+        total afferent current).
+    """
+    written: list[str] = []
+
+    def path(name: str) -> str:
+        written.append(name)
+        return os.path.join(folder, name)
+
+    if "sed_map" in want:
+        sed_static.to_dataframe(sections=True).to_csv(path("sed_map.csv"), index=False)
+    if "currents" in want:
+        receptors_table(SimpleNamespace(sed=sed, current=current)).to_csv(path("receptors.csv"), index=False)
+        afferent.to_dataframe()[["afferent", "position_m", "time_s", "current_a"]].to_csv(path("afferents.csv"), index=False)
+    if "profiles" in want:
+        import pandas as pd
+
+        t = afferent.times[profile_index] if afferent.times is not None else np.nan
+        pd.DataFrame({"afferent": afferent.afferent_ids, "position_m": afferent.positions, "time_s": t,
+                      "current_a": np.asarray(afferent.values)[profile_index]}).to_csv(path("profiles.csv"), index=False)
+    if "fit" in want and fit is not None:
+        import pandas as pd
+
+        pd.DataFrame([{"synthesis": branching.kind, "normalise": fit.normalise, "r2_study": fit.r2_study, "r2": fit.r2,
+                       "ssd": fit.ssd, "n_afferents": len(fit.predicted), "dropped": fit.dropped, "time_s": fit.time}]
+                     ).to_csv(path("fit.csv"), index=False)
+        pd.DataFrame({"position_m": fit.positions, "predicted": fit.predicted, "observed": fit.observed}).to_csv(
+            path("profile_fit.csv"), index=False)
+    if "spikes" in want and spikes is not None:
+        spikes.to_dataframe().to_csv(path("spikes.csv"), index=False)
+        summary = spikes.summary().reset_index()
+        summary.insert(1, "position_m", afferent.positions)
+        summary.to_csv(path("spike_summary.csv"), index=False)
+    if "vtu" in want:
+        if current is not None:
+            write_receptor_vtu(path("receptors.vtu"), sed, current=current, time_index=profile_index)
+        else:  # SED only: its own step of the largest total SED
+            write_receptor_vtu(path("receptors.vtu"), sed_static,
+                               time_index=int(np.argmax(np.nansum(np.asarray(sed_static.values), axis=1))))
+    if waveform is not None:
+        waveform.to_dataframe().to_csv(path("waveform.csv"), index=False)
+    if plots:
+        _figures(path, want, sed_static=sed_static, sed=sed, current=current, branching=branching, afferent=afferent,
+                 fit=fit, waveform=waveform, spikes=spikes, profile_index=profile_index)
+    return written
+
+
+def _figures(path, want, *, sed_static, sed, current, branching, afferent, fit, waveform, spikes, profile_index):
+    from . import plotting
+
+    if "sed_map" in want:
+        import matplotlib.pyplot as plt
+
+        fig, axes = plt.subplots(1, 2, figsize=(10, 4.2), layout="constrained")
+        # the export's own steps: the same step as the profiles when no stimulus rescaled them, else
+        # the export step of the largest total SED (the static solution a waveform scales)
+        same = sed_static is sed
+        k = profile_index if same else int(np.argmax(np.nansum(np.asarray(sed_static.values), axis=1)))
+        n_t, times = sed_static.values.shape[0], sed_static.times
+        plotting.plot_sed_map(sed_static, ax=axes[0], time_index=k, title=step_title("SED at receptor sites", times, k, n_t))
+        plotting.plot_sed_map(sed_static, ax=axes[1], normalise=True, threshold=0.6, time_index=k,
+                              title=step_title("normalised SED, hot spots >= 0.6", times, k, n_t))
+        plotting.save_figure(fig, path("sed_map.png"))
+    if "profiles" in want:
+        from .synthesis import Branching, synthesize
+
+        layout = sed.layout
+        for axis, kind, name in (("x", "longitudinal", "profiles_x.png"), ("z", "cross", "profiles_z.png")):
+            aff = afferent if branching.kind == kind else synthesize(
+                current, Branching.longitudinal(layout) if kind == "longitudinal" else Branching.cross(layout))
+            ax = plotting.plot_section_profiles(sed, current, aff, axis=axis, time_index=profile_index,
+                                                title=step_title(f"Profiles along {axis}", sed.times, profile_index,
+                                                                 sed.values.shape[0]))
+            plotting.save_figure(ax, path(name))
+    if "fit" in want and fit is not None:
+        plotting.save_figure(plotting.plot_fit(fit), path("fit.png"))
+    if waveform is not None:
+        plotting.save_figure(plotting.plot_waveform(waveform), path("waveform.png"))
+    if "spikes" in want and spikes is not None:
+        plotting.save_figure(plotting.plot_raster(spikes), path("raster.png"))
+        plotting.save_figure(plotting.plot_rates(spikes, positions=afferent, waveform=waveform), path("rates.png"))
+        bin_width = max(spikes.duration / 50, spikes.dt)
+        plotting.save_figure(plotting.plot_psth(spikes, bin_width), path("psth.png"))

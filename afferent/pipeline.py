@@ -15,17 +15,49 @@ import time
 import warnings
 from dataclasses import dataclass, field
 
+from typing import TYPE_CHECKING
+
 from ._validation import check_option
 from .exceptions import AfferentWarning
-from .profiles import ObservedProfile, ProfileFit, compare_profiles, peak_step
-from .receptors import ReceptorLayout
-from .sampling import ReceptorSED, sample_sed
-from .synthesis import AfferentCurrent, Branching, synthesize
-from .transduction import ReceptorCurrent, SaturationReport, SigmoidParams, saturation_report, transduce
 
-__all__ = ["PipelineResult", "run_pipeline", "run_spikes", "make_branching", "SYNTHESES", "INPUTS"]
+if TYPE_CHECKING:  # the stage modules (scipy, pandas) load when a function below runs, not on import
+    from .profiles import ObservedProfile, ProfileFit
+    from .receptors import ReceptorLayout
+    from .sampling import ReceptorSED
+    from .synthesis import AfferentCurrent, Branching
+    from .transduction import ReceptorCurrent, SaturationReport, SigmoidParams
+
+__all__ = ["PipelineResult", "run_pipeline", "apply_waveform", "run_spikes", "make_branching", "parse_synthesis", "SYNTHESES", "INPUTS"]
 
 SYNTHESES = ("longitudinal", "cross", "map:FILE", "random:N")
+
+
+def parse_synthesis(spec: str) -> tuple[str, int | None]:
+    """Split a synthesis spelling into its kind and, for ``'random:N'``, N.
+
+    Parameters
+    ----------
+    spec : str
+        ``'longitudinal'``, ``'cross'``, ``'map:FILE'`` or ``'random:N'``.
+
+    Returns
+    -------
+    (str, int or None)
+        The kind (``'longitudinal'``, ``'cross'``, ``'map'``, ``'random'``) and N (None but for random).
+
+    Raises
+    ------
+    ValueError
+        An unknown kind, or N not a whole number.
+    """
+    kind, _, arg = str(spec).partition(":")
+    check_option("synthesis", kind if not arg else f"{kind}:", ("longitudinal", "cross", "map:", "random:"))
+    if kind != "random":
+        return kind, None
+    try:
+        return kind, int(arg)
+    except ValueError as err:
+        raise ValueError(f"'synthesis' random:N needs a whole number of receptors per afferent; got {arg!r} instead.") from err
 
 
 def make_branching(spec: str | Branching, layout: ReceptorLayout, *, rng=None) -> Branching:
@@ -41,20 +73,17 @@ def make_branching(spec: str | Branching, layout: ReceptorLayout, *, rng=None) -
     rng : None, int or numpy.random.Generator
         Seed for ``'random:N'``.
     """
+    from .synthesis import Branching
+
     if isinstance(spec, Branching):
         return spec
-    kind, _, arg = str(spec).partition(":")
-    check_option("synthesis", kind if not arg else f"{kind}:", ("longitudinal", "cross", "map:", "random:"))
+    kind, n = parse_synthesis(spec)
     if kind == "longitudinal":
         return Branching.longitudinal(layout)
     if kind == "cross":
         return Branching.cross(layout)
     if kind == "map":
-        return Branching.from_map(arg, layout)
-    try:
-        n = int(arg)
-    except ValueError as err:
-        raise ValueError(f"'synthesis' random:N needs a whole number of receptors per afferent; got {arg!r} instead.") from err
+        return Branching.from_map(str(spec).partition(":")[2], layout)
     return Branching.random(layout, n, rng=rng)
 
 
@@ -75,6 +104,47 @@ class PipelineResult:
     scaling: dict | None = None
     profile_index: int = 0
     drive: dict | None = None
+
+
+def apply_waveform(sed: ReceptorSED, waveform, *, d_ref: float, reference_step: int | None = None,
+                   series_depths=None) -> tuple[ReceptorSED, dict]:
+    """The stimulus stage: SED sampled from the export -> SED over the waveform's times.
+
+    Parameters
+    ----------
+    sed : ReceptorSED
+        SED at the receptors as sampled from the export, J/m^3.
+    waveform : afferent.stimulus.Waveform
+        Indentation depth (m) over time (s).
+    d_ref : float
+        Indentation depth of the export's reference step, m.
+    reference_step : int, optional
+        The step solved at ``d_ref`` (-1: the last); required when the export has several.
+    series_depths : array_like of shape (n_steps,), optional
+        Depth in m of every step of a loading series: the time course is interpolated in depth
+        between the steps (:func:`afferent.stimulus.interpolate_series`) instead of scaled by
+        (d / d_ref)^2 (:func:`afferent.stimulus.scale_static`).
+
+    Returns
+    -------
+    (ReceptorSED, dict)
+        SED over the waveform's times, and :func:`afferent.stimulus.scaling_record` (the d^2
+        law measured against the series, when given).
+
+    Raises
+    ------
+    ValueError
+        Several steps and no ``reference_step`` (:func:`afferent.stimulus.no_reference_step_message`).
+    """
+    from .stimulus import interpolate_series, no_reference_step_message, scale_static, scaling_record
+
+    if reference_step is None and sed.values.shape[0] > 1:
+        raise ValueError(no_reference_step_message(sed.values.shape[0], sed.times))
+    step = 0 if reference_step is None else reference_step
+    scaling = scaling_record(sed, waveform, d_ref=d_ref, reference_step=step, series_depths=series_depths)
+    timed = (interpolate_series(sed, waveform, series_depths=series_depths) if series_depths is not None
+             else scale_static(sed, waveform, d_ref=d_ref, time_index=step))
+    return timed, scaling
 
 
 def run_pipeline(
@@ -134,22 +204,21 @@ def run_pipeline(
     PipelineResult
         With ``timings``: wall time of each stage in s.
     """
+    from .profiles import compare_profiles, peak_step
+    from .sampling import sample_sed
+    from .synthesis import synthesize
+    from .transduction import saturation_report, transduce
+
     timings = {}
     t = time.perf_counter()
     sed = sample_sed(field, layout, method=method, on_outside=on_outside)
     timings["sampling"] = time.perf_counter() - t
     if waveform is not None:
-        from .stimulus import interpolate_series, no_reference_step_message, scale_static, scaling_record
-
         if d_ref is None:
             raise ValueError("A waveform needs d_ref, the indentation depth (m) of the static export; got d_ref=None.")
-        if reference_step is None and sed.values.shape[0] > 1:
-            raise ValueError(no_reference_step_message(sed.values.shape[0], sed.times))
         t = time.perf_counter()
-        step = 0 if reference_step is None else reference_step
-        scaling = scaling_record(sed, waveform, d_ref=d_ref, reference_step=step, series_depths=series_depths)
-        sed = (interpolate_series(sed, waveform, series_depths=series_depths) if series_depths is not None
-               else scale_static(sed, waveform, d_ref=d_ref, time_index=step))
+        sed, scaling = apply_waveform(sed, waveform, d_ref=d_ref, reference_step=reference_step,
+                                      series_depths=series_depths)
         timings["stimulus"] = time.perf_counter() - t
     t = time.perf_counter()
     current = transduce(sed, params)

@@ -110,17 +110,10 @@ def save_figure(ax_or_fig, path: str, *, overwrite: bool = False, dpi: int = 150
 
 
 def _central_line(layout, axis: str):
-    """Receptors on the line through the middle of the grid along ``axis`` ('x' or 'z')."""
-    other = 2 if axis == "x" else 0
-    labels = layout.cross if axis == "x" else layout.longitudinal
-    kind = "cross" if axis == "x" else "longitudinal"
-    centres = layout.section_positions(kind)
-    mid = 0.5 * (layout.positions[:, other].min() + layout.positions[:, other].max())
-    best = int(np.nanargmin(np.abs(centres - mid)))
-    idx = np.flatnonzero(labels == best)
-    coord = layout.positions[idx, 0 if axis == "x" else 2]
-    order = np.argsort(coord)
-    return idx[order], coord[order], centres[best]
+    """:func:`afferent.receptors.central_line` under its former private name (afferent/cli/_demo.py imports it)."""
+    from .receptors import central_line
+
+    return central_line(layout, axis)
 
 
 def _norm(v):
@@ -155,7 +148,9 @@ def plot_section_profiles(sed, current, afferent=None, *, axis: str = "x", time_
     matplotlib Axes
     """
     ax = _axes(ax, figsize=(6.0, 3.8))
-    idx, coord, at = _central_line(sed.layout, axis)
+    from .receptors import central_line
+
+    idx, coord, at = central_line(sed.layout, axis)
     other = "z" if axis == "x" else "x"
     ax.plot(coord * 1e3, _norm(sed.values[time_index, idx]), "o-", ms=3, label=f"SED (receptors at {other} = {at * 1e3:.2f} mm)")
     ax.plot(coord * 1e3, _norm(current.values[time_index, idx]), "s--", ms=3, label="receptor current")

@@ -30,6 +30,7 @@ from .units import length_factor
 
 __all__ = [
     "ReceptorLayout",
+    "central_line",
     "read_receptors",
     "group_coordinates",
     "grid_layout",
@@ -803,3 +804,37 @@ def tips_from_export(
     if values.shape[0] > 1 and not np.all(values == values[:1]):
         raise SEDFormatError(f"Export {path!r}: cell array {material_array!r} must not change between time steps.")
     return interface_tips(raw.points * factor, raw.cells, values[0], upper=upper, lower=lower, **kwargs)
+
+
+def central_line(layout: ReceptorLayout, axis: str):
+    """The receptors on the section line through the middle of the layout, along ``axis``.
+
+    Along x: the cross section (constant z) whose centre is nearest the middle of the z extent;
+    along z: the longitudinal section nearest the middle of the x extent.
+
+    Parameters
+    ----------
+    layout : ReceptorLayout
+        Receptor sites in m, with section labels.
+    axis : {'x', 'z'}
+        The direction of the line.
+
+    Returns
+    -------
+    idx : ndarray of int
+        Receptor indices on the line, sorted by their coordinate along ``axis``.
+    coord : ndarray of float
+        Their coordinate along ``axis``, m.
+    at : float
+        The section's position on the other axis, m.
+    """
+    other = 2 if axis == "x" else 0
+    labels = layout.cross if axis == "x" else layout.longitudinal
+    kind = "cross" if axis == "x" else "longitudinal"
+    centres = layout.section_positions(kind)
+    mid = 0.5 * (layout.positions[:, other].min() + layout.positions[:, other].max())
+    best = int(np.nanargmin(np.abs(centres - mid)))
+    idx = np.flatnonzero(labels == best)
+    coord = layout.positions[idx, 0 if axis == "x" else 2]
+    order = np.argsort(coord)
+    return idx[order], coord[order], centres[best]

@@ -21,15 +21,17 @@ from __future__ import annotations
 import os
 import warnings
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
-import scipy.sparse as sp
-from scipy.spatial import cKDTree
 
 from ._validation import check_option
 from .exceptions import AfferentWarning, FieldCoverageError, SEDFormatError
 from .field import Cells, SEDField
 from .receptors import ReceptorLayout
+
+if TYPE_CHECKING:  # scipy loads when a sampler is built, not for a cached ReceptorSED
+    import scipy.sparse as sp
 
 __all__ = ["ReceptorSED", "Sampler", "build_sampler", "sample_sed", "sample_steps", "read_receptor_sed", "node_average", "cell_volumes",
            "METHODS", "PLACEMENTS"]
@@ -169,6 +171,8 @@ def locate_in_tets(points: np.ndarray, xyz: np.ndarray, tetra: np.ndarray, *, k:
     tet_index : ndarray of shape (n,), int (-1 where outside)
     bary : ndarray of shape (n, 4)
     """
+    from scipy.spatial import cKDTree
+
     n = points.shape[0]
     tet_index = np.full(n, -1, dtype=np.int64)
     bary = np.zeros((n, 4))
@@ -201,6 +205,8 @@ NEAR_NODES_FROM = 200_000
 
 def _locate(points: np.ndarray, xyz: np.ndarray, tetra: np.ndarray, k: int):
     """:func:`locate_in_tets` over every given tetrahedron (candidates by nearest centroids)."""
+    from scipy.spatial import cKDTree
+
     n = points.shape[0]
     tet_index = np.full(n, -1, dtype=np.int64)
     bary = np.zeros((n, 4))
@@ -268,6 +274,8 @@ def node_average(cells: Cells, xyz: np.ndarray, n_points: int) -> sp.csr_matrix:
     scipy.sparse.csr_matrix
         Rows sum to 1 (or 0 for nodes of no cell); ``node_values = matrix @ cell_values``.
     """
+    import scipy.sparse as sp
+
     corners = sp.csr_matrix(
         (np.ones(cells.tetra.size), (cells.tetra.reshape(-1), np.repeat(cells.parent, 4))), shape=(n_points, cells.n_cells)
     )
@@ -315,6 +323,9 @@ def build_sampler(field: SEDField, layout: ReceptorLayout, *, method: str = "lin
         ``'linear'`` on a table of points that lie on a line (or fewer than 3 points): there is
         nothing to interpolate in.
     """
+    import scipy.sparse as sp
+    from scipy.spatial import cKDTree
+
     check_option("method", method, METHODS)
     xyz, pos = field.points, layout.positions
     n_r = layout.n_receptors
@@ -423,6 +434,9 @@ def _scattered_linear(field: SEDField, layout: ReceptorLayout) -> Sampler:
     receptors inside the hull that this does not cover are retried with 8x more neighbours,
     then with every point.
     """
+    import scipy.sparse as sp
+    from scipy.spatial import cKDTree
+
     from scipy.spatial import ConvexHull, QhullError
 
     n, n_r = field.n_points, layout.n_receptors
@@ -597,7 +611,8 @@ def sample_sed(
                        sampler.placement)
 
 
-def sample_steps(fields, layout: ReceptorLayout, *, method: str = "linear", on_outside: str = "raise") -> ReceptorSED:
+def sample_steps(fields, layout: ReceptorLayout, *, method: str = "linear", on_outside: str = "raise",
+                 sampler: Sampler | None = None) -> ReceptorSED:
     """SED at each receptor site, from fields that arrive one time step at a time.
 
     The streaming form of :func:`sample_sed` for series too large to hold in memory: the
@@ -614,6 +629,9 @@ def sample_steps(fields, layout: ReceptorLayout, *, method: str = "linear", on_o
         Receptor sites in m.
     method, on_outside
         As for :func:`sample_sed`.
+    sampler : Sampler, optional
+        Weights from :func:`build_sampler` to use (built on the first field's geometry, or a
+        crop of it), instead of building them from the first field.
 
     Returns
     -------
@@ -631,11 +649,12 @@ def sample_steps(fields, layout: ReceptorLayout, *, method: str = "linear", on_o
     """
     from .exceptions import SEDFormatError
 
-    first, sampler, values, times = None, None, [], []
+    first, values, times = None, [], []
     for field in fields:
         if first is None:
             first = field
-            sampler = build_sampler(field, layout, method=method)
+            if sampler is None:
+                sampler = build_sampler(field, layout, method=method)
             head = sample_sed(field, layout, method=method, on_outside=on_outside, sampler=sampler)
             values.append(head.values)
         else:

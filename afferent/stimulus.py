@@ -1170,10 +1170,14 @@ def _lowpass_rate(values: np.ndarray, times: np.ndarray, tau: float) -> np.ndarr
     r[0] = 0.0
     uniform = np.allclose(dt, dt[0], rtol=1e-9, atol=0.0)
     if n_t > 1 and uniform:
-        from scipy.signal import lfilter
-
+        # scipy.signal.lfilter([1 - a0], [1, -a0]) step by step, bit for bit (its recurrence, in its
+        # operation order): importing scipy.signal (it imports scipy.stats) takes longer than a whole run
         a0 = a[0]
-        r[1:] = lfilter([1.0 - a0], [1.0, -a0], slope, axis=0)
+        b0 = 1.0 - a0
+        prev = np.zeros(values.shape[1:])
+        for i in range(n_t - 1):
+            prev = b0 * slope[i] + a0 * prev
+            r[i + 1] = prev
     else:
         for i in range(n_t - 1):
             r[i + 1] = slope[i] + (r[i] - slope[i]) * a[i]

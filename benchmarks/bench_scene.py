@@ -14,6 +14,17 @@ modules and compiles numba, so no timed run pays for it.
 
 Printed: wall time of each run, the stages that ran with their times, receptors and
 afferents modelled, and the ROI/full ratio.
+
+``--shell`` measures instead what a user waits for at the prompt (issue 11, target <= 1 s):
+``afferent run SCENE.toml -o OUT`` timed by ``/usr/bin/time -f %e``, interpreter start and
+imports included, for the bundled ``sample_sed/scenes/spikes_ramp.toml`` asking only for
+spikes (``want = ["spikes"]``, its region: 3 afferents). Runs ``--repeats`` times each with a
+warm sampled-SED cache and with an empty one (reading and sampling the series), and prints
+the median wall and user+sys CPU time, the load average (the machine may be shared: wall
+times under load are upper bounds) and the exact command. ``--tree DIR`` runs the package of
+another checkout (e.g. the commit before a change) for a before/after comparison.
+
+Run:  python benchmarks/bench_scene.py --shell [--repeats 5] [--tree DIR]
 """
 
 from __future__ import annotations
@@ -87,13 +98,65 @@ want = ["profiles", "spikes"]
 """
 
 
+ROOT = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..")
+
+
+def spikes_only_scene(folder: str, engine: str = "auto") -> str:
+    """The bundled spikes_ramp scene asking only for spikes (with ``engine``), with absolute paths, in ``folder``."""
+    src = os.path.join(ROOT, "sample_sed", "scenes", "spikes_ramp.toml")
+    block4 = os.path.abspath(os.path.join(ROOT, "sample_sed", "block4"))
+    lines = []
+    for line in open(src).read().splitlines():
+        if line.startswith("want ="):
+            line = 'want = ["spikes"]'
+        if line.startswith("engine ="):
+            line = f"engine = {engine!r}"
+        lines.append(line.replace('"../block4', f'"{block4}'))
+    path = os.path.join(folder, "spikes_only.toml")
+    with open(path, "w") as f:
+        f.write("\n".join(lines) + "\n")
+    return path
+
+
+def shell(repeats: int, tree: str, engine: str) -> None:
+    import statistics
+    import subprocess
+
+    work = tempfile.mkdtemp(prefix="bench_scene_shell.")
+    scene = spikes_only_scene(work, engine)
+    base = [sys.executable, "-m", "afferent", "run", scene, "-o", os.path.join(work, "out"), "--overwrite", "-q"]
+    warm = os.path.join(work, "cache")
+    env = dict(os.environ, AFFERENT_CACHE_DIR=warm, MPLBACKEND="Agg")
+    subprocess.run(base, env=env, check=True, cwd=tree)  # fills the cache and numba's; not timed
+    print(f"# package: {os.path.abspath(tree)}/afferent (python -m afferent, run from that folder); [spikes] engine = {engine!r}")
+    for label in ("warm cache", "cold cache"):
+        cmd = ["/usr/bin/time", "-f", "%e %U %S", *base]
+        walls, cpus = [], []
+        for k in range(repeats):
+            cache = warm if label == "warm cache" else os.path.join(work, f"cold{k}")  # empty: read + sample
+            done = subprocess.run(cmd, env=dict(env, AFFERENT_CACHE_DIR=cache), check=True, cwd=tree,
+                                  capture_output=True, text=True)
+            e, u, s = map(float, done.stderr.strip().splitlines()[-1].split())
+            walls.append(e)
+            cpus.append(u + s)
+        print(f"# command: cd {tree} && AFFERENT_CACHE_DIR={cache} {' '.join(cmd)}")
+        print(f"{label:<11} wall {statistics.median(walls):.2f} s median of {repeats} "
+              f"(min {min(walls):.2f}, max {max(walls):.2f}); user+sys {statistics.median(cpus):.2f} s; "
+              f"load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs")
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser()
+    ap.add_argument("--shell", action="store_true", help="time `afferent run` of a spikes-only scene from the shell")
+    ap.add_argument("--repeats", type=int, default=5)
+    ap.add_argument("--tree", default=ROOT, help="with --shell: the folder whose afferent/ package runs (to compare)")
     ap.add_argument("--points", type=int, default=270_000)
     ap.add_argument("--size-mm", type=float, default=16.0)
     ap.add_argument("--roi-mm", type=float, default=2.0)
     ap.add_argument("--engine", default="auto")
     args = ap.parse_args(argv)
+    if args.shell:
+        return shell(args.repeats, args.tree, args.engine)
     print(f"# command: python benchmarks/bench_scene.py {' '.join(sys.argv[1:]) if argv is None else ' '.join(argv)}")
     work = tempfile.mkdtemp(prefix="bench_scene.")
     t = time.perf_counter()

@@ -210,3 +210,18 @@ def test_outputs_honour_the_umask(capsys, tmp_path, box_vtu, receptors_csv, umas
             assert (folder / name).stat().st_mode & 0o777 == file_mode, name
     finally:
         os.umask(old)
+
+
+def test_run_options_mirror_the_library_constants_and_parse_only_the_chosen_command():
+    """afferent/cli/_run.py spells the choices out so that parsing does not import pandas or scipy; they must
+    stay the library's."""
+    from afferent.cli import _run
+    from afferent.pipeline import SYNTHESES
+    from afferent.sampling import METHODS
+    from afferent.transduction import STUDY_PARAMS
+
+    assert _run.SYNTHESES == SYNTHESES and _run.METHODS == METHODS and _run.STUDY_ROWS == tuple(STUDY_PARAMS)
+    code = ("import sys; from afferent.cli._main import build_parser; build_parser(['run', 'x.toml']); "
+            "print(sorted(m for m in ('pandas', 'scipy', 'afferent.cli._calibrate', 'afferent.sampling') if m in sys.modules))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.strip()
+    assert out == "[]"

@@ -102,7 +102,7 @@ def test_run_cli_writes_every_output(capsys, tmp_path, bump):
     assert code == 0, capsys.readouterr().err
     names = {p.name for p in out.iterdir()}
     assert names == {"receptors.csv", "afferents.csv", "fit.csv", "profile_fit.csv", "receptors.vtu", "run.json",
-                     "sed_map.png", "profiles_x.png", "profiles_z.png", "fit.png"}
+                     "sed_map.png", "profiles_x.png", "profiles_z.png", "fit.png", "sed_map.csv", "profiles.csv"}
     rec = pd.read_csv(out / "receptors.csv")
     assert list(rec.columns) == ["receptor", "x_m", "y_m", "z_m", "longitudinal", "cross", "time_s", "sed_pa", "current_a"]
     assert len(rec) == n
@@ -113,7 +113,8 @@ def test_run_cli_writes_every_output(capsys, tmp_path, bump):
     assert record["transduction"]["alpha_a"] == STUDY_PARAMS["start"].alpha
     assert record["field"]["units"]["sed"] == "MPa" and len(record["inputs"]) == 3
     assert (record["field"]["location"], record["field"]["location_source"]) == ("point", "only point data")
-    assert record["sampling"] == {"method": "linear", "placement": "linear in the mesh's cells (split into tetrahedra)"}
+    assert (record["sampling"]["method"], record["sampling"]["placement"]) == (
+        "linear", "linear in the mesh's cells (split into tetrahedra)")
     vtk = meshio.read(out / "receptors.vtu")
     assert vtk.points.shape == (n, 3) and "sed_pa" in vtk.point_data
     # a second run into the same folder refuses, and leaves it intact
@@ -151,7 +152,7 @@ def test_run_cli_spikes_with_a_ramp_and_hold(capsys, tmp_path, bump):
     summary = pd.read_csv(out / "spike_summary.csv")
     assert {"afferent", "position_m", "n_spikes", "rate_hz", "first_spike_latency_s"} <= set(summary.columns)
     record = json.loads((out / "run.json").read_text())
-    assert record["spikes"]["input"] == "rate-sensitive" and record["waveform"]["kind"] == "ramp-and-hold"
+    assert record["spikes"]["input"] == "rate-sensitive" and record["stimulus"]["waveform"]["kind"] == "ramp-and-hold"
 
 
 def test_run_cli_spikes_on_a_static_export(capsys, tmp_path, bump):
@@ -196,7 +197,7 @@ def test_run_cli_waveform_on_a_series_needs_the_reference_step(capsys, tmp_path)
     err = capsys.readouterr().err
     assert code == 0, err
     assert len([line for line in err.splitlines() if line.startswith("afferent: warning: The d^2 scaling of export step 5")]) == 1
-    scaling = json.loads((out / "run.json").read_text())["waveform"]["scaling"]
+    scaling = json.loads((out / "run.json").read_text())["stimulus"]["scaling"]
     assert scaling["reference_step"] == 5 and scaling["measured"]["rel_error_l2"][1] > 0.5
 
 
@@ -213,7 +214,7 @@ def test_run_json_records_cell_data_and_its_placement(capsys, tmp_path, bump):
         assert code == 0, capsys.readouterr().err
         record = json.loads((out / "run.json").read_text())
         assert (record["field"]["location"], record["field"]["location_source"]) == ("cell", "only cell data")
-        assert record["sampling"] == {"method": method, "placement": placement}
+        assert (record["sampling"]["method"], record["sampling"]["placement"]) == (method, placement)
 
 
 def test_waveform_runs_show_the_peak_step_in_both_routes(capsys, tmp_path):
@@ -289,3 +290,101 @@ def test_profiles_of_three_afferents_show_the_raw_currents(bump):
     np.testing.assert_allclose(np.sort(twin.lines[0].get_ydata()), np.sort(aff.values[-1] * 1e9))
     full = plotting.plot_section_profiles(res.sed, res.current, res.afferent, axis="x")
     assert not full.texts and len(full.figure.axes) == 1  # enough afferents: no raw axis
+
+
+#: run.json fields that record the route itself (how the run was asked for, when, how long it took)
+ROUTE_FIELDS = ("command", "scene_file", "started_utc", "wall_seconds", "stages")
+
+
+@pytest.mark.parametrize("case", ["fit", "ramp_spikes"])
+def test_cli_options_and_the_equivalent_scene_file_give_identical_results(capsys, tmp_path, case):
+    """`afferent run EXPORT ...` and `afferent run SCENE.toml` are one route: same tables byte for byte, same
+    record but for the fields that say how and when the run was asked for (ROUTE_FIELDS, and the output folder)."""
+    from conftest import SAMPLE_DIR
+
+    export, receptors = SAMPLE_DIR / "block4" / "indent_0p88mm.vtu", SAMPLE_DIR / "block4" / "receptors.csv"
+    if not export.is_file():
+        pytest.skip("bundled sample not generated")
+    obs = tmp_path / "obs.csv"
+    pos = np.linspace(0, 4, 11)
+    pd.DataFrame({"position": pos, "response": np.exp(-((pos - 2) ** 2))}).to_csv(obs, index=False)
+    base = ["run", str(export), "--receptors", str(receptors), "--length-unit", "mm", "--sed-unit", "MPa", "--no-cache"]
+    head = f"""[scene]
+name = "run"
+[export]
+file = {str(export)!r}
+length_unit = "mm"
+sed_unit = "MPa"
+[receptors]
+file = {str(receptors)!r}
+"""
+    if case == "fit":
+        options = ["--params", "start", "--synthesis", "cross", "--observed", str(obs), "--observed-unit", "mm",
+                   "--normalise", "prediction", "--no-plots"]
+        body = f"""[transduction]
+params = "start"
+[synthesis]
+kind = "cross"
+[fit]
+observed = {str(obs)!r}
+length_unit = "mm"
+normalise = "prediction"
+[outputs]
+want = ["currents", "profiles", "sed_map", "vtu", "fit"]
+"""
+    else:
+        options = ["--params", "longitudinal", "--alpha", "3e-8", "--waveform", "ramp:0.5,5,0.2", "--d-ref-mm", "0.5",
+                   "--spikes", "--input", "rate-sensitive", "--gain-s", "0.2", "--tau-ms", "5", "--dt-ms", "0.1"]
+        body = """[transduction]
+params = "longitudinal"
+alpha_a = 3e-8
+[stimulus]
+waveform = "ramp"
+depth_mm = 0.5
+speed_mm_per_s = 5.0
+hold_s = 0.2
+d_ref_mm = 0.5
+[spikes]
+input = "rate-sensitive"
+gain_s = 0.2
+tau_ms = 5.0
+dt_ms = 0.1
+[outputs]
+want = ["currents", "profiles", "sed_map", "vtu", "spikes", "plots"]
+"""
+    cli_out, toml_out = tmp_path / "cli" / "run", tmp_path / "toml" / "run"
+    assert main(base + options + ["-o", str(cli_out)]) == 0, capsys.readouterr().err
+    scene = tmp_path / "scene.toml"
+    scene.write_text(head + body)
+    assert main(["run", str(scene), "-o", str(toml_out), "--no-cache"]) == 0, capsys.readouterr().err
+    names = sorted(p.name for p in cli_out.iterdir())
+    assert names == sorted(p.name for p in toml_out.iterdir())
+    tables = [n for n in names if n.endswith((".csv", ".vtu"))]
+    assert {"receptors.csv", "afferents.csv", "profiles.csv", "sed_map.csv", "receptors.vtu"} <= set(tables)
+    assert ("spikes.csv" in tables) == (case == "ramp_spikes") and ("fit.csv" in tables) == (case == "fit")
+    for name in tables:
+        assert (cli_out / name).read_bytes() == (toml_out / name).read_bytes(), name
+    a, b = (json.loads((d / "run.json").read_text()) for d in (cli_out, toml_out))
+    assert a["command"].startswith("afferent run " + str(export)) and b["scene_file"]["path"] == str(scene)
+    for rec in (a, b):
+        for key in ROUTE_FIELDS:
+            rec.pop(key)
+        rec["scene"]["outputs"].pop("dir")
+    assert a == b
+
+
+def test_cli_errors_found_by_the_scene_speak_the_commands_options(capsys, tmp_path, bump):
+    vtu, receptors, *_ = bump
+    base = ["run", str(vtu), "--receptors", str(receptors), "--length-unit", "mm", "--sed-unit", "MPa", "--params",
+            "start", "--no-cache", "-o", str(tmp_path / "o")]
+    for extra, message in (
+        (["--spikes", "--lif-preset", "nope"], "--lif-preset must be one of 'ra', 'sa1'; got 'nope' instead."),
+        (["--spikes", "--dt-ms", "-1"], "--dt-ms must be > 0; got -0.001 s instead."),
+        (["--waveform", "ramp:0.5,5,1", "--d-ref-mm", "nan"], "--d-ref-mm must be a finite number in mm; got nan instead."),
+    ):
+        assert main(base + extra) == 2
+        assert capsys.readouterr().err == f"afferent: error: {message}\n"
+    assert main([a for a in base if a not in ("--length-unit", "mm")] + ["--sed-unit", "MPa"]) == 2
+    assert capsys.readouterr().err.startswith("afferent: error: --receptors needs the unit of R.csv's x, y, z: "
+                                              "--receptor-unit U or --length-unit U")
+    assert not (tmp_path / "o").exists()

@@ -485,3 +485,25 @@ def test_a_loading_series_drives_the_time_course_by_interpolation_in_depth(sampl
     np.testing.assert_allclose(mid.values[1, ok], 0.5 * (sed.values[4, ok] + sed.values[5, ok]), rtol=1e-12)
     with pytest.raises(ValueError, match=re.escape("The waveform's depth (0..0.0006 m) leaves the series' depths (0..0.0005 m)")):
         interpolate_series(sed, Waveform([0.0, 1.0], [0.0, 0.6e-3]), series_depths=depths)
+
+
+def test_lowpass_rate_on_a_uniform_grid_is_scipys_lfilter_bit_for_bit():
+    """The rate-sensitive input's low-pass runs lfilter's recurrence by hand (importing scipy.signal costs more
+    than a whole spikes-only run); it must give lfilter's numbers exactly."""
+    from scipy.signal import lfilter
+
+    from afferent.stimulus import _lowpass_rate
+
+    rng = np.random.default_rng(7)
+    times = np.arange(0.0, 2.3, 1e-3)
+    for scale, tau in ((1e-9, 5e-3), (1.0, 0.05), (1e3, 1e-3)):
+        values = rng.normal(size=(times.size, 17)) * scale
+        dt = np.diff(times)  # as the function does: the first interval's decay, the last interval repeated
+        a0 = np.exp(-dt[0] / tau)
+        slope = np.diff(values, axis=0) / dt[:, None]
+        r = np.zeros_like(values)
+        r[1:] = lfilter([1.0 - a0], [1.0, -a0], slope, axis=0)
+        dt_all = np.append(dt, dt[-1])
+        slope_all = np.vstack([slope, np.zeros((1, values.shape[1]))])
+        c = (tau / dt_all) * -np.expm1(-dt_all / tau)
+        np.testing.assert_array_equal(_lowpass_rate(values, times, tau), slope_all + (r - slope_all) * c[:, None])

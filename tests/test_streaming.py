@@ -146,3 +146,28 @@ def test_cli_sample_streams_and_writes_the_same_table(tmp_path):
     import pandas as pd
 
     pd.testing.assert_frame_equal(pd.read_csv(out_a), pd.read_csv(out_b))
+
+
+def test_series_provenance_sums_the_steps_negatives_and_keeps_every_file(tmp_path):
+    from afferent.io import series_provenance
+
+    paths = _series(tmp_path, 3, negative=True)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", AfferentWarning)
+        steps = list(iter_sed(paths, length_unit="mm", sed_unit="MPa"))
+        whole = afferent.read_sed(paths, length_unit="mm", sed_unit="MPa")
+    merged = series_provenance(s.provenance for s in steps)
+    assert merged.files == tuple(paths) == whole.provenance.files
+    neg = merged.negative_sed
+    assert (neg["count"], neg["n_values"], neg["steps_with_negatives"], neg["first_step"]) == (3, 3 * steps[0].n_points, 3, 0)
+    assert neg["count"] == whole.provenance.negative_sed["count"]
+    assert merged.units == whole.provenance.units and merged.columns == whole.provenance.columns
+
+
+def test_a_scene_on_a_pvd_records_the_series_it_streamed(tmp_path):
+    import json
+
+    out = tmp_path / "out"
+    assert main(["run", str(SAMPLE_DIR / "scenes" / "spikes_ramp.toml"), "-o", str(out), "--quiet", "--no-cache"]) == 0
+    field = json.loads((out / "run.json").read_text())["field"]
+    assert field["n_times"] == 6 and field["files"][0].endswith("indent.pvd") and len(field["files"]) == 7

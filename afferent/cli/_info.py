@@ -13,20 +13,10 @@ from __future__ import annotations
 
 import argparse
 
-import numpy as np
-
-from .._plausibility import robust_level
-from ..exceptions import SEDFormatError
-from ..io import FORMATS, read_raw
-from ..io._assemble import ReadOptions, find_coordinates, find_sed_array, find_tensors, negative_sed_report, tensor_sed_crosscheck, _percent
-from ..units import LENGTH_UNITS, SED_UNITS, parse_unit
+from ..io import FORMATS, describe_raw, read_raw
 from ._options import add_quiet, show_progress
 
-#: Plausible ranges used only for hints (never to choose a unit): a fingertip FE block spans
-#: 0.5-50 mm; the SED level (99th percentile) of skin under touch is about 1 to 1e5 J/m^3
-#: (the study's peak: ~190 Pa). Warnings use the wider bands of :mod:`afferent._plausibility`.
-PLAUSIBLE_SPAN_M = (0.5e-3, 50e-3)
-PLAUSIBLE_SED_PA = (1.0, 1e5)
+describe = describe_raw  # the name notebooks/01_read_fe_export.ipynb imports
 
 
 def add_args(parser: argparse.ArgumentParser) -> None:
@@ -35,100 +25,7 @@ def add_args(parser: argparse.ArgumentParser) -> None:
     add_quiet(parser)
 
 
-def _unit_hint(value: float, table: dict, plausible: tuple[float, float], units: tuple[str, ...]) -> str:
-    fits = [u for u in units if plausible[0] <= value * table[u] <= plausible[1]]
-    return ", ".join(fits) if fits else "none of " + ", ".join(units)
-
-
-def describe(raw) -> list[str]:
-    """Human-readable lines describing a :class:`RawExport`."""
-    lines = [f"{raw.files[0]}" + (f" (+{len(raw.files) - 1} files)" if len(raw.files) > 1 else "")]
-    add = lambda k, v: lines.append(f"  {k:<12} {v}")  # noqa: E731
-    add("format", raw.format)
-    opts = ReadOptions()
-    try:
-        xyz, coord_names = find_coordinates(raw, opts)
-    except SEDFormatError as err:
-        xyz, coord_names = None, None
-        add("coordinates", f"not recognised: {err}")
-    if xyz is not None:
-        lo, hi = np.nanmin(xyz, axis=0), np.nanmax(xyz, axis=0)
-        add("points", f"{xyz.shape[0]:,}" + ("" if coord_names == ("points",) else f" (columns {', '.join(coord_names)})"))
-        add("bounds", "  ".join(f"{a} [{l:.6g}, {h:.6g}]" for a, l, h in zip("xyz", lo, hi)) + " (file units)")
-    if raw.cells is not None:
-        add("cells", f"{raw.cells.n_cells:,} volume cells ({', '.join(raw.cells.cell_types)}), "
-                     f"{raw.cells.tetra.shape[0]:,} tetrahedra for sampling")
-    else:
-        add("cells", "none (a table of points: 'linear' sampling triangulates around the receptors)")
-    n_t = raw.n_times
-    add("time steps", f"{n_t}" + (f", t = {raw.times[0]:g} .. {raw.times[-1]:g}" + (f" {raw.time_unit}" if raw.time_unit else "")
-                                  if raw.times is not None else " (no times stated)"))
-    lines.append("  arrays")
-    for arr in raw.arrays.values():
-        ncomp = arr.values.shape[2] if arr.values.ndim == 3 else 1
-        comp = f"{ncomp} components" if ncomp > 1 else "scalar"
-        unit = f" [{arr.unit}]" if arr.unit else ""
-        with np.errstate(all="ignore"):
-            rng = f"{np.nanmin(arr.values):.4g} .. {np.nanmax(arr.values):.4g}" if arr.values.size else "empty"
-        lines.append(f"    {arr.name!r:<28} {arr.location:<5} {comp:<13} {rng}{unit}")
-    # recognition
-    try:
-        sed_arrays = find_sed_array(raw, opts)
-        sed = np.concatenate([a.values.reshape(a.values.shape[0], -1) for a in sed_arrays])
-        add("SED", f"{', '.join(repr(a.name) for a in sed_arrays)} ({sed_arrays[0].location} data)")
-        others = [a for a in raw.arrays.values() if a.name == sed_arrays[0].name and a.location != sed_arrays[0].location]
-        if others:
-            lines.append(f"  {'':<12} {others[0].location} data of the same name also present: --location {others[0].location} to use it")
-        stated = sed_arrays[0].unit
-        smax = float(np.nanmax(sed)) if sed.size else float("nan")
-        add("SED range", f"{np.nanmin(sed):.6g} .. {smax:.6g} (file units)")
-        neg = negative_sed_report(np.where(np.isfinite(sed), sed, 0.0))  # NaN rows are reported by read_sed
-        if neg is not None:
-            rel = (f"down to {neg['min_relative']:.2g} x the largest, summing to {neg['negative_share']:.2g} x the positives"
-                   if np.isfinite(neg["min_relative"]) else "no value is positive")
-            verdict = (f"within the tolerance {neg['tolerance']:g}: nodal-extrapolation artefacts, read as 0"
-                       if neg["within_tolerance"] else
-                       f"beyond the tolerance {neg['tolerance']:g}: refused unless --negative-tolerance allows it")
-            add("negative SED", f"{neg['count']:,} of {neg['n_values']:,} values ({rel}); {verdict}")
-        if stated and parse_unit(stated):
-            add("SED unit", f"{stated} (stated in the file)")
-        else:
-            add("SED unit", "not stated: declare --sed-unit")
-            level = robust_level(sed)
-            if level > 0:
-                add("hint", f"an SED level of {level:.3g} (99th percentile of the nonzero values) is plausible for skin "
-                            f"(1..1e5 J/m^3) in: {_unit_hint(level, SED_UNITS, PLAUSIBLE_SED_PA, ('Pa', 'kPa', 'MPa'))}")
-    except SEDFormatError as err:
-        add("SED", f"no SED array: {str(err).split('. Found')[0].split(': ', 1)[-1]}")
-    try:
-        (s_name, _, s_loc), (e_name, _, _) = find_tensors(raw, ReadOptions(sed_from="exact"), need_convention=False)
-        add("tensors", f"stress {s_name}; strain {e_name} ({s_loc} data): --sed-from exact|equivalent with --preset")
-    except (SEDFormatError, ValueError):
-        add("tensors", "no complete stress and strain tensors")
-    check = tensor_sed_crosscheck(raw, ReadOptions())
-    if check is not None:
-        groups: dict = {}
-        for name, rel in check["by_preset"].items():
-            groups.setdefault(_percent(rel), []).append(name)
-        ranked = sorted(groups.items(), key=lambda kv: check["by_preset"][kv[1][0]])
-        add("cross-check", f"1/2 sigma:eps from the tensors vs the SED array {check['sed_array']!r} (step {check['step']}, "
-                           f"relative L2 after the best scale, {check['scale']:.4g} for {check['best_preset']!r}): "
-                           + "; ".join(f"{'/'.join(names)} {pct}" for pct, names in ranked))
-    if xyz is not None:
-        span = float(np.nanmax(np.nanmax(xyz, 0) - np.nanmin(xyz, 0)))
-        if raw.length_unit:
-            add("length unit", f"{raw.length_unit} (stated in the file)")
-        else:
-            add("length unit", "not stated: declare --length-unit")
-            if span > 0:
-                add("hint", f"a span of {span:.3g} is plausible for a fingertip block (0.5..50 mm) in: "
-                            f"{_unit_hint(span, LENGTH_UNITS, PLAUSIBLE_SPAN_M, ('m', 'mm', 'um'))}")
-    for note in raw.notes:
-        add("note", note)
-    return lines
-
-
 def run(args: argparse.Namespace) -> int:
     raw = read_raw(args.exports if len(args.exports) > 1 else args.exports[0], format=args.format, progress=show_progress(args))
-    print("\n".join(describe(raw)))
+    print("\n".join(describe_raw(raw)))
     return 0

@@ -9,12 +9,32 @@ import sys
 import traceback
 import warnings
 
+import importlib
+
 from .. import __version__
 from ..exceptions import AfferentError
-from . import _calibrate, _demo, _info, _run, _sample
 
-#: subcommand -> module with add_args(parser) and run(args) -> int; help comes from the docstring.
-COMMANDS = {"info": _info, "sample": _sample, "run": _run, "calibrate": _calibrate, "demo": _demo}
+#: subcommand -> module with add_args(parser) and run(args) -> int (a module, or its name: imported when
+#: needed, so that ``afferent run`` does not pay for the imports of ``afferent calibrate``); help comes
+#: from the module's docstring.
+COMMANDS = {"info": "afferent.cli._info", "sample": "afferent.cli._sample", "run": "afferent.cli._run",
+            "calibrate": "afferent.cli._calibrate", "demo": "afferent.cli._demo"}
+
+
+def _module(name: str):
+    module = COMMANDS[name]
+    return importlib.import_module(module) if isinstance(module, str) else module
+
+
+def _chosen(argv: list[str]) -> str | None:
+    """The subcommand named on the command line, or None (also when help or the version is asked first)."""
+    for word in argv:
+        word = str(word)
+        if word in COMMANDS:
+            return word
+        if word in ("-h", "--help", "--version") or not word.startswith("-"):
+            return None
+    return None
 
 
 class _Parser(argparse.ArgumentParser):
@@ -26,11 +46,17 @@ class _UsageError(Exception):
     pass
 
 
-def build_parser() -> argparse.ArgumentParser:
+def build_parser(argv: list[str] | None = None) -> argparse.ArgumentParser:
+    """The ``afferent`` parser; with ``argv`` naming a subcommand, only that one's module is imported."""
     parser = _Parser(prog="afferent", description="From FE strain-energy density of skin to tactile afferent signals.")
     parser.add_argument("--version", action="version", version=f"afferent {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
-    for name, module in COMMANDS.items():
+    chosen = None if argv is None else _chosen(argv)
+    for name in COMMANDS:
+        if chosen is not None and name != chosen:
+            sub.add_parser(name)  # a name among the choices; its options are never parsed in this call
+            continue
+        module = _module(name)
         doc = module.__doc__ or ""
         p = sub.add_parser(name, help=doc.strip().splitlines()[0], description=doc,
                            formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -92,10 +118,11 @@ def main(argv: list[str] | None = None) -> int:
 
 
 def _main(argv: list[str] | None) -> int:
-    parser = build_parser()
+    parser = build_parser(sys.argv[1:] if argv is None else argv)
     flags = _flags_of(parser, argv)
     try:
         args = parser.parse_args(argv)
+        args.argv = [str(a) for a in (sys.argv[1:] if argv is None else argv)]  # for the run record
         if not getattr(args, "func", None):
             parser.print_help(sys.stderr)
             return 2

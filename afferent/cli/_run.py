@@ -1,12 +1,17 @@
 """Run the pipeline: SED at receptors -> receptor currents -> afferent currents [-> fit] [-> spikes].
 
-``afferent run SCENE.toml`` runs a scene file instead (see afferent.scene): only the stages its
-outputs need, with sampled SED cached on disk and a run.json record.
+``afferent run SCENE.toml`` runs a scene file instead (see afferent.scene). Both spellings are
+one route: the options below build the same :class:`afferent.scene.Scene` a TOML file would
+(:func:`scene_from_args`), and :func:`afferent.scene.run_scene` runs it: only the stages its
+outputs need, sampled SED cached on disk (``--no-cache``: neither read nor written), one
+writer, one run.json record.
 
-Writes into OUTDIR: receptors.csv (receptor, x_m, y_m, z_m, section ids, time_s, sed_pa,
-current_a), afferents.csv (afferent, position_m, time_s, current_a), fit.csv and
-profile_fit.csv with --observed, receptors.vtu (ParaView), run.json (the record), and the
-figures sed_map.png, profiles_x.png, profiles_z.png [, fit.png].
+Writes into OUTDIR (the scene outputs currents, profiles, sed_map, vtu [, fit] [, spikes] [, plots]):
+receptors.csv (receptor, x_m, y_m, z_m, section ids, time_s, sed_pa, current_a), afferents.csv
+(afferent, position_m, time_s, current_a), profiles.csv (the profile step), sed_map.csv (SED
+sampled from the export), fit.csv and profile_fit.csv with --observed, receptors.vtu
+(ParaView), run.json (the record), and the figures sed_map.png, profiles_x.png,
+profiles_z.png [, fit.png].
 
 With --spikes, also spikes.csv (afferent, spike_time_s), spike_summary.csv (rate, first-spike
 latency, ISI per afferent), raster.png, rates.png and psth.png; a static export can be driven by
@@ -29,15 +34,16 @@ Example::
 from __future__ import annotations
 
 import argparse
-import sys
 
-from ..export import file_sha256, write_pipeline_outputs
-from ..io import read_sed
-from ..pipeline import SYNTHESES, run_pipeline, run_spikes
-from ..profiles import read_observed
-from ..sampling import METHODS
-from ..transduction import STUDY_PARAMS, SigmoidParams
-from ._options import add_input_options, add_receptor_options, layout_from_args, add_output_options, add_quiet, input_kwargs
+import os
+import shlex
+
+from ._options import add_input_options, add_output_options, add_quiet, add_receptor_options, input_kwargs
+
+# the stage modules (pandas, scipy) load when the run needs them, not to parse the command line
+SYNTHESES = ("longitudinal", "cross", "map:FILE", "random:N")  # afferent.pipeline.SYNTHESES
+METHODS = ("linear", "nearest")  # afferent.sampling.METHODS
+STUDY_ROWS = ("start", "longitudinal", "cross")  # the keys of afferent.transduction.STUDY_PARAMS
 
 
 def add_args(parser: argparse.ArgumentParser) -> None:
@@ -49,7 +55,7 @@ def add_args(parser: argparse.ArgumentParser) -> None:
                         help="receptor -> afferent grouping (default longitudinal)")
     parser.add_argument("--seed", type=int, default=0, help="seed for --synthesis random:N")
     g = parser.add_argument_group("transduction (sigmoid) parameters, SI units")
-    g.add_argument("--params", choices=tuple(STUDY_PARAMS), help="the study's table-5.2 row")
+    g.add_argument("--params", choices=STUDY_ROWS, help="the study's table-5.2 row")
     g.add_argument("--alpha", type=float, metavar="A", help="saturation current, A")
     g.add_argument("--gamma", type=float, metavar="G", help="slope, 1/Pa")
     g.add_argument("--lambda", dest="lambda_", type=float, metavar="L", help="midpoint SED, Pa")
@@ -88,6 +94,8 @@ def add_args(parser: argparse.ArgumentParser) -> None:
                    help="with --drive rheobase: the largest current becomes K x the rheobase (default 2)")
     g.add_argument("--duration-s", type=float, help="simulated time, s (default: the stimulus; 1 s for a static export)")
     parser.add_argument("--no-plots", action="store_true", help="skip the PNG figures")
+    parser.add_argument("--no-cache", action="store_true",
+                        help="neither read nor write the sampled-SED cache ($AFFERENT_CACHE_DIR or ~/.cache/afferent)")
     add_receptor_options(parser, required=False)
     add_input_options(parser)
     add_output_options(parser, what="output folder (created whole, or not at all); for a scene, overrides its [outputs] dir",
@@ -95,29 +103,35 @@ def add_args(parser: argparse.ArgumentParser) -> None:
     add_quiet(parser)
 
 
-def params_from_args(args) -> SigmoidParams:
+def _transduction_table(args) -> dict:
+    """[transduction]: a study row (--params) with overrides, or all three of --alpha --gamma --lambda."""
     given = {k: getattr(args, k) for k in ("alpha", "gamma", "lambda_") if getattr(args, k) is not None}
-    if args.params is not None:
-        base = STUDY_PARAMS[args.params]
-        return SigmoidParams(given.get("alpha", base.alpha), given.get("gamma", base.gamma), given.get("lambda_", base.lambda_))
-    missing = [f"--{k.rstrip('_')}" for k in ("alpha", "gamma", "lambda_") if k not in given]
-    if missing:
-        raise ValueError(
-            f"Transduction parameters {', '.join(missing)} are missing: give --alpha A --gamma G --lambda L "
-            f"(A, 1/Pa, Pa) or --params one of {', '.join(STUDY_PARAMS)}."
-        )
-    return SigmoidParams(given["alpha"], given["gamma"], given["lambda_"])
+    if args.params is None:
+        missing = [f"--{k.rstrip('_')}" for k in ("alpha", "gamma", "lambda_") if k not in given]
+        if missing:
+            raise ValueError(
+                f"Transduction parameters {', '.join(missing)} are missing: give --alpha A --gamma G --lambda L "
+                f"(A, 1/Pa, Pa) or --params one of {', '.join(STUDY_ROWS)}."
+            )
+    keys = {"alpha": "alpha_a", "gamma": "gamma_per_pa", "lambda_": "lambda_pa"}
+    return {"params": args.params, **{keys[k]: v for k, v in given.items()}}
 
 
-def waveform_from_args(args):
-    """The :class:`afferent.stimulus.Waveform` that ``--waveform`` describes, or None."""
+def _numbers(text: str, flag: str, unit: str) -> list[float]:
+    try:
+        return [float(v) for v in text.split(",")]
+    except ValueError as err:
+        raise ValueError(f"{flag} must be comma-separated numbers ({unit}); got {text!r} instead.") from err
+
+
+def _stimulus_table(args) -> dict | None:
+    """[stimulus] from --waveform 'ramp:D,S,H' | 'sine:F,A,T' | FILE and --d-ref-mm, --reference-step, ..."""
     if not args.waveform:
+        if args.series_depths_mm is not None:
+            raise ValueError("--series-depths-mm applies to --waveform (it measures the d^2 scaling); add --waveform.")
         return None
-    from .. import stimulus
-
     spec = args.waveform.strip()
     kind, _, rest = spec.partition(":")
-    dt = args.waveform_dt_ms * 1e-3
     if kind in ("ramp", "sine") and rest:
         try:
             values = [float(v) for v in rest.split(",")]
@@ -125,87 +139,158 @@ def waveform_from_args(args):
             raise ValueError(f"--waveform {spec!r}: the values after '{kind}:' must be numbers.") from err
         if len(values) != 3:
             raise ValueError(f"--waveform {kind}: needs 3 comma-separated values; got {len(values)} in {spec!r} instead.")
-        if kind == "ramp":
-            depth_mm, speed_mm_s, hold_s = values
-            return stimulus.ramp_and_hold(depth_mm * 1e-3, speed_mm_s * 1e-3, hold_s, dt=dt, post=0.1)
-        freq, amp_mm, dur = values
-        return stimulus.sinusoid(freq, amp_mm * 1e-3, duration=dur, dt=dt)
-    return stimulus.read_waveform(spec, length_unit=args.waveform_unit)
+        names = ("depth_mm", "speed_mm_per_s", "hold_s") if kind == "ramp" else ("frequency_hz", "amplitude_mm", "duration_s")
+        table = {"waveform": kind, **dict(zip(names, values)), "dt_ms": args.waveform_dt_ms}
+    else:
+        table = {"waveform": "file", "file": spec, "length_unit": args.waveform_unit}
+    if args.d_ref_mm is None:
+        raise ValueError("--waveform needs --d-ref-mm, the indentation depth (mm) at which the static export was solved.")
+    table.update(d_ref_mm=args.d_ref_mm, reference_step=args.reference_step)
+    if args.series_depths_mm is not None:
+        table["series_depths_mm"] = _numbers(args.series_depths_mm, "--series-depths-mm", "mm")
+    return table
 
 
-def _series_depths(args):
-    if args.series_depths_mm is None:
+def _receptors_table(args) -> dict:
+    """[receptors] from --receptors / --grid tips|y=H; lengths carry their unit in the key, as in a scene file."""
+    if args.receptors is not None:
+        unit = args.receptor_unit or args.length_unit
+        if unit is None:
+            raise ValueError("--receptors needs the unit of R.csv's x, y, z: --receptor-unit U or --length-unit U "
+                             "(the receptors are read before the export, to key the sampled-SED cache).")
+        return {"file": args.receptors, "length_unit": unit}
+    spec = args.grid.strip()
+    pitch = {"pitch_x_mm": args.pitch_x_mm, "pitch_z_mm": args.pitch_z_mm}
+    if spec == "tips":
+        return {"grid": "tips", "material_array": args.material_array, "upper": args.upper, "lower": args.lower, **pitch}
+    if spec.startswith("y="):
+        try:
+            y = float(spec[2:])
+        except ValueError as err:
+            raise ValueError(f"--grid y=H needs a number H in the export's length unit; got {spec!r} instead.") from err
+        unit = {"µm": "um", "micron": "um"}.get(args.length_unit, args.length_unit)
+        if unit is None:
+            raise ValueError("--grid y=H needs --length-unit: H is in the export's length unit.")
+        if unit not in ("m", "mm", "um"):
+            from ..units import length_factor
+
+            y, unit = y * length_factor(unit), "m"
+        return {"grid": "regular", f"y_{unit}": y, **pitch}
+    raise ValueError(f"--grid must be 'tips' or 'y=H'; got {args.grid!r} instead.")
+
+
+def _synthesis_table(args) -> dict:
+    from ..pipeline import parse_synthesis
+
+    kind, n = parse_synthesis(args.synthesis)
+    table = {"kind": kind, "seed": args.seed}
+    if kind == "map":
+        table["map"] = args.synthesis.partition(":")[2]
+    if kind == "random":
+        table["receptors_per_afferent"] = n
+    return table
+
+
+def _spikes_table(args) -> dict | None:
+    if not args.spikes:
+        if args.input == "rate-sensitive":
+            raise ValueError("--input rate-sensitive applies to spikes: add --spikes.")
         return None
-    if args.waveform is None:
-        raise ValueError("--series-depths-mm applies to --waveform (it measures the d^2 scaling); add --waveform.")
-    try:
-        return [float(d) * 1e-3 for d in args.series_depths_mm.split(",")]
-    except ValueError as err:
-        raise ValueError(f"--series-depths-mm must be comma-separated numbers (mm); got {args.series_depths_mm!r} instead.") from err
+    if args.input == "rate-sensitive" and args.gain_s is None:
+        raise ValueError("--input rate-sensitive needs --gain-s (s): how much input current (A) per A/s of rate.")
+    return {"engine": args.engine, "dt_ms": args.dt_ms, "lif_preset": args.lif_preset, "input": args.input,
+            "gain_s": args.gain_s, "tau_ms": args.tau_ms, "drive": args.drive,
+            "rheobase_multiple": args.rheobase_multiple, "duration_s": args.duration_s}
 
 
-def run(args: argparse.Namespace) -> int:
-    if len(args.exports) == 1 and args.exports[0].lower().endswith(".toml"):
-        from ..scene import run_scene_cli
+#: scene key -> the option that sets it, to say a scene's complaint in the command's words
+_FLAGS = {
+    ("export", "file"): "EXPORT", ("export", "files"): "EXPORT", ("receptors", "length_unit"): "--receptor-unit",
+    ("receptors", "file"): "--receptors", ("receptors", "grid"): "--grid", ("sampling", "method"): "--method",
+    ("sampling", "on_outside"): "--on-outside", ("synthesis", "kind"): "--synthesis", ("stimulus", "waveform"): "--waveform",
+    ("stimulus", "d_ref_mm"): "--d-ref-mm", ("stimulus", "reference_step"): "--reference-step",
+    ("stimulus", "series_depths_mm"): "--series-depths-mm", ("stimulus", "dt_ms"): "--waveform-dt-ms",
+    ("spikes", "lif_preset"): "--lif-preset", ("spikes", "dt_ms"): "--dt-ms", ("spikes", "duration_s"): "--duration-s",
+    ("spikes", "gain_s"): "--gain-s", ("spikes", "tau_ms"): "--tau-ms", ("fit", "observed"): "--observed",
+    ("fit", "length_unit"): "--observed-unit",
+}
 
-        return run_scene_cli(args.exports[0], output=args.output, overwrite=args.overwrite, quiet=args.quiet)
+
+def _in_cli_words(message: str) -> str:
+    """A scene's message about its keys, reworded with the options of ``afferent run``."""
+    message = message.removeprefix("Scene: ")
+    for (table, key), flag in _FLAGS.items():
+        message = message.replace(f"[{table}] {key!r}", flag).replace(f"[{table}] {key}", flag)
+    keys = [key for _, key in _FLAGS]
+    for (_, key), flag in _FLAGS.items():
+        if keys.count(key) == 1:  # a bare 'key' only where it names one option
+            message = message.replace(repr(key), flag)
+    for table in ("export", "receptors", "sampling", "transduction", "synthesis", "stimulus", "spikes", "fit", "outputs"):
+        message = message.replace(f"[{table}] ", "")
+    return message
+
+
+def scene_from_args(args):
+    """The :class:`afferent.scene.Scene` that ``afferent run EXPORT ... -o OUT`` describes (resolved).
+
+    Options map onto scene keys with their unit in the key (``--d-ref-mm 0.5`` -> ``[stimulus]
+    d_ref_mm = 0.5``), so the numbers are converted to SI exactly as a scene file's are; writing
+    the same tables into a TOML file gives the same run (``tests/test_pipeline.py`` checks the
+    tables byte for byte). Outputs: currents, profiles, sed_map, vtu, and fit with
+    ``--observed``, spikes with ``--spikes``, plots unless ``--no-plots``.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        Parsed options of ``afferent run``.
+
+    Returns
+    -------
+    Scene
+
+    Raises
+    ------
+    ValueError
+        Missing or contradictory options, in the command's words.
+    """
+    from ..scene import SceneError, resolve, scene_from_dict
+
     if args.receptors is None and args.grid is None:
         raise ValueError("afferent run needs the receptor sites: --receptors R.csv or --grid tips|y=H (or a SCENE.toml).")
     if args.output is None:
         raise ValueError("afferent run needs an output folder: -o OUTDIR.")
-    params = params_from_args(args)
-    waveform = waveform_from_args(args)
-    if waveform is not None and args.d_ref_mm is None:
-        raise ValueError("--waveform needs --d-ref-mm, the indentation depth (mm) at which the static export was solved.")
-    if args.input == "rate-sensitive" and not args.spikes:
-        raise ValueError("--input rate-sensitive applies to spikes: add --spikes.")
-    exports = args.exports if len(args.exports) > 1 else args.exports[0]
-    field = read_sed(exports, **input_kwargs(args))
-    unit = field.provenance.units.get("length")
-    layout = layout_from_args(args, field)
-    observed = None
+    read = input_kwargs(args)
+    read.pop("progress")
+    export = {"files": list(args.exports), **{k: v for k, v in read.items() if v is not None}}
+    want = ["currents", "profiles", "sed_map", "vtu"]
+    tables = {"scene": {"name": os.path.basename(os.path.normpath(args.output))}, "export": export,
+              "receptors": _receptors_table(args), "sampling": {"method": args.method, "on_outside": args.on_outside},
+              "transduction": _transduction_table(args), "synthesis": _synthesis_table(args)}
+    stimulus, spikes = _stimulus_table(args), _spikes_table(args)
+    if stimulus is not None:
+        tables["stimulus"] = stimulus
+    if spikes is not None:
+        tables["spikes"], want = spikes, want + ["spikes"]
     if args.observed:
         if args.observed_unit is None:
             raise ValueError("--observed needs --observed-unit, the length unit of the observed positions (e.g. mm); "
                              "afferent never guesses a unit.")
-        observed = read_observed(args.observed, length_unit=args.observed_unit)
-    result = run_pipeline(field, layout, params, synthesis=args.synthesis, method=args.method,
-                          on_outside=args.on_outside, observed=observed, normalise=args.normalise, rng=args.seed,
-                          waveform=waveform, d_ref=None if args.d_ref_mm is None else args.d_ref_mm * 1e-3,
-                          reference_step=args.reference_step, series_depths=_series_depths(args))
-    if args.spikes:
-        from ..spiking import LIFParams
+        tables["fit"] = {"observed": args.observed, "length_unit": args.observed_unit, "normalise": args.normalise}
+        want.append("fit")
+    tables["outputs"] = {"want": want + ([] if args.no_plots else ["plots"]), "dir": args.output}
+    try:
+        return resolve(scene_from_dict(tables, base_dir=os.getcwd()))
+    except SceneError as err:
+        raise ValueError(_in_cli_words(str(err))) from err
 
-        lif = LIFParams.from_preset(args.lif_preset)
-        duration = args.duration_s
-        if duration is None and result.afferent.n_times == 1:
-            duration = 1.0
-        result = run_spikes(result, lif, dt=args.dt_ms * 1e-3, engine=args.engine, input=args.input, gain=args.gain_s,
-                            tau=None if args.tau_ms is None else args.tau_ms * 1e-3, duration=duration,
-                            drive=args.drive, rheobase_multiple=args.rheobase_multiple)
-    files = list(field.provenance.files) + ([args.receptors] if args.receptors else []) + ([args.observed] if args.observed else [])
-    record = {
-        "command": "afferent " + " ".join(sys.argv[1:]) if sys.argv and sys.argv[0].endswith("afferent") else None,
-        "inputs": {f: file_sha256(f) for f in files},
-        "field": field.provenance.to_dict(),
-        "receptors": {"file": args.receptors, "grid": args.grid, "length_unit": unit, "n": layout.n_receptors},
-        "transduction": {"alpha_a": params.alpha, "gamma_per_pa": params.gamma, "lambda_pa": params.lambda_},
-        "synthesis": args.synthesis, "sampling": {"method": result.sed.method, "placement": result.sed.placement},
-        "normalise": args.normalise,
-        "waveform": None if waveform is None else {"spec": args.waveform, "kind": waveform.kind,
-                                                   "parameters": dict(waveform.parameters), "d_ref_m": args.d_ref_mm * 1e-3,
-                                                   "scaling": result.scaling},
-    }
-    write_pipeline_outputs(result, args.output, record=record, overwrite=args.overwrite, plots=not args.no_plots)
-    if not args.quiet:
-        msg = f"wrote {args.output}: {layout.n_receptors} receptors -> {result.afferent.n_afferents} afferents ({args.synthesis})"
-        if result.fit is not None:
-            msg += f"; R2(study) {result.fit.r2_study:.3f}, R2 {result.fit.r2:.3f}, ssd {result.fit.ssd:.3g}"
-        print(msg, file=sys.stderr)
-        if result.spikes is not None:
-            n = sum(len(t) for t in result.spikes.spike_times)
-            print(f"spikes: {n} in {result.spikes.duration:g} s ({result.spikes.engine}, dt {args.dt_ms:g} ms, "
-                  f"{args.input} input); {len(result.spikes.silent_skipped)} afferent(s) provably silent, not simulated",
-                  file=sys.stderr)
-        print(result.saturation.summary(), file=sys.stderr)  # a warning, if any, was printed once by transduce
-    return 0
+
+def run(args: argparse.Namespace) -> int:
+    from ..scene import run_scene_cli
+
+    argv = getattr(args, "argv", None)
+    command = None if argv is None else "afferent " + shlex.join(argv)
+    if len(args.exports) == 1 and args.exports[0].lower().endswith(".toml"):
+        return run_scene_cli(args.exports[0], output=args.output, overwrite=args.overwrite, quiet=args.quiet,
+                             use_cache=not args.no_cache, command=command)
+    return run_scene_cli(scene_from_args(args), overwrite=args.overwrite, quiet=args.quiet,
+                         use_cache=not args.no_cache, command=command)

@@ -19,11 +19,12 @@ import numpy as np
 
 from .._validation import check_option
 from ..exceptions import SEDFormatError
-from ..field import SEDField
+from ..field import Provenance, SEDField
 from ._assemble import NEGATIVE_SED_RTOL, ReadOptions, assemble
+from ._describe import describe_raw
 from ._raw import RawExport
 
-__all__ = ["read_sed", "iter_sed", "read_raw", "FORMATS"]
+__all__ = ["read_sed", "iter_sed", "series_provenance", "read_raw", "describe_raw", "format_of", "FORMATS"]
 
 #: Known formats: name -> file-name endings. '.gz' CSV files are read by the CSV reader.
 FORMATS: dict[str, tuple[str, ...]] = {
@@ -38,7 +39,28 @@ FORMATS: dict[str, tuple[str, ...]] = {
 }
 
 
-def _format_of(path: str, fmt: str | None) -> str:
+def format_of(path: str, fmt: str | None = None) -> str:
+    """The reader (a key of :data:`FORMATS`) that reads ``path``: ``fmt`` if given (checked), else the one
+    its file-name ending selects.
+
+    Parameters
+    ----------
+    path : str
+        An FE export file.
+    fmt : str, optional
+        A format name from :data:`FORMATS`, overriding the ending.
+
+    Returns
+    -------
+    str
+
+    Raises
+    ------
+    ValueError
+        ``fmt`` is not a known format.
+    SEDFormatError
+        No known ending matches ``path``.
+    """
     if fmt is not None:
         return check_option("format", fmt, tuple(FORMATS))
     lower = path.lower()
@@ -50,6 +72,9 @@ def _format_of(path: str, fmt: str | None) -> str:
         f"Could not deduce the SED file format from {path!r}. Known extensions are {known}; "
         f"pass format='csv' (or one of {', '.join(map(repr, FORMATS))}) explicitly."
     )
+
+
+_format_of = format_of
 
 
 def _paths(path_or_paths) -> list[str]:
@@ -315,12 +340,16 @@ def iter_sed(path_or_paths, *, format: str | None = None, progress: bool = False
     seen: set[str] = set()
     previous = None
     for k, raw in enumerate(raws):
-        if raw.times is None and opts.times is None:  # as read_sed numbers the steps of a series without times
+        numbered = raw.times is None and opts.times is None  # numbered 0, 1, ... as read_sed does
+        if numbered:
             raw = replace(raw, times=np.array([float(k)]), notes=raw.notes + (
                 "The export states no step times; steps are numbered 0, 1, ... (pass times= to set them).",))
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
             field = assemble(raw, opts if opts.times is None else replace(opts, times=opts.times[k:k + 1]))
+        if numbered:
+            units = dict(field.provenance.units, time_source="none in the file: steps numbered 0, 1, ...")
+            field = replace(field, provenance=replace(field.provenance, units=units))
         for w in caught:
             key = re.sub(r"[-+]?\d[\d.eE+-]*", "#", str(w.message))
             if key not in seen:
@@ -332,3 +361,32 @@ def iter_sed(path_or_paths, *, format: str | None = None, progress: bool = False
                                  f"followed by {t!r} s (steps {k - 1} and {k}) instead.")
         previous = t
         yield field
+
+
+def series_provenance(provenances) -> Provenance:
+    """One :class:`~afferent.field.Provenance` for the steps :func:`iter_sed` yielded.
+
+    Files in order without repeats, the first step's columns, units, factors and checks (every
+    step is read with the same declarations), notes without repeats, and the negative nodal SED
+    summed over the steps: ``count`` and ``n_values`` added, ``min_pa`` and ``min_relative`` the
+    most negative, ``negative_share`` the largest, ``steps_with_negatives`` and ``first_step``
+    (index into the series).
+    """
+    from dataclasses import replace
+
+    provs = list(provenances)
+    if not provs:
+        raise ValueError("'provenances' must hold at least one Provenance; got none.")
+    files = tuple(dict.fromkeys(f for p in provs for f in p.files))
+    notes = tuple(dict.fromkeys(n for p in provs for n in p.notes))
+    neg = [(k, p.negative_sed) for k, p in enumerate(provs) if p.negative_sed]
+    negative = None
+    if neg:
+        negative = dict(neg[0][1])
+        negative.update(
+            count=sum(n["count"] for _, n in neg), n_values=sum(n["n_values"] for _, n in neg),
+            min_pa=min(n["min_pa"] for _, n in neg), min_relative=min(n["min_relative"] for _, n in neg),
+            negative_share=max(n["negative_share"] for _, n in neg), steps_with_negatives=len(neg),
+            first_step=neg[0][0],
+        )
+    return replace(provs[0], files=files, notes=notes, negative_sed=negative)

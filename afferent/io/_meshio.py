@@ -385,7 +385,7 @@ def iter_pvd(path: str, *, progress: bool = False):
     """A ParaView ``.pvd`` collection, one one-step RawExport at a time (see :func:`iter_vtu_series`)."""
     files, times = pvd_entries(path)
     for step in iter_vtu_series(files, times, progress=progress):
-        yield replace(step, format="pvd")
+        yield replace(step, format="pvd", files=(path,) + step.files)
 
 
 def read_pvd(path: str, *, progress: bool = False) -> RawExport:

@@ -1,0 +1,258 @@
+"""Defaults and requirements: :func:`resolve` turns a scene as written into one that can run."""
+
+from __future__ import annotations
+
+import os
+from dataclasses import fields, replace
+from pathlib import Path
+
+from .._validation import suggest
+from .schema import (_FILE_KEYS, _GRID_DEFAULTS, _GRID_KEYS, _RAMP_DEFAULTS, _RAMP_KEYS, _SINE_KEYS, _TABLES,
+                     _TIPS_KEYS, OUTPUTS, Scene)
+
+# -------------------------------------------------------------------------- resolving
+def _given(scene: Scene, table: str, name: str) -> str:
+    """The key as the user wrote it (``dt_ms``) for field ``name`` of ``table``, else the SI key."""
+    return scene.origin.given.get(table, {}).get(name, name)
+
+
+def _fill(sec):
+    """Fill the schema defaults of a section (fields still None)."""
+    updates = {f.name: f.metadata["default"] for f in fields(sec)
+               if getattr(sec, f.name) is None and f.metadata["default"] is not None}
+    return replace(sec, **updates) if updates else sec
+
+
+def _check_unit(scene, origin, table, name, checker):
+    value = getattr(getattr(scene, _TABLES[table][0]), name)
+    if value is None:
+        return
+    try:
+        checker(value)
+    except ValueError as err:
+        key = _given(scene, table, name)
+        raise origin.error(table, key, f"[{table}] {key!r}: {err}") from err
+
+
+def resolve(scene: Scene) -> Scene:
+    """Fill defaults and check that the scene can produce what it asks for.
+
+    Defaults: those documented in the module docstring; ``[receptors] length_unit`` and ``[fit]
+    length_unit`` from ``[export] length_unit``; ``params = "start"`` when no transduction
+    parameter is given; ``[outputs] dir`` = ``results/<name>`` in the current folder.
+    Idempotent.
+
+    Raises
+    ------
+    SceneError
+        A requirement missing or contradictory (no export; both or neither of receptor
+        ``file`` / ``grid``; a waveform without ``d_ref``; keys that have no effect, such as
+        ``depth_mm`` without a waveform; ...), with the key and line where one applies.
+    """
+    if scene.resolved:
+        return scene
+    o = scene.origin
+    err = o.error
+    ex = _export(scene, o, err)
+    rec = _receptors(scene, o, err, ex)
+    tr = _transduction(scene, err)
+    sy = _synthesis(scene, err)
+    st = _stimulus(scene, o, err)
+    info, out = _outputs(scene, err)
+    sp = _spikes(scene, err, out)
+    fi = _fit(scene, err, out, ex)
+    resolved = replace(scene, info=info, export=ex, receptors=rec, sampling=_fill(scene.sampling), transduction=tr,
+                       synthesis=sy, stimulus=st, spikes=sp, fit=fi, outputs=out, resolved=True)
+    return resolved
+
+
+def _export(scene: Scene, o, err):
+    """[export]: defaults filled, requirements checked."""
+    from ..units import length_factor, sed_factor, time_factor
+
+    ex = _fill(scene.export)
+    if not ex.files:
+        raise err("export", None, "[export] must name the FE export: file = \"PATH\" (or files = [...], one per time step).")
+    for name, checker in (("length_unit", length_factor), ("sed_unit", sed_factor), ("stress_unit", sed_factor),
+                          ("time_unit", time_factor)):
+        _check_unit(scene, o, "export", name, checker)
+    if ex.sed_from == "equivalent" and ex.poisson is None:
+        raise err("export", "sed_from", "[export] sed_from = 'equivalent' needs 'poisson' (the study's skin: 0.48).")
+    return ex
+
+
+def _receptors(scene: Scene, o, err, ex):
+    """[receptors]: defaults filled, requirements checked."""
+    from ..units import length_factor
+
+    raw = scene.receptors
+    rec = _fill(raw)
+    if (rec.file is None) == (rec.grid is None):
+        raise err("receptors", None, "[receptors] must give exactly one of 'file' (a receptor CSV) and 'grid' "
+                  f"('tips' or 'regular'); got {'both' if rec.file else 'neither'} instead.")
+    if rec.file is not None:
+        extra = [_given(scene, "receptors", k) for k in _GRID_KEYS + _TIPS_KEYS if getattr(raw, k) is not None]
+        if extra:
+            raise err("receptors", extra[0], f"[receptors] {extra[0]!r} applies to a generated grid, not to a receptor "
+                      "file; remove it or use grid = ... instead of file.")
+        if rec.length_unit is None:
+            if ex.length_unit is None:
+                raise err("receptors", "file", "[receptors] needs 'length_unit' (the unit of the CSV's x, y, z): "
+                          "[export] declares none to default to.")
+            rec = replace(rec, length_unit=ex.length_unit)
+        _check_unit(replace(scene, receptors=rec), o, "receptors", "length_unit", length_factor)
+    elif rec.grid == "regular":
+        if rec.y_m is None:
+            raise err("receptors", "grid", "[receptors] grid = 'regular' needs the receptors' height: y_mm = H (or y_m).")
+        bad = [_given(scene, "receptors", k) for k in _TIPS_KEYS if getattr(raw, k) is not None]
+        if bad:
+            raise err("receptors", bad[0], f"[receptors] {bad[0]!r} applies to grid = 'tips', not 'regular'.")
+    else:  # tips
+        bad = [_given(scene, "receptors", k) for k in _GRID_KEYS[:4] if getattr(raw, k) is not None]
+        if bad:
+            raise err("receptors", bad[0], f"[receptors] {bad[0]!r} applies to grid = 'regular', not 'tips' "
+                      "(use [region] to restrict the tips).")
+    if rec.grid is not None and raw.length_unit is not None:
+        raise err("receptors", "length_unit", "[receptors] 'length_unit' applies to a receptor file; a grid takes "
+                  "lengths with their unit in the key (y_mm, pitch_x_mm).")
+    if rec.grid is not None:
+        rec = replace(rec, pitch_x_m=rec.pitch_x_m or _GRID_DEFAULTS["pitch_x_m"],
+                      pitch_z_m=rec.pitch_z_m or _GRID_DEFAULTS["pitch_z_m"])
+    if rec.grid == "tips":
+        rec = replace(rec, **{k: v for k, v in _GRID_DEFAULTS.items() if getattr(rec, k) is None})
+    for name in ("pitch_x_m", "pitch_z_m"):
+        if getattr(rec, name) is not None and getattr(rec, name) <= 0:
+            key = _given(scene, "receptors", name)
+            raise err("receptors", key, f"[receptors] {key!r} must be > 0; got {getattr(rec, name)!r} m instead.")
+    return rec
+
+
+def _transduction(scene: Scene, err):
+    """[transduction]: defaults filled, requirements checked."""
+    tr = scene.transduction
+    explicit = {k: getattr(tr, k) for k in ("alpha_a", "gamma_per_pa", "lambda_pa") if getattr(tr, k) is not None}
+    if tr.calibration is not None:
+        if tr.params is not None or explicit:
+            key = "params" if tr.params is not None else _given(scene, "transduction", next(iter(explicit)))
+            raise err("transduction", key, f"[transduction] {key!r} and 'calibration' both set the parameters; keep one.")
+    else:
+        if tr.calibration_synthesis is not None:
+            raise err("transduction", "calibration_synthesis",
+                      "[transduction] 'calibration_synthesis' applies only with 'calibration'.")
+        if tr.params is None:
+            if not explicit:
+                tr = replace(tr, params="start")
+            elif len(explicit) < 3:
+                missing = [k for k in ("alpha_a", "gamma_per_pa", "lambda_pa") if k not in explicit]
+                raise err("transduction", None, f"[transduction] is missing {', '.join(map(repr, missing))}: give all "
+                          "three of alpha_a, gamma_per_pa, lambda_pa, or params = 'start'|'longitudinal'|'cross' "
+                          "(which they then override).")
+    return tr
+
+
+def _synthesis(scene: Scene, err):
+    """[synthesis]: defaults filled, requirements checked."""
+    sy = _fill(scene.synthesis)
+    if sy.kind == "map" and sy.map is None:
+        raise err("synthesis", "kind",
+                  "[synthesis] kind = 'map' needs map = \"FILE.csv\" (columns receptor, afferent[, weight]).")
+    if sy.kind != "map" and sy.map is not None:
+        raise err("synthesis", "map", f"[synthesis] 'map' applies to kind = 'map', not {sy.kind!r}.")
+    if sy.kind == "random":
+        if sy.receptors_per_afferent is None or sy.receptors_per_afferent < 1:
+            raise err("synthesis", "kind", "[synthesis] kind = 'random' needs receptors_per_afferent = N (N >= 1).")
+    elif sy.receptors_per_afferent is not None:
+        raise err("synthesis", "receptors_per_afferent",
+                  f"[synthesis] 'receptors_per_afferent' applies to kind = 'random', not {sy.kind!r}.")
+    return sy
+
+
+def _stimulus(scene: Scene, o, err):
+    """[stimulus]: defaults filled, requirements checked."""
+    from ..units import length_factor, time_factor
+
+    st = scene.stimulus
+    given_st = [f.name for f in fields(st) if getattr(st, f.name) is not None and f.name != "waveform"]
+    if st.waveform is None:
+        if given_st:
+            key = _given(scene, "stimulus", given_st[0])
+            raise err("stimulus", key, f"[stimulus] {key!r} has no effect without 'waveform' ('ramp', 'sine' or 'file').")
+    else:
+        own = {"ramp": _RAMP_KEYS, "sine": _SINE_KEYS, "file": _FILE_KEYS}[st.waveform]
+        common = ("d_ref_m", "dt_s", "on_negative", "reference_step", "series_depths_m")
+        foreign = [k for k in given_st if k not in own + common]
+        if foreign:
+            key = _given(scene, "stimulus", foreign[0])
+            raise err("stimulus", key, f"[stimulus] {key!r} does not apply to waveform = {st.waveform!r}.")
+        if st.waveform == "file" and st.dt_s is not None:
+            raise err("stimulus", _given(scene, "stimulus", "dt_s"),
+                      "[stimulus] 'dt' does not apply to waveform = 'file' (the file has its own times).")
+        if st.d_ref_m is None:
+            raise err("stimulus", "waveform", "[stimulus] a waveform needs d_ref_mm (or d_ref_m): the indentation depth "
+                      "at which the static export was solved (SED scales as (d / d_ref)^2).")
+        if st.waveform == "ramp":
+            st = replace(st, **{k: v for k, v in _RAMP_DEFAULTS.items() if getattr(st, k) is None})
+        elif st.waveform == "sine":
+            missing = [k for k in ("frequency_hz", "amplitude_m", "duration_s") if getattr(st, k) is None]
+            if missing:
+                raise err("stimulus", "waveform", f"[stimulus] waveform = 'sine' needs {', '.join(missing)} "
+                          "(lengths and times may carry other units: amplitude_mm, duration_ms).")
+        else:
+            if st.file is None or st.length_unit is None:
+                raise err("stimulus", "waveform", "[stimulus] waveform = 'file' needs file = \"PATH.csv\" (columns "
+                          "time, depth) and length_unit (the depth unit).")
+            st = replace(st, time_unit=st.time_unit or "s")
+            _check_unit(replace(scene, stimulus=st), o, "stimulus", "length_unit", length_factor)
+            _check_unit(replace(scene, stimulus=st), o, "stimulus", "time_unit", time_factor)
+        if st.waveform != "file":
+            st = replace(st, dt_s=st.dt_s if st.dt_s is not None else 1e-3)
+        st = replace(st, on_negative=st.on_negative or "raise")
+    return st
+
+
+def _outputs(scene: Scene, err):
+    """[outputs]: defaults filled, requirements checked."""
+    out = scene.outputs
+    if not out.want:
+        raise err("outputs", "want" if out.want is not None else None,
+                  f"[outputs] must list what to produce: want = [...] with any of {', '.join(map(repr, OUTPUTS))}.")
+    if set(out.want) == {"plots"}:
+        raise err("outputs", "want", "[outputs] 'plots' draws the figures of the other outputs; add at least one of "
+                  f"{', '.join(repr(w) for w in OUTPUTS if w != 'plots')}.")
+    name = scene.info.name or (Path(scene.source).stem if scene.source else "scene")
+    info = replace(scene.info, name=name)
+    out = replace(out, dir=out.dir or os.path.abspath(os.path.join("results", name)))
+    return info, out
+
+
+def _spikes(scene: Scene, err, out):
+    """[spikes]: defaults filled, requirements checked."""
+    sp = _fill(scene.spikes)
+    if "spikes" in out.want:
+        from ..spiking import LIF_PRESETS  # light: brian2 is imported only by the brian2 engine
+
+        if sp.lif_preset not in LIF_PRESETS:
+            raise err("spikes", "lif_preset", f"[spikes] 'lif_preset' must be one of {', '.join(map(repr, LIF_PRESETS))}; "
+                      f"got {sp.lif_preset!r} instead.{suggest(sp.lif_preset, list(LIF_PRESETS))}")
+        if sp.input == "rate-sensitive" and sp.gain_s is None:
+            raise err("spikes", "input", "[spikes] input = 'rate-sensitive' needs gain_s (A of input per A/s of rate).")
+        if sp.dt_s <= 0:
+            key = _given(scene, "spikes", "dt_s")
+            raise err("spikes", key, f"[spikes] {key!r} must be > 0; got {sp.dt_s!r} s instead.")
+        if sp.duration_s is not None and sp.duration_s <= 0:
+            key = _given(scene, "spikes", "duration_s")
+            raise err("spikes", key, f"[spikes] {key!r} must be > 0; got {sp.duration_s!r} s instead.")
+    return sp
+
+
+def _fit(scene: Scene, err, out, ex):
+    """[fit]: defaults filled, requirements checked."""
+    fi = _fill(scene.fit)
+    if "fit" in out.want:
+        if fi.observed is None:
+            raise err("fit", None, "the 'fit' output needs [fit] observed = \"OBS.csv\" (columns position, response).")
+        if fi.length_unit is None:
+            if ex.length_unit is None:
+                raise err("fit", "observed", "[fit] needs 'length_unit' (the unit of the observed positions).")
+            fi = replace(fi, length_unit=ex.length_unit)
+    return fi

@@ -1,0 +1,103 @@
+"""The run record (``run.json``) and the one-screen summary of a run."""
+
+from __future__ import annotations
+
+import time
+import warnings
+
+_QUIET_CATEGORIES = (DeprecationWarning, PendingDeprecationWarning, ImportWarning, ResourceWarning)
+
+
+def reemit(caught) -> list[str]:
+    """Warn again, in the caller's context, what a run caught; returns the messages that count (not deprecations)."""
+    messages = []
+    for w in caught:
+        if not issubclass(w.category, _QUIET_CATEGORIES):
+            messages.append(str(w.message))
+        warnings.warn_explicit(w.message, w.category, w.filename, w.lineno, source=w.source)
+    return messages
+
+
+def build_record(scene, planned, skipped, seconds: dict, record, inputs, caught, files, started, t_run, extra) -> dict:
+    """The content of ``run.json``.
+
+    Parameters
+    ----------
+    scene : Scene
+        The resolved scene (recorded whole, keys in SI).
+    planned : list of str
+        Stages :func:`~afferent.scene.plan.plan` chose.
+    skipped : dict
+        Stage -> why it did not run.
+    seconds : dict
+        Executed step -> wall time in s.
+    record : dict
+        Entries the stages wrote (field, sampling, cache, receptors, transduction, ...).
+    inputs : dict
+        Input path -> sha256 (None: hashed here).
+    caught : list of warnings.WarningMessage
+    files : list of str
+        Files written (run.json is added).
+    started : str
+        ISO start time (UTC).
+    t_run : float
+        ``time.perf_counter()`` at the start, for ``wall_seconds``.
+    extra : dict or None
+        More entries (the command line).
+    """
+    from .. import __version__
+    from ..export import file_sha256, versions
+    from .stages import _hash_all
+
+    full = {
+        "afferent_scene": 1,
+        "afferent": __version__,
+        "started_utc": started,
+        "scene_file": None if scene.source is None else {"path": scene.source, "sha256": file_sha256(scene.source)},
+        "scene": scene.to_dict(),
+        "plan": planned,
+        "inputs": _hash_all(inputs),
+        "versions": versions(),
+        "stages": [{"stage": k, "seconds": v} for k, v in seconds.items()],
+        "skipped": [{"stage": k, "reason": v} for k, v in skipped.items()],
+    }
+    full.update(record)
+    full["warnings"] = [{"category": w.category.__name__, "message": " ".join(str(w.message).split())}
+                        for w in caught if not issubclass(w.category, _QUIET_CATEGORIES)]
+    full["outputs"] = sorted(files + ["run.json"])
+    full["wall_seconds"] = time.perf_counter() - t_run
+    if extra:
+        full.update(extra)
+    return full
+
+
+def _merge_reasons(skipped: dict):
+    """Group stages skipped for the same reason: [('a, b', reason), ...]."""
+    groups: dict[str, list[str]] = {}
+    for stage, why in skipped.items():
+        groups.setdefault(why, []).append(stage)
+    return [(", ".join(stages), why) for why, stages in groups.items()]
+
+
+def summary_lines(result) -> list[str]:
+    """What ``afferent run`` prints after a run: files written, stages and times, skips, region, spikes,
+    transduction range and fit (one line each)."""
+    out = [f"afferent run: wrote {result.output}: {', '.join(sorted(result.files))}",
+           "  ran: " + ", ".join(f"{k} {v:.2f} s" for k, v in result.stages.items())]
+    if result.skipped:
+        out.append("  skipped: " + "; ".join(f"{k} ({v})" for k, v in _merge_reasons(result.skipped)))
+    rec = result.record.get("receptors", {})
+    if result.scene.region.bounded:
+        out.append(f"  region: {rec.get('n_receptors_in_region')} of {rec.get('n_receptors_total')} receptors")
+    if result.spikes is not None:
+        sp = result.record["spikes"]
+        out.append(f"  spikes: {sp['n_spikes']} from {sp['n_afferents']} afferents in {sp['duration_s']:g} s "
+                   f"({sp['engine']}, {sp['input']} input)")
+    sat = result.record.get("saturation")
+    if sat:
+        out.append(f"  transduction: {sat['fraction_sensitive']:.1%} of receptor samples in the sigmoid's sensitive "
+                   f"range, currents vary by {sat['modulation']:.3g} of their mean across receptors "
+                   f"(gamma x SED range {sat['gamma_sed_range']:.3g})")
+    if result.fit is not None:
+        out.append(f"  fit: R2(study) {result.fit.r2_study:.3f}, R2 {result.fit.r2:.3f}, ssd {result.fit.ssd:.3g}")
+    return out

@@ -1,0 +1,508 @@
+"""The executor: the planned stages in order, the sampled-SED cache, the region, the outputs.
+
+:func:`run_scene` is the only function that runs the pipeline for a scene, whether it came
+from a TOML file or from the options of ``afferent run EXPORT``. Each stage is one function
+below, over a :class:`_Run` that carries the results and the record entries so far.
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+import time
+import warnings
+from contextlib import contextmanager
+from dataclasses import dataclass, field, replace
+
+from ..export import profile_step_record
+from .planning import plan, skip_reasons
+from .record import _QUIET_CATEGORIES, build_record, reemit, summary_lines
+from .defaults import resolve
+from .schema import _LIF_FIELDS, Scene, SceneError, _plain_json
+from .stages import (_branching, _crop, _hash_all, _layout_before_reading, _layout_from_field, _params, _restrict,
+                     _trim, _waveform)
+
+@dataclass(frozen=True)
+class SceneResult:
+    """What :func:`run_scene` computed and wrote.
+
+    Attributes
+    ----------
+    scene : Scene
+        The resolved scene.
+    output : str
+        The output folder.
+    files : tuple of str
+        Files written into it (``run.json`` included).
+    record : dict
+        The content of ``run.json``.
+    stages : dict
+        Executed step -> wall time in s (the computing stages of :data:`STAGES` plus
+        'hashing', 'receptors', 'cache' and 'writing').
+    skipped : dict
+        Stage of :data:`STAGES` not executed -> why.
+    cache_hit : bool or None
+        Whether the sampled SED came from the cache (None: the cache was not used).
+    sed : ReceptorSED or None
+        SED at the receptors as sampled from the export (J/m^3).
+    current, afferent, fit, spikes, waveform
+        Receptor currents, afferent currents, profile fit, spike trains and the waveform,
+        or None when not computed.
+    warnings : tuple of str
+        Warnings raised during the run (also re-emitted).
+    """
+
+    scene: Scene
+    output: str
+    files: tuple
+    record: dict
+    stages: dict
+    skipped: dict
+    cache_hit: bool | None
+    sed: object = None
+    current: object = None
+    afferent: object = None
+    fit: object = None
+    spikes: object = None
+    waveform: object = None
+    warnings: tuple = ()
+
+    def __repr__(self) -> str:
+        ran = ", ".join(f"{k} {v:.3g} s" for k, v in self.stages.items())
+        skipped = ", ".join(self.skipped) or "nothing"
+        return (f"<SceneResult {self.scene.info.name!r} -> {self.output}: ran {ran}; skipped {skipped}"
+                f"; cache {'hit' if self.cache_hit else 'miss' if self.cache_hit is False else 'off'}>")
+
+
+class _Steps:
+    """Wall time of each executed step, in order."""
+
+    def __init__(self):
+        self.seconds: dict[str, float] = {}
+
+    @contextmanager
+    def __call__(self, name: str):
+        t = time.perf_counter()
+        yield
+        self.seconds[name] = self.seconds.get(name, 0.0) + time.perf_counter() - t
+
+
+
+# ------------------------------------------------------------------------------- run
+def run_scene(scene: Scene, *, overwrite: bool = False, cache_dir=None, progress: bool = False,
+              use_cache: bool = True, record_extra: dict | None = None) -> SceneResult:
+    """Run a scene: only the stages its outputs need, on the receptors of its region; write outputs and run.json.
+
+    Parameters
+    ----------
+    scene : Scene
+        From :func:`load_scene` (resolved here if it is not yet).
+    overwrite : bool, default=False
+        Replace an existing output folder. Without it an existing folder is an error, raised
+        before any work is done.
+    cache_dir : str or path-like, optional
+        Folder of the sampled-SED cache (:mod:`afferent.cache`); default
+        ``$AFFERENT_CACHE_DIR`` or ``~/.cache/afferent``.
+    progress : bool, default=False
+        Progress bars while reading a series.
+    use_cache : bool, default=True
+        False: neither read nor write the cache.
+    record_extra : dict, optional
+        More entries for ``run.json`` (e.g. the command line).
+
+    Returns
+    -------
+    SceneResult
+
+    Raises
+    ------
+    OutputExistsError
+        The output folder exists and ``overwrite`` is False.
+    SceneError
+        As :func:`resolve`; a region with no receptor; an unreadable calibration result.
+    FileNotFoundError, SEDFormatError, UnitError, FieldCoverageError, ValueError
+        From the stages (reading, receptors, sampling, ...).
+
+    Notes
+    -----
+    ``run.json`` holds: ``scene`` (as resolved), ``scene_file`` (path, sha256), ``plan``,
+    ``inputs`` (every file read, with its sha256), ``versions``, ``stages`` (executed steps
+    and wall times in s), ``skipped`` (stage -> why), ``cache``, ``receptors`` (counts in and
+    out of the region), ``field`` (the export's provenance), ``transduction``,
+    ``saturation``, ``fit``, ``spikes``, ``time_span``, ``warnings``, ``outputs``,
+    ``started_utc`` and ``wall_seconds``.
+    """
+    from datetime import datetime, timezone
+
+    from .._output import atomic_dir, check_writable
+    from ..export import write_json, write_outputs
+
+    t_run = time.perf_counter()
+    started = datetime.now(timezone.utc).isoformat(timespec="seconds")
+    scene = resolve(scene)
+    outdir = scene.outputs.dir
+    if not os.path.lexists(outdir):
+        os.makedirs(os.path.dirname(outdir), exist_ok=True)  # e.g. results/ of results/<name>; <name> comes whole
+    check_writable(outdir, overwrite=overwrite, what="Output folder")
+    run = _Run(scene, plan(scene), skip_reasons(scene), _Steps())
+    want = set(scene.outputs.want)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        _compute(run, cache_dir=cache_dir, use_cache=use_cache, progress=progress)
+        files: list[str] = []
+        with atomic_dir(outdir, overwrite=overwrite) as tmp:
+            with run.steps("writing"):
+                files = write_outputs(tmp, want=want, plots="plots" in want, **run.out)
+            full = build_record(scene, run.planned, run.skipped, run.steps.seconds, run.record, run.inputs, caught,
+                                files, started, t_run, record_extra)
+            write_json(os.path.join(tmp, "run.json"), full)
+            files.append("run.json")
+    messages = reemit(caught)
+    out = run.out
+    return SceneResult(
+        scene=scene, output=outdir, files=tuple(files), record=full, stages=dict(run.steps.seconds),
+        skipped=dict(run.skipped), cache_hit=run.record.get("cache", {}).get("hit"), sed=out.get("sed_static"),
+        current=out.get("current"), afferent=out.get("afferent"), fit=out.get("fit"), spikes=out.get("spikes"),
+        waveform=out.get("waveform"), warnings=tuple(messages),
+    )
+
+
+
+
+@dataclass
+class _Run:
+    """The state of one execution: the scene, its plan, results so far and the record entries."""
+
+    scene: Scene
+    planned: list
+    skipped: dict
+    steps: _Steps
+    record: dict = field(default_factory=dict)
+    inputs: dict = field(default_factory=dict)  # path -> sha256 (None until hashed)
+    region_info: dict = field(default_factory=dict)
+    out: dict = field(default_factory=dict)  # what the writer gets
+    span: dict = field(default_factory=dict)
+    full_layout: object = None
+
+
+def _compute(run: _Run, *, cache_dir, use_cache: bool, progress: bool) -> None:
+    """Run the planned stages in order; fill ``run.out`` (results) and ``run.record`` (run.json entries)."""
+    scene = run.scene
+    run.region_info["region"] = {"x_range_m": scene.region.x_range_m, "z_range_m": scene.region.z_range_m}
+    exp_files, hashes = _hash_inputs(run)
+    sed = _receptor_sed(run, exp_files, hashes, cache_dir=cache_dir, use_cache=use_cache, progress=progress)
+    run.out.update(sed_static=sed, sed=sed, current=None, branching=None, afferent=None, fit=None, waveform=None,
+                   spikes=None, profile_index=-1)
+    if "transduction" not in run.planned:
+        return
+    sed_t = _stimulus(run, sed) if "stimulus" in run.planned else sed
+    _transduce_and_synthesize(run, sed_t)
+    if "comparison" in run.planned:
+        _compare(run)
+    if "spiking" in run.planned:
+        _spike(run)
+    if run.span:
+        run.record["time_span"] = run.span
+
+
+def _hash_inputs(run: _Run):
+    """Content hashes of every input the planned stages read (they key the cache and go into the record)."""
+    from ..cache import export_files
+
+    scene, planned = run.scene, run.planned
+    ex = scene.export
+    with run.steps("hashing"):
+        exp_files = export_files(ex.files)
+        for p in ex.files:
+            if not os.path.exists(p):
+                raise FileNotFoundError(f"SED file {p!r}{' ([export] file)' if scene.source else ''} not found.")
+        hashes = _hash_all({p: None for p in exp_files})
+        run.inputs.update(hashes)
+        extra_files = [ex.coordinates, scene.receptors.file]
+        if "synthesis" in planned and scene.synthesis.kind == "map":
+            extra_files.append(scene.synthesis.map)
+        if "comparison" in planned:
+            extra_files.append(scene.fit.observed)
+        if "stimulus" in planned and scene.stimulus.waveform == "file":
+            extra_files.append(scene.stimulus.file)
+        for p in extra_files:
+            if p is not None and os.path.isfile(p):
+                run.inputs[p] = None
+        run.inputs.update(_hash_all(run.inputs))
+    return exp_files, hashes
+
+
+def _cache_key(run: _Run, layout, exp_files, hashes) -> str:
+    """The sampled-SED cache key: export content, read options, receptors (or how they are found), method."""
+    from ..cache import positions_digest, sampling_key
+    from ..io import format_of
+
+    scene = run.scene
+    ex, rec = scene.export, scene.receptors
+    read_opts = ex.read_kwargs()
+    if read_opts.get("coordinates"):
+        read_opts["coordinates"] = run.inputs.get(read_opts["coordinates"])
+    if layout is not None:
+        rkey = {"positions_sha256": positions_digest(layout.positions), "n": int(layout.n_receptors)}
+    else:
+        rkey = {"found_on_export": {k: _plain_json(getattr(rec, k)) for k in
+                                    ("grid", "y_m", "pitch_x_m", "pitch_z_m", "x_range_m", "z_range_m", "origin_m",
+                                     "material_array", "upper", "lower")},
+                "region": {"x_range_m": _plain_json(scene.region.x_range_m),
+                           "z_range_m": _plain_json(scene.region.z_range_m)}}
+    # each file the reader opens: (the reader its name selects, or 'member' of a .pvd/.xdmf; content hash)
+    readers = [(format_of(p, ex.format) if p in ex.files else "member", hashes[p]) for p in exp_files]
+    return sampling_key(exports=readers, read_options=read_opts, receptors=rkey, method=scene.sampling.method)
+
+
+def _receptor_sed(run: _Run, exp_files, hashes, *, cache_dir, use_cache: bool, progress: bool):
+    """Stages 'reading' and 'sampling' (or a cache hit): SED at the region's receptors, J/m^3."""
+    from ..cache import SEDCache
+
+    scene = run.scene
+    with run.steps("receptors"):
+        run.full_layout = _layout_before_reading(scene)
+        layout = None if run.full_layout is None else _restrict(run.full_layout, scene, run.region_info)
+    key = _cache_key(run, layout, exp_files, hashes)
+    cache = SEDCache(cache_dir) if use_cache else None
+    cache_info: dict = {"enabled": bool(use_cache), "key": key}
+    entry = None
+    if cache is not None:
+        cache_info["dir"] = str(cache.directory)
+        with run.steps("cache"):
+            entry = cache.get(key, positions=None if layout is None else layout.positions)
+        cache_info["hit"] = entry is not None
+        if entry is None:
+            cache_info["miss"] = cache.last_miss
+    if entry is not None:
+        sed = _from_cache(run, entry, layout, key)
+    else:
+        sed = _read_and_sample(run, layout, progress=progress)
+        if cache is not None:
+            with run.steps("cache"):
+                try:
+                    path = cache.put(key, sed, meta={"field": run.record["field"], "region_info": {
+                        k: v for k, v in run.region_info.items() if k != "region"}})
+                    cache_info["written"] = str(path)
+                except OSError as err:  # a read-only or full cache disk must not fail the run
+                    cache_info["write_error"] = str(err)
+    run.record["cache"] = cache_info
+    run.region_info["n_receptors_sampled"] = int(sed.layout.n_receptors)
+    run.record["receptors"] = {"source": scene.receptors.file or f"grid = {scene.receptors.grid!r}", **run.region_info}
+    return sed
+
+
+def _from_cache(run: _Run, entry, layout, key: str):
+    from ..sampling import report_outside
+
+    sed = entry.to_receptor_sed(layout)
+    if layout is None:
+        run.region_info.update(entry.meta.get("region_info", {}))
+    report_outside(sed.layout, sed.outside, run.scene.sampling.on_outside, where="from the sampling cache",
+                   hint="Set [sampling] on_outside = 'nan' or 'warn' to continue.", stacklevel=5)
+    why = (f"cache hit: SED at these {sed.layout.n_receptors} receptors was sampled before from identical export "
+           f"content with the same read options and method (key {key[:12]}, {entry.path})")
+    run.skipped["reading"] = run.skipped["sampling"] = why
+    run.record["field"] = dict(entry.meta.get("field", {}), from_cache=True)
+    run.record["sampling"] = {"method": sed.method, "placement": sed.placement}
+    return sed
+
+
+def _read_and_sample(run: _Run, layout, *, progress: bool):
+    """Stages 'reading' and 'sampling', one export step at a time (memory: one step of the mesh).
+
+    'reading' times the first step (the mesh); the later steps are read while they are sampled.
+    """
+    from itertools import chain
+
+    from ..io import iter_sed, series_provenance
+    from ..sampling import build_sampler, sample_steps
+
+    scene = run.scene
+    ex, method = scene.export, scene.sampling.method
+    with run.steps("reading"):
+        steps = iter_sed(list(ex.files) if len(ex.files) > 1 else ex.files[0], progress=progress, **ex.read_kwargs())
+        first = next(steps)
+    if layout is None:
+        with run.steps("receptors"):
+            run.full_layout = _layout_from_field(scene, first)
+            layout = _restrict(run.full_layout, scene, run.region_info)
+    provenances = []
+
+    def recorded(fields):
+        for f in fields:
+            provenances.append(f.provenance)
+            yield f
+
+    with run.steps("sampling"):
+        cropped, crop_info = _crop(first, layout.positions, method)
+        sampler = build_sampler(cropped, layout, method=method)
+        sed = sample_steps(recorded(chain([first], steps)), layout, method=method,
+                           on_outside=scene.sampling.on_outside, sampler=sampler)
+    run.record["field"] = dict(series_provenance(provenances).to_dict(), n_points=int(first.n_points),
+                               n_cells=int(first.cells.n_cells) if first.cells is not None else 0,
+                               n_times=int(sed.values.shape[0]))
+    run.record["sampling"] = {"method": sed.method, "placement": sed.placement}
+    if crop_info:
+        run.record["sampling"]["mesh_cropped_to_receptors"] = crop_info
+    return sed
+
+
+def _stimulus(run: _Run, sed):
+    """Stage 'stimulus': the waveform (trimmed to the simulated span when only spikes are wanted) drives the SED."""
+    from ..pipeline import apply_waveform
+
+    from ..stimulus import no_reference_step_message
+
+    scene = run.scene
+    st = scene.stimulus
+    if st.reference_step is None and sed.values.shape[0] > 1 and scene.source is not None:
+        # a scene file's key; a scene built from options gets apply_waveform's own words (reference_step=K)
+        raise SceneError(f"Scene file {scene.source!r}: [stimulus] " + no_reference_step_message(
+            sed.values.shape[0], sed.times).replace("reference_step=K", "reference_step = K"), path=scene.source,
+            key="[stimulus] reference_step")
+    with run.steps("stimulus"):
+        waveform = _waveform(scene)
+        run.span["waveform_s"] = [float(waveform.times[0]), float(waveform.times[-1])]
+        time_resolved = {"currents", "profiles", "fit"} & set(scene.outputs.want)
+        dur = scene.spikes.duration_s
+        if "spiking" in run.planned and dur is not None and not time_resolved:
+            waveform, trimmed = _trim(waveform, dur)
+            if trimmed:
+                run.span["trimmed_to_s"] = [float(waveform.times[0]), float(waveform.times[-1])]
+                run.span["why"] = (f"only spikes are wanted and [spikes] duration is {dur:g} s: the stimulus beyond "
+                                   "it is neither transduced nor simulated")
+        sed_t, scaling = apply_waveform(sed, waveform, d_ref=st.d_ref_m, reference_step=st.reference_step,
+                                        series_depths=st.series_depths_m)
+    run.record["stimulus"] = {
+        "waveform": {"kind": waveform.kind, "parameters": dict(waveform.parameters), "notes": list(waveform.notes)},
+        "scaling": scaling}
+    run.out.update(waveform=waveform, sed=sed_t)
+    return sed_t
+
+
+def _transduce_and_synthesize(run: _Run, sed_t) -> None:
+    """Stages 'transduction' and 'synthesis', and the profile step (largest total afferent current)."""
+    from ..profiles import peak_step
+    from ..synthesis import synthesize
+    from ..transduction import saturation_report, transduce
+
+    scene = run.scene
+    params, source = _params(scene, run.inputs)
+    run.inputs.update(_hash_all(run.inputs))
+    with run.steps("transduction"):
+        current = transduce(sed_t, params)
+        sat = saturation_report(sed_t, params)
+    run.record["transduction"] = {"alpha_a": params.alpha, "gamma_per_pa": params.gamma, "lambda_pa": params.lambda_,
+                                  **source}
+    run.record["saturation"] = {"fraction_sensitive": sat.fraction_sensitive, "fraction_high": sat.fraction_high,
+                                "fraction_low": sat.fraction_low, "modulation": sat.modulation,
+                                "gamma_sed_range": sat.gamma_sed_range, "message": sat.message}
+    with run.steps("synthesis"):
+        full_ids = None if run.full_layout is None else run.full_layout.ids
+        branching, map_info = _branching(scene, sed_t.layout, full_ids)
+        afferent = synthesize(current, branching)
+    run.record["synthesis"] = {"kind": branching.kind, "n_afferents": int(branching.n_afferents), **map_info}
+    profile_index = peak_step(afferent)
+    run.out.update(current=current, branching=branching, afferent=afferent, profile_index=profile_index,
+                   saturation=sat)
+    run.record["profile_step"] = profile_step_record(afferent, profile_index)
+    if afferent.times is not None:
+        run.record["profile_time_s"] = float(afferent.times[profile_index])
+
+
+def _compare(run: _Run) -> None:
+    """Stage 'comparison': the afferent profile at the profile step against the recorded one."""
+    from ..profiles import compare_profiles, read_observed
+
+    fi = run.scene.fit
+    with run.steps("comparison"):
+        observed = read_observed(fi.observed, length_unit=fi.length_unit, position_column=fi.position_column,
+                                 response_column=fi.response_column)
+        fit = compare_profiles(run.out["afferent"], observed, normalise=fi.normalise,
+                               time_index=run.out["profile_index"])
+    run.out["fit"] = fit
+    run.record["fit"] = {"r2_study": fit.r2_study, "r2": fit.r2, "ssd": fit.ssd, "normalise": fit.normalise,
+                         "dropped": fit.dropped, "time_s": fit.time}
+
+
+def _spike(run: _Run) -> None:
+    """Stages 'input' and 'spiking' (:func:`afferent.pipeline.run_spikes`)."""
+    from ..pipeline import PipelineResult, run_spikes
+    from ..spiking import LIFParams
+
+    sp, out = run.scene.spikes, run.out
+    lif = LIFParams.from_preset(sp.lif_preset)
+    over = {f[: f.rfind("_")]: getattr(sp, f) for f in _LIF_FIELDS if getattr(sp, f) is not None}
+    if over:
+        lif = replace(lif, **over)
+    duration = sp.duration_s
+    if duration is None and out["afferent"].n_times == 1:
+        duration = 1.0
+    pr = PipelineResult(out["sed"], out["current"], out["branching"], out["afferent"], out["saturation"], out["fit"],
+                        {}, waveform=out["waveform"])
+    pr = run_spikes(pr, lif, dt=sp.dt_s, engine=sp.engine, input=sp.input, gain=sp.gain_s, tau=sp.tau_s,
+                    duration=duration, drive=sp.drive, rheobase_multiple=sp.rheobase_multiple,
+                    reference_current=sp.reference_current_a)
+    run.steps.seconds["input"] = pr.timings["input"]
+    run.steps.seconds["spiking"] = pr.timings["spiking"]
+    spikes = pr.spikes
+    out.update(spikes=spikes, drive=pr.input)
+    run.span["simulated_s"] = float(spikes.duration)
+    run.record["spikes"] = {
+        "engine": spikes.engine, "backend": getattr(spikes, "backend", None), "dt_s": spikes.dt,
+        "duration_s": spikes.duration, "input": getattr(pr.input, "kind", None),
+        "n_afferents": int(spikes.n_afferents), "n_spikes": int(sum(len(t) for t in spikes.spike_times)),
+        "silent_skipped": [str(spikes.afferent_ids[i]) for i in spikes.silent_skipped],
+        "notes": list(getattr(spikes, "notes", ())),
+        "lif": {k: getattr(lif, k) for k in ("tau_m", "r_m", "v_rest", "v_thresh", "v_reset", "t_ref")},
+        "drive": pr.drive,
+    }
+
+
+# --------------------------------------------------------------------------------- CLI
+def run_scene_cli(path, *, output=None, overwrite: bool = False, quiet: bool = False, cache_dir=None,
+                  use_cache: bool = True, command: str | None = None) -> int:
+    """``afferent run``: load (or take) a scene, run it, summarise on stderr; returns the exit code (0).
+
+    Parameters
+    ----------
+    path : str, path-like or Scene
+        The scene file, or a :class:`Scene` built from the command's options.
+    output : str or path-like, optional
+        Output folder, overriding ``[outputs] dir`` (relative to the current folder).
+    overwrite : bool, default=False
+        Replace an existing output folder.
+    quiet : bool, default=False
+        No summary, no progress bars, no warnings printed (they are still in run.json).
+    cache_dir : str or path-like, optional
+        Sampled-SED cache folder (default ``$AFFERENT_CACHE_DIR`` or ``~/.cache/afferent``).
+    use_cache : bool, default=True
+    command : str, optional
+        The command line recorded in run.json; default ``afferent run PATH [-o OUT] [--overwrite]``.
+
+    Raises
+    ------
+    The errors of :func:`load_scene` and :func:`run_scene`; :func:`afferent.cli.main` turns
+    them into ``afferent: error: ...`` and exit code 2.
+    """
+    from .parse import load_scene
+
+    scene = path if isinstance(path, Scene) else load_scene(path)
+    if output is not None:
+        scene = scene.with_output(output)
+    if command is None:
+        argv = [os.fspath(path)] + (["-o", os.fspath(output)] if output is not None else []) + (
+            ["--overwrite"] if overwrite else [])
+        command = "afferent run " + " ".join(argv)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        result = run_scene(scene, overwrite=overwrite, cache_dir=cache_dir, use_cache=use_cache,
+                           progress=not quiet and sys.stderr.isatty(), record_extra={"command": command})
+    if quiet:
+        return 0
+    for line in summary_lines(result):
+        print(line, file=sys.stderr)
+    for msg in dict.fromkeys(str(w.message) for w in caught if not issubclass(w.category, _QUIET_CATEGORIES)):
+        print(f"afferent: warning: {' '.join(msg.split())}", file=sys.stderr)
+    return 0
