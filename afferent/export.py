@@ -8,18 +8,18 @@ matplotlib is imported only when figures are wanted.
 
 Files per output (``plots`` adds the PNGs):
 
-=========== ================================================ ===========================================
-output      tables                                           figures
-=========== ================================================ ===========================================
-sed_map     ``sed_map.csv`` (receptor, x_m, y_m, z_m,        ``sed_map.png`` (study fig. 5-5)
-            longitudinal, cross, time_s, sed_pa)
-currents    ``receptors.csv`` (+ current_a), ``afferents.csv``
-profiles    ``profiles.csv`` (afferent, position_m, time_s,   ``profiles_x.png``, ``profiles_z.png``
-            current_a at the profile step)                   (figs. 5-6, 5-7)
-fit         ``fit.csv``, ``profile_fit.csv``                 ``fit.png``
-spikes      ``spikes.csv``, ``spike_summary.csv``            ``raster.png``, ``rates.png``, ``psth.png``
-vtu         ``receptors.vtu`` (sed_pa [, current_a], sections)
-=========== ================================================ ===========================================
+======== ================================================== ===========================================
+output   tables                                             figures
+======== ================================================== ===========================================
+sed_map  ``sed_map.csv`` (receptor, x_m, y_m, z_m,          ``sed_map.png`` (study fig. 5-5)
+         longitudinal, cross, time_s, sed_pa)
+currents ``receptors.csv`` (+ current_a), ``afferents.csv``
+profiles ``profiles.csv`` (afferent, position_m, time_s,    ``profiles_x.png``, ``profiles_z.png``
+         current_a at the profile step)                     (figs. 5-6, 5-7)
+fit      ``fit.csv``, ``profile_fit.csv``                   ``fit.png``
+spikes   ``spikes.csv``, ``spike_summary.csv``              ``raster.png``, ``rates.png``, ``psth.png``
+vtu      ``receptors.vtu`` (sed_pa [, current_a], sections)
+======== ================================================== ===========================================
 
 With a stimulus waveform, ``waveform.csv`` (and ``waveform.png``) too.
 """

@@ -77,7 +77,7 @@ nitpicky = True
 # The build is offline (no intersphinx inventories), so references to other projects' objects
 # cannot resolve; they are rendered as code.
 nitpick_ignore_regex = [
-    (r"py:.*", r"(numpy|scipy|sklearn|brian2|pandas|meshio|matplotlib|tomllib|pydoe)(\..*)?"),
+    (r"py:.*", r"(numpy|scipy|sklearn|brian2|pandas|meshio|matplotlib|tomllib|pydoe|json)(\..*)?"),
 ]
 # Docstrings that point at private modules or at constants outside their module's __all__,
 # which the API reference does not document (to be made public or reworded in the package).
@@ -90,6 +90,10 @@ nitpick_ignore = [
     ("py:data", "SCALING_ERROR_WARN"),
     ("py:data", "DEFAULT_TOL"),
     ("py:data", "IDENTIFIABLE_COND"),
+    ("py:data", "STAGES"),
+    ("py:data", "afferent.scene.OUTPUTS"),
+    ("py:func", "afferent.stimulus.no_reference_step_message"),
+    ("py:func", "afferent.cli._run.scene_from_args"),
 ]
 
 # --- HTML -------------------------------------------------------------------------------------

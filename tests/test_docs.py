@@ -81,7 +81,7 @@ def test_cli_page_lists_every_subcommand_and_option(built):
 def test_generated_tables_match_the_code(built):
     """Preset, SED-name and scene-key tables come from the code, so every entry is on its page."""
     from afferent.io._columns import SED_ALIASES
-    from afferent.scene import _TABLES
+    from afferent.scene.schema import _TABLES
     from afferent.strain_energy import PRESETS
 
     fe = (built / "fe-export.html").read_text(encoding="utf-8")

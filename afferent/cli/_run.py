@@ -1,8 +1,8 @@
 """Run the pipeline: SED at receptors -> receptor currents -> afferent currents [-> fit] [-> spikes].
 
 ``afferent run SCENE.toml`` runs a scene file instead (see afferent.scene). Both spellings are
-one route: the options below build the same :class:`afferent.scene.Scene` a TOML file would
-(:func:`scene_from_args`), and :func:`afferent.scene.run_scene` runs it: only the stages its
+one route: the options below build the same afferent.scene.Scene a TOML file would
+(scene_from_args), and afferent.scene.run_scene runs it: only the stages its
 outputs need, sampled SED cached on disk (``--no-cache``: neither read nor written), one
 writer, one run.json record.
 

@@ -169,7 +169,7 @@ def _units() -> list[str]:
 
 
 def _scene_keys() -> list[str]:
-    from afferent import scene
+    from afferent.scene import schema as scene  # the schema tables (private names: docs generation only)
 
     quantities = scene._QUANTITIES
     rows = []
