@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import os
+import tempfile
 from pathlib import Path
 
 import meshio
@@ -9,6 +11,10 @@ import numpy as np
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
+
+# Runs of the suite never read or fill the user's cache (~/.cache/afferent): each test process
+# gets its own empty one (tests that exercise the cache pass their own cache_dir).
+os.environ["AFFERENT_CACHE_DIR"] = tempfile.mkdtemp(prefix="afferent-test-cache-")
 SAMPLE_DIR = ROOT / "sample_sed"
 DATA_DIR = Path(__file__).resolve().parent / "data"
 

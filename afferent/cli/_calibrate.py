@@ -115,7 +115,7 @@ def _comparison(results: dict):
 
 
 def _record(results: dict, primary: str, extra: dict) -> dict:
-    from ..export import _jsonable
+    from ..export import jsonable
 
     main = results[primary]
     out = dict(extra)
@@ -133,7 +133,7 @@ def _record(results: dict, primary: str, extra: dict) -> dict:
         out["reference"] = {"method": "least_squares", "ssd": ref.ssd, "evaluations": ref.n_evaluations,
                             "jacobian_evaluations": ref.n_jacobian_evaluations,
                             "ssd_excess_of_" + primary: main.ssd - ref.ssd}
-    return _jsonable(out)
+    return jsonable(out)
 
 
 def _write_one(results: dict, primary: str, folder: str, *, plots: bool, extra: dict) -> None:
@@ -200,7 +200,7 @@ def run(args: argparse.Namespace) -> int:
         else:
             import pandas as pd
 
-            from ..export import _jsonable
+            from ..export import jsonable
 
             rows = []
             for syn, results in all_results.items():
@@ -217,7 +217,7 @@ def run(args: argparse.Namespace) -> int:
             table.to_csv(os.path.join(tmp, "syntheses.csv"), index=False)
             best = table.loc[table["ssd"].idxmin(), "synthesis"]
             with open(os.path.join(tmp, "result.json"), "w") as f:
-                json.dump(_jsonable({**extra, "method": primary, "best_synthesis": best,
+                json.dump(jsonable({**extra, "method": primary, "best_synthesis": best,
                                      "syntheses": {syn: _record(res, primary, {}) for syn, res in all_results.items()}}),
                           f, indent=2)
     if not args.quiet:

@@ -90,7 +90,7 @@ def run(args: argparse.Namespace) -> int:
     from ..export import write_pipeline_outputs
     from ..io import read_sed
     from ..pipeline import run_pipeline
-    from ..plotting import _central_line
+    from ..receptors import central_line
     from ..receptors import read_receptors
     from ..synthesis import Branching, synthesize
     from ..transduction import STUDY_PARAMS
@@ -124,7 +124,7 @@ def run(args: argparse.Namespace) -> int:
                       "transduction": {"alpha_a": params.alpha, "gamma_per_pa": params.gamma, "lambda_pa": params.lambda_,
                                        "source": "the study's start parameters, afferent.transduction.STUDY_PARAMS['start']"}}
             write_pipeline_outputs(res, os.path.join(tmp, name), record=record)
-            idx, coord, _ = _central_line(layout, "x")
+            idx, coord, _ = central_line(layout, "x")
             sed_line = res.sed.values[-1, idx]
             cross = synthesize(res.current, Branching.cross(layout))
             lon = res.afferent.values[-1]
