@@ -41,6 +41,9 @@ def execute(path: Path, *, timeout: int = 600) -> float:
 
     nb = nbformat.read(path, as_version=4)
     env_backend = os.environ.pop("MPLBACKEND", None)  # let ipykernel choose its inline backend
+    env_path = os.environ.get("PYTHONPATH")
+    # the kernel imports the package of this checkout, not whichever one is installed
+    os.environ["PYTHONPATH"] = os.pathsep.join(filter(None, [str(HERE.parent), env_path]))
     try:
         t = time.perf_counter()
         nbclient.NotebookClient(nb, timeout=timeout, kernel_name="python3",
@@ -49,6 +52,10 @@ def execute(path: Path, *, timeout: int = 600) -> float:
     finally:
         if env_backend is not None:
             os.environ["MPLBACKEND"] = env_backend
+        if env_path is None:
+            del os.environ["PYTHONPATH"]
+        else:
+            os.environ["PYTHONPATH"] = env_path
     nb.metadata.setdefault("afferent", {})["code_sha256"] = code_digest(nb)
     nbformat.write(nb, path)
     return elapsed

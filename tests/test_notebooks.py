@@ -5,6 +5,7 @@ their own code (``notebooks/execute_notebooks.py`` executes and stores them)."""
 from __future__ import annotations
 
 import importlib.util
+import os
 import re
 from pathlib import Path
 
@@ -92,6 +93,8 @@ def test_notebook_runs(path, monkeypatch):
         pytest.skip("sample_sed not generated")
     # ipykernel then picks its inline backend, as in JupyterLab and in the stored outputs
     monkeypatch.delenv("MPLBACKEND", raising=False)
+    # the kernel imports the package of this checkout, not whichever one is installed
+    monkeypatch.setenv("PYTHONPATH", os.pathsep.join(filter(None, [str(ROOT), os.environ.get("PYTHONPATH")])))
     nb = nbformat.read(path, as_version=4)
     client = nbclient.NotebookClient(nb, timeout=300, kernel_name="python3", resources={"metadata": {"path": str(path.parent)}})
     client.execute()
