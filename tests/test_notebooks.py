@@ -82,6 +82,8 @@ def test_stored_outputs_come_from_the_stored_code(path):
     counts = [c.execution_count for c in _code_cells(nb)]
     assert counts == list(range(1, len(counts) + 1)), f"{path.name}: not one top-to-bottom run: {counts}"
     assert not _leaks(nb)
+    # each notebook draws where a reader would look (the docs show these stored figures)
+    assert any("image/png" in o.get("data", {}) for c in _code_cells(nb) for o in c.outputs), f"{path.name}: no figure"
 
 
 @pytest.mark.slow
