@@ -61,7 +61,7 @@ A full example, every key with its default (``#`` marks optional keys)::
     # file: file = "depth.csv", length_unit = "mm" [, time_unit = "s", on_negative]
 
     [spikes]
-    engine = "auto"               # "fast", "fast-numba", "fast-numpy", "brian2"
+    engine = "auto"               # = "exact"; "exact-numba", "exact-numpy", "fast" (grid, dt_ms), "brian2"
     dt_ms = 0.1
     lif_preset = "ra"             # afferent.spiking.LIF_PRESETS; any field overridable:
     # tau_m_ms, r_m_ohm, v_rest_mv, v_thresh_mv, v_reset_mv, t_ref_ms
@@ -158,7 +158,7 @@ NEEDS = {
 
 #: Spiking engines (mirrors :data:`afferent.spiking.ENGINES`, kept here so that checking a
 #: scene does not import the spiking module).
-_ENGINES = ("auto", "fast", "fast-numba", "fast-numpy", "brian2")
+_ENGINES = ("auto", "exact", "exact-numba", "exact-numpy", "fast", "fast-numba", "fast-numpy", "brian2")
 
 #: quantity -> (SI suffix, {suffix: power of ten to SI})
 _QUANTITIES = {
