@@ -1123,8 +1123,11 @@ def _exact_loop(values, cols, starts, ends, decay, nxt, inv_h, k0, j0, u, ref_en
                         x = min(tau * np.log1p((theta - uj) / (da - theta)), h)
                 else:
                     db = da + s * h
-                    cc = uj - da + s * tau  # u(t + y) = da + s y - s tau + cc e^(-y / tau)
-                    u_end = db - s * tau + cc * e
+                    # u(t + y) = uj + (da - uj) w + s (y - tau w), w = 1 - e^(-y / tau): every term
+                    # is of the size of the change it describes (no s tau - s tau cancellation)
+                    cc = uj - da + s * tau  # its sign is that of d2u/dy2
+                    wh = -np.expm1(-h / tau)
+                    u_end = uj + (da - uj) * wh + s * (h - tau * wh)
                     if da > theta or db > theta:
                         b = -1.0  # right end of a bracket [0, b] with g(0) < 0 <= g(b)
                         if u_end >= theta:
@@ -1137,9 +1140,9 @@ def _exact_loop(values, cols, starts, ends, decay, nxt, inv_h, k0, j0, u, ref_en
                             # g concave: Newton from 0 stays left of the root; convex: from b, right
                             y = 0.0 if cc < 0.0 else b
                             for _ in range(100):
-                                ey = np.exp(-y / tau)
-                                g = da + s * y - s * tau + cc * ey - theta
-                                dg = s - cc / tau * ey
+                                w = -np.expm1(-y / tau)
+                                g = (uj - theta) + (da - uj) * w + s * (y - tau * w)
+                                dg = (da - uj) * (1.0 - w) / tau + s * w
                                 if dg == 0.0:
                                     break
                                 y_new = min(max(y - g / dg, 0.0), b)
@@ -1226,7 +1229,7 @@ def _run_exact_numba(pc: _Pieces, cols: np.ndarray, params: LIFParams, peak: np.
     return grouped, counts
 
 
-def _newton_crossing(y, b, da, s, cc, theta, tau, t):
+def _newton_crossing(y, b, da, s, cc, uj, theta, tau, t):
     """Vectorised form of the Newton iteration of :func:`_exact_loop` (same start, clamp and stop)."""
     active = np.ones(y.size, dtype=bool)
     for _ in range(100):
@@ -1234,9 +1237,9 @@ def _newton_crossing(y, b, da, s, cc, theta, tau, t):
             break
         a = np.flatnonzero(active)
         ya = y[a]
-        ey = np.exp(-ya / tau)
-        g = da[a] + s[a] * ya - s[a] * tau + cc[a] * ey - theta
-        dg = s[a] - cc[a] / tau * ey
+        w = -np.expm1(-ya / tau)
+        g = (uj[a] - theta) + (da[a] - uj[a]) * w + s[a] * (ya - tau * w)
+        dg = (da[a] - uj[a]) * (1.0 - w) / tau + s[a] * w
         zero = dg == 0.0
         with np.errstate(divide="ignore", invalid="ignore"):
             y_new = np.minimum(np.maximum(ya - g / dg, 0.0), b[a])
@@ -1282,7 +1285,11 @@ def _run_exact_numpy(pc: _Pieces, cols: np.ndarray, params: LIFParams):
             held = s == 0.0
             with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
                 cc = uj - da + s * tau
-                u_end = np.where(held, da + (uj - da) * e, da + s * h - s * tau + cc * e)
+                u_end = da + (uj - da) * e
+                if not held.all():
+                    nh = ~held
+                    wh = -np.expm1(-h[nh] / tau)
+                    u_end[nh] = uj[nh] + (da[nh] - uj[nh]) * wh + s[nh] * (h[nh] - tau * wh)
                 x = np.full(idx.size, -1.0)
                 # held input: closed form
                 hit = held & (da > theta) & (u_end >= theta)
@@ -1301,7 +1308,7 @@ def _run_exact_numpy(pc: _Pieces, cols: np.ndarray, params: LIFParams):
                 nl = np.flatnonzero(b >= 0)
                 if nl.size:
                     y0 = np.where(cc[nl] < 0, 0.0, b[nl])
-                    x[nl] = _newton_crossing(y0, b[nl], da[nl], s[nl], cc[nl], theta, tau, t[nl])
+                    x[nl] = _newton_crossing(y0, b[nl], da[nl], s[nl], cc[nl], uj[nl], theta, tau, t[nl])
             ts = t + x
             fire = (x >= 0) & (ts < t_stop)
             u[idx[~fire]] = u_end[~fire]
