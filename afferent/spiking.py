@@ -1067,13 +1067,17 @@ def _pieces(current, dt, duration, times, tau_m: float, hold: str) -> _Pieces:
     return _Pieces(arr, starts, ends, decay, nxt, inv_h, t_start, t_stop, ids, notes)
 
 
-def _exact_loop(values, cols, starts, ends, decay, nxt, inv_h, k0, j0, u, ref_end, consts, out_t, out_c):
+def _exact_loop(values, cols, starts, ends, decay, nxt, inv_h, k0, j0, u, ref_end, eg, consts, out_t, out_c):
     """Event loop of the exact engine (plain Python source, run compiled by numba).
 
     Walks the pieces from piece ``k0``, afferent ``j0``; writes spike times and columns into
     ``out_t`` / ``out_c`` from position 0. When the buffers are full it returns
-    ``(k, j, count)`` before the spike that did not fit, with ``u`` / ``ref_end`` holding a
-    state the loop resumes from exactly; ``k == len(starts)`` when done.
+    ``(k, j, count)`` before the spike that did not fit, with ``u`` / ``ref_end`` / ``eg``
+    holding a state the loop resumes from bit for bit; ``k == len(starts)`` when done.
+    ``eg`` carries ``exp(-(t_end - ref_end) / tau)`` for the end ``t_end`` of the last piece
+    seen, so that resuming after a refractory period needs no exp (held input: it is the
+    decay to the piece's end times ``(D - u) / (D - theta)`` times ``exp(t_ref / tau)``, then
+    times each skipped piece's decay; an exp replaces it if it under- or overflowed).
 
     In a piece, an afferent not refractory starts at the piece start (decay ``decay[k]``
     shared by all) or, if its refractory period ends inside the piece, at that time with
@@ -1083,7 +1087,7 @@ def _exact_loop(values, cols, starts, ends, decay, nxt, inv_h, k0, j0, u, ref_en
     bracketed in closed form (V - v_thresh is convex or concave in t) and found by Newton's
     method from the side where it converges monotonically.
     """
-    r, theta, u_reset, tau, t_ref, t_stop = consts[0], consts[1], consts[2], consts[3], consts[4], consts[5]
+    r, theta, u_reset, tau, t_ref, t_stop, eri = consts[0], consts[1], consts[2], consts[3], consts[4], consts[5], consts[6]
     n = cols.shape[0]
     n_pieces = starts.shape[0]
     cap = out_t.shape[0]
@@ -1097,6 +1101,7 @@ def _exact_loop(values, cols, starts, ends, decay, nxt, inv_h, k0, j0, u, ref_en
         for j in range(j0 if k == k0 else 0, n):
             tr = ref_end[j]
             if tr >= t1:  # refractory through the whole piece
+                eg[j] *= decay[k]
                 continue
             c = cols[j]
             d0 = r * row[c]
@@ -1109,7 +1114,10 @@ def _exact_loop(values, cols, starts, ends, decay, nxt, inv_h, k0, j0, u, ref_en
             s = r * (row1[c] - row[c]) * ih  # drive slope, V/s (0 when held)
             if tr > t0:
                 t = tr
-                e = np.exp(-(t1 - t) / tau)
+                # decay from tr to t1; saved as is when the loop stopped at this afferent
+                e = eg[j] if (k == k0 and j == j0) else decay[k] * eg[j]
+                if not (0.0 < e <= 1.0):  # under- or overflowed on the way: direct
+                    e = np.exp(-(t1 - t) / tau)
             else:
                 t = t0
                 e = decay[k]
@@ -1158,7 +1166,10 @@ def _exact_loop(values, cols, starts, ends, decay, nxt, inv_h, k0, j0, u, ref_en
                 if ts >= t_stop:  # a crossing at or after the end of the window is not reported
                     uj = u_end
                     break
-                if count == cap:  # full: resume at this afferent, state as stored
+                uj_cross = uj
+                if count == cap:  # full: resume at this afferent, from the state as stored
+                    if ref_end[j] > t0:  # e is the decay from ref_end to t1
+                        eg[j] = e
                     return k, j, count
                 out_t[count] = ts
                 out_c[count] = j
@@ -1167,10 +1178,19 @@ def _exact_loop(values, cols, starts, ends, decay, nxt, inv_h, k0, j0, u, ref_en
                 ref_end[j] = tr
                 u[j] = u_reset
                 uj = u_reset
+                # exp(-(t1 - tr) / tau) without an exp: held input, e = exp(-(t1 - t) / tau) and
+                # exp(x / tau) = (da - uj) / (da - theta); > 1 while refractory past t1 (then
+                # multiplied by each skipped piece's decay)
+                if s == 0.0:
+                    e = e * (1.0 + (theta - uj_cross) / (da - theta)) * eri
+                else:
+                    e = np.exp(-(t1 - tr) / tau)
                 if tr >= t1:
+                    eg[j] = e
                     break
                 t = tr
-                e = np.exp(-(t1 - t) / tau)
+                if not (0.0 < e <= 1.0):
+                    e = np.exp(-(t1 - t) / tau)
             u[j] = uj
     return n_pieces, 0, count
 
@@ -1183,14 +1203,14 @@ def _numba_exact():
     if _NUMBA_EXACT is None:
         import numba
 
-        _NUMBA_EXACT = numba.njit(cache=True, nogil=True)(_exact_loop)
+        _NUMBA_EXACT = numba.njit(cache=True, nogil=True, error_model="numpy")(_exact_loop)
     return _NUMBA_EXACT
 
 
 def _exact_consts(params: LIFParams, t_stop: float) -> np.ndarray:
-    return np.array(
-        [params.r_m, params.theta, params.v_reset - params.v_rest, params.tau_m, params.t_ref, t_stop]
-    )
+    with np.errstate(over="ignore"):
+        eri = float(np.exp(params.t_ref / params.tau_m))  # inf if huge: the loop then uses exp directly
+    return np.array([params.r_m, params.theta, params.v_reset - params.v_rest, params.tau_m, params.t_ref, t_stop, eri])
 
 
 def _exact_capacity(peak: np.ndarray, pc: _Pieces, params: LIFParams) -> int:
@@ -1210,6 +1230,7 @@ def _run_exact_numba(pc: _Pieces, cols: np.ndarray, params: LIFParams, peak: np.
     n = cols.size
     u = np.zeros(n)
     ref_end = np.full(n, -np.inf)
+    eg = np.ones(n)  # exp(-(end of the last piece seen - ref_end) / tau_m)
     consts = _exact_consts(params, pc.t_stop)
     cap = _exact_capacity(peak, pc, params)
     t_parts, c_parts = [], []
@@ -1217,7 +1238,7 @@ def _run_exact_numba(pc: _Pieces, cols: np.ndarray, params: LIFParams, peak: np.
     while k < pc.starts.size:
         out_t = np.empty(cap)
         out_c = np.empty(cap, np.int32)
-        k, j, count = loop(values, cols, pc.starts, pc.ends, pc.decay, pc.nxt, pc.inv_h, k, j, u, ref_end, consts,
+        k, j, count = loop(values, cols, pc.starts, pc.ends, pc.decay, pc.nxt, pc.inv_h, k, j, u, ref_end, eg, consts,
                            out_t, out_c)
         t_parts.append(out_t[:count])
         c_parts.append(out_c[:count])

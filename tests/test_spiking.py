@@ -583,7 +583,7 @@ def test_rate_table_splits_the_window_by_stimulus_phase():
 
 def test_drive_mapping_and_the_ceiling_and_silence_warnings(tmp_path, capsys):
     """The study's longitudinal fit drives every afferent of the bundled sample at 158 x the 'ra'
-    rheobase (834 Hz, the 1/t_ref ceiling): warned; drive='rheobase' maps the largest current to
+    rheobase (815 Hz with the exact engine, near the 833 Hz 1/t_ref ceiling): warned; drive='rheobase' maps the largest current to
     2 x the rheobase, whose rate is the closed form 1 / (t_ref + tau_m ln 2)."""
     from conftest import SAMPLE_DIR
 

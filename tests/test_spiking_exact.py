@@ -191,6 +191,20 @@ def test_threshold_reachable_only_asymptotically(engine):
 
 
 @pytest.mark.parametrize("engine", BACKENDS)
+def test_t_ref_of_a_thousand_tau_m_and_pieces_longer_than_the_decay_underflow(engine):
+    """tau_m = 1 ms, t_ref = 1 s (exp(t_ref / tau_m) overflows), samples 0.7 s apart (the decay over a
+    piece underflows to 0): still the closed form, spike after spike, to 1e-9 s."""
+    p = LIFParams(tau_m=1e-3, r_m=1e6, v_rest=-0.07, v_thresh=-0.05, v_reset=-0.06, t_ref=1.0)
+    current = np.array([1.5, 40.0]) * p.rheobase
+    times = np.arange(8) * 0.7
+    trains = simulate_lif(constant(current, 8), p, engine=engine, times=times, duration=5.6)
+    for k, train in enumerate(trains.spike_times):
+        expected = regular_train(p, current[k], 0.0, 5.6)
+        assert expected.size == 6
+        np.testing.assert_allclose(train, expected, rtol=0, atol=TOL)
+
+
+@pytest.mark.parametrize("engine", BACKENDS)
 def test_window_start_end_and_duration(engine):
     """Spikes lie in [t_start, t_start + duration): a crossing at or after the end is not reported;
     shorter and longer durations agree with the full run (the last sample is held)."""
@@ -371,12 +385,13 @@ def test_grid_rates_converge_to_exact_on_a_ramp_and_hold():
 
 
 @pytest.mark.parametrize("hold", ["previous", "linear"])
-def test_numba_and_numpy_backends_agree_including_buffer_regrowth(monkeypatch, hold):
+@pytest.mark.parametrize("spacing", [2e-3, 20e-3], ids=["samples-below-t_ref", "several-spikes-per-sample"])
+def test_numba_and_numpy_backends_agree_including_buffer_regrowth(monkeypatch, hold, spacing):
     pytest.importorskip("numba")
     rng = np.random.default_rng(5)
     p = ODD
     cur = rng.uniform(-1.0, 6.0, (400, 30)) * p.rheobase
-    times = np.cumsum(rng.uniform(0.2e-3, 2e-3, 400))
+    times = np.cumsum(rng.uniform(0.1 * spacing, spacing, 400))
     a = simulate_lif(cur, p, engine="exact-numpy", times=times, input_hold=hold)
     b = simulate_lif(cur, p, engine="exact-numba", times=times, input_hold=hold)
     assert (a.backend, b.backend) == ("numpy", "numba") and int(a.n_spikes.sum()) > 500
