@@ -120,6 +120,7 @@ pA-scale generator currents.
 from __future__ import annotations
 
 import numbers
+import os
 from collections import deque
 from dataclasses import dataclass, field
 
@@ -1014,6 +1015,7 @@ class _Pieces:
     starts: np.ndarray  # (n_pieces,) s: piece k starts at sample k's time
     ends: np.ndarray  # (n_pieces,) s: next sample's time, the last one cut at t_stop
     decay: np.ndarray  # (n_pieces,) exp(-(end - start) / tau_m)
+    growth: np.ndarray  # (n_pieces,) 1 - decay, as -expm1 (accurate for short pieces)
     nxt: np.ndarray  # (n_pieces,) int64: row of the sample at the piece's end (itself if held)
     inv_h: np.ndarray  # (n_pieces,) 1/s: 1 / (next sample time - start) for 'linear', else 0
     t_start: float
@@ -1056,6 +1058,7 @@ def _pieces(current, dt, duration, times, tau_m: float, hold: str) -> _Pieces:
     ends = np.append(t[1:n_pieces], t_stop)
     with np.errstate(under="ignore"):
         decay = np.exp(-(ends - starts) / tau_m)
+    growth = -np.expm1(-(ends - starts) / tau_m)
     nxt = np.minimum(np.arange(n_pieces) + 1, n_times - 1).astype(np.int64)
     inv_h = np.zeros(n_pieces)
     notes: list[str] = []
@@ -1065,10 +1068,10 @@ def _pieces(current, dt, duration, times, tau_m: float, hold: str) -> _Pieces:
         notes.append("input interpolated linearly between samples (last sample held)")
     else:
         nxt = np.arange(n_pieces, dtype=np.int64)
-    return _Pieces(arr, starts, ends, decay, nxt, inv_h, t_start, t_stop, ids, notes)
+    return _Pieces(arr, starts, ends, decay, growth, nxt, inv_h, t_start, t_stop, ids, notes)
 
 
-def _exact_loop(values, cols, starts, ends, decay, nxt, inv_h, k0, j0, u, ref_end, eg, consts, out_t, out_c):
+def _exact_loop(values, cols, starts, ends, decay, growth, nxt, inv_h, k0, j0, u, ref_end, eg, consts, out_t, out_c):
     """Event loop of the exact engine (plain Python source, run compiled by numba).
 
     Walks the pieces from piece ``k0``, afferent ``j0``; writes spike times and columns into
@@ -1135,7 +1138,7 @@ def _exact_loop(values, cols, starts, ends, decay, nxt, inv_h, k0, j0, u, ref_en
                     # u(t + y) = uj + (da - uj) w + s (y - tau w), w = 1 - e^(-y / tau): every term
                     # is of the size of the change it describes (no s tau - s tau cancellation)
                     cc = uj - da + s * tau  # its sign is that of d2u/dy2
-                    wh = -np.expm1(-h / tau)
+                    wh = growth[k] if t == t0 else -np.expm1(-h / tau)
                     u_end = uj + (da - uj) * wh + s * (h - tau * wh)
                     if da > theta or db > theta:
                         b = -1.0  # right end of a bracket [0, b] with g(0) < 0 <= g(b)
@@ -1224,10 +1227,18 @@ def _exact_capacity(peak: np.ndarray, pc: _Pieces, params: LIFParams) -> int:
     return int(min(1.1 * float(per_aff.sum()), 2.0**26)) + 2 * peak.size + 1024
 
 
-def _run_exact_numba(pc: _Pieces, cols: np.ndarray, params: LIFParams, peak: np.ndarray):
+def _exact_threads(n: int) -> int:
+    """Threads for the numba exact engine: one per available core, each with >= 2,000 afferents."""
+    try:
+        cores = len(os.sched_getaffinity(0))
+    except AttributeError:  # not on Linux
+        cores = os.cpu_count() or 1
+    return max(1, min(cores, n // 2000, 8))
+
+
+def _run_exact_numba_block(pc: _Pieces, values, cols: np.ndarray, params: LIFParams, peak: np.ndarray):
+    """One block of afferents through the compiled loop (runs without the GIL)."""
     loop = _numba_exact()
-    values = pc.values if pc.values.flags.c_contiguous else np.ascontiguousarray(pc.values)
-    cols = cols.astype(np.int64)
     n = cols.size
     u = np.zeros(n)
     ref_end = np.full(n, -np.inf)
@@ -1239,8 +1250,10 @@ def _run_exact_numba(pc: _Pieces, cols: np.ndarray, params: LIFParams, peak: np.
     while k < pc.starts.size:
         out_t = np.empty(cap)
         out_c = np.empty(cap, np.int32)
-        k, j, count = loop(values, cols, pc.starts, pc.ends, pc.decay, pc.nxt, pc.inv_h, k, j, u, ref_end, eg, consts,
-                           out_t, out_c)
+        k, j, count = loop(
+            values, cols, pc.starts, pc.ends, pc.decay, pc.growth, pc.nxt, pc.inv_h, k, j, u, ref_end, eg, consts,
+            out_t, out_c,
+        )
         t_parts.append(out_t[:count])
         c_parts.append(out_c[:count])
         cap *= 2
@@ -1249,6 +1262,26 @@ def _run_exact_numba(pc: _Pieces, cols: np.ndarray, params: LIFParams, peak: np.
     grouped, counts = np.empty(times.size), np.zeros(n, np.int64)
     _numba_group()(times, hit, grouped, counts)
     return grouped, counts
+
+
+def _run_exact_numba(pc: _Pieces, cols: np.ndarray, params: LIFParams, peak: np.ndarray):
+    """The compiled exact engine, the afferents split into contiguous blocks run on threads (the
+    afferents are independent, so the spikes do not depend on the split, bit for bit)."""
+    values = pc.values if pc.values.flags.c_contiguous else np.ascontiguousarray(pc.values)
+    cols = cols.astype(np.int64)
+    _numba_exact()  # compile or load once, before any thread
+    _numba_group()
+    n_threads = _exact_threads(cols.size)
+    if n_threads == 1:
+        return _run_exact_numba_block(pc, values, cols, params, peak)
+    from concurrent.futures import ThreadPoolExecutor
+
+    edges = np.linspace(0, cols.size, n_threads + 1).astype(int)
+    with ThreadPoolExecutor(n_threads) as pool:
+        parts = list(pool.map(lambda lo_hi: _run_exact_numba_block(pc, values, cols[lo_hi[0]:lo_hi[1]], params,
+                                                                    peak[lo_hi[0]:lo_hi[1]]),
+                              zip(edges[:-1], edges[1:])))
+    return np.concatenate([p[0] for p in parts]), np.concatenate([p[1] for p in parts])
 
 
 def _newton_crossing(y, b, da, s, cc, uj, theta, tau, t):
@@ -1313,7 +1346,7 @@ def _run_exact_numpy(pc: _Pieces, cols: np.ndarray, params: LIFParams):
                     u[idx] = u_end
                     break
             else:
-                x, u_end = _crossings_any_input(t, t0, h, d0, s, uj, e, theta, tau)
+                x, u_end = _crossings_any_input(t, t0, h, d0, s, uj, e, pc.growth[k], theta, tau)
             ts = t + x
             fire = (x >= 0) & (ts < t_stop)
             u[idx[~fire]] = u_end[~fire]
@@ -1337,7 +1370,7 @@ def _run_exact_numpy(pc: _Pieces, cols: np.ndarray, params: LIFParams):
     return np.empty(0), np.zeros(n, np.int64)
 
 
-def _crossings_any_input(t, t0, h, d0, s, uj, e, theta, tau):
+def _crossings_any_input(t, t0, h, d0, s, uj, e, growth, theta, tau):
     """Vectorised crossing search of :func:`_exact_loop` for held (s = 0) and linear drives.
 
     Returns (time from t to the crossing, < 0 for none; u at the piece's end t + h).
@@ -1349,7 +1382,7 @@ def _crossings_any_input(t, t0, h, d0, s, uj, e, theta, tau):
         u_end = da + (uj - da) * e
         if not held.all():
             nh = ~held
-            wh = -np.expm1(-h[nh] / tau)
+            wh = np.where(t[nh] == t0, growth, -np.expm1(-h[nh] / tau))
             u_end[nh] = uj[nh] + (da[nh] - uj[nh]) * wh + s[nh] * (h[nh] - tau * wh)
         x = np.full(t.size, -1.0)
         # held input: closed form
