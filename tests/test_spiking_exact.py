@@ -401,10 +401,10 @@ def test_numba_and_numpy_backends_agree_including_buffer_regrowth(monkeypatch, h
     monkeypatch.setattr(spiking, "_exact_capacity", lambda peak, pc, params: 1)  # resume after every spike
     c = simulate_lif(cur, p, engine="exact-numba", times=times, input_hold=hold)
     assert all(np.array_equal(x, y) for x, y in zip(b.spike_times, c.spike_times))
+    assert spiking._exact_threads(1999) == 1  # small runs stay on one thread
     monkeypatch.setattr(spiking, "_exact_threads", lambda n: 3)  # afferents split over 3 threads
     d = simulate_lif(cur, p, engine="exact-numba", times=times, input_hold=hold)
     assert all(np.array_equal(x, y) for x, y in zip(b.spike_times, d.spike_times))
-    assert spiking._exact_threads(1999) == 1
 
 
 def test_exact_numba_without_numba_raises(monkeypatch):
