@@ -30,8 +30,9 @@ Three engines:
     (V - v_thresh is convex or concave in time, so it has a single upward crossing in a
     bracket that ends at the piece's end or at the maximum of V) and found by Newton's method
     started on the side from which it converges monotonically. The cost is one pass over the
-    samples plus a log (and an exp) per spike: numba when it is installed, else numpy
-    (``'exact-numba'`` / ``'exact-numpy'`` force a back end; same spikes to ~1e-15 s).
+    samples plus a log per spike: numba when it is installed (the afferents split in blocks
+    over one thread per core, with identical results), else numpy (``'exact-numba'`` /
+    ``'exact-numpy'`` force a back end; the two agree to ~1e-13 s).
 ``'fast'``
     Exact exponential integration per step of a clock grid ``dt``, vectorised over afferents
     with a loop over time steps: numba when it is installed (``pip install
