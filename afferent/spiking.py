@@ -1053,7 +1053,10 @@ def _pieces(current, dt, duration, times, tau_m: float, hold: str) -> _Pieces:
         duration = check_positive("duration", duration, unit="s")
     t_stop = t_start + duration
     if not t_stop > t_start:
-        raise ValueError(f"'duration' must be resolvable at t_start = {t_start!r} s; got {duration!r} s instead.")
+        raise ValueError(
+            f"'duration' must be large enough to change t_start = {t_start!r} s in double precision; "
+            f"got {duration!r} s instead."
+        )
     n_pieces = int(np.searchsorted(t, t_stop, side="left"))  # samples before t_stop start a piece
     starts = t[:n_pieces]
     ends = np.append(t[1:n_pieces], t_stop)

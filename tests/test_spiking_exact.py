@@ -438,6 +438,11 @@ def test_auto_is_exact():
         ),
         ({"engine": "fast"}, "'dt' must be given with engine='fast': it is the time step in s; got None instead."),
         (
+            {"times": [1e10], "duration": 1e-10},
+            "'duration' must be large enough to change t_start = 10000000000.0 s in double precision; got 1e-10 s "
+            "instead.",
+        ),
+        (
             {"engine": "brian2", "dt": 1e-4, "input_hold": "linear"},
             "input_hold='linear' needs engine='exact': the grid engines hold each sample, as brian2's TimedArray "
             "does; got engine='brian2' instead.",
