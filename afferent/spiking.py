@@ -4,30 +4,59 @@
 
     AfferentCurrent (n_times, n_afferents) A --simulate_lif--> SpikeTrains (spike times in s)
 
-The model (METHOD.md section 7), one neuron per afferent::
+The model (see the Spikes page of the documentation, docs/spikes.md), one neuron per afferent::
 
     tau_m dV/dt = -(V - v_rest) + r_m I(t);   V >= v_thresh -> spike, V <- v_reset,
                                                V held at v_reset for t_ref
 
-Two engines simulate it on the same clock grid and give the **same spikes, step for step**:
+The input current is known only at its samples. Between samples it is held (the sample
+stays in force until the next one, like a brian2 ``TimedArray``; ``input_hold='previous'``,
+all engines) or, with the exact engine only, interpolated linearly (``input_hold='linear'``).
 
+Three engines:
+
+``'exact'`` (what ``'auto'`` picks)
+    Event-driven: it jumps from sample to sample and from spike to spike, with no time step.
+    With the input held over a piece ``[t_k, t_k+1)``, V is the closed-form exponential
+    ``V(t) - v_rest = D + (V_0 - v_rest - D) exp(-(t - t_0) / tau_m)``, ``D = r_m I_k``, and it
+    reaches threshold (``theta = v_thresh - v_rest``) iff ``D > theta`` and the value at the end
+    of the piece is ``>= theta``, at ``t_0 + T(V_0)``,
+    ``T(V_0) = tau_m ln((D - (V_0 - v_rest)) / (D - theta))``. After a spike V is held at
+    ``v_reset`` for exactly ``t_ref`` and integration resumes there, also in the middle of a
+    piece. Spike times are exact to floating-point rounding (the log and exp of one
+    crossing, ~1e-15 relative). With a linear input V is still in closed form,
+    ``D_a + s y - s tau_m + (V_0 - v_rest - D_a + s tau_m) exp(-y / tau_m)`` at ``y`` after
+    ``t`` for a drive ``D_a + s y``, but the crossing is not: it is bracketed in closed form
+    (V - v_thresh is convex or concave in time, so it has a single upward crossing in a
+    bracket that ends at the piece's end or at the maximum of V) and found by Newton's method
+    started on the side from which it converges monotonically. The cost is one pass over the
+    samples plus a log per spike: numba when it is installed (the afferents split in blocks
+    over one thread per core, with identical results), else numpy (``'exact-numba'`` /
+    ``'exact-numpy'`` force a back end; the two agree to ~1e-13 s).
+``'fast'``
+    Exact exponential integration per step of a clock grid ``dt``, vectorised over afferents
+    with a loop over time steps: numba when it is installed (``pip install
+    'afferent-skin[fast]'``), else numpy. Both back ends evaluate brian2's own update
+    expression in brian2's order of floating-point operations, so they reproduce brian2 bit
+    for bit. ``'fast-numba'`` and ``'fast-numpy'`` force a back end.
 ``'brian2'``
-    The reference: a :class:`brian2.NeuronGroup` with the input as a
+    The grid reference: a :class:`brian2.NeuronGroup` with the input as a
     :class:`brian2.TimedArray`, ``method='exact'``, threshold / reset / refractory, run in an
     explicit :class:`brian2.Network`. This is the only place in :mod:`afferent` that imports
     brian2, and it does so inside the engine function, so ``import afferent.spiking`` stays
     fast. Code is generated for brian2's ``numpy`` target *per object*
     (``codeobj_class=NumpyCodeObject`` on the group and the monitor), so nothing is compiled
     and brian2's global ``prefs.codegen.target`` is never touched.
-``'fast'``
-    Exact exponential integration per step, vectorised over afferents with a loop over time
-    steps: numba when it is installed (``pip install 'afferent-skin[fast]'``), else numpy.
-    Both back ends evaluate brian2's own update expression in brian2's order of floating-point
-    operations, so they reproduce brian2 bit for bit. ``'auto'`` means ``'fast'``;
-    ``'fast-numba'`` and ``'fast-numpy'`` force a back end.
 
-Grid semantics (those of brian2, which both engines follow)
------------------------------------------------------------
+The grid engines give the **same spikes, step for step**, and converge to the exact engine as
+``dt`` shrinks, within the bounds below. What the grid costs (ramp-and-hold, 1 ms samples,
+RA preset; ``benchmarks/bench_spiking.py``): median rate error 30 % at dt = 1 ms, 2.9 % at
+0.1 ms, 0.2 % at 0.01 ms, and spike times that drift by milliseconds over a second, because
+every interval is shortened by up to a step. The exact engine has no such error and costs
+about as much as the fast engine at dt = 0.1 ms.
+
+Grid semantics (those of brian2, which both grid engines follow)
+----------------------------------------------------------------
 Step ``i`` covers ``[t_i, t_i + dt)`` with ``t_i = t_start + i dt``. In step ``i``:
 
 1. the input is the current sample active at ``t_i`` (held constant over the step, like a
@@ -42,7 +71,7 @@ Step ``i`` covers ``[t_i, t_i + dt)`` with ``t_i = t_start + i dt``. In step ``i
 Accuracy on the grid (derived for a constant current I, ``theta = v_thresh - v_rest``)
 --------------------------------------------------------------------------------------
 Let ``T(V0) = tau_m ln((r_m I - (V0 - v_rest)) / (r_m I - theta))`` be the exact time to
-threshold from ``V0`` (METHOD.md section 7) and ``n_eff = max(n_ref, 1)``. Integration from
+threshold from ``V0`` (what the exact engine computes) and ``n_eff = max(n_ref, 1)``. Integration from
 V0 needs ``m = ceil(T(V0) / dt)`` steps, and the spike is stamped at the start of the last
 one, so
 
@@ -70,8 +99,8 @@ TouchSim's hard minimum ISI (a spike is allowed once 6 samples at 5 kHz have pas
 also has a post-spike current, which this model does not). TouchSim's IF is dimensionless
 (threshold 1, reset 0), so the voltages are the conventional -70 / -50 / -70 mV, and
 **r_m = 200 kOhm is illustrative**, not physiological: it puts the rheobase ``theta / r_m`` at
-100 nA inside the study's own current range. That range, derived from METHOD.md sections 3,
-4 and 6: with the start parameters (alpha = 2.46e-8 A) the receptors sit at 0.20-0.38 alpha =
+100 nA inside the study's own current range. That range, from the study's sigmoid
+parameters and receptor counts (see the Spikes page of the documentation, docs/spikes.md): with the start parameters (alpha = 2.46e-8 A) the receptors sit at 0.20-0.38 alpha =
 4.9-9.3 nA, and 9-17 receptors per afferent give 44-160 nA per afferent (silent to 1.6x
 rheobase, up to ~180 Hz); the longitudinal fit (alpha = 9.29e-7 A, saturated) gives
 8.4-15.8 uA per afferent (84-158x rheobase, ~800 Hz, near the 1 / t_ref = 833 Hz ceiling).
@@ -92,6 +121,7 @@ pA-scale generator currents.
 from __future__ import annotations
 
 import numbers
+import os
 from collections import deque
 from dataclasses import dataclass, field
 
@@ -106,6 +136,7 @@ __all__ = [
     "simulate_lif",
     "grid_isi_bounds",
     "ENGINES",
+    "INPUT_HOLDS",
     "DRIVE_MAPPINGS",
     "rheobase_scale",
     "drive_report",
@@ -194,7 +225,11 @@ def drive_report(input_values, lif: "LIFParams", spikes: "SpikeTrains") -> dict:
 
 
 #: Engines accepted by :func:`simulate_lif`.
-ENGINES = ("auto", "fast", "fast-numba", "fast-numpy", "brian2")
+ENGINES = ("auto", "exact", "exact-numba", "exact-numpy", "fast", "fast-numba", "fast-numpy", "brian2")
+#: How :func:`simulate_lif` reads the current between samples: ``'previous'`` holds each sample
+#: until the next (like brian2's ``TimedArray``; all engines), ``'linear'`` interpolates
+#: linearly between samples (the exact engine only).
+INPUT_HOLDS = ("previous", "linear")
 
 # brian2's timestep() shifts by 1e-3 dt before flooring (brian2/core/functions.py).
 _TIMESTEP_SHIFT = 1e-3
@@ -315,8 +350,8 @@ class LIFParams:
     def steady_isi(self, current) -> np.ndarray:
         """Exact inter-spike interval for a constant ``current`` (A), in s.
 
-        ``t_ref + tau_m ln((r_m I - (v_reset - v_rest)) / (r_m I - theta))`` (METHOD.md section 7;
-        with ``v_reset = v_rest`` the study's formula). ``inf`` at or below the rheobase.
+        ``t_ref + tau_m ln((r_m I - (v_reset - v_rest)) / (r_m I - theta))`` (see the Spikes page of
+        the documentation, docs/spikes.md; with ``v_reset = v_rest`` the study's formula). ``inf`` at or below the rheobase.
         """
         return self.t_ref + self._time_to_threshold(current, self.v_reset)
 
@@ -401,25 +436,29 @@ class SpikeTrains:
     Parameters
     ----------
     spike_times : tuple of ndarray
-        One sorted array of spike times in s per afferent (``n_afferents`` arrays). Times are
-        ``t_start + k dt`` for whole steps ``k``: a spike is stamped at the start of the step
-        in which V crossed threshold.
+        One sorted array of spike times in s per afferent (``n_afferents`` arrays). Exact
+        engine: the threshold crossing times, in ``[t_start, t_start + duration)``. Grid
+        engines: ``t_start + k dt`` for whole steps ``k``, a spike stamped at the start of the
+        step in which V crossed threshold.
     afferent_ids : ndarray of shape (n_afferents,)
         Identifier of each afferent (the current's ``afferent_ids`` if it has them, else
         ``0 .. n_afferents - 1``).
     duration : float
-        Simulated time in s (a whole number of steps).
+        Simulated time in s (a whole number of steps on a grid; as asked with the exact engine).
     dt : float
-        Time step in s.
+        Time step in s; ``0.0`` for the exact engine, which has no grid.
     engine : str
-        ``'fast'`` or ``'brian2'``.
+        ``'exact'``, ``'fast'`` or ``'brian2'``.
     backend : str
-        What ran: ``'numba'`` or ``'numpy'`` for the fast engine, ``'brian2-numpy'`` for brian2.
+        What ran: ``'numba'`` or ``'numpy'`` for the exact and fast engines, ``'brian2-numpy'``
+        for brian2.
     silent_skipped : ndarray of int
         Positions (0-based columns of the current) of afferents that were not simulated
         because they are provably silent: ``r_m max(I) <= v_thresh - v_rest`` over the
-        simulated window (METHOD.md section 7), with a margin of a few rounding errors so the
-        skip never disagrees with a simulation.
+        simulated window (see the Spikes page of the documentation, docs/spikes.md). The grid
+        engines keep a margin of a few rounding errors so the skip never disagrees with a
+        simulation; the exact engine, which fires only where the drive exceeds
+        ``v_thresh - v_rest``, needs none.
     params : LIFParams
         The neuron parameters used.
     t_start : float, default=0.0
@@ -559,7 +598,7 @@ class SpikeTrains:
         return (
             f"<SpikeTrains: {self.n_afferents} afferents ({self.silent_skipped.size} skipped as silent), "
             f"{int(self.n_spikes.sum())} spikes in {self.duration:g} s, engine {self.engine!r} ({self.backend}), "
-            f"dt={self.dt:g} s>"
+            + (f"dt={self.dt:g} s>" if self.dt else "no grid>")
         )
 
 
@@ -597,7 +636,8 @@ def _as_current(current, times):
     return current.values, (own if own is not None else times), getattr(current, "afferent_ids", None)
 
 
-def _plan(current, dt, duration, times) -> _Plan:
+def _read_input(current, times):
+    """Validated (values (n_times, n_afferents) float64, times (n_times,) or None, afferent ids)."""
     values, times, ids = _as_current(current, times)
     try:
         arr = np.asarray(values, dtype=np.float64)
@@ -620,14 +660,8 @@ def _plan(current, dt, duration, times) -> _Plan:
             "instead."
         )
     n_times = arr.shape[0]
-    dt = check_positive("dt", dt, unit="s")
-    notes: list[str] = []
-
-    if times is None:
-        t_start = 0.0
-        start_step = np.arange(n_times, dtype=np.int64)
-        default_duration = n_times * dt
-    else:
+    t = None
+    if times is not None:
         t = np.asarray(times, dtype=np.float64)
         if t.shape != (n_times,):
             raise ValueError(
@@ -643,6 +677,29 @@ def _plan(current, dt, duration, times) -> _Plan:
                 f"'times' must be strictly increasing in s; got times[{k}] = {float(t[k])!r} <= times[{k - 1}] = "
                 f"{float(t[k - 1])!r} instead."
             )
+    if ids is None:
+        ids = np.arange(arr.shape[1])
+    else:
+        ids = np.asarray(ids)
+        if ids.shape != (arr.shape[1],):
+            raise ValueError(
+                f"'afferent_ids' of the current must have shape (n_afferents,) = ({arr.shape[1]},); "
+                f"got shape {ids.shape} instead."
+            )
+    return arr, t, ids
+
+
+def _plan(current, dt, duration, times) -> _Plan:
+    arr, t, ids = _read_input(current, times)
+    n_times = arr.shape[0]
+    dt = check_positive("dt", dt, unit="s")
+    notes: list[str] = []
+
+    if t is None:
+        t_start = 0.0
+        start_step = np.arange(n_times, dtype=np.int64)
+        default_duration = n_times * dt
+    else:
         t_start = float(t[0])
         rel = (t - t[0]) / dt
         start_step = np.ceil(rel - _SAMPLE_EPS).astype(np.int64)
@@ -666,7 +723,7 @@ def _plan(current, dt, duration, times) -> _Plan:
     idx = np.searchsorted(start_step, np.arange(n_steps, dtype=np.int64), side="right") - 1
     np.clip(idx, 0, n_times - 1, out=idx)
     ratio = None
-    if times is None:
+    if t is None:
         ratio = 1
     elif n_times >= 2 and start_step[1] >= 1 and np.array_equal(start_step, np.arange(n_times) * start_step[1]):
         ratio = int(start_step[1])
@@ -674,15 +731,6 @@ def _plan(current, dt, duration, times) -> _Plan:
     if unused:
         notes.append(f"{unused} input sample(s) fall within one step of the next and are never used; reduce dt.")
 
-    if ids is None:
-        ids = np.arange(arr.shape[1])
-    else:
-        ids = np.asarray(ids)
-        if ids.shape != (arr.shape[1],):
-            raise ValueError(
-                f"'afferent_ids' of the current must have shape (n_afferents,) = ({arr.shape[1]},); "
-                f"got shape {ids.shape} instead."
-            )
     return _Plan(arr, idx.astype(np.int64), n_steps, dt, t_start, ratio, ids, notes)
 
 
@@ -801,7 +849,8 @@ def _numba_group():
 
 def _group_numpy(steps: np.ndarray, cols: np.ndarray, n: int):
     """Spikes grouped by column in time order: (steps sorted by column, count per column)."""
-    order = np.argsort(cols, kind="stable")
+    # numpy's stable sort is a radix sort for 16-bit keys: O(n), several times faster than on int64
+    order = np.argsort(cols.astype(np.uint16) if n <= 2**16 else cols, kind="stable")
     return steps[order], np.bincount(cols, minlength=n).astype(np.int64)
 
 
@@ -954,11 +1003,492 @@ def _run_brian2(plan: _Plan, cols: np.ndarray, params: LIFParams):
 
 
 # --------------------------------------------------------------------------------------------
+# Exact engine: event-driven, from sample to sample and from spike to spike, no time step.
+# State per afferent: u = V - v_rest (V relative to rest) and the time at which integration
+# resumes after the last spike (-inf before any). Each input piece [t_k, t_k+1) has the drive
+# D(t) = r_m I(t) (V): constant ('previous') or linear in t ('linear').
+# --------------------------------------------------------------------------------------------
+
+
+@dataclass
+class _Pieces:
+    values: np.ndarray  # (n_times, n_afferents) float64, not copied
+    starts: np.ndarray  # (n_pieces,) s: piece k starts at sample k's time
+    ends: np.ndarray  # (n_pieces,) s: next sample's time, the last one cut at t_stop
+    decay: np.ndarray  # (n_pieces,) exp(-(end - start) / tau_m)
+    growth: np.ndarray  # (n_pieces,) 1 - decay, as -expm1 (accurate for short pieces)
+    nxt: np.ndarray  # (n_pieces,) int64: row of the sample at the piece's end (itself if held)
+    inv_h: np.ndarray  # (n_pieces,) 1/s: 1 / (next sample time - start) for 'linear', else 0
+    t_start: float
+    t_stop: float
+    afferent_ids: np.ndarray
+    notes: list
+
+
+def _pieces(current, dt, duration, times, tau_m: float, hold: str) -> _Pieces:
+    """Input pieces of the exact engine: the current's own sample times, no grid."""
+    arr, t, ids = _read_input(current, times)
+    n_times = arr.shape[0]
+    if dt is not None:
+        dt = check_positive("dt", dt, unit="s")
+    if t is None:
+        if dt is None:
+            raise ValueError(
+                "'dt' must be given with engine='exact' for an ndarray current without 'times': it is the "
+                "sample interval in s (sample k at k dt); got None instead. Or pass 'times'."
+            )
+        t = np.arange(n_times) * dt
+    t_start = float(t[0])
+    if duration is None:
+        if n_times >= 2:
+            duration = float(t[-1] - t[0]) + float(t[-1] - t[-2])
+        elif dt is not None:
+            duration = dt
+        else:
+            raise ValueError(
+                "'duration' must be given with engine='exact' for a current of a single sample (or 'dt', its "
+                "sample interval); got None instead."
+            )
+    else:
+        duration = check_positive("duration", duration, unit="s")
+    t_stop = t_start + duration
+    if not t_stop > t_start:
+        raise ValueError(
+            f"'duration' must be large enough to change t_start = {t_start!r} s in double precision; "
+            f"got {duration!r} s instead."
+        )
+    n_pieces = int(np.searchsorted(t, t_stop, side="left"))  # samples before t_stop start a piece
+    starts = t[:n_pieces]
+    ends = np.append(t[1:n_pieces], t_stop)
+    with np.errstate(under="ignore"):
+        decay = np.exp(-(ends - starts) / tau_m)
+    growth = -np.expm1(-(ends - starts) / tau_m)
+    nxt = np.minimum(np.arange(n_pieces) + 1, n_times - 1).astype(np.int64)
+    inv_h = np.zeros(n_pieces)
+    notes: list[str] = []
+    if hold == "linear":
+        k = np.flatnonzero(nxt > np.arange(n_pieces))
+        inv_h[k] = 1.0 / (t[nxt[k]] - t[k])
+        notes.append("input interpolated linearly between samples (last sample held)")
+    else:
+        nxt = np.arange(n_pieces, dtype=np.int64)
+    return _Pieces(arr, starts, ends, decay, growth, nxt, inv_h, t_start, t_stop, ids, notes)
+
+
+def _exact_loop(values, cols, starts, ends, decay, growth, nxt, inv_h, k0, j0, u, ref_end, eg, consts, out_t, out_c):
+    """Event loop of the exact engine (plain Python source, run compiled by numba).
+
+    Walks the pieces from piece ``k0``, afferent ``j0``; writes spike times and columns into
+    ``out_t`` / ``out_c`` from position 0. When the buffers are full it returns
+    ``(k, j, count)`` before the spike that did not fit, with ``u`` / ``ref_end`` / ``eg``
+    holding a state the loop resumes from bit for bit; ``k == len(starts)`` when done.
+    ``eg`` carries ``exp(-(t_end - ref_end) / tau)`` for the end ``t_end`` of the last piece
+    seen, so that resuming after a refractory period needs no exp (held input: it is the
+    decay to the piece's end times ``(D - u) / (D - theta)`` times ``exp(t_ref / tau)``, then
+    times each skipped piece's decay; an exp replaces it if it under- or overflowed).
+
+    In a piece, an afferent not refractory starts at the piece start (decay ``decay[k]``
+    shared by all) or, if its refractory period ends inside the piece, at that time with
+    ``u = u_reset``. With a constant drive ``D`` it reaches threshold within the piece iff
+    ``D > theta`` and ``D + (u - D) e^(-h / tau) >= theta``, at
+    ``t + tau log1p((theta - u) / (D - theta))``. With a linear drive the crossing is
+    bracketed in closed form (V - v_thresh is convex or concave in t) and found by Newton's
+    method from the side where it converges monotonically.
+    """
+    r, theta, u_reset, tau, t_ref, t_stop, eri = consts[0], consts[1], consts[2], consts[3], consts[4], consts[5], consts[6]
+    n = cols.shape[0]
+    n_pieces = starts.shape[0]
+    cap = out_t.shape[0]
+    count = 0
+    for k in range(k0, n_pieces):
+        t0 = starts[k]
+        t1 = ends[k]
+        row = values[k]
+        row1 = values[nxt[k]]
+        ih = inv_h[k]
+        for j in range(j0 if k == k0 else 0, n):
+            tr = ref_end[j]
+            if tr >= t1:  # refractory through the whole piece
+                eg[j] *= decay[k]
+                continue
+            c = cols[j]
+            d0 = r * row[c]
+            uj = u[j]  # u_reset if the neuron spiked: set with ref_end
+            if ih == 0.0 and tr <= t0:  # fast path: held input, no crossing in the piece
+                u_end = d0 + (uj - d0) * decay[k]
+                if d0 <= theta or u_end < theta:
+                    u[j] = u_end
+                    continue
+            s = r * (row1[c] - row[c]) * ih  # drive slope, V/s (0 when held)
+            if tr > t0:
+                t = tr
+                # decay from tr to t1; saved as is when the loop stopped at this afferent
+                e = eg[j] if (k == k0 and j == j0) else decay[k] * eg[j]
+                if not (0.0 < e <= 1.0):  # under- or overflowed on the way: direct
+                    e = np.exp(-(t1 - t) / tau)
+            else:
+                t = t0
+                e = decay[k]
+            while True:
+                h = t1 - t
+                da = d0 + s * (t - t0)  # drive at t
+                x = -1.0  # time from t to the crossing; < 0: none in the piece
+                if s == 0.0:
+                    u_end = da + (uj - da) * e
+                    if da > theta and u_end >= theta:
+                        x = min(tau * np.log1p((theta - uj) / (da - theta)), h)
+                else:
+                    db = da + s * h
+                    # u(t + y) = uj + (da - uj) w + s (y - tau w), w = 1 - e^(-y / tau): every term
+                    # is of the size of the change it describes (no s tau - s tau cancellation)
+                    cc = uj - da + s * tau  # its sign is that of d2u/dy2
+                    wh = growth[k] if t == t0 else -np.expm1(-h / tau)
+                    u_end = uj + (da - uj) * wh + s * (h - tau * wh)
+                    if da > theta or db > theta:
+                        b = -1.0  # right end of a bracket [0, b] with g(0) < 0 <= g(b)
+                        if u_end >= theta:
+                            b = h
+                        elif cc < 0.0 and s < 0.0:  # concave: the maximum may cross and come back
+                            ystar = tau * np.log(cc / (s * tau))
+                            if 0.0 < ystar < h and da + s * ystar >= theta:  # g(y*) = da + s y* - theta
+                                b = ystar
+                        if b >= 0.0:
+                            # g concave: Newton from 0 stays left of the root; convex: from b, right
+                            y = 0.0 if cc < 0.0 else b
+                            for _ in range(100):
+                                w = -np.expm1(-y / tau)
+                                g = (uj - theta) + (da - uj) * w + s * (y - tau * w)
+                                dg = (da - uj) * (1.0 - w) / tau + s * w
+                                if dg == 0.0:
+                                    break
+                                y_new = min(max(y - g / dg, 0.0), b)
+                                if abs(y_new - y) <= 4e-16 * (abs(t) + y_new):
+                                    y = y_new
+                                    break
+                                y = y_new
+                            x = y
+                if x < 0.0:
+                    uj = u_end
+                    break
+                ts = t + x
+                if ts >= t_stop:  # a crossing at or after the end of the window is not reported
+                    uj = u_end
+                    break
+                uj_cross = uj
+                if count == cap:  # full: resume at this afferent, from the state as stored
+                    if ref_end[j] > t0:  # e is the decay from ref_end to t1
+                        eg[j] = e
+                    return k, j, count
+                out_t[count] = ts
+                out_c[count] = j
+                count += 1
+                tr = ts + t_ref
+                ref_end[j] = tr
+                u[j] = u_reset
+                uj = u_reset
+                # exp(-(t1 - tr) / tau) without an exp: held input, e = exp(-(t1 - t) / tau) and
+                # exp(x / tau) = (da - uj) / (da - theta); > 1 while refractory past t1 (then
+                # multiplied by each skipped piece's decay)
+                if s == 0.0:
+                    e = e * (1.0 + (theta - uj_cross) / (da - theta)) * eri
+                else:
+                    e = np.exp(-(t1 - tr) / tau)
+                if tr >= t1:
+                    eg[j] = e
+                    break
+                t = tr
+                if not (0.0 < e <= 1.0):
+                    e = np.exp(-(t1 - t) / tau)
+            u[j] = uj
+    return n_pieces, 0, count
+
+
+_NUMBA_EXACT = None
+
+
+def _numba_exact():
+    global _NUMBA_EXACT
+    if _NUMBA_EXACT is None:
+        import numba
+
+        _NUMBA_EXACT = numba.njit(cache=True, nogil=True, error_model="numpy")(_exact_loop)
+    return _NUMBA_EXACT
+
+
+def _exact_consts(params: LIFParams, t_stop: float) -> np.ndarray:
+    with np.errstate(over="ignore"):
+        eri = float(np.exp(params.t_ref / params.tau_m))  # inf if huge: the loop then uses exp directly
+    return np.array([params.r_m, params.theta, params.v_reset - params.v_rest, params.tau_m, params.t_ref, t_stop, eri])
+
+
+def _exact_capacity(peak: np.ndarray, pc: _Pieces, params: LIFParams) -> int:
+    """First size of the spike buffers: the closed-form rate at each afferent's peak, capped by
+    1 / t_ref, plus slack (the loop resumes with bigger buffers if short)."""
+    duration = pc.t_stop - pc.t_start
+    per_aff = params.steady_rate(peak) * duration
+    if params.t_ref > 0:
+        per_aff = np.minimum(per_aff, duration / params.t_ref)
+    return int(min(1.1 * float(per_aff.sum()), 2.0**26)) + 2 * peak.size + 1024
+
+
+def _exact_threads(n: int) -> int:
+    """Threads for the numba exact engine: one per available core, each with >= 2,000 afferents."""
+    try:
+        cores = len(os.sched_getaffinity(0))
+    except AttributeError:  # not on Linux
+        cores = os.cpu_count() or 1
+    return max(1, min(cores, n // 2000, 8))
+
+
+def _run_exact_numba_block(pc: _Pieces, values, cols: np.ndarray, params: LIFParams, peak: np.ndarray):
+    """One block of afferents through the compiled loop (runs without the GIL)."""
+    loop = _numba_exact()
+    n = cols.size
+    u = np.zeros(n)
+    ref_end = np.full(n, -np.inf)
+    eg = np.ones(n)  # exp(-(end of the last piece seen - ref_end) / tau_m)
+    consts = _exact_consts(params, pc.t_stop)
+    cap = _exact_capacity(peak, pc, params)
+    t_parts, c_parts = [], []
+    k, j = 0, 0
+    while k < pc.starts.size:
+        out_t = np.empty(cap)
+        out_c = np.empty(cap, np.int32)
+        k, j, count = loop(
+            values, cols, pc.starts, pc.ends, pc.decay, pc.growth, pc.nxt, pc.inv_h, k, j, u, ref_end, eg, consts,
+            out_t, out_c,
+        )
+        t_parts.append(out_t[:count])
+        c_parts.append(out_c[:count])
+        cap *= 2
+    times = t_parts[0] if len(t_parts) == 1 else np.concatenate(t_parts)
+    hit = c_parts[0] if len(c_parts) == 1 else np.concatenate(c_parts)
+    grouped, counts = np.empty(times.size), np.zeros(n, np.int64)
+    _numba_group()(times, hit, grouped, counts)
+    return grouped, counts
+
+
+def _run_exact_numba(pc: _Pieces, cols: np.ndarray, params: LIFParams, peak: np.ndarray):
+    """The compiled exact engine, the afferents split into contiguous blocks run on threads (the
+    afferents are independent, so the spikes do not depend on the split, bit for bit)."""
+    values = pc.values if pc.values.flags.c_contiguous else np.ascontiguousarray(pc.values)
+    cols = cols.astype(np.int64)
+    _numba_exact()  # compile or load once, before any thread
+    _numba_group()
+    n_threads = _exact_threads(cols.size)
+    if n_threads == 1:
+        return _run_exact_numba_block(pc, values, cols, params, peak)
+    from concurrent.futures import ThreadPoolExecutor
+
+    edges = np.linspace(0, cols.size, n_threads + 1).astype(int)
+    with ThreadPoolExecutor(n_threads) as pool:
+        parts = list(pool.map(lambda lo_hi: _run_exact_numba_block(pc, values, cols[lo_hi[0]:lo_hi[1]], params,
+                                                                    peak[lo_hi[0]:lo_hi[1]]),
+                              zip(edges[:-1], edges[1:])))
+    return np.concatenate([p[0] for p in parts]), np.concatenate([p[1] for p in parts])
+
+
+def _newton_crossing(y, b, da, s, cc, uj, theta, tau, t):
+    """Vectorised form of the Newton iteration of :func:`_exact_loop` (same start, clamp and stop)."""
+    active = np.ones(y.size, dtype=bool)
+    for _ in range(100):
+        if not active.any():
+            break
+        a = np.flatnonzero(active)
+        ya = y[a]
+        w = -np.expm1(-ya / tau)
+        g = (uj[a] - theta) + (da[a] - uj[a]) * w + s[a] * (ya - tau * w)
+        dg = (da[a] - uj[a]) * (1.0 - w) / tau + s[a] * w
+        zero = dg == 0.0
+        with np.errstate(divide="ignore", invalid="ignore"):
+            y_new = np.minimum(np.maximum(ya - g / dg, 0.0), b[a])
+        y_new[zero] = ya[zero]
+        done = zero | (np.abs(y_new - ya) <= 4e-16 * (np.abs(t[a]) + y_new))
+        y[a] = y_new
+        active[a[done]] = False
+    return y
+
+
+def _run_exact_numpy(pc: _Pieces, cols: np.ndarray, params: LIFParams):
+    """The exact engine vectorised over afferents with numpy: same events as :func:`_exact_loop`."""
+    n = cols.size
+    all_cols = n == pc.values.shape[1]
+    r, theta, tau, t_ref, t_stop = params.r_m, params.theta, params.tau_m, params.t_ref, pc.t_stop
+    u_reset = params.v_reset - params.v_rest
+    u = np.zeros(n)
+    ref_end = np.full(n, -np.inf)
+    times_out, cols_out = [], []
+    for k in range(pc.starts.size):
+        t0, t1, ih = pc.starts[k], pc.ends[k], pc.inv_h[k]
+        live = np.flatnonzero(ref_end < t1)  # not refractory through the whole piece
+        if live.size == 0:
+            continue
+        row = pc.values[k] if all_cols else pc.values[k, cols]
+        d0 = r * row[live]
+        if ih:
+            row1 = pc.values[pc.nxt[k]] if all_cols else pc.values[pc.nxt[k], cols]
+            s = r * (row1[live] - row[live]) * ih
+        else:
+            s = np.zeros(live.size)
+        uj = u[live]
+        tr = ref_end[live]
+        late = tr > t0
+        t = np.where(late, tr, t0)
+        e = np.full(live.size, pc.decay[k])
+        if late.any():
+            e[late] = np.exp(-(t1 - t[late]) / tau)
+        idx = live
+        while idx.size:
+            h = t1 - t
+            if not ih:  # held input everywhere: the closed form only
+                u_end = d0 + (uj - d0) * e
+                x = np.full(idx.size, -1.0)
+                hit = np.flatnonzero((d0 > theta) & (u_end >= theta))
+                if hit.size:
+                    x[hit] = np.minimum(tau * np.log1p((theta - uj[hit]) / (d0[hit] - theta)), h[hit])
+                else:
+                    u[idx] = u_end
+                    break
+            else:
+                x, u_end = _crossings_any_input(t, t0, h, d0, s, uj, e, pc.growth[k], theta, tau)
+            ts = t + x
+            fire = (x >= 0) & (ts < t_stop)
+            u[idx[~fire]] = u_end[~fire]
+            if not fire.any():
+                break
+            f = np.flatnonzero(fire)
+            fired = idx[f]
+            times_out.append(ts[f])
+            cols_out.append(fired)
+            trf = ts[f] + t_ref
+            ref_end[fired] = trf
+            u[fired] = u_reset
+            again = trf < t1
+            f, idx = f[again], fired[again]
+            t = trf[again]
+            uj = np.full(idx.size, u_reset)
+            d0, s = d0[f], s[f]
+            e = np.exp(-(t1 - t) / tau)
+    if times_out:
+        return _group_numpy(np.concatenate(times_out), np.concatenate(cols_out), n)
+    return np.empty(0), np.zeros(n, np.int64)
+
+
+def _crossings_any_input(t, t0, h, d0, s, uj, e, growth, theta, tau):
+    """Vectorised crossing search of :func:`_exact_loop` for held (s = 0) and linear drives.
+
+    Returns (time from t to the crossing, < 0 for none; u at the piece's end t + h).
+    """
+    da = d0 + s * (t - t0)
+    held = s == 0.0
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        cc = uj - da + s * tau
+        u_end = da + (uj - da) * e
+        if not held.all():
+            nh = ~held
+            wh = np.where(t[nh] == t0, growth, -np.expm1(-h[nh] / tau))
+            u_end[nh] = uj[nh] + (da[nh] - uj[nh]) * wh + s[nh] * (h[nh] - tau * wh)
+        x = np.full(t.size, -1.0)
+        # held input: closed form
+        hit = held & (da > theta) & (u_end >= theta)
+        x[hit] = np.minimum(tau * np.log1p((theta - uj[hit]) / (da[hit] - theta)), h[hit])
+        # linear input: closed-form bracket, then Newton
+        db = da + s * h
+        lin = ~held & ((da > theta) | (db > theta))
+        b = np.full(t.size, -1.0)
+        b[lin & (u_end >= theta)] = h[lin & (u_end >= theta)]
+        conc = lin & (b < 0) & (cc < 0) & (s < 0)
+        if conc.any():
+            ystar = np.full(t.size, -1.0)
+            ystar[conc] = tau * np.log(cc[conc] / (s[conc] * tau))
+            ok = conc & (ystar > 0) & (ystar < h) & (da + s * ystar >= theta)
+            b[ok] = ystar[ok]
+        nl = np.flatnonzero(b >= 0)
+        if nl.size:
+            y0 = np.where(cc[nl] < 0, 0.0, b[nl])
+            x[nl] = _newton_crossing(y0, b[nl], da[nl], s[nl], cc[nl], uj[nl], theta, tau, t[nl])
+    return x, u_end
+
+
+# --------------------------------------------------------------------------------------------
 # Public entry point
 # --------------------------------------------------------------------------------------------
 
 
-def simulate_lif(current, params: LIFParams, *, dt: float, engine: str = "auto", duration=None, times=None):
+def _check_drive(values: np.ndarray, params: LIFParams) -> None:
+    if not values.size:
+        return
+    peak = max(float(values.max()), -float(values.min()))  # no |values| temporary
+    if not peak * params.r_m < _MAX_DRIVE_V:
+        worst = peak * params.r_m
+        raise ValueError(
+            f"r_m * max|current| must be < {_MAX_DRIVE_V:g} V for the update to stay finite; got {worst:g} V instead."
+        )
+
+
+def _simulate_exact(current, params: LIFParams, *, dt, engine: str, duration, times, hold: str) -> SpikeTrains:
+    """The exact engine behind :func:`simulate_lif` (``engine`` 'exact', 'exact-numba', 'exact-numpy')."""
+    if engine == "exact":
+        backend = "numba" if _numba_available() else "numpy"
+    elif engine == "exact-numba":
+        if not _numba_available():
+            raise ImportError(
+                "engine='exact-numba' needs numba, which is not installed. "
+                "Install it with pip install 'afferent-skin[fast]', or use engine='exact'."
+            )
+        backend = "numba"
+    else:
+        backend = "numpy"
+    pc = _pieces(current, dt, duration, times, params.tau_m, hold)
+    values = pc.values
+    n_aff = values.shape[1]
+    _check_drive(values, params)
+    n_pieces = pc.starts.size
+    if hold == "linear" and n_pieces:  # the drive reaches the next sample's value at the piece's end
+        peak = values[: int(pc.nxt[-1]) + 1].max(axis=0) if n_aff else np.zeros(0)
+    else:
+        peak = values[:n_pieces].max(axis=0) if n_aff else np.zeros(0)
+    # The exact engine fires only where the drive exceeds theta: no rounding margin needed.
+    silent = params.r_m * peak <= params.theta
+    cols = np.flatnonzero(~silent)
+    if cols.size:
+        # Every interval is >= t_ref + (time from v_reset to threshold under the peak drive): it
+        # must stay resolvable in double precision, or spikes would pile up at one time.
+        isi_min = float(np.min(params.steady_isi(peak[cols])))
+        resolution = 8 * np.spacing(max(abs(pc.t_start), abs(pc.t_stop)))
+        if not isi_min > resolution:
+            raise ValueError(
+                f"The exact engine cannot resolve the inter-spike interval: t_ref + the time from v_reset to threshold "
+                f"at the peak drive is {isi_min:.3g} s, at or below the time resolution {resolution:.3g} s of the "
+                f"window [{pc.t_start!r}, {pc.t_stop!r}] s; got t_ref = {params.t_ref!r} s. Give t_ref > 0 or a "
+                "smaller current."
+            )
+    if cols.size == 0:
+        times_s, counts = np.empty(0), np.zeros(0, np.int64)
+    elif backend == "numba":
+        times_s, counts = _run_exact_numba(pc, cols, params, peak[cols])
+    else:
+        times_s, counts = _run_exact_numpy(pc, cols, params)
+    ends = np.cumsum(counts).tolist()
+    trains = [np.empty(0)] * n_aff
+    for c, lo, hi in zip(cols.tolist(), [0, *ends[:-1]], ends):
+        trains[c] = times_s[lo:hi]
+    return SpikeTrains(
+        spike_times=tuple(trains),
+        afferent_ids=pc.afferent_ids,
+        duration=pc.t_stop - pc.t_start,
+        dt=0.0,
+        engine="exact",
+        backend=backend,
+        silent_skipped=np.flatnonzero(silent),
+        params=params,
+        t_start=pc.t_start,
+        notes=tuple(pc.notes),
+    )
+
+
+def simulate_lif(current, params: LIFParams, *, dt: float | None = None, engine: str = "auto", duration=None, times=None,
+                 input_hold: str = "previous"):
     """Simulate one leaky integrate-and-fire neuron per afferent.
 
     Parameters
@@ -968,22 +1498,31 @@ def simulate_lif(current, params: LIFParams, *, dt: float, engine: str = "auto",
         ``times`` (n_times,) in s (an :class:`afferent.synthesis.AfferentCurrent`) is used
         with its own times and, if it has them, its ``afferent_ids``; if its ``times`` is
         ``None`` it is treated like an ndarray. An ndarray is taken as sampled every ``dt``
-        from t = 0 unless ``times`` is given. Each sample is held constant from its time to the next (like a
-        brian2 ``TimedArray``): before the first sample the first is held, after the last the
-        last.
+        from t = 0 unless ``times`` is given. Between samples the current follows
+        ``input_hold``; after the last sample the last is held.
     params : LIFParams
         Neuron parameters (see :data:`LIF_PRESETS`).
-    dt : float
-        Simulation time step in s. Input sample times are put on this grid (a sample counts
-        from the first step at or after its time).
-    engine : {'auto', 'fast', 'fast-numba', 'fast-numpy', 'brian2'}, default='auto'
-        ``'brian2'`` is the reference; ``'fast'`` (= ``'auto'``) gives the same spikes, using
-        numba if installed, else numpy.
+    dt : float, optional
+        Grid engines (``'fast'``, ``'brian2'``): the simulation time step in s, required. Input
+        sample times are put on this grid (a sample counts from the first step at or after its
+        time). The exact engine has no time step: there ``dt`` is only the sample interval of
+        an ndarray current given without ``times`` (sample k at ``k dt``) and is otherwise
+        ignored (validated, not used).
+    engine : {'auto', 'exact', 'exact-numba', 'exact-numpy', 'fast', 'fast-numba', 'fast-numpy', 'brian2'}
+        ``'auto'`` (default) means ``'exact'``: event-driven, exact spike times (numba if
+        installed, else numpy). ``'brian2'`` is the grid reference; ``'fast'`` gives the same
+        spikes on the same grid, using numba if installed, else numpy.
     duration : float, optional
         Simulated time in s from the first sample time. Default: up to one sample interval
-        after the last sample (``n_times * dt`` for an ndarray).
+        after the last sample (``n_times * dt`` for an ndarray; a single sample with known
+        times lasts ``dt``). Grid engines round it to whole steps; the exact engine simulates
+        ``[t_start, t_start + duration)`` as given and reports no spike at or after its end.
     times : ndarray of shape (n_times,), optional
         Sample times in s of an ndarray ``current``, strictly increasing.
+    input_hold : {'previous', 'linear'}, default='previous'
+        The current between samples: each sample held until the next (brian2's ``TimedArray``;
+        all engines), or linear from each sample to the next (exact engine only; a grid engine
+        refuses it).
 
     Returns
     -------
@@ -995,10 +1534,12 @@ def simulate_lif(current, params: LIFParams, *, dt: float, engine: str = "auto",
     TypeError
         If ``current`` is not numeric or a parameter has the wrong type.
     ValueError
-        If a shape, a time or a parameter value is invalid, or ``r_m * |current|`` would
-        overflow.
+        If a shape, a time or a parameter value is invalid, ``r_m * |current|`` would
+        overflow, a grid engine is given no ``dt`` or ``input_hold='linear'``, or (exact
+        engine) the intervals between spikes would fall below the time resolution of the
+        window (``t_ref = 0`` with an enormous drive).
     ImportError
-        If ``engine='fast-numba'`` and numba is not installed.
+        If ``engine`` is ``'fast-numba'`` or ``'exact-numba'`` and numba is not installed.
 
     See Also
     --------
@@ -1008,39 +1549,47 @@ def simulate_lif(current, params: LIFParams, *, dt: float, engine: str = "auto",
 
     Notes
     -----
-    Afferents whose current never drives V past threshold (``r_m max(I) <= v_thresh -
-    v_rest`` over the window) are provably silent and are not simulated; they are listed in
-    ``SpikeTrains.silent_skipped``. Only ``duration`` is simulated.
+    Afferents whose current never drives V past threshold over the window (``r_m max(I) <=
+    v_thresh - v_rest``; the grid engines keep a margin of a few rounding errors) are provably
+    silent and are not simulated; they are listed in ``SpikeTrains.silent_skipped``. Only
+    ``duration`` is simulated.
 
     Examples
     --------
     >>> import numpy as np
     >>> p = LIF_PRESETS["ra"]
-    >>> current = np.array([[0.0, 5e-8, 2e-7]]).repeat(200, axis=0)   # 20 ms at dt = 0.1 ms
-    >>> trains = simulate_lif(current, p, dt=1e-4)
+    >>> current = np.array([[0.0, 5e-8, 2e-7]]).repeat(20, axis=0)   # 20 ms sampled every 1 ms
+    >>> trains = simulate_lif(current, p, dt=1e-3)
     >>> trains.silent_skipped.tolist()        # the first two are below the 100 nA rheobase
     [0, 1]
-    >>> trains.n_spikes.tolist()
-    [0, 0, 5]
-    >>> np.round(trains.spike_times[2] * 1e3, 6).tolist()   # ms: first at (ceil(T0/dt) - 1) dt
+    >>> t = trains.spike_times[2]             # exact: T(v_rest) = tau_m ln 2, then t_ref + tau_m ln 2
+    >>> np.round(t * 1e3, 6).tolist()
+    [3.098368, 7.396736, 11.695104, 15.993472]
+    >>> grid = simulate_lif(current, p, dt=1e-4, engine="fast", times=np.arange(20) * 1e-3)
+    >>> np.round(grid.spike_times[2] * 1e3, 6).tolist()   # 0.1 ms grid: each interval shortened
     [3.0, 7.2, 11.4, 15.6, 19.8]
     """
     if not isinstance(params, LIFParams):
         raise TypeError(f"'params' must be a LIFParams; got {type(params).__name__} instead.")
     check_option("engine", engine, ENGINES)
+    check_option("input_hold", input_hold, INPUT_HOLDS)
+    if engine == "auto":
+        engine = "exact"
+    if engine.startswith("exact"):
+        return _simulate_exact(current, params, dt=dt, engine=engine, duration=duration, times=times, hold=input_hold)
+    if input_hold != "previous":
+        raise ValueError(
+            f"input_hold={input_hold!r} needs engine='exact': the grid engines hold each sample, as brian2's "
+            f"TimedArray does; got engine={engine!r} instead."
+        )
+    if dt is None:
+        raise ValueError(f"'dt' must be given with engine={engine!r}: it is the time step in s; got None instead.")
     plan = _plan(current, dt, duration, times)
     values = plan.values
     n_aff = values.shape[1]
 
-    peak = max(float(values.max()), -float(values.min())) if n_aff else 0.0  # no |values| temporary
-    if not peak * params.r_m < _MAX_DRIVE_V:
-        worst = peak * params.r_m
-        raise ValueError(
-            f"r_m * max|current| must be < {_MAX_DRIVE_V:g} V for the update to stay finite; got {worst:g} V instead."
-        )
+    _check_drive(values, params)
 
-    if engine == "auto":
-        engine = "fast"
     if engine == "fast":
         backend = "numba" if _numba_available() else "numpy"
     elif engine == "fast-numba":

@@ -2,30 +2,30 @@
 
 Run from the repository root::
 
-    .venv/bin/python benchmarks/bench_spiking.py            # full: 12,500 afferents, 1 s, dt = 0.1 ms
+    .venv/bin/python benchmarks/bench_spiking.py            # full: 12,500 afferents, 1 s
     .venv/bin/python benchmarks/bench_spiking.py --quick    # smaller, for a smoke test
 
-Part 1 - the target workload: 12,500 afferents, 1 s at dt = 0.1 ms (10,000 steps), RA preset.
-The current is a ramp-and-hold sampled every 1 ms (as an FE export would be; 1,001 samples x
-12,500 afferents = 100 MB), with per-afferent plateau amplitudes drawn log-uniformly over the
-study's afferent-current range 30 nA - 16 uA (METHOD.md sections 3, 4, 6; see the spiking
-module docstring) and onsets jittered over 0-20 ms. Each engine runs in a fresh subprocess
-(so brian2's imports do not weigh on the fast engine) and reports:
+Part 1 - the target workload: 12,500 afferents, 1 s, RA preset. The current is a
+ramp-and-hold sampled every 1 ms (as an FE export would be; 1,001 samples x 12,500 afferents =
+100 MB), with per-afferent plateau amplitudes drawn log-uniformly over the study's
+afferent-current range 30 nA - 16 uA (see the spiking module docstring) and onsets jittered
+over 0-20 ms. Engines: the exact one (event-driven, no time step; held and linear input; numba
+and the numpy fallback) and the grid ones at dt = 0.1 ms (fast with numba and numpy, brian2).
+Each runs in a fresh subprocess (so brian2's imports do not weigh on the others) and reports:
 
 * wall time of ``simulate_lif`` (best of ``--repeat``; brian2 once), after one warm-up call
   that loads numba's compiled loop (timed apart: compile, or load from the on-disk cache);
-* peak memory allocated during the call, by tracemalloc (numpy buffers, including the fast
-  engine's spike buffers, which are allocated in Python) - the 100 MB input is allocated
-  before and not counted;
+* peak memory allocated during the call, by tracemalloc (numpy buffers, including the spike
+  buffers, which are allocated in Python) - the 100 MB input is allocated before and not
+  counted;
 * the process's peak resident memory (ru_maxrss) before and after the call: it includes the
   interpreter, imports and the input, and catches anything tracemalloc cannot see.
 
-Part 2 - speed vs accuracy: dt x engine -> wall time and spike-time errors against a fine
-reference (fast engine at dt = 0.001 ms) on a subset of afferents (the reference costs 10^6
-steps). Errors: median and max |t - t_ref| over rank-matched spikes (each spike matched to
-the reference spike of the same rank; at high rates this accumulates the per-interval bias),
-the fraction of afferents whose spike count differs, the worst first-spike latency error, and
-the median relative error of the mean rate.
+Part 2 - speed vs accuracy: engine x dt -> wall time and errors against the exact engine on a
+subset of afferents. Errors: median and max |t - t_exact| over rank-matched spikes (each
+spike matched to the exact spike of the same rank; at high rates this accumulates the
+per-interval bias of the grid), the fraction of afferents whose spike count differs, the
+worst first-spike latency error, and the median relative error of the mean rate.
 """
 
 from __future__ import annotations
@@ -33,6 +33,7 @@ from __future__ import annotations
 import argparse
 import hashlib
 import json
+import os
 import platform
 import resource
 import subprocess
@@ -76,15 +77,17 @@ def maxrss_mb() -> float:
     return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024  # kB on Linux
 
 
-def measure_one(engine: str, quick: bool, repeat: int) -> dict:
-    """Run in a subprocess: time and memory of one engine on the Part 1 workload."""
+def measure_one(label: str, quick: bool, repeat: int) -> dict:
+    """Run in a subprocess: time and memory of one engine (``ENGINE[:linear]``) on the Part 1 workload."""
     n_aff, duration, times, current = workload(quick)
+    engine, _, hold = label.partition(":")
+    hold = hold or "previous"
 
     def run():
-        return simulate_lif(current, PARAMS, dt=DT, engine=engine, times=times, duration=duration)
+        return simulate_lif(current, PARAMS, dt=DT, engine=engine, times=times, duration=duration, input_hold=hold)
 
     t0 = time.perf_counter()
-    simulate_lif(np.full((2, 1), 1e-6), PARAMS, dt=DT, engine=engine)  # loads numba's loop
+    simulate_lif(np.full((2, 1), 1e-6), PARAMS, dt=DT, engine=engine, input_hold=hold)  # loads numba's loop
     warmup = time.perf_counter() - t0
     rss_before = maxrss_mb()
     tracemalloc.start()
@@ -101,7 +104,7 @@ def measure_one(engine: str, quick: bool, repeat: int) -> dict:
     for train in res.spike_times:
         digest.update(np.asarray(train).tobytes() + b"|")
     return {
-        "engine": engine,
+        "engine": label,
         "backend": res.backend,
         "wall_s": best,
         "warmup_s": warmup,
@@ -144,7 +147,11 @@ def main(argv=None) -> int:
         print(json.dumps(measure_one(args.one, args.quick, args.repeat)))
         return 0
 
-    print("command:", " ".join(["python", *sys.argv]))
+    env = [f"PYTHONPATH={os.environ['PYTHONPATH']}"] if os.environ.get("PYTHONPATH") else []
+    print("command:", " ".join([*env, "python", *sys.argv]))
+    import afferent
+
+    print("afferent from", os.path.dirname(afferent.__file__))
     print(f"python {platform.python_version()}, numpy {np.__version__}, {platform.machine()}")
     try:
         import numba
@@ -154,9 +161,11 @@ def main(argv=None) -> int:
         print("numba not installed")
 
     n_aff, duration, times, current = workload(args.quick)
-    print(f"\n== Part 1: {n_aff} afferents, {duration:g} s at dt = {DT * 1e3:g} ms ({int(round(duration / DT))} steps)")
+    print(f"\n== Part 1: {n_aff} afferents, {duration:g} s; grid engines at dt = {DT * 1e3:g} ms "
+          f"({int(round(duration / DT))} steps), exact engine without a step")
     print(f"input: {current.shape[0]} samples every 1 ms x {n_aff} afferents = {current.nbytes / 1e6:.0f} MB")
-    engines = ["fast-numba", "fast-numpy"] + ([] if args.no_brian2 else ["brian2"])
+    engines = ["exact-numba", "exact-numba:linear", "exact-numpy", "exact-numpy:linear", "fast-numba", "fast-numpy"]
+    engines += [] if args.no_brian2 else ["brian2"]
     rows = []
     for engine in engines:
         cmd = [sys.executable, __file__, "--one", engine, "--repeat", str(args.repeat)]
@@ -164,46 +173,52 @@ def main(argv=None) -> int:
         out = subprocess.run(cmd, capture_output=True, text=True, check=True).stdout.strip().splitlines()[-1]
         rows.append(json.loads(out))
     print(
-        f"\n{'engine':<11} {'wall s':>7} {'warm-up s':>9} {'traced peak MB':>14} {'RSS before MB':>13} "
+        f"\n{'engine':<19} {'wall s':>7} {'warm-up s':>9} {'traced peak MB':>14} {'RSS before MB':>13} "
         f"{'RSS after MB':>12} {'spikes':>9} {'skipped':>7}  spikes sha256"
     )
     for r in rows:
         print(
-            f"{r['engine']:<11} {r['wall_s']:7.3f} {r['warmup_s']:9.2f} {r['traced_peak_mb']:14.1f} "
+            f"{r['engine']:<19} {r['wall_s']:7.3f} {r['warmup_s']:9.2f} {r['traced_peak_mb']:14.1f} "
             f"{r['rss_before_mb']:13.0f} {r['rss_after_mb']:12.0f} {r['spikes']:9d} {r['skipped']:7d}  {r['sha256']}"
         )
-    print("spike trains identical across engines:", len({r["sha256"] for r in rows}) == 1)
+    grid = [r for r in rows if not r["engine"].startswith("exact")]
+    print("grid engines give identical spike trains:", len({r["sha256"] for r in grid}) == 1)
 
     # ---- Part 2: accuracy -----------------------------------------------------------------
     n_sub = 50 if args.quick else 200
     sub = np.linspace(0, n_aff - 1, n_sub).astype(int)
     c2 = current[:, sub]
-    dt_ref = 1e-6
+    simulate_lif(np.full((2, 1), 1e-6), PARAMS, dt=DT, engine="exact")  # loads numba's loop
     t0 = time.perf_counter()
-    ref = simulate_lif(c2, PARAMS, dt=dt_ref, engine="fast", times=times, duration=duration)
+    ref = simulate_lif(c2, PARAMS, engine="exact", times=times, duration=duration)
     print(
-        f"\n== Part 2: {n_sub} afferents, {duration:g} s; reference fast engine at dt = {dt_ref * 1e3:g} ms "
-        f"({time.perf_counter() - t0:.2f} s, {int(ref.n_spikes.sum())} spikes)"
+        f"\n== Part 2: {n_sub} afferents, {duration:g} s; errors against the exact engine "
+        f"({time.perf_counter() - t0:.3f} s, {int(ref.n_spikes.sum())} spikes)"
     )
     print(
-        f"{'dt ms':>6} {'engine':<7} {'wall s':>7} {'spike err med ms':>17} {'max ms':>8} {'count differs':>14} "
+        f"{'dt ms':>6} {'engine':<11} {'wall s':>7} {'spike err med ms':>17} {'max ms':>8} {'count differs':>14} "
         f"{'latency err max ms':>19} {'rate err med':>13}"
     )
     if not args.no_brian2:  # import brian2 outside the timings
         simulate_lif(np.full((2, 1), 1e-6), PARAMS, dt=DT, engine="brian2")
-    for dt2 in (1e-3, 1e-4, 1e-5):
-        for engine in ["fast"] + ([] if args.no_brian2 else ["brian2"]):
-            if engine == "brian2" and dt2 < 1e-4 and not args.quick:
-                print(f"{dt2 * 1e3:6g} {engine:<7}  (skipped: 10^5 Python-level steps; same spikes as 'fast')")
-                continue
-            t0 = time.perf_counter()
-            res = simulate_lif(c2, PARAMS, dt=dt2, engine=engine, times=times, duration=duration)
-            wall = time.perf_counter() - t0
-            med, mx, mism, lat, rate = spike_errors(res, ref)
-            print(
-                f"{dt2 * 1e3:6g} {engine:<7} {wall:7.3f} {med * 1e3:17.4f} {mx * 1e3:8.3f} {mism:14.1%} "
-                f"{lat * 1e3:19.4f} {rate:13.2%}"
-            )
+    cases = [(None, "exact-numpy")] + [(d, e) for d in (1e-3, 1e-4, 1e-5, 1e-6) for e in ("fast", "brian2")]
+    for dt2, engine in cases:
+        if engine == "brian2" and (args.no_brian2 or (dt2 < 1e-4 and not args.quick) or dt2 < 1e-5):
+            if not args.no_brian2:
+                print(f"{dt2 * 1e3:6g} {engine:<11}  (skipped: >= 10^5 Python-level steps; same spikes as 'fast')")
+            continue
+        t0 = time.perf_counter()
+        res = simulate_lif(c2, PARAMS, dt=dt2, engine=engine, times=times, duration=duration)
+        wall = time.perf_counter() - t0
+        med, mx, mism, lat, rate = spike_errors(res, ref)
+        label = "-" if dt2 is None else f"{dt2 * 1e3:g}"
+        if dt2 is None:
+            gap = max((float(np.max(np.abs(a - b))) for a, b in zip(res.spike_times, ref.spike_times) if a.size), default=0)
+            engine = f"{engine} (max |t - t_numba| {gap:.1e} s)"
+        print(
+            f"{label:>6} {engine:<11} {wall:7.3f} {med * 1e3:17.6f} {mx * 1e3:8.4f} {mism:14.1%} "
+            f"{lat * 1e3:19.6f} {rate:13.3%}"
+        )
     return 0
 
 

@@ -1,4 +1,6 @@
-"""Tests of stage 6, :mod:`afferent.spiking` (LIF neuron, brian2 and fast engines).
+"""Tests of stage 6, :mod:`afferent.spiking` (LIF neuron): the grid engines (brian2, fast) and shared parts.
+
+The exact engine has its own file, ``test_spiking_exact.py``.
 
 brian2 runs here use its ``numpy`` code-generation target (nothing is compiled), so each
 takes well under 5 s and none is marked ``slow``.
@@ -52,7 +54,7 @@ def same_spikes(a: SpikeTrains, b: SpikeTrains) -> bool:
 
 
 # ---------------------------------------------------------------------------------------------
-# Closed form (METHOD.md section 7) within the derived grid bound
+# Closed form within the derived grid bound
 # ---------------------------------------------------------------------------------------------
 
 
@@ -108,7 +110,7 @@ def test_sa1_preset_closed_form_fast_engine():
     assert p.rheobase == pytest.approx(6e-12)
     current = np.array([1.5, 4.0]) * p.rheobase
     dt = 1e-4
-    trains = simulate_lif(constant(current, 1), p, dt=dt, duration=1.0)
+    trains = simulate_lif(constant(current, 1), p, dt=dt, duration=1.0, engine="fast")
     lo, hi = grid_isi_bounds(p, current, dt=dt)
     for k, train in enumerate(trains.spike_times):
         d = np.diff(train)
@@ -206,7 +208,7 @@ def test_fast_numba_without_numba_raises(monkeypatch):
 # ---------------------------------------------------------------------------------------------
 
 
-@pytest.mark.parametrize("engine", ["fast", "brian2"])
+@pytest.mark.parametrize("engine", ["exact", "fast", "brian2"])
 def test_below_rheobase_is_silent_and_skipped(engine):
     current = np.array([0.0, -5e-7, 0.999 * RA.rheobase, (1 - 1e-9) * RA.rheobase, 2 * RA.rheobase])
     trains = simulate_lif(constant(current, 400), RA, dt=1e-4, engine=engine)
@@ -276,7 +278,7 @@ def test_dt_much_longer_than_tau_m_no_underflow_warning():
     p = replace(RA, t_ref=0.0)
     with warnings.catch_warnings(), np.errstate(all="raise"):
         warnings.simplefilter("error")
-        trains = simulate_lif(constant([2 * p.rheobase, 0.5 * p.rheobase], 5), p, dt=10.0)
+        trains = simulate_lif(constant([2 * p.rheobase, 0.5 * p.rheobase], 5), p, dt=10.0, engine="fast")
     assert trains.n_spikes.tolist() == [5, 0]
 
 
@@ -331,17 +333,17 @@ def test_real_afferent_current_from_synthesis(has_times):
 
 def test_duration_shorter_and_longer_than_input():
     current = constant([3 * RA.rheobase], 100)  # 10 ms
-    full = simulate_lif(current, RA, dt=1e-4, duration=0.03)  # beyond: last sample held
-    padded = simulate_lif(constant([3 * RA.rheobase], 300), RA, dt=1e-4)
+    full = simulate_lif(current, RA, dt=1e-4, duration=0.03, engine="fast")  # beyond: last sample held
+    padded = simulate_lif(constant([3 * RA.rheobase], 300), RA, dt=1e-4, engine="fast")
     assert same_spikes(full, padded)
-    short = simulate_lif(current, RA, dt=1e-4, duration=0.005)
+    short = simulate_lif(current, RA, dt=1e-4, duration=0.005, engine="fast")
     assert short.duration == pytest.approx(0.005)
     assert np.all(short.spike_times[0] < 0.005)
     np.testing.assert_array_equal(short.spike_times[0], padded.spike_times[0][padded.spike_times[0] < 0.005])
 
 
 def test_odd_duration_rounds_up_with_a_note():
-    trains = simulate_lif(constant([3 * RA.rheobase], 100), RA, dt=1e-4, duration=0.00525)
+    trains = simulate_lif(constant([3 * RA.rheobase], 100), RA, dt=1e-4, duration=0.00525, engine="fast")
     assert trains.duration == pytest.approx(0.0053)
     assert any("not a whole number of steps" in n for n in trains.notes)
 
@@ -429,8 +431,9 @@ def test_lifparams_errors(change, exc, msg):
         (
             {"engine": "brain2"},
             ValueError,
-            "Invalid value for the 'engine' parameter. Allowed values are 'auto', 'fast', 'fast-numba', "
-            "'fast-numpy' and 'brian2', but got 'brain2' instead. Did you mean 'brian2'?",
+            "Invalid value for the 'engine' parameter. Allowed values are 'auto', 'exact', 'exact-numba', "
+            "'exact-numpy', 'fast', 'fast-numba', 'fast-numpy' and 'brian2', but got 'brain2' instead. "
+            "Did you mean 'brian2'?",
         ),
         ({"dt": 0.0}, ValueError, "'dt' must be > 0 s; got 0.0 instead."),
         ({"duration": -1.0}, ValueError, "'duration' must be > 0 s; got -1.0 instead."),
@@ -472,7 +475,7 @@ def test_lifparams_errors(change, exc, msg):
         ),
         ({"params": {"tau_m": 0.01}}, TypeError, "'params' must be a LIFParams; got dict instead."),
         (
-            {"dt": 1e-12, "duration": 1.0},
+            {"dt": 1e-12, "duration": 1.0, "engine": "fast"},
             ValueError,
             "duration / dt must be below 2147483647 steps; got 1e+12 steps (duration 1.0 s, dt 1e-12 s) instead.",
         ),
@@ -580,7 +583,7 @@ def test_rate_table_splits_the_window_by_stimulus_phase():
 
 def test_drive_mapping_and_the_ceiling_and_silence_warnings(tmp_path, capsys):
     """The study's longitudinal fit drives every afferent of the bundled sample at 158 x the 'ra'
-    rheobase (834 Hz, the 1/t_ref ceiling): warned; drive='rheobase' maps the largest current to
+    rheobase (815 Hz with the exact engine, near the 833 Hz 1/t_ref ceiling): warned; drive='rheobase' maps the largest current to
     2 x the rheobase, whose rate is the closed form 1 / (t_ref + tau_m ln 2)."""
     from conftest import SAMPLE_DIR
 

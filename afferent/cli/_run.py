@@ -78,9 +78,10 @@ def add_args(parser: argparse.ArgumentParser) -> None:
     g.add_argument("--waveform-dt-ms", type=float, default=1.0, help="sampling step of ramp/sine waveforms, ms (default 1)")
     g = parser.add_argument_group("spikes (leaky integrate-and-fire)")
     g.add_argument("--spikes", action="store_true", help="simulate spikes: writes spikes.csv and spike_summary.csv")
-    g.add_argument("--engine", default="auto", choices=("auto", "fast", "fast-numba", "fast-numpy", "brian2"),
-                   help="spiking engine: fast exact integration (default) or brian2 (the reference; same spikes)")
-    g.add_argument("--dt-ms", type=float, default=0.1, help="LIF time step, ms (default 0.1)")
+    g.add_argument("--engine", default="auto", choices=("auto", "exact", "exact-numba", "exact-numpy", "fast", "fast-numba", "fast-numpy", "brian2"),
+                   help="spiking engine: exact (default; event-driven, exact spike times, no time step), fast (on the "
+                        "--dt-ms grid) or brian2 (the grid reference; same spikes as fast)")
+    g.add_argument("--dt-ms", type=float, default=0.1, help="LIF time step of the grid engines fast and brian2, ms (default 0.1; exact has none)")
     g.add_argument("--lif-preset", default="ra", help="LIF parameter set (afferent.spiking.LIF_PRESETS; default 'ra')")
     g.add_argument("--input", choices=("static", "rate-sensitive"), default="static",
                    help="static: the sigmoid current (the study; fires through a hold); rate-sensitive: RA-I adaptation, "

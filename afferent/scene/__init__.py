@@ -61,7 +61,7 @@ A full example, every key with its default (``#`` marks optional keys)::
     # file: file = "depth.csv", length_unit = "mm" [, time_unit = "s", on_negative]
 
     [spikes]
-    engine = "auto"               # "fast", "fast-numba", "fast-numpy", "brian2"
+    engine = "auto"               # = "exact"; "exact-numba", "exact-numpy", "fast" (grid, dt_ms), "brian2"
     dt_ms = 0.1
     lif_preset = "ra"             # afferent.spiking.LIF_PRESETS; any field overridable:
     # tau_m_ms, r_m_ohm, v_rest_mv, v_thresh_mv, v_reset_mv, t_ref_ms

@@ -92,7 +92,8 @@ def summary_lines(result) -> list[str]:
     if result.spikes is not None:
         sp = result.record["spikes"]
         out.append(f"  spikes: {sp['n_spikes']} from {sp['n_afferents']} afferents in {sp['duration_s']:g} s "
-                   f"({sp['engine']}, {sp['input']} input)")
+                   f"({sp['engine']}, {'dt %g ms' % (sp['dt_s'] * 1e3) if sp.get('dt_s') else 'no grid'}, "
+                   f"{sp['input']} input)")
     sat = result.record.get("saturation")
     if sat:
         out.append(f"  transduction: {sat['fraction_sensitive']:.1%} of receptor samples in the sigmoid's sensitive "

@@ -21,7 +21,7 @@ OUTPUTS = ("sed_map", "currents", "profiles", "fit", "spikes", "plots", "vtu")
 
 #: Spiking engines (mirrors :data:`afferent.spiking.ENGINES`, kept here so that checking a
 #: scene does not import the spiking module).
-_ENGINES = ("auto", "fast", "fast-numba", "fast-numpy", "brian2")
+_ENGINES = ("auto", "exact", "exact-numba", "exact-numpy", "fast", "fast-numba", "fast-numpy", "brian2")
 
 #: quantity -> (SI suffix, {suffix: power of ten to SI})
 _QUANTITIES = {
