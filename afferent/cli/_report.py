@@ -8,8 +8,8 @@ grid engines ``fast`` and ``brian2``: time, rate and spike-time error), receptor
 profile error), calibration method (``rsm1``, ``rsm2``, ``least_squares``: evaluations, time,
 parameter error) and reading a time series (whole vs streamed: time, peak memory).
 
-The default size takes under a minute on two cores; ``--full`` runs at the benchmarks' sizes
-(``benchmarks/*.py``; several minutes).
+The default size takes about 20 s on two cores; ``--full`` runs larger sizes, closer to the
+benchmark scripts' (``benchmarks/*.py`` in the source repository; about a minute).
 
 Example::
 
@@ -25,7 +25,7 @@ import sys
 def add_args(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("-o", "--output", required=True, metavar="OUTDIR", help="output folder (created whole, or not at all)")
     parser.add_argument("--overwrite", action="store_true", help="replace an existing output folder")
-    parser.add_argument("--full", action="store_true", help="the benchmarks' sizes (several minutes) instead of the quick ones")
+    parser.add_argument("--full", action="store_true", help="larger sizes (about a minute on two cores) instead of the quick ones")
     parser.add_argument("-q", "--quiet", action="store_true", help="no progress output")
 
 
@@ -40,6 +40,6 @@ def run(args: argparse.Namespace) -> int:
     results = run_report(args.output, size="full" if args.full else "quick", overwrite=args.overwrite,
                          command=command, progress=say)
     if not args.quiet:
-        print(f"afferent report: wrote {args.output}/report.md in {sum(results['timings'].values()):.0f} s",
+        print(f"afferent report: wrote {args.output}/report.md in {results['wall_s']:.0f} s",
               file=sys.stderr)
     return 0
