@@ -328,7 +328,7 @@ def measure_spiking(current, times, duration: float, params, *, fast_dts=(1e-3, 
         if installed): the first row is the reference itself, then the exact engine's other
         backend (numpy) when numba is installed, then the grid engines.
     """
-    from .spiking import _numba_available, simulate_lif
+    from .spiking import simulate_lif
 
     warm = np.full((2, 1), 1e-6)
     simulate_lif(warm, params, dt=1e-4, engine="exact")  # numba compiles (or loads) its loops: not timed
@@ -336,7 +336,7 @@ def measure_spiking(current, times, duration: float, params, *, fast_dts=(1e-3, 
     t_ref, ref = best_time(lambda: simulate_lif(current, params, engine="exact", times=times, duration=duration), repeat)
     rows = [{"engine": "exact", "backend": ref.backend, "dt_s": None, "wall_s": t_ref, "spikes": int(ref.n_spikes.sum()),
              **spike_errors(ref, ref)}]
-    cases = [("exact-numpy", None)] if _numba_available() else []
+    cases = [("exact-numpy", None)] if ref.backend == "numba" else []  # the other backend of the same engine
     cases += [("fast", dt) for dt in fast_dts]
     brian2 = bool(brian2_dts) and _has_brian2()
     if brian2:
@@ -684,17 +684,18 @@ def _log_axis(ax, values, axis: str = "y") -> None:
 
 
 def _plots(results: dict, folder: str) -> dict:
-    import matplotlib
-
-    matplotlib.use("Agg", force=False) if matplotlib.get_backend().lower() != "agg" else None
-    import matplotlib.pyplot as plt
+    from matplotlib.figure import Figure  # figures outside pyplot: any backend, nothing left open
 
     from .plotting import save_figure
+
+    def subplots(height):
+        fig = Figure(figsize=(10, height), layout="constrained")
+        return fig, fig.subplots(1, 2)
 
     names = {}
     # sampling
     rows = results["sampling"]
-    fig, (ax_e, ax_t) = plt.subplots(1, 2, figsize=(10, 3.4), layout="constrained")
+    fig, (ax_e, ax_t) = subplots(3.4)
     x = np.arange(len(rows))
     for j, (key, label) in enumerate((("err_median", "median"), ("err_p95", "95th percentile"), ("err_max", "max"))):
         ax_e.bar(x + (j - 1) * 0.27, [r[key] for r in rows], 0.27, label=label)
@@ -712,7 +713,7 @@ def _plots(results: dict, folder: str) -> dict:
     # spiking
     rows = [r for r in results["spiking"] if r.get("wall_s") is not None]
     exact = rows[0]
-    fig, (ax_t, ax_e) = plt.subplots(1, 2, figsize=(10, 3.6), layout="constrained")
+    fig, (ax_t, ax_e) = subplots(3.6)
     for engine, marker in (("fast", "o"), ("brian2", "s")):
         part = [r for r in rows if r["engine"] == engine]
         if part:
@@ -734,7 +735,7 @@ def _plots(results: dict, folder: str) -> dict:
     names["spiking"] = save_figure(fig, os.path.join(folder, "spiking.png"))
     # receptors
     rows = results["receptors"]
-    fig, (ax_t, ax_e) = plt.subplots(1, 2, figsize=(10, 3.4), layout="constrained")
+    fig, (ax_t, ax_e) = subplots(3.4)
     n = [r["receptors"] for r in rows]
     ax_t.loglog(n, [r["sampling_s"] * 1e3 for r in rows], "o-", label="sampling (locating + weights)")
     ax_t.loglog(n, [r["transduce_synthesize_s"] * 1e3 for r in rows], "s-", label="transduction + synthesis")
@@ -749,7 +750,7 @@ def _plots(results: dict, folder: str) -> dict:
     names["receptors"] = save_figure(fig, os.path.join(folder, "receptors.png"))
     # calibration
     rows = results["calibration"]
-    fig, (ax_n, ax_e) = plt.subplots(1, 2, figsize=(10, 4.2), layout="constrained")
+    fig, (ax_n, ax_e) = subplots(4.2)
     methods = list(dict.fromkeys(r["method"] for r in rows))
     cases = list(dict.fromkeys((r["truth"], r["normalise"]) for r in rows))
     x = np.arange(len(methods))
@@ -769,7 +770,7 @@ def _plots(results: dict, folder: str) -> dict:
     names["calibration"] = save_figure(fig, os.path.join(folder, "calibration.png"))
     # series
     rows = results["series"]
-    fig, (ax_t, ax_m) = plt.subplots(1, 2, figsize=(10, 3.4), layout="constrained")
+    fig, (ax_t, ax_m) = subplots(3.4)
     for how, marker in (("read_sed + sample_sed", "o-"), ("iter_sed + sample_steps", "s-")):
         part = [r for r in rows if r["how"] == how]
         ax_t.plot([r["steps"] for r in part], [r["wall_s"] for r in part], marker, label=how)
