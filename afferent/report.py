@@ -587,6 +587,7 @@ def _measure_all(size: ReportSize, work: str, say) -> dict:
 
     timings, results = {}, {}
     field, tips = _read_sample("indent_0p88mm.vtu")
+    results["mesh_points"] = field.n_points
 
     t0 = time.perf_counter()
     say("sampling")
@@ -947,8 +948,6 @@ def run_report(output, *, size: str | ReportSize = "quick", overwrite: bool = Fa
         results = _measure_all(size, work, say)
     results["machine"] = machine_info()
     results["size"] = dataclasses.asdict(size)
-    field, _ = _read_sample("indent_0p88mm.vtu")
-    results["mesh_points"] = field.n_points
     results["headline"] = headline(results)
     command = command or f"afferent report -o {output}"
     with atomic_dir(output, overwrite=overwrite) as tmp:

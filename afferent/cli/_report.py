@@ -8,7 +8,7 @@ grid engines ``fast`` and ``brian2``: time, rate and spike-time error), receptor
 profile error), calibration method (``rsm1``, ``rsm2``, ``least_squares``: evaluations, time,
 parameter error) and reading a time series (whole vs streamed: time, peak memory).
 
-The default size takes about 20 s on two cores; ``--full`` runs larger sizes, closer to the
+The default size takes 20-30 s on two cores; ``--full`` runs larger sizes, closer to the
 benchmark scripts' (``benchmarks/*.py`` in the source repository; about a minute).
 
 Example::
