@@ -93,3 +93,31 @@ def test_report_size_is_checked(tmp_path):
     with pytest.raises(ValueError, match=r"'size' must be one of \['full', 'quick', 'tiny'\]; got 'huge' instead."):
         run_report(tmp_path / "x", size="huge")
     assert set(SIZES) == {"tiny", "quick", "full"}
+
+
+def test_spiking_without_brian2_says_so(monkeypatch):
+    import afferent.report as report
+    from afferent.spiking import LIF_PRESETS
+
+    monkeypatch.setattr(report, "_has_brian2", lambda: False)
+    times, current = report.synthetic_afferent_current(5, duration=0.2)
+    rows = report.measure_spiking(current, times, 0.2, LIF_PRESETS["ra"], fast_dts=(1e-4,), brian2_dts=(1e-3,), repeat=1)
+    assert rows[-1] == {"engine": "brian2", "backend": None, "dt_s": None, "wall_s": None, "spikes": None,
+                        "skipped": "brian2 does not import"}
+    assert [r["engine"] for r in rows if r["engine"] == "fast"] == ["fast"]
+
+
+@pytest.mark.slow
+def test_report_renders_without_brian2(report, tmp_path):
+    """A machine without brian2: its rows say skipped, the plots and headline leave it out."""
+    import afferent.report as rep
+
+    _, results, _ = report
+    results = dict(results, spiking=[r for r in results["spiking"] if r["engine"] != "brian2"]
+                   + [{"engine": "brian2", "backend": None, "dt_s": None, "wall_s": None, "spikes": None,
+                       "skipped": "brian2 does not import"}])
+    results["headline"] = rep.headline(results)
+    assert not any(k.startswith("brian2") for k in results["headline"])
+    png = rep._plots(results, str(tmp_path))
+    md = rep._markdown(results, SIZES["tiny"], png, "afferent report -o x")
+    assert "| brian2 | - | none | - | - | skipped: brian2 does not import |" in md
