@@ -17,14 +17,14 @@ the 4 starts, as the reference ran before) and after it (``jac='analytic'``, one
 restarts only when it fails). Columns: ``evals`` model evaluations (transduce -> synthesize ->
 compare), ``jac`` closed-form Jacobian evaluations (each about one model evaluation), ``time_ms``
 best of ``--repeat`` wall times of ``calibrate`` (identifiability check included), and the
-relative errors of the fitted parameters against the known ones (clean profiles only).
+relative errors of the fitted parameters against the known ones (clean profiles only; measured by
+:func:`afferent.report.measure_calibration`, as ``afferent report`` does).
 """
 
 from __future__ import annotations
 
 import argparse
 import sys
-import time
 import warnings
 from pathlib import Path
 
@@ -33,30 +33,19 @@ sys.path.insert(0, str(ROOT))  # measure this checkout's afferent, not whichever
 
 import afferent  # noqa: E402
 from afferent.calibration import calibrate  # noqa: E402
-from afferent.profiles import ObservedProfile, read_observed  # noqa: E402
-from afferent.synthesis import Branching  # noqa: E402
-from afferent.transduction import SigmoidParams  # noqa: E402
+from afferent.profiles import read_observed  # noqa: E402
+from afferent.report import CALIBRATION_METHODS, CALIBRATION_TRUTHS, best_time, measure_calibration  # noqa: E402
 
 BLOCK = ROOT / "sample_sed" / "block4"
-TRUTHS = (SigmoidParams(3e-8, 2e-3, 900.0), SigmoidParams(3e-8, 5e-3, 600.0))
-METHODS = {
-    "rsm1": dict(method="rsm1"),
-    "rsm2": dict(method="rsm2"),
-    "ls before (2-point, 4 starts)": dict(method="least_squares", jac="2-point", restarts="always"),
-    "ls after (analytic, 1 start)": dict(method="least_squares"),
-}
+TRUTHS = CALIBRATION_TRUTHS  # (alpha A, gamma 1/Pa, lambda Pa)
+LABELS = {"least_squares (2-point, 4 starts)": "ls before (2-point, 4 starts)", "least_squares": "ls after (analytic, 1 start)"}
+METHODS = {LABELS.get(k, k): v for k, v in CALIBRATION_METHODS.items()}
+HEADER = (f"{'profile':<18} {'normalise':<9} {'method':<30} {'evals':>5} {'jac':>4} {'time_ms':>8} {'ssd':>10} "
+          f"{'status':<9} {'err_alpha':>9} {'err_gamma':>9} {'err_lambda':>10}")
 
 
-def cases():
-    field = afferent.read_sed(str(BLOCK / "indent_1p32mm.vtu"), length_unit="mm", sed_unit="MPa")
-    sed = afferent.sample_sed(field, afferent.read_receptors(BLOCK / "receptors.csv", length_unit="mm"))
-    noisy = read_observed(ROOT / "sample_sed" / "observed" / "synthetic_1p32mm_longitudinal.csv", length_unit="mm")
-    yield "noisy", "both", sed, noisy, None
-    for truth in TRUTHS:
-        aff = afferent.synthesize(afferent.transduce(sed, truth), Branching.longitudinal(sed.layout))
-        clean = ObservedProfile(aff.positions, aff.values[-1])
-        for normalise in ("both", "neither"):
-            yield f"clean g{truth.gamma:g} l{truth.lambda_:g}", normalise, sed, clean, truth
+def _err(x):
+    return "-" if x is None else f"{x:.1e}"
 
 
 def main(argv=None):
@@ -64,25 +53,25 @@ def main(argv=None):
     ap.add_argument("--repeat", type=int, default=3, help="wall time: best of N runs (default 3)")
     args = ap.parse_args(argv)
     print(f"# command: python benchmarks/bench_calibration.py {' '.join(sys.argv[1:] if argv is None else argv)}")
-    print(f"{'profile':<18} {'normalise':<9} {'method':<30} {'evals':>5} {'jac':>4} {'time_ms':>8} {'ssd':>10} "
-          f"{'status':<9} {'err_alpha':>9} {'err_gamma':>9} {'err_lambda':>10}")
-    for name, normalise, sed, observed, truth in cases():
-        for label, kwargs in METHODS.items():
-            times = []
-            for _ in range(args.repeat):
-                with warnings.catch_warnings():
-                    warnings.simplefilter("ignore")
-                    t = time.perf_counter()
-                    res = calibrate(sed, observed, normalise=normalise, **kwargs)
-                    times.append(time.perf_counter() - t)
-            errs = ["", "", ""]
-            if truth is not None:
-                fitted = (res.params.alpha, res.params.gamma, res.params.lambda_)
-                known = (truth.alpha, truth.gamma, truth.lambda_)
-                errs = [f"{abs(f / k - 1):.1e}" if p not in res.no_effect else "-"
-                        for p, f, k in zip(("alpha", "gamma", "lambda"), fitted, known)]
-            print(f"{name:<18} {normalise:<9} {label:<30} {res.n_evaluations:>5} {res.n_jacobian_evaluations:>4} "
-                  f"{1e3 * min(times):>8.1f} {res.ssd:>10.3g} {res.status:<9} {errs[0]:>9} {errs[1]:>9} {errs[2]:>10}")
+    print(HEADER)
+    field = afferent.read_sed(str(BLOCK / "indent_1p32mm.vtu"), length_unit="mm", sed_unit="MPa")
+    sed = afferent.sample_sed(field, afferent.read_receptors(BLOCK / "receptors.csv", length_unit="mm"))
+    noisy = read_observed(ROOT / "sample_sed" / "observed" / "synthetic_1p32mm_longitudinal.csv", length_unit="mm")
+    for label, kwargs in METHODS.items():
+        def fit():
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                return calibrate(sed, noisy, normalise="both", **kwargs)
+
+        t, res = best_time(fit, args.repeat)
+        print(f"{'noisy':<18} {'both':<9} {label:<30} {res.n_evaluations:>5} {res.n_jacobian_evaluations:>4} "
+              f"{1e3 * t:>8.1f} {res.ssd:>10.3g} {res.status:<9} {'':>9} {'':>9} {'':>10}")
+    for truth in TRUTHS:  # noise-free profiles of known parameters: afferent report's measurement
+        for r in measure_calibration(sed, (truth,), repeat=args.repeat):
+            name = f"clean g{truth[1]:g} l{truth[2]:g}"
+            print(f"{name:<18} {r['normalise']:<9} {LABELS.get(r['method'], r['method']):<30} {r['evaluations']:>5} "
+                  f"{r['jacobian_evaluations']:>4} {1e3 * r['time_s']:>8.1f} {r['ssd']:>10.3g} {r['status']:<9} "
+                  f"{_err(r['err_alpha']):>9} {_err(r['err_gamma']):>9} {_err(r['err_lambda']):>10}")
     return 0
 
 

@@ -40,7 +40,7 @@ from pathlib import Path
 import numpy as np
 
 ROOT = Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(ROOT / "tests"))
+sys.path.insert(0, str(ROOT))  # this checkout's afferent (the commands timed are the installed ones)
 BIN = Path(sys.executable).parent
 
 
@@ -52,10 +52,11 @@ def analytic(p_mm):
 def make_data(folder: Path, points: int, steps: int) -> tuple[int, int]:
     """Write the PVD's VTUs and the XDMF/HDF5 series (steps 0..steps-1) unless already there."""
     import meshio
-    from conftest import hex_box
+
+    from afferent.report import hex_block
 
     n = max(2, round(points ** (1 / 3))) - 1
-    pts, hexes = hex_box(n, n, n, size=(4.0, 3.1, 4.0))
+    pts, hexes = hex_block(n, n, n, size=(4.0, 3.1, 4.0))
     stamp = folder / f"done_{len(pts)}_{steps}"
     if stamp.exists():
         return len(pts), len(hexes)

@@ -21,21 +21,21 @@ import time
 import meshio
 import numpy as np
 
-import afferent
-from afferent.profiles import ObservedProfile, compare_profiles
-from afferent.receptors import ReceptorLayout, grid_layout
-from afferent.synthesis import Branching
-from afferent.transduction import STUDY_PARAMS, saturation_report
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))  # this checkout's afferent
 
-sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "tests"))
-from conftest import hex_box  # noqa: E402
+import afferent  # noqa: E402
+from afferent.profiles import ObservedProfile, compare_profiles  # noqa: E402
+from afferent.receptors import ReceptorLayout, grid_layout  # noqa: E402
+from afferent.report import hex_block  # noqa: E402
+from afferent.synthesis import Branching  # noqa: E402
+from afferent.transduction import STUDY_PARAMS, saturation_report  # noqa: E402
 
 
 def synthetic_export(n_points: int) -> str:
     n = (n_points / (4 * 4 * 3.1)) ** (1 / 3)
     nx = nz = max(2, round(n * 4)) - 1
     ny = max(2, round(n * 3.1)) - 1
-    points, hexes = hex_box(nx, ny, nz, size=(4.0, 3.1, 4.0))
+    points, hexes = hex_block(nx, ny, nz, size=(4.0, 3.1, 4.0))
     x, y, z = points.T
     sed = 1.9e-4 * np.exp(-((x - 2) ** 2 + (z - 2) ** 2) / 0.6) * y / 3.1
     path = os.path.join(tempfile.mkdtemp(), "bench.vtu")

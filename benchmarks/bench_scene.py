@@ -38,9 +38,9 @@ import time
 import meshio
 import numpy as np
 
-sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "tests"))
-from conftest import hex_box  # noqa: E402
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))  # this checkout's afferent
 
+from afferent.report import hex_block  # noqa: E402
 from afferent.scene import load_scene, run_scene  # noqa: E402
 
 
@@ -49,7 +49,7 @@ def synthetic_export(folder: str, n_points: int, size: float) -> str:
     n = (n_points / (size * size * h)) ** (1 / 3)  # nodes per mm
     nx = nz = max(2, round(n * size)) - 1
     ny = max(2, round(n * h)) - 1
-    points, hexes = hex_box(nx, ny, nz, size=(size, h, size))
+    points, hexes = hex_block(nx, ny, nz, size=(size, h, size))
     x, y, z = points.T
     c = size / 2
     sed = 3e-2 * np.exp(-((x - c) ** 2 + (z - c) ** 2) / 0.6) * y / h  # MPa; peak 3e4 Pa, as the bundled sample

@@ -22,7 +22,7 @@ Each runs in a fresh subprocess (so brian2's imports do not weigh on the others)
   interpreter, imports and the input, and catches anything tracemalloc cannot see.
 
 Part 2 - speed vs accuracy: engine x dt -> wall time and errors against the exact engine on a
-subset of afferents. Errors: median and max |t - t_exact| over rank-matched spikes (each
+subset of afferents (:func:`afferent.report.measure_spiking`, the measurement of ``afferent report``). Errors: median and max |t - t_exact| over rank-matched spikes (each
 spike matched to the exact spike of the same rank; at high rates this accumulates the
 per-interval bias of the grid), the fraction of afferents whose spike count differs, the
 worst first-spike latency error, and the median relative error of the mean rate.
@@ -43,33 +43,16 @@ import tracemalloc
 
 import numpy as np
 
-from afferent.spiking import LIF_PRESETS, simulate_lif
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))  # this checkout's afferent
+
+from afferent.report import measure_spiking, synthetic_afferent_current  # noqa: E402
+from afferent.spiking import LIF_PRESETS, simulate_lif  # noqa: E402
 
 PARAMS = LIF_PRESETS["ra"]
 DT = 1e-4
-
-
-def ramp_and_hold(n_afferents: int, *, duration: float = 1.0, sample_dt: float = 1e-3, rng=0):
-    """Ramp (100 ms) - hold (500 ms) - release (100 ms) - rest, per-afferent amplitude and onset."""
-    rng = np.random.default_rng(rng)
-    times = np.arange(int(round(duration / sample_dt)) + 1) * sample_dt
-    amp = np.exp(rng.uniform(np.log(3e-8), np.log(1.6e-5), n_afferents))
-    onset = rng.uniform(0.0, 0.02, n_afferents)
-    # clip(t / 0.1, 0, 1) - clip((t - 0.6) / 0.1, 0, 1), times amp; in place (two buffers at most)
-    current = np.subtract.outer(times, onset)
-    release = current - 0.6
-    for buf in (current, release):
-        np.divide(buf, 0.1, out=buf)
-        np.clip(buf, 0.0, 1.0, out=buf)
-    current -= release
-    del release
-    current *= amp
-    return times, current
-
-
 def workload(quick: bool):
     n_aff, duration = (1250, 0.2) if quick else (12_500, 1.0)
-    times, current = ramp_and_hold(n_aff, duration=duration)
+    times, current = synthetic_afferent_current(n_aff, duration=duration)  # ramp-and-hold, as in afferent report
     return n_aff, duration, times, current
 
 
@@ -115,24 +98,6 @@ def measure_one(label: str, quick: bool, repeat: int) -> dict:
         "skipped": int(res.silent_skipped.size),
         "sha256": digest.hexdigest()[:16],
     }
-
-
-def spike_errors(trains, ref):
-    """Rank-matched spike-time errors, count mismatches, first-spike latency and rate errors vs ``ref``."""
-    lat = np.abs(trains.first_spike_latency() - ref.first_spike_latency())
-    lat_max = float(np.nanmax(lat)) if np.isfinite(lat).any() else 0.0
-    fired = ref.n_spikes > 0
-    rate_err = np.abs(trains.rates() - ref.rates())[fired] / ref.rates()[fired]
-    rate_med = float(np.median(rate_err)) if rate_err.size else 0.0
-    errs, mismatched = [], 0
-    for a, b in zip(trains.spike_times, ref.spike_times):
-        mismatched += a.size != b.size
-        k = min(a.size, b.size)
-        errs.append(np.abs(a[:k] - b[:k]))
-    errs = np.concatenate(errs) if errs else np.empty(0)
-    med = float(np.median(errs)) if errs.size else 0.0
-    mx = float(errs.max()) if errs.size else 0.0
-    return med, mx, mismatched / max(len(trains.spike_times), 1), lat_max, rate_med
 
 
 def main(argv=None) -> int:
@@ -184,41 +149,33 @@ def main(argv=None) -> int:
     grid = [r for r in rows if not r["engine"].startswith("exact")]
     print("grid engines give identical spike trains:", len({r["sha256"] for r in grid}) == 1)
 
-    # ---- Part 2: accuracy -----------------------------------------------------------------
+    # ---- Part 2: accuracy (afferent report's measurement, afferent.report.measure_spiking) ----------
     n_sub = 50 if args.quick else 200
     sub = np.linspace(0, n_aff - 1, n_sub).astype(int)
-    c2 = current[:, sub]
-    simulate_lif(np.full((2, 1), 1e-6), PARAMS, dt=DT, engine="exact")  # loads numba's loop
-    t0 = time.perf_counter()
-    ref = simulate_lif(c2, PARAMS, engine="exact", times=times, duration=duration)
+    c2 = np.ascontiguousarray(current[:, sub])
+    brian2_dts = () if args.no_brian2 else (1e-3, 1e-4, 1e-5) if args.quick else (1e-3, 1e-4)
+    rows = measure_spiking(c2, times, duration, PARAMS, fast_dts=(1e-3, 1e-4, 1e-5, 1e-6), brian2_dts=brian2_dts, repeat=1)
+    ref = rows[0]
     print(
         f"\n== Part 2: {n_sub} afferents, {duration:g} s; errors against the exact engine "
-        f"({time.perf_counter() - t0:.3f} s, {int(ref.n_spikes.sum())} spikes)"
+        f"({ref['backend']}: {ref['wall_s']:.3f} s, {ref['spikes']} spikes)"
     )
     print(
         f"{'dt ms':>6} {'engine':<11} {'wall s':>7} {'spike err med ms':>17} {'max ms':>8} {'count differs':>14} "
         f"{'latency err max ms':>19} {'rate err med':>13}"
     )
-    if not args.no_brian2:  # import brian2 outside the timings
-        simulate_lif(np.full((2, 1), 1e-6), PARAMS, dt=DT, engine="brian2")
-    cases = [(None, "exact-numpy")] + [(d, e) for d in (1e-3, 1e-4, 1e-5, 1e-6) for e in ("fast", "brian2")]
-    for dt2, engine in cases:
-        if engine == "brian2" and (args.no_brian2 or (dt2 < 1e-4 and not args.quick) or dt2 < 1e-5):
-            if not args.no_brian2:
-                print(f"{dt2 * 1e3:6g} {engine:<11}  (skipped: >= 10^5 Python-level steps; same spikes as 'fast')")
+    for r in rows[1:]:
+        if r.get("skipped"):
+            print(f"{'-':>6} {r['engine']:<11}  (skipped: {r['skipped']})")
             continue
-        t0 = time.perf_counter()
-        res = simulate_lif(c2, PARAMS, dt=dt2, engine=engine, times=times, duration=duration)
-        wall = time.perf_counter() - t0
-        med, mx, mism, lat, rate = spike_errors(res, ref)
-        label = "-" if dt2 is None else f"{dt2 * 1e3:g}"
-        if dt2 is None:
-            gap = max((float(np.max(np.abs(a - b))) for a, b in zip(res.spike_times, ref.spike_times) if a.size), default=0)
-            engine = f"{engine} (max |t - t_numba| {gap:.1e} s)"
+        label = "-" if r["dt_s"] is None else f"{r['dt_s'] * 1e3:g}"
+        engine = r["engine"] if r["dt_s"] is not None else f"{r['engine']} (max |t - t_numba| {r['spike_err_max_s']:.1e} s)"
         print(
-            f"{label:>6} {engine:<11} {wall:7.3f} {med * 1e3:17.6f} {mx * 1e3:8.4f} {mism:14.1%} "
-            f"{lat * 1e3:19.6f} {rate:13.3%}"
+            f"{label:>6} {engine:<11} {r['wall_s']:7.3f} {r['spike_err_median_s'] * 1e3:17.6f} {r['spike_err_max_s'] * 1e3:8.4f} "
+            f"{r['count_differs']:14.1%} {r['latency_err_max_s'] * 1e3:19.6f} {r['rate_err_median']:13.3%}"
         )
+    if not args.no_brian2:
+        print(f"(brian2 at dt < {min(brian2_dts) * 1e3:g} ms skipped: >= 10^5 Python-level steps; same spikes as 'fast')")
     return 0
 
 
