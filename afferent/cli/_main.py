@@ -18,7 +18,7 @@ from ..exceptions import AfferentError
 #: needed, so that ``afferent run`` does not pay for the imports of ``afferent calibrate``); help comes
 #: from the module's docstring.
 COMMANDS = {"info": "afferent.cli._info", "sample": "afferent.cli._sample", "run": "afferent.cli._run",
-            "calibrate": "afferent.cli._calibrate", "demo": "afferent.cli._demo"}
+            "calibrate": "afferent.cli._calibrate", "demo": "afferent.cli._demo", "sweep": "afferent.cli._sweep"}
 
 
 def _module(name: str):
