@@ -75,13 +75,14 @@ def test_dask_cluster_table_equals_serial_and_export_is_sampled_once(tmp_path, m
     assert rec["scene_tables"]["transduction"]["gamma_per_pa"] == 1e-2 and rec["scene_tables"]["spikes"]["gain_s"] == 0.3
 
 
-def test_local_threads_equal_serial_and_rows_match_a_scene_run(tmp_path):
+def test_local_schedulers_equal_serial_and_rows_match_a_scene_run(tmp_path):
     pytest.importorskip("dask")
     src = write_sweep(tmp_path, SMALL)
     serial = sweep(src, tmp_path / "serial", scheduler="serial")
-    threads = sweep(src, tmp_path / "threads")  # the default: Dask's local threads
-    assert threads.record["engine"]["kind"] == "dask-threads"
-    pd.testing.assert_frame_equal(threads.table, serial.table)
+    for kind, out in (("processes", sweep(src, tmp_path / "default")), ("threads", sweep(src, tmp_path / "threads",
+                                                                                             scheduler="threads"))):
+        assert out.record["engine"]["kind"] == f"dask-{kind}"
+        pd.testing.assert_frame_equal(out.table, serial.table)
     # one parameter set, run as a plain scene by `afferent run`, gives the same spike counts
     scene_file = tmp_path / "one.toml"
     scene_file.write_text(_BASE.replace("gain_s = 0.2", "gain_s = 0.3").replace(
