@@ -30,7 +30,7 @@ only contend for it; processes pay ~1 s to start and import, once per sweep. Pro
 importing the calling script, so a script must call :func:`sweep` under
 ``if __name__ == "__main__":`` (the error says so). ``'threads'`` / ``'processes'`` choose;
 ``'serial'`` runs in this process without Dask; an address (``'tcp://host:8786'``) or a
-:class:`distributed.Client` runs on that cluster. Without Dask installed the local default
+``distributed.Client`` runs on that cluster. Without Dask installed the local default
 runs serially, with a one-line note: same tasks, same results.
 
 **The SED cache on a cluster.** Locally, every worker shares this machine's disk, so the
@@ -73,7 +73,7 @@ class SweepResult:
     output : str
         The output folder.
     table : pandas.DataFrame
-        One row per scene x parameter set x afferent (:data:`COLUMNS`), tasks that succeeded.
+        One row per scene x parameter set x afferent (``COLUMNS``: name -> meaning), tasks that succeeded.
     table_path : str
         ``table.parquet`` (pyarrow installed) or ``table.csv``.
     n_tasks, n_ran, n_skipped, n_failed : int
@@ -352,7 +352,7 @@ def sweep(sources, output, *, scheduler=None, overwrite: bool = False, cache_dir
     scheduler : None, str or distributed.Client, optional
         None: Dask's local ``'processes'`` scheduler (:data:`LOCAL_DEFAULT`), or serial with a note
         when Dask is not installed; ``'threads'``, ``'processes'``, ``'serial'``; a scheduler
-        address (``'tcp://host:8786'``) or a :class:`distributed.Client`.
+        address (``'tcp://host:8786'``) or a ``distributed.Client``.
     overwrite : bool, default=False
         Replace an existing output folder.
     cache_dir : str or path-like, optional
