@@ -39,6 +39,12 @@ SMALL = """\
 """
 
 
+def records(out: Path) -> dict:
+    """Task id -> record, from the sweep's tasks/*.jsonl (one JSON line per task)."""
+    recs = [json.loads(line) for f in sorted((out / "tasks").glob("*.jsonl")) for line in f.read_text().splitlines()]
+    return {r["task"]: r for r in recs}
+
+
 def _line(path: Path, text: str) -> int:
     return next(n for n, line in enumerate(path.read_text().splitlines(), 1) if text in line)
 
@@ -70,7 +76,7 @@ def test_dask_cluster_table_equals_serial_and_export_is_sampled_once(tmp_path, m
     n = serial.table.groupby(["transduction.gamma_per_pa", "spikes.gain_ms"]).n_spikes.sum()
     assert n[(2e-3, 100)] < n[(2e-3, 300)] and n[(2e-3, 100)] < n[(1e-2, 100)]
     # a task's own record is the scene as run with its parameters
-    rec = json.loads((tmp_path / "serial" / "tasks" / f"{serial.table.task.iloc[-1]}.json").read_text())
+    rec = records(tmp_path / "serial")[serial.table.task.iloc[-1]]
     assert rec["status"] == "ok" and rec["params"] == {"transduction.gamma_per_pa": 1e-2, "spikes.gain_ms": 300}
     assert rec["scene_tables"]["transduction"]["gamma_per_pa"] == 1e-2 and rec["scene_tables"]["spikes"]["gain_s"] == 0.3
 
@@ -116,7 +122,9 @@ def test_resume_skips_done_tasks_and_another_sweep_is_refused(tmp_path):
     out = tmp_path / "out"
     first = sweep(src, out, scheduler="serial")
     lost = first.table.task.iloc[0]
-    (out / "tasks" / f"{lost}.json").unlink()  # as if the run had been killed before this task
+    files = [f for f in (out / "tasks").glob("*.jsonl") if lost in f.read_text()]
+    assert len(files) == 1 and len(files[0].read_text().splitlines()) == 1  # serial: 4 tasks in batches of 1
+    files[0].unlink()  # as if the run had been killed before this task
     again = sweep(src, out, scheduler="serial")
     assert (again.n_ran, again.n_skipped) == (1, 3)
     pd.testing.assert_frame_equal(again.table, first.table)

@@ -21,7 +21,7 @@ are sweeps too (one task per scene).
         -> group tasks by what sampling depends on (export content, receptors, region, method)
         -> sample: one task per group, read + sample once (through the SED cache)
         -> batches of tasks on the sampled SED (stimulus, transduction, synthesis, fit, spikes)
-        -> OUT/tasks/<task>.json per task, OUT/table.parquet|csv, OUT/sweep.json
+        -> OUT/tasks/batch-*.jsonl (one JSON line per task), OUT/table.parquet|csv, OUT/sweep.json
 
 **Engines.** ``scheduler=None`` runs on Dask's local multiprocessing scheduler, one process
 per core. Measured (benchmarks/bench_sweep.py, 600 tasks on 2 cores): processes 8.5 s, serial
@@ -40,8 +40,10 @@ just written into the cache folder; if every worker does, the disk is shared and
 on the cluster, cache included. Otherwise sampling runs here, with this machine's cache, and the
 sampled SEDs are scattered to the workers: no worker reads an export or assumes a cache.
 
-**Outputs** are written file by file, each atomically, as tasks finish: a crash keeps what is
-done. A re-run into the same folder skips the tasks whose records say 'ok' (resume) and retries
+**Outputs** are written file by file, each atomically, as batches finish: a crash keeps what is
+done. One file per batch, not per task: writing a file costs this machine ~0.5 ms, a record
+serialised by its worker costs the writer almost nothing, and the writer (this process) must
+keep up with every worker of a cluster. A re-run into the same folder skips the tasks whose records say 'ok' (resume) and retries
 failed ones; a folder holding another sweep is refused unless ``overwrite``.
 """
 
@@ -140,65 +142,78 @@ def _prepare(output: str, spec: SweepSpec, overwrite: bool) -> dict:
             raise OutputExistsError(f"Output folder {output!r} already exists and is not a sweep's (no sweep.json); "
                                     "pass overwrite=True to replace it, or choose another folder.")
     os.makedirs(os.path.join(output, "tasks"), exist_ok=True)
-    done = {}
-    for t in spec.tasks:
-        p = os.path.join(output, "tasks", f"{t.id}.json")
-        if os.path.isfile(p):
+    ids = {t.id for t in spec.tasks}
+    return {k: r for k, r in _read_records(output).items() if k in ids and r.get("status") == "ok"}
+
+
+def _read_records(output: str) -> dict:
+    """Task id -> its record, from every ``tasks/*.jsonl`` (an 'ok' record wins over a failed one)."""
+    out: dict = {}
+    folder = os.path.join(output, "tasks")
+    for name in sorted(os.listdir(folder)) if os.path.isdir(folder) else ():
+        if not name.endswith(".jsonl"):
+            continue
+        try:
+            with open(os.path.join(folder, name)) as f:
+                lines = f.read().splitlines()
+        except OSError:
+            continue
+        for line in lines:
             try:
-                with open(p) as f:
-                    rec = json.load(f)
-            except (OSError, json.JSONDecodeError):
-                continue  # unreadable: run again
-            if rec.get("status") == "ok" and rec.get("task") == t.id:
-                done[t.id] = rec
-    return done
+                rec = json.loads(line)
+            except json.JSONDecodeError:
+                continue  # unreadable: that task runs again
+            key = rec.get("task") if isinstance(rec, dict) else None
+            if key and (key not in out or rec.get("status") == "ok"):
+                out[key] = rec
+    return out
 
 
 class _Sink:
-    """Writes task records as they arrive (any thread), counts, and drives the progress bar."""
+    """Writes the records of each batch as it arrives (any thread) into one file, and drives the progress bar."""
 
-    def __init__(self, output, spec, total, progress: bool):
-        self.output, self.lock, self.records = output, threading.Lock(), {}
-        self.tasks = {t.id: t for t in spec.tasks}
+    def __init__(self, output, total, progress: bool):
+        self.output, self.lock = output, threading.Lock()
+        self.seen: dict = {}  # task id -> (status, seconds)
         self.bar = None
         if progress:
             from tqdm.auto import tqdm
 
             self.bar = tqdm(total=total, unit="task", desc="afferent sweep", file=sys.stderr)
 
-    def __call__(self, records) -> None:
-        from .. import __version__
+    def __call__(self, items) -> None:
+        import hashlib
+
+        from .._output import atomic_file
 
         with self.lock:
-            for rec in records:
-                if rec["task"] in self.records:
-                    continue
-                rec = dict(rec, afferent=__version__, scene_tables=self.tasks[rec["task"]].scene.to_dict())
-                _write_json(os.path.join(self.output, "tasks", f"{rec['task']}.json"), rec)
-                self.records[rec["task"]] = rec
-                if self.bar is not None:
-                    self.bar.update(1)
+            new = [i for i in items if i[0] not in self.seen]
+            if not new:
+                return
+            name = hashlib.sha256(",".join(i[0] for i in new).encode()).hexdigest()[:16]
+            with atomic_file(os.path.join(self.output, "tasks", f"batch-{name}.jsonl"), overwrite=True) as tmp:
+                with open(tmp, "w") as f:
+                    f.write("".join(i[3] + "\n" for i in new))
+            for task_id, status, seconds, _ in new:
+                self.seen[task_id] = (status, seconds)
+            if self.bar is not None:
+                self.bar.update(len(new))
 
     def close(self):
         if self.bar is not None:
             self.bar.close()
 
 
-def _failed(tasks, error: str) -> list[dict]:
-    return [{"task": t.id, "scene": t.label, "scene_file": t.scene.source, "params": t.params, "group": t.group,
-             "status": "failed", "error": error, "seconds": 0.0} for t in tasks]
-
-
 # ---------------------------------------------------------------------------- engines
-def _run_serial(groups, sink, *, cache_dir, use_cache, info) -> None:
+def _run_serial(groups, sink, *, cache_dir, use_cache, batch_size, info) -> None:
     from . import engine
 
     info.update(kind="serial", workers=1)
     for tasks in groups.values():
         sampled = engine.sample(tasks[0].scene, cache_dir, use_cache)
         info.setdefault("sampled", []).append({"tasks": len(tasks), "where": sampled.where, "seconds": sampled.seconds})
-        for t in tasks:
-            sink([engine.run_task(t, sampled)])
+        for b in engine.batches(tasks, 4, batch_size):
+            sink(engine.run_batch(sampled, b))
 
 
 def _run_local(groups, sink, *, kind, cache_dir, use_cache, batch_size, info) -> None:
@@ -320,7 +335,7 @@ def _run_cluster(groups, sink, *, scheduler, cache_dir, use_cache, batch_size, s
             try:
                 sink(f.result())
             except Exception as err:  # noqa: BLE001 - a lost worker: its batch fails, the others stand
-                sink(_failed(members[f.key], f"the batch's worker failed: {type(err).__name__}: {err}"))
+                sink(engine.failed_batch(members[f.key], f"the batch's worker failed: {type(err).__name__}: {err}"))
 
         for f in futures:
             f.add_done_callback(collect)
@@ -346,8 +361,8 @@ def sweep(sources, output, *, scheduler=None, overwrite: bool = False, cache_dir
         Sweep files (a scene plus ``[sweep]``), scene files, or folders of them
         (:func:`load_sweep`).
     output : str or path-like
-        Output folder: ``table.parquet`` (or ``table.csv`` without pyarrow), ``tasks/<id>.json``
-        (one record per task) and ``sweep.json``. An existing folder of the same sweep is
+        Output folder: ``table.parquet`` (or ``table.csv`` without pyarrow), ``tasks/*.jsonl``
+        (one record per task, a JSON line; one file per batch) and ``sweep.json``. An existing folder of the same sweep is
         resumed (tasks done are skipped); one of another sweep is refused unless ``overwrite``.
     scheduler : None, str or distributed.Client, optional
         None: Dask's local ``'processes'`` scheduler (:data:`LOCAL_DEFAULT`), or serial with a note
@@ -432,12 +447,12 @@ def sweep(sources, output, *, scheduler=None, overwrite: bool = False, cache_dir
         except ImportError as err:
             raise ImportError(f"scheduler={scheduler!r} needs Dask's distributed scheduler: pip install "
                               "'afferent-skin[dask]'.") from err
-    sink = _Sink(output, spec, len(todo), progress=progress and (kind == "serial" or kind in _LOCAL))
+    sink = _Sink(output, len(todo), progress=progress and (kind == "serial" or kind in _LOCAL))
     try:
         if not todo:
             info.update(kind="none", why="every task was done before (resume)")
         elif kind == "serial":
-            _run_serial(groups, sink, cache_dir=cache_dir, use_cache=use_cache, info=info)
+            _run_serial(groups, sink, cache_dir=cache_dir, use_cache=use_cache, batch_size=batch_size, info=info)
         elif kind in _LOCAL:
             _run_local(groups, sink, kind=kind, cache_dir=cache_dir, use_cache=use_cache, batch_size=batch_size,
                        info=info)
@@ -446,19 +461,19 @@ def sweep(sources, output, *, scheduler=None, overwrite: bool = False, cache_dir
                          shared_disk=shared_disk, progress=progress, info=info)
     finally:
         sink.close()
-    records = [done.get(t.id) or sink.records.get(t.id) for t in spec.tasks]
-    records = [r for r in records if r is not None]
+    found = _read_records(output)
+    records = [found[t.id] for t in spec.tasks if t.id in found]
     table = assemble(records, spec.keys)
     table_path = write_table(table, output)
     failures = [{k: r.get(k) for k in ("task", "scene", "scene_file", "params", "stage", "error")}
                 for r in records if r.get("status") != "ok"]
     full = dict(head, status="done" if not failures else "done, with failed tasks", engine=info,
-                n_ran=len(sink.records), n_skipped=len(done), n_failed=len(failures), failures=failures,
+                n_ran=len(sink.seen), n_skipped=len(done), n_failed=len(failures), failures=failures,
                 table=os.path.basename(table_path), n_rows=len(table), columns={c: COLUMNS.get(c, "swept key, as "
                                                                                           "written") for c in table.columns if c not in ("scene", "task")},
-                task_seconds=sum(r.get("seconds", 0.0) for r in sink.records.values()),
+                task_seconds=sum(sec for _, sec in sink.seen.values()),
                 wall_seconds=time.perf_counter() - t0)
     _write_json(os.path.join(output, "sweep.json"), full)
     return SweepResult(output=output, table=table, table_path=table_path, n_tasks=len(spec.tasks),
-                       n_ran=len(sink.records), n_skipped=len(done), n_failed=len(failures), failures=failures,
+                       n_ran=len(sink.seen), n_skipped=len(done), n_failed=len(failures), failures=failures,
                        record=full)

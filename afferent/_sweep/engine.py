@@ -15,6 +15,7 @@ scheduler's per-task overhead; the batch size is chosen to give every worker a f
 
 from __future__ import annotations
 
+import json
 import os
 import time
 import traceback
@@ -119,9 +120,36 @@ def run_task(task, sampled: Sampled) -> dict:
                 warnings=list(sampled.warnings) + _messages(caught), seconds=time.perf_counter() - t0, rows=rows)
 
 
-def run_batch(sampled: Sampled, tasks) -> list[dict]:
-    """The records of a few tasks of one group, run one after the other on its sampled SED."""
-    return [run_task(t, sampled) for t in tasks]
+def record_line(task, rec: dict) -> str:
+    """A task's record as one line of JSON (the resolved scene added; NaN -> null)."""
+    from .. import __version__
+    from ..export import jsonable
+
+    return json.dumps(jsonable(dict(rec, afferent=__version__, scene_tables=task.scene.to_dict())),
+                      separators=(",", ":"))
+
+
+def run_batch(sampled: Sampled, tasks) -> list[tuple]:
+    """A few tasks of one group, run one after the other on its sampled SED.
+
+    Returns ``(task id, status, seconds, record as a JSON line)`` per task: the worker
+    serialises, so the process writing the records only writes text.
+    """
+    out = []
+    for t in tasks:
+        rec = run_task(t, sampled)
+        out.append((t.id, rec["status"], rec.get("seconds", 0.0), record_line(t, rec)))
+    return out
+
+
+def failed_batch(tasks, error: str) -> list[tuple]:
+    """What :func:`run_batch` would return for tasks whose worker was lost."""
+    out = []
+    for t in tasks:
+        rec = {"task": t.id, "scene": t.label, "scene_file": t.scene.source, "params": t.params, "group": t.group,
+               "status": "failed", "error": error, "seconds": 0.0}
+        out.append((t.id, "failed", 0.0, record_line(t, rec)))
+    return out
 
 
 def batches(tasks, n_slots: int, batch_size: int | None = None) -> list[list]:
