@@ -14,6 +14,7 @@ Run::
 
     python benchmarks/bench_sweep.py            # all engines (~1-2 min on 2 cores)
     python benchmarks/bench_sweep.py --quick    # 2 exports x 100 parameter sets
+    python benchmarks/bench_sweep.py --repeat 3 # engines interleaved, 3 rounds: the machine may be shared
 """
 
 from __future__ import annotations
@@ -89,10 +90,11 @@ def child(engine: str, src: str, out: str) -> None:
         t_up = 0.0
         res = sweep(src, out, scheduler=engine, overwrite=True)
     wall = time.perf_counter() - t
-    me = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
-    kids = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024
+    ru_self, ru_kids = resource.getrusage(resource.RUSAGE_SELF), resource.getrusage(resource.RUSAGE_CHILDREN)
+    me, kids = ru_self.ru_maxrss / 1024, ru_kids.ru_maxrss / 1024
+    cpu = ru_self.ru_utime + ru_self.ru_stime + ru_kids.ru_utime + ru_kids.ru_stime
     print(json.dumps({"engine": engine, "wall_s": wall, "startup_s": t_up, "tasks": res.n_tasks, "failed": res.n_failed,
-                      "rows": len(res.table), "peak_mb": me, "peak_children_mb": kids,
+                      "rows": len(res.table), "peak_mb": me, "cpu_s": cpu, "peak_children_mb": kids,
                       "task_s": res.record["task_seconds"], "batches": res.record["engine"].get("batches")}))
 
 
@@ -139,6 +141,7 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true", help="2 exports instead of 6")
     ap.add_argument("--engines", default=",".join(ENGINES))
+    ap.add_argument("--repeat", type=int, default=1, help="rounds, engines interleaved (the median is reported)")
     ap.add_argument("--child", nargs=3, metavar=("ENGINE", "SWEEP", "OUT"), help=argparse.SUPPRESS)
     args = ap.parse_args()
     if args.child:
@@ -148,19 +151,29 @@ def main() -> None:
     src = sweep_file(work, 2 if args.quick else 6)
     print("command:", shlex.join([sys.executable, *sys.argv]))
     print(f"machine: {os.cpu_count()} cores; sweep {src} ({2 if args.quick else 6} exports x 100 parameter sets)")
-    results = []
-    for engine in args.engines.split(","):
-        out = subprocess.run([sys.executable, __file__, "--child", engine, str(src), str(work / f"out-{engine}")],
-                             capture_output=True, text=True, cwd=ROOT,
-                             env=dict(os.environ, PYTHONPATH=os.pathsep.join(filter(None, [str(ROOT), os.environ.get("PYTHONPATH")]))))
-        if out.returncode:
-            print(f"{engine}: failed\n{out.stderr[-2000:]}")
-            continue
-        r = json.loads(out.stdout.strip().splitlines()[-1])
-        results.append(r)
-        print(f"{engine:>12}: {r['wall_s']:6.2f} s wall ({r['startup_s']:.2f} s cluster start-up), {r['tasks']} tasks "
-              f"({r['failed']} failed, {r['batches']} batches), {r['rows']} rows, sum of task times "
-              f"{r['task_s']:.2f} s, peak RSS {r['peak_mb']:.0f} MB (children {r['peak_children_mb']:.0f} MB)")
+    results, runs = [], {}
+    for k in range(args.repeat):
+        for engine in args.engines.split(","):
+            out = subprocess.run([sys.executable, __file__, "--child", engine, str(src), str(work / f"out-{engine}")],
+                                 capture_output=True, text=True, cwd=ROOT,
+                                 env=dict(os.environ, PYTHONPATH=os.pathsep.join(filter(None, [str(ROOT), os.environ.get("PYTHONPATH")]))))
+            if out.returncode:
+                print(f"{engine}: failed\n{out.stderr[-2000:]}")
+                continue
+            r = json.loads(out.stdout.strip().splitlines()[-1])
+            runs.setdefault(engine, []).append(r)
+            print(f"round {k + 1} {engine:>12}: {r['wall_s']:6.2f} s wall ({r['startup_s']:.2f} s cluster start-up), "
+                  f"CPU {r['cpu_s']:.1f} s, {r['tasks']} tasks ({r['failed']} failed, {r['batches']} batches), {r['rows']} "
+                  f"rows, sum of task times {r['task_s']:.2f} s, peak RSS {r['peak_mb']:.0f} MB (children "
+                  f"{r['peak_children_mb']:.0f} MB)")
+    import statistics
+
+    for engine, rs in runs.items():
+        results.append(rs[0])
+        walls = sorted(r["wall_s"] for r in rs)
+        print(f"{engine:>12}: median {statistics.median(walls):.2f} s wall, min {walls[0]:.2f} s, over {len(rs)} rounds; "
+              f"median CPU {statistics.median(r['cpu_s'] for r in rs):.1f} s; "
+              f"peak RSS {max(r['peak_mb'] for r in rs):.0f} MB (+ children {max(r['peak_children_mb'] for r in rs):.0f} MB)")
     import pandas as pd
 
     from afferent._sweep import read_table

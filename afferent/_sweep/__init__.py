@@ -24,11 +24,15 @@ are sweeps too (one task per scene).
         -> OUT/tasks/batch-*.jsonl (one JSON line per task), OUT/table.parquet|csv, OUT/sweep.json
 
 **Engines.** ``scheduler=None`` runs on Dask's local multiprocessing scheduler, one process
-per core. Measured (benchmarks/bench_sweep.py, 600 tasks on 2 cores): processes 8.5 s, serial
-11.3 s, threads 18.9 s. A task is many small numpy and pandas steps that hold the GIL, so threads
-only contend for it; processes pay ~1 s to start and import, once per sweep. Processes start by
-importing the calling script, so a script must call :func:`sweep` under
-``if __name__ == "__main__":`` (the error says so). ``'threads'`` / ``'processes'`` choose;
+per core. Chosen by measurement (benchmarks/bench_sweep.py, 600 tasks, 3 interleaved rounds on
+a shared 2-core machine): serial 9.4 s median (8.8 s best), threads 10.7 (9.0), processes 12.8
+(8.6). Threads cannot gain: a task is many small numpy and pandas steps that hold the GIL, and
+two threads' task times add up to 2.2x serial's (18.0 s against 8.3 s), so two at once run no
+faster than one. Processes run tasks in parallel (each 1.4x slower while two share the two
+cores, so 1.4x the throughput) and are the local engine that scales with free cores; each costs
+a start-up (imports, the compiled LIF). They start by importing the calling script, so a script
+must call :func:`sweep` under ``if __name__ == "__main__":`` (the error says so).
+``'threads'`` / ``'processes'`` choose;
 ``'serial'`` runs in this process without Dask; an address (``'tcp://host:8786'``) or a
 ``distributed.Client`` runs on that cluster. Without Dask installed the local default
 runs serially, with a one-line note: same tasks, same results.
@@ -319,6 +323,12 @@ def _run_cluster(groups, sink, *, scheduler, cache_dir, use_cache, batch_size, s
         info.update(kind="dask-distributed", scheduler=str(client.scheduler.address), workers=len(workers),
                     threads=slots, cache_shared=shared, cache_why=why,
                     sampling="on the cluster" if shared else "here, then scattered to the workers")
+        side = sorted({p for tasks in groups.values() for t in tasks for p in (
+            t.scene.synthesis.map, t.scene.fit.observed, t.scene.stimulus.file, t.scene.transduction.calibration) if p})
+        if side and not shared:
+            info["side_files"] = side
+            _note(f"the workers do not share this disk, yet the tasks read {len(side)} small file(s) on them (e.g. "
+                  f"{side[0]!r}): each must exist at the same path on every worker, else its tasks fail and are reported.")
         futures, members = [], {}
         for tasks in groups.values():
             if shared:
