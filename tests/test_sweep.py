@@ -81,6 +81,17 @@ def test_dask_cluster_table_equals_serial_and_export_is_sampled_once(tmp_path, m
     assert rec["scene_tables"]["transduction"]["gamma_per_pa"] == 1e-2 and rec["scene_tables"]["spikes"]["gain_s"] == 0.3
 
 
+def test_scheduler_address_connects_probes_the_disk_and_closes(tmp_path):
+    distributed = pytest.importorskip("distributed")
+    src = write_sweep(tmp_path, '"transduction.gamma_per_pa" = [2e-3, 1e-2]\n')
+    serial = sweep(src, tmp_path / "serial", scheduler="serial")
+    with distributed.LocalCluster(processes=False, n_workers=1, threads_per_worker=1, dashboard_address=None) as cluster:
+        res = sweep(src, tmp_path / "addr", scheduler=cluster.scheduler_address)
+        assert res.record["engine"]["scheduler"] == cluster.scheduler_address and res.record["engine"]["cache_shared"]
+        assert not any(".probe-" in p.name for p in Path(res.record["engine"]["cache_why"].split("'")[1]).iterdir())
+    pd.testing.assert_frame_equal(res.table, serial.table)
+
+
 def test_local_schedulers_equal_serial_and_rows_match_a_scene_run(tmp_path):
     pytest.importorskip("dask")
     src = write_sweep(tmp_path, SMALL)
