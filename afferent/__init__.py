@@ -40,6 +40,7 @@ _LAZY = {
     "CalibrationResult": "afferent.calibration",
     "simulate_lif": "afferent.spiking",
     "LIFParams": "afferent.spiking",
+    "sweep": "afferent._sweep",
 }
 
 __all__ = sorted(_LAZY) + ["__version__"]

@@ -19,7 +19,7 @@ from ..exceptions import AfferentError
 #: from the module's docstring.
 COMMANDS = {"info": "afferent.cli._info", "sample": "afferent.cli._sample", "run": "afferent.cli._run",
             "calibrate": "afferent.cli._calibrate", "demo": "afferent.cli._demo",
-            "report": "afferent.cli._report"}
+            "report": "afferent.cli._report", "sweep": "afferent.cli._sweep"}
 
 
 def _module(name: str):

@@ -191,6 +191,11 @@ def _compute(run: _Run, *, cache_dir, use_cache: bool, progress: bool) -> None:
     run.region_info["region"] = {"x_range_m": scene.region.x_range_m, "z_range_m": scene.region.z_range_m}
     exp_files, hashes = _hash_inputs(run)
     sed = _receptor_sed(run, exp_files, hashes, cache_dir=cache_dir, use_cache=use_cache, progress=progress)
+    _compute_downstream(run, sed)
+
+
+def _compute_downstream(run: _Run, sed) -> None:
+    """The planned stages after sampling, from SED at the region's receptors (J/m^3); also :mod:`afferent.sweep`'s tasks."""
     run.out.update(sed_static=sed, sed=sed, current=None, branching=None, afferent=None, fit=None, waveform=None,
                    spikes=None, profile_index=-1)
     if "transduction" not in run.planned:

@@ -1,0 +1,489 @@
+"""Sweeps: a study of many runs (scenes x parameter sets), run on Dask, gathered in one tidy table.
+
+A sweep is a scene file with a ``[sweep]`` table::
+
+    [export]                                   # ... any scene, as for `afferent run`
+    file = "../block4/indent_0p88mm.vtu"
+    ...
+    [sweep]
+    mode = "product"                           # every combination; "zip": the i-th values together
+    "transduction.gamma_per_pa" = [2e-3, 4.6e-3, 1e-2]
+    "spikes.gain_ms" = {start = 100, stop = 300, num = 5}   # a range (spacing = "log" for geometric)
+    # scenes = ["a.toml", "b.toml"] or "folder": these scenes x the parameter sets (then no scene tables here)
+
+A swept key is ``"table.key"`` with the key as a scene writes it (units in the name), or the
+TOML dotted form ``transduction.gamma_per_pa = [...]``. Plain scene files and folders of them
+are sweeps too (one task per scene).
+
+::
+
+    load_sweep(files) -> tasks (each a resolved scene; errors name file, key and line)
+        -> group tasks by what sampling depends on (export content, receptors, region, method)
+        -> sample: one task per group, read + sample once (through the SED cache)
+        -> batches of tasks on the sampled SED (stimulus, transduction, synthesis, fit, spikes)
+        -> OUT/tasks/batch-*.jsonl (one JSON line per task), OUT/table.parquet|csv, OUT/sweep.json
+
+**Engines.** ``scheduler=None`` runs on Dask's local multiprocessing scheduler, one process
+per core. Chosen by measurement (benchmarks/bench_sweep.py, 600 tasks, 3 interleaved rounds on
+a shared 2-core machine): serial 9.4 s median (8.8 s best), threads 10.7 (9.0), processes 12.8
+(8.6). Threads cannot gain: a task is many small numpy and pandas steps that hold the GIL, and
+two threads' task times add up to 2.2x serial's (18.0 s against 8.3 s), so two at once run no
+faster than one. Processes run tasks in parallel (each 1.4x slower while two share the two
+cores, so 1.4x the throughput) and are the local engine that scales with free cores; each costs
+a start-up (imports, the compiled LIF). They start by importing the calling script, so a script
+must call :func:`sweep` under ``if __name__ == "__main__":`` (the error says so).
+``'threads'`` / ``'processes'`` choose;
+``'serial'`` runs in this process without Dask; an address (``'tcp://host:8786'``) or a
+``distributed.Client`` runs on that cluster. Without Dask installed the local default
+runs serially, with a one-line note: same tasks, same results.
+
+**The SED cache on a cluster.** Locally, every worker shares this machine's disk, so the
+sampling tasks go to the workers and use the cache. On a cluster, each worker is asked (once,
+``Client.run``) whether it sees the export files (same size) and a token file this process has
+just written into the cache folder; if every worker does, the disk is shared and sampling runs
+on the cluster, cache included. Otherwise sampling runs here, with this machine's cache, and the
+sampled SEDs are scattered to the workers: no worker reads an export or assumes a cache.
+
+**Outputs** are written file by file, each atomically, as batches finish: a crash keeps what is
+done. One file per batch, not per task: writing a file costs this machine ~0.5 ms, a record
+serialised by its worker costs the writer almost nothing, and the writer (this process) must
+keep up with every worker of a cluster. A re-run into the same folder skips the tasks whose records say 'ok' (resume) and retries
+failed ones; a folder holding another sweep is refused unless ``overwrite``.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import sys
+import threading
+import time
+from dataclasses import dataclass, field
+
+from .spec import SweepSpec, Task, load_sweep
+from .table import COLUMNS, read_table
+
+__all__ = ["sweep", "load_sweep", "SweepResult", "SweepSpec", "Task", "COLUMNS", "read_table", "LOCAL_DEFAULT"]
+
+#: The local scheduler used by default (chosen by benchmarks/bench_sweep.py; see the module docstring).
+LOCAL_DEFAULT = "processes"
+_LOCAL = ("threads", "processes")
+
+
+@dataclass(frozen=True)
+class SweepResult:
+    """What :func:`sweep` computed and wrote.
+
+    Attributes
+    ----------
+    output : str
+        The output folder.
+    table : pandas.DataFrame
+        One row per scene x parameter set x afferent (``COLUMNS``: name -> meaning), tasks that succeeded.
+    table_path : str
+        ``table.parquet`` (pyarrow installed) or ``table.csv``.
+    n_tasks, n_ran, n_skipped, n_failed : int
+        Tasks in the sweep; run now; skipped (done before: resume); failed.
+    failures : list of dict
+        Each failed task's id, scene, parameters and error.
+    record : dict
+        The content of ``sweep.json``.
+    """
+
+    output: str
+    table: object = field(repr=False)
+    table_path: str
+    n_tasks: int
+    n_ran: int
+    n_skipped: int
+    n_failed: int
+    failures: list = field(default_factory=list, repr=False)
+    record: dict = field(default_factory=dict, repr=False)
+
+    def __repr__(self) -> str:
+        return (f"<SweepResult {self.output}: {self.n_tasks} tasks ({self.n_ran} run, {self.n_skipped} done before, "
+                f"{self.n_failed} failed), {len(self.table)} rows in {os.path.basename(self.table_path)}>")
+
+
+def _note(message: str) -> None:
+    print(f"afferent: note: {message}", file=sys.stderr)
+
+
+def _write_json(path: str, data: dict) -> None:
+    from .._output import atomic_file
+    from ..export import jsonable
+
+    with atomic_file(path, overwrite=True) as tmp:
+        with open(tmp, "w") as f:
+            json.dump(jsonable(data), f, indent=1)
+
+
+def _prepare(output: str, spec: SweepSpec, overwrite: bool) -> dict:
+    """Check or create the output folder; the records of tasks done before (resume)."""
+    import shutil
+
+    from ..exceptions import OutputExistsError
+
+    record = os.path.join(output, "sweep.json")
+    if os.path.lexists(output):
+        if not os.path.isdir(output):
+            raise NotADirectoryError(f"Output folder {output!r} is a file, not a folder.")
+        if overwrite:
+            shutil.rmtree(output)
+        elif os.path.isfile(record):
+            try:
+                with open(record) as f:
+                    old = json.load(f)
+            except (OSError, json.JSONDecodeError) as err:
+                raise OutputExistsError(f"Output folder {output!r} holds an unreadable sweep.json ({err}); pass "
+                                        "overwrite=True to replace the folder.") from err
+            if old.get("sweep_digest") != spec.digest:
+                raise OutputExistsError(
+                    f"Output folder {output!r} holds another sweep ({old.get('n_tasks')} tasks from "
+                    f"{', '.join(map(repr, old.get('sources', [])))}); a re-run resumes only the same sweep. Pass "
+                    "overwrite=True to replace it, or choose another folder.")
+        elif os.listdir(output):
+            raise OutputExistsError(f"Output folder {output!r} already exists and is not a sweep's (no sweep.json); "
+                                    "pass overwrite=True to replace it, or choose another folder.")
+    os.makedirs(os.path.join(output, "tasks"), exist_ok=True)
+    ids = {t.id for t in spec.tasks}
+    return {k: r for k, r in _read_records(output).items() if k in ids and r.get("status") == "ok"}
+
+
+def _read_records(output: str) -> dict:
+    """Task id -> its record, from every ``tasks/*.jsonl`` (an 'ok' record wins over a failed one)."""
+    out: dict = {}
+    folder = os.path.join(output, "tasks")
+    for name in sorted(os.listdir(folder)) if os.path.isdir(folder) else ():
+        if not name.endswith(".jsonl"):
+            continue
+        try:
+            with open(os.path.join(folder, name)) as f:
+                lines = f.read().splitlines()
+        except OSError:
+            continue
+        for line in lines:
+            try:
+                rec = json.loads(line)
+            except json.JSONDecodeError:
+                continue  # unreadable: that task runs again
+            key = rec.get("task") if isinstance(rec, dict) else None
+            if key and (key not in out or rec.get("status") == "ok"):
+                out[key] = rec
+    return out
+
+
+class _Sink:
+    """Writes the records of each batch as it arrives (any thread) into one file, and drives the progress bar."""
+
+    def __init__(self, output, total, progress: bool):
+        self.output, self.lock = output, threading.Lock()
+        self.seen: dict = {}  # task id -> (status, seconds)
+        self.bar = None
+        if progress:
+            from tqdm.auto import tqdm
+
+            self.bar = tqdm(total=total, unit="task", desc="afferent sweep", file=sys.stderr)
+
+    def __call__(self, items) -> None:
+        import hashlib
+
+        from .._output import atomic_file
+
+        with self.lock:
+            new = [i for i in items if i[0] not in self.seen]
+            if not new:
+                return
+            name = hashlib.sha256(",".join(i[0] for i in new).encode()).hexdigest()[:16]
+            with atomic_file(os.path.join(self.output, "tasks", f"batch-{name}.jsonl"), overwrite=True) as tmp:
+                with open(tmp, "w") as f:
+                    f.write("".join(i[3] + "\n" for i in new))
+            for task_id, status, seconds, _ in new:
+                self.seen[task_id] = (status, seconds)
+            if self.bar is not None:
+                self.bar.update(len(new))
+
+    def close(self):
+        if self.bar is not None:
+            self.bar.close()
+
+
+# ---------------------------------------------------------------------------- engines
+def _run_serial(groups, sink, *, cache_dir, use_cache, batch_size, info) -> None:
+    from . import engine
+
+    info.update(kind="serial", workers=1)
+    for tasks in groups.values():
+        sampled = engine.sample(tasks[0].scene, cache_dir, use_cache)
+        info.setdefault("sampled", []).append({"tasks": len(tasks), "where": sampled.where, "seconds": sampled.seconds})
+        for b in engine.batches(tasks, 4, batch_size):
+            sink(engine.run_batch(sampled, b))
+
+
+def _run_local(groups, sink, *, kind, cache_dir, use_cache, batch_size, info) -> None:
+    from functools import partial
+
+    from dask.callbacks import Callback
+
+    from . import engine
+
+    n = os.cpu_count() or 1
+    dsk, keys, members = {}, [], {}
+    for gi, tasks in enumerate(groups.values()):
+        skey = f"sample-{gi}"
+        dsk[skey] = (partial(engine.sample, tasks[0].scene, cache_dir, use_cache),)
+        for bi, b in enumerate(engine.batches(tasks, n, batch_size)):
+            k = f"batch-{gi}-{bi}"
+            dsk[k] = (partial(engine.run_batch, tasks=b), skey)
+            keys.append(k)
+            members[k] = b
+
+    class _Collect(Callback):
+        def _posttask(self, key, result, dsk, state, worker_id):
+            if key in members:
+                sink(result)
+
+    if kind == "processes":
+        from dask.multiprocessing import get
+    else:
+        from dask.threaded import get
+    info.update(kind=f"dask-{kind}", workers=n, batches=len(keys), sampling_tasks=len(groups),
+                cache_shared=True, cache_why="local scheduler: every worker is on this machine and shares its disk")
+    from concurrent.futures.process import BrokenProcessPool
+
+    try:
+        with _Collect():
+            results = get(dsk, keys, num_workers=n)
+    except BrokenProcessPool as err:
+        main = getattr(sys.modules.get("__main__"), "__file__", None)
+        raise RuntimeError(
+            "The 'processes' scheduler's worker processes died before running a task. They start by importing "
+            f"the calling script{f' ({main!r})' if main else ''}: call afferent.sweep(...) under "
+            "'if __name__ == \"__main__\":' there, or pass scheduler='threads' or 'serial'.") from err
+    for k, recs in zip(keys, results):  # anything a callback missed
+        sink(recs)
+
+
+def _shared_disk(client, groups, cache_dir) -> tuple[bool, str]:
+    """Whether every worker sees the export files and the cache folder as this process does."""
+    import secrets
+
+    from ..cache import default_cache_dir, export_files
+
+    folder = os.path.abspath(os.fspath(cache_dir)) if cache_dir is not None else str(default_cache_dir())
+    try:
+        os.makedirs(folder, exist_ok=True)
+        token = secrets.token_hex(16)
+        probe = os.path.join(folder, f".probe-{token}")
+        with open(probe, "w") as f:
+            f.write(token)
+    except OSError as err:
+        return False, f"the cache folder {folder!r} is not writable here ({err})"
+    files = {p: os.path.getsize(p) for tasks in groups.values() for p in export_files(tasks[0].scene.export.files)}
+
+    def check(probe=probe, token=token, files=files):
+        try:
+            with open(probe) as f:
+                if f.read() != token:
+                    return "cache token differs"
+        except OSError:
+            return "cache folder not visible"
+        for p, size in files.items():
+            if not os.path.isfile(p) or os.path.getsize(p) != size:
+                return f"export {p} not visible"
+        return None
+
+    try:
+        answers = client.run(check)
+    finally:
+        os.remove(probe)
+    bad = {w: a for w, a in answers.items() if a is not None}
+    if bad:
+        w, a = next(iter(bad.items()))
+        return False, f"{len(bad)} of {len(answers)} workers do not share this disk (e.g. {w}: {a})"
+    return True, f"all {len(answers)} workers read a token file written into {folder!r} and see the export files"
+
+
+def _run_cluster(groups, sink, *, scheduler, cache_dir, use_cache, batch_size, shared_disk, progress, info) -> None:
+    from functools import partial
+
+    import distributed
+
+    from . import engine
+
+    own = not isinstance(scheduler, distributed.Client)
+    client = distributed.Client(scheduler) if own else scheduler
+    try:
+        workers = client.scheduler_info().get("workers", {})
+        slots = sum(w.get("nthreads", 1) for w in workers.values()) or 1
+        if shared_disk is None:
+            shared, why = _shared_disk(client, groups, cache_dir)
+        else:
+            shared, why = bool(shared_disk), f"shared_disk={bool(shared_disk)} given"
+        info.update(kind="dask-distributed", scheduler=str(client.scheduler.address), workers=len(workers),
+                    threads=slots, cache_shared=shared, cache_why=why,
+                    sampling="on the cluster" if shared else "here, then scattered to the workers")
+        side = sorted({p for tasks in groups.values() for t in tasks for p in (
+            t.scene.synthesis.map, t.scene.fit.observed, t.scene.stimulus.file, t.scene.transduction.calibration) if p})
+        if side and not shared:
+            info["side_files"] = side
+            _note(f"the workers do not share this disk, yet the tasks read {len(side)} small file(s) on them (e.g. "
+                  f"{side[0]!r}): each must exist at the same path on every worker, else its tasks fail and are reported.")
+        futures, members = [], {}
+        for tasks in groups.values():
+            if shared:
+                sfut = client.submit(partial(engine.sample, tasks[0].scene, cache_dir, use_cache), pure=False)
+            else:
+                sfut = client.scatter(engine.sample(tasks[0].scene, cache_dir, use_cache))
+            for b in engine.batches(tasks, slots, batch_size):
+                f = client.submit(partial(engine.run_batch, tasks=b), sfut, pure=False)
+                futures.append(f)
+                members[f.key] = b
+        info["batches"] = len(futures)
+
+        def collect(f):
+            try:
+                sink(f.result())
+            except Exception as err:  # noqa: BLE001 - a lost worker: its batch fails, the others stand
+                sink(engine.failed_batch(members[f.key], f"the batch's worker failed: {type(err).__name__}: {err}"))
+
+        for f in futures:
+            f.add_done_callback(collect)
+        if progress:
+            distributed.progress(futures)
+        distributed.wait(futures)
+        for f in futures:  # callbacks run in another thread: make sure every batch is in
+            collect(f)
+    finally:
+        if own:
+            client.close()
+
+
+# ------------------------------------------------------------------------------- API
+def sweep(sources, output, *, scheduler=None, overwrite: bool = False, cache_dir=None, use_cache: bool = True,
+          batch_size: int | None = None, shared_disk: bool | None = None, progress: bool = False,
+          record_extra: dict | None = None) -> SweepResult:
+    """Run a sweep: every scene x parameter set, each export read and sampled once; one tidy table.
+
+    Parameters
+    ----------
+    sources : str, path-like or sequence of them
+        Sweep files (a scene plus ``[sweep]``), scene files, or folders of them
+        (:func:`load_sweep`).
+    output : str or path-like
+        Output folder: ``table.parquet`` (or ``table.csv`` without pyarrow), ``tasks/*.jsonl``
+        (one record per task, a JSON line; one file per batch) and ``sweep.json``. An existing folder of the same sweep is
+        resumed (tasks done are skipped); one of another sweep is refused unless ``overwrite``.
+    scheduler : None, str or distributed.Client, optional
+        None: Dask's local ``'processes'`` scheduler (:data:`LOCAL_DEFAULT`), or serial with a note
+        when Dask is not installed; ``'threads'``, ``'processes'``, ``'serial'``; a scheduler
+        address (``'tcp://host:8786'``) or a ``distributed.Client``.
+    overwrite : bool, default=False
+        Replace an existing output folder.
+    cache_dir : str or path-like, optional
+        Sampled-SED cache (:mod:`afferent.cache`); default ``$AFFERENT_CACHE_DIR`` or
+        ``~/.cache/afferent``.
+    use_cache : bool, default=True
+        False: neither read nor write the cache.
+    batch_size : int, optional
+        Tasks per Dask task; default about four batches per worker thread (at most 64 tasks).
+    shared_disk : bool, optional
+        On a cluster: whether workers share this machine's disk (exports and cache); default:
+        asked of the workers (see the module docstring).
+    progress : bool, default=False
+        A tqdm bar over tasks (locally), Dask's progress bar on a cluster.
+    record_extra : dict, optional
+        More entries for ``sweep.json`` (the command line).
+
+    Returns
+    -------
+    SweepResult
+
+    Raises
+    ------
+    SceneError, SceneTypeError, FileNotFoundError
+        From :func:`load_sweep`, before anything runs.
+    OutputExistsError
+        ``output`` holds another sweep (or is not a sweep's folder) and ``overwrite`` is False.
+    ImportError
+        ``scheduler`` names a cluster or a Dask scheduler and Dask is not installed.
+
+    Examples
+    --------
+    >>> res = sweep("sample_sed/scenes/sweep_gamma.toml", "results/sweep")  # doctest: +SKIP
+    >>> res.table.groupby("transduction.gamma_per_pa").rate_hz.mean()  # doctest: +SKIP
+    """
+    from datetime import datetime, timezone
+
+    from .. import __version__
+    from ..export import file_sha256
+    from .table import assemble, write_table
+
+    import multiprocessing
+
+    if getattr(multiprocessing.current_process(), "_inheriting", False):
+        # a worker process of the 'processes' scheduler importing an unguarded script: touch nothing
+        raise RuntimeError("afferent.sweep(...) was called while a worker process imported the calling script; call "
+                           "it under 'if __name__ == \"__main__\":' (or pass scheduler='threads' or 'serial').")
+    t0 = time.perf_counter()
+    started = datetime.now(timezone.utc).isoformat(timespec="seconds")
+    spec = load_sweep(sources)
+    output = os.path.abspath(os.fspath(output))
+    done = _prepare(output, spec, overwrite)
+    todo = [t for t in spec.tasks if t.id not in done]
+    groups: dict = {}
+    for t in todo:
+        groups.setdefault(t.group, []).append(t)
+    head = {"afferent_sweep": 1, "afferent": __version__, "started_utc": started,
+            "sources": list(spec.sources), "sources_sha256": {p: file_sha256(p) for p in spec.sources},
+            "mode": spec.mode, "keys": list(spec.keys), "sweep_digest": spec.digest, "n_tasks": len(spec.tasks),
+            "n_sampling_groups": len(spec.groups), "tasks": [{"task": t.id, "scene": t.label, "params": t.params}
+                                                              for t in spec.tasks], **(record_extra or {})}
+    _write_json(os.path.join(output, "sweep.json"), dict(head, status="running"))
+    info: dict = {}
+    kind = LOCAL_DEFAULT if scheduler in (None, "local") else scheduler
+    if isinstance(kind, str) and kind in _LOCAL:
+        try:
+            import dask  # noqa: F401
+        except ImportError:
+            if todo:
+                _note(f"Dask is not installed (pip install 'afferent-skin[dask]'): running the {len(todo)} tasks "
+                      "serially, same results.")
+            info["why"] = "Dask is not installed"
+            kind = "serial"
+    elif not (isinstance(kind, str) and kind == "serial"):
+        try:
+            import distributed  # noqa: F401
+        except ImportError as err:
+            raise ImportError(f"scheduler={scheduler!r} needs Dask's distributed scheduler: pip install "
+                              "'afferent-skin[dask]'.") from err
+    sink = _Sink(output, len(todo), progress=progress and (kind == "serial" or kind in _LOCAL))
+    try:
+        if not todo:
+            info.update(kind="none", why="every task was done before (resume)")
+        elif kind == "serial":
+            _run_serial(groups, sink, cache_dir=cache_dir, use_cache=use_cache, batch_size=batch_size, info=info)
+        elif kind in _LOCAL:
+            _run_local(groups, sink, kind=kind, cache_dir=cache_dir, use_cache=use_cache, batch_size=batch_size,
+                       info=info)
+        else:
+            _run_cluster(groups, sink, scheduler=kind, cache_dir=cache_dir, use_cache=use_cache, batch_size=batch_size,
+                         shared_disk=shared_disk, progress=progress, info=info)
+    finally:
+        sink.close()
+    found = _read_records(output)
+    records = [found[t.id] for t in spec.tasks if t.id in found]
+    table = assemble(records, spec.keys)
+    table_path = write_table(table, output)
+    failures = [{k: r.get(k) for k in ("task", "scene", "scene_file", "params", "stage", "error")}
+                for r in records if r.get("status") != "ok"]
+    full = dict(head, status="done" if not failures else "done, with failed tasks", engine=info,
+                n_ran=len(sink.seen), n_skipped=len(done), n_failed=len(failures), failures=failures,
+                table=os.path.basename(table_path), n_rows=len(table), columns={c: COLUMNS.get(c, "swept key, as "
+                                                                                          "written") for c in table.columns if c not in ("scene", "task")},
+                task_seconds=sum(sec for _, sec in sink.seen.values()),
+                wall_seconds=time.perf_counter() - t0)
+    _write_json(os.path.join(output, "sweep.json"), full)
+    return SweepResult(output=output, table=table, table_path=table_path, n_tasks=len(spec.tasks),
+                       n_ran=len(sink.seen), n_skipped=len(done), n_failed=len(failures), failures=failures,
+                       record=full)

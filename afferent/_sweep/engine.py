@@ -1,0 +1,159 @@
+"""Running tasks: sample each group once, then batches of parameter sets on the sampled SED.
+
+Two kinds of work go to the scheduler:
+
+* ``sample``: one per sampling group (export x receptors x region x method): read the export
+  and sample it at the receptors, through the SED cache (:mod:`afferent.cache`); returns a
+  :class:`Sampled` (the :class:`~afferent.sampling.ReceptorSED` and its record, a few kB).
+* ``batch``: a few parameter sets of one group, run one after the other on that
+  :class:`Sampled` (stimulus, transduction, synthesis, comparison, spiking); returns one record
+  per task. A task that raises is recorded as failed; the others of its batch go on.
+
+Batches exist because a task on the sample exports takes ~10 ms, the order of a distributed
+scheduler's per-task overhead; the batch size is chosen to give every worker a few batches.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import time
+import traceback
+import warnings
+from dataclasses import dataclass, field
+
+from ..scene.record import _QUIET_CATEGORIES
+
+
+@dataclass(frozen=True)
+class Sampled:
+    """A sampling group's result: what every task of the group starts from.
+
+    Attributes
+    ----------
+    sed : ReceptorSED or None
+        SED at the region's receptors (J/m^3); None when sampling failed.
+    full_layout : ReceptorLayout or None
+        Every receptor before the region (a branching map is restricted with it).
+    record : dict
+        The run-record entries of sampling (field, sampling, cache, receptors).
+    inputs : dict
+        Input file -> sha256.
+    seconds : dict
+        Step -> wall time, s.
+    where : str
+        Host and process id that sampled.
+    error : str or None
+        Why sampling failed (every task of the group then fails with it).
+    """
+
+    sed: object = None
+    full_layout: object = None
+    record: dict = field(default_factory=dict)
+    inputs: dict = field(default_factory=dict)
+    region_info: dict = field(default_factory=dict)
+    seconds: dict = field(default_factory=dict)
+    warnings: tuple = ()
+    where: str = ""
+    error: str | None = None
+
+
+def _here() -> str:
+    import socket
+
+    return f"{socket.gethostname()}:{os.getpid()}"
+
+
+def _messages(caught) -> list[dict]:
+    return [{"category": w.category.__name__, "message": " ".join(str(w.message).split())}
+            for w in caught if not issubclass(w.category, _QUIET_CATEGORIES)]
+
+
+def sample(scene, cache_dir=None, use_cache: bool = True) -> Sampled:
+    """Read and sample one group's export (its first task's scene); never raises (a failure is returned)."""
+    from ..scene.planning import plan, skip_reasons
+    from ..scene.run import _hash_inputs, _receptor_sed, _Run, _Steps
+
+    run = _Run(scene, plan(scene), skip_reasons(scene), _Steps())
+    run.region_info["region"] = {"x_range_m": scene.region.x_range_m, "z_range_m": scene.region.z_range_m}
+    try:
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            exp_files, hashes = _hash_inputs(run)
+            sed = _receptor_sed(run, exp_files, hashes, cache_dir=cache_dir, use_cache=use_cache, progress=False)
+    except Exception as err:  # noqa: BLE001 - reported with every task of the group
+        return Sampled(error=f"{type(err).__name__}: {' '.join(str(err).split())}", where=_here(),
+                       seconds=dict(run.steps.seconds))
+    return Sampled(sed=sed, full_layout=run.full_layout, record=dict(run.record), inputs=dict(run.inputs),
+                   region_info=dict(run.region_info), seconds=dict(run.steps.seconds),
+                   warnings=tuple(_messages(caught)), where=_here())
+
+
+def run_task(task, sampled: Sampled) -> dict:
+    """One task's record (status 'ok' with its table rows, or 'failed' with the error); never raises."""
+    from ..scene.planning import plan, skip_reasons
+    from ..scene.run import _compute_downstream, _Run, _Steps
+    from .table import task_rows
+
+    t0 = time.perf_counter()
+    rec = {"task": task.id, "scene": task.label, "scene_file": task.scene.source, "params": task.params,
+           "group": task.group, "where": _here()}
+    if sampled.error is not None:
+        return dict(rec, status="failed", error=f"sampling the export failed: {sampled.error}", stage="sampling",
+                    seconds=0.0)
+    run = _Run(task.scene, plan(task.scene), skip_reasons(task.scene), _Steps())
+    run.full_layout = sampled.full_layout
+    run.inputs.update(sampled.inputs)
+    run.region_info.update(sampled.region_info)
+    try:
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            _compute_downstream(run, sampled.sed)
+            rows = task_rows(task, run.out)
+    except Exception as err:  # noqa: BLE001 - one failed task must not lose the others
+        done = list(run.steps.seconds)
+        return dict(rec, status="failed", error=f"{type(err).__name__}: {' '.join(str(err).split())}",
+                    stage=next((s for s in run.planned if s not in done and s not in ("reading", "sampling")), None),
+                    traceback=traceback.format_exc(limit=-4), seconds=time.perf_counter() - t0)
+    record = {k: v for k, v in run.record.items() if k not in sampled.record}
+    return dict(rec, status="ok", plan=run.planned, stages=dict(run.steps.seconds), record=record,
+                warnings=list(sampled.warnings) + _messages(caught), seconds=time.perf_counter() - t0, rows=rows)
+
+
+def record_line(task, rec: dict) -> str:
+    """A task's record as one line of JSON (the resolved scene added; NaN -> null)."""
+    from .. import __version__
+    from ..export import jsonable
+
+    return json.dumps(jsonable(dict(rec, afferent=__version__, scene_tables=task.scene.to_dict())),
+                      separators=(",", ":"))
+
+
+def run_batch(sampled: Sampled, tasks) -> list[tuple]:
+    """A few tasks of one group, run one after the other on its sampled SED.
+
+    Returns ``(task id, status, seconds, record as a JSON line)`` per task: the worker
+    serialises, so the process writing the records only writes text.
+    """
+    out = []
+    for t in tasks:
+        rec = run_task(t, sampled)
+        out.append((t.id, rec["status"], rec.get("seconds", 0.0), record_line(t, rec)))
+    return out
+
+
+def failed_batch(tasks, error: str) -> list[tuple]:
+    """What :func:`run_batch` would return for tasks whose worker was lost."""
+    out = []
+    for t in tasks:
+        rec = {"task": t.id, "scene": t.label, "scene_file": t.scene.source, "params": t.params, "group": t.group,
+               "status": "failed", "error": error, "seconds": 0.0}
+        out.append((t.id, "failed", 0.0, record_line(t, rec)))
+    return out
+
+
+def batches(tasks, n_slots: int, batch_size: int | None = None) -> list[list]:
+    """Split one group's tasks into batches: ``batch_size`` each, or about 4 batches per worker slot (at most 64 tasks)."""
+    if batch_size is None:
+        batch_size = max(1, min(64, -(-len(tasks) // max(1, 4 * n_slots))))
+    return [list(tasks[i:i + batch_size]) for i in range(0, len(tasks), batch_size)]

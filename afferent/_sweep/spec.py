@@ -1,0 +1,372 @@
+"""Sweep files -> tasks: a scene (or scenes) x parameter sets, each checked as a scene before anything runs.
+
+Every error names the file, the key and its line, as scene errors do (the line lookup is
+:func:`afferent.scene.key_lines`); a swept value a scene refuses is reported at its line in
+``[sweep]``, with the value.
+"""
+
+from __future__ import annotations
+
+import copy
+import hashlib
+import itertools
+import json
+import math
+import os
+import re
+import tomllib
+from dataclasses import dataclass, field
+
+from .._validation import suggest
+from ..scene.schema import _TABLES, Scene, SceneError, SceneTypeError, key_lines
+
+#: Tables a sweep may vary ([scene] names and [outputs] are the sweep's own business).
+_SWEEPABLE = tuple(t for t in _TABLES if t not in ("scene", "outputs"))
+#: Tables upstream of sampling: tasks equal in these share one sampled SED.
+_SAMPLING_TABLES = ("export", "receptors", "sampling", "region")
+#: Outputs whose stages give per-afferent results (the table's rows).
+_AFFERENT_OUTPUTS = ("currents", "profiles", "fit", "spikes")
+_MODES = ("product", "zip")
+_RANGE_KEYS = ("start", "stop", "num", "spacing")
+
+
+@dataclass(frozen=True)
+class Task:
+    """One scene with one parameter set: the unit of work, of resume and of failure.
+
+    Attributes
+    ----------
+    id : str
+        16 hex digits: a digest of the scene as resolved (keys in SI) and of the content of
+        every file it reads; equal ids mean equal results, so a re-run skips it.
+    scene : Scene
+        The resolved scene with the parameter set applied.
+    label : str
+        The scene's name (``[scene] name`` or the file's stem).
+    params : dict
+        Swept key as written (``'transduction.gamma_per_pa'``) -> value as written.
+    group : str
+        Digest of what sampling depends on (export content, read options, receptors,
+        sampling method, region): tasks of one group share one sampled SED.
+    """
+
+    id: str
+    scene: Scene = field(repr=False)
+    label: str
+    params: dict
+    group: str
+
+
+@dataclass(frozen=True)
+class SweepSpec:
+    """The tasks of a sweep, the swept keys (table columns) and where they came from."""
+
+    tasks: tuple
+    keys: tuple
+    sources: tuple
+    mode: str
+
+    @property
+    def digest(self) -> str:
+        """sha256 of the sorted task ids: equal digests mean the same sweep (resume)."""
+        return hashlib.sha256(",".join(sorted(t.id for t in self.tasks)).encode()).hexdigest()
+
+    @property
+    def groups(self) -> dict:
+        """Sampling group -> its tasks, in task order."""
+        out: dict = {}
+        for t in self.tasks:
+            out.setdefault(t.group, []).append(t)
+        return out
+
+
+# --------------------------------------------------------------------------- reading
+def _read_toml(path: str, what: str):
+    if not os.path.isfile(path):
+        raise FileNotFoundError(f"{what} {path!r} not found.")
+    with open(path, "rb") as f:
+        raw = f.read()
+    try:
+        text = raw.decode("utf-8")
+    except UnicodeDecodeError as err:
+        raise SceneError(f"{what} {path!r} must be UTF-8 text (TOML); it is not: {err}.", path=path) from err
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as err:
+        raise SceneError(f"{what} {path!r} is not valid TOML: {err}.", path=path) from err
+    return data, key_lines(text)
+
+
+def _where(path: str, lines: dict, *keys) -> str:
+    n = next((lines[k] for k in keys if k in lines), None)
+    return f"Sweep file {path!r}" + (f", line {n}" if n else "")
+
+
+def _err(path, lines, keys, message, cls=SceneError, key=None):
+    where = _where(path, lines, *keys)
+    n = next((lines[k] for k in keys if k in lines), None)
+    return cls(f"{where}: {message}", path=path, key=key, line=n)
+
+
+def _scene_files(entry, path: str, lines: dict) -> list[str]:
+    """``scenes = [...]`` or ``scenes = "folder"`` -> scene files (relative to the sweep file's folder)."""
+    base = os.path.dirname(path)
+    items = [entry] if isinstance(entry, str) else entry
+    if not isinstance(items, list) or not items or not all(isinstance(v, str) and v for v in items):
+        raise _err(path, lines, [("sweep", "scenes")], "[sweep] 'scenes' must be a folder or a non-empty array of scene "
+                   f"files; got {entry!r} instead.", SceneTypeError, "[sweep] scenes")
+    out = []
+    for item in items:
+        p = os.path.normpath(os.path.join(base, os.path.expanduser(item)))
+        if os.path.isdir(p):
+            found = sorted(os.path.join(p, f) for f in os.listdir(p) if f.endswith(".toml"))
+            if not found:
+                raise _err(path, lines, [("sweep", "scenes")], f"[sweep] 'scenes': folder {p!r} holds no .toml scene file.",
+                           key="[sweep] scenes")
+            out.extend(found)
+        elif os.path.isfile(p):
+            out.append(p)
+        else:
+            raise _err(path, lines, [("sweep", "scenes")], f"[sweep] 'scenes': {p!r} is neither a scene file nor a "
+                       "folder of them.", "[sweep] scenes")
+    return out
+
+
+def _values(param: str, value, path: str, lines: dict, keys) -> list:
+    """A swept key's values: an array, or a range {start, stop, num[, spacing = 'linear'|'log']}."""
+    if isinstance(value, list):
+        if not value:
+            raise _err(path, lines, keys, f"[sweep] {param!r} must list at least one value; got an empty array.",
+                       key=f"[sweep] {param}")
+        return value
+    if isinstance(value, dict):
+        unknown = [k for k in value if k not in _RANGE_KEYS]
+        if unknown or not all(k in value for k in ("start", "stop", "num")):
+            raise _err(path, lines, keys, f"[sweep] {param!r}: a range is {{start = A, stop = B, num = N}} (optional "
+                       f"spacing = 'linear' or 'log'); got keys {', '.join(map(repr, value))} instead."
+                       + (suggest(unknown[0], list(_RANGE_KEYS)) if unknown else ""), key=f"[sweep] {param}")
+        start, stop, num, spacing = value["start"], value["stop"], value["num"], value.get("spacing", "linear")
+        ok = all(isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) for v in (start, stop))
+        if not ok or not isinstance(num, int) or isinstance(num, bool) or num < 1 or spacing not in ("linear", "log") or (
+                spacing == "log" and (start <= 0 or stop <= 0)):
+            raise _err(path, lines, keys, f"[sweep] {param!r} must be a range of finite numbers start, stop (both > 0 "
+                       f"for spacing = 'log'), an integer num >= 1 and spacing 'linear' or 'log'; got {value!r} instead.",
+                       SceneTypeError, f"[sweep] {param}")
+        import numpy as np
+
+        grid = np.geomspace(start, stop, num) if spacing == "log" else np.linspace(start, stop, num)
+        return [float(v) for v in grid]
+    raise _err(path, lines, keys, f"[sweep] {param!r} must be an array of values or a range {{start, stop, num}}; got "
+               f"{value!r} ({type(value).__name__}) instead.", SceneTypeError, f"[sweep] {param}")
+
+
+def _params_of(table: dict, path: str, lines: dict):
+    """The ``[sweep]`` table -> (mode, scene files or None, {param: (values, line keys)})."""
+    from ..scene.parse import _keys_of, _known_keys_text
+
+    mode = table.get("mode", "product")
+    if mode not in _MODES:
+        raise _err(path, lines, [("sweep", "mode")], f"[sweep] 'mode' must be one of 'product', 'zip'; got {mode!r} "
+                   f"instead.{suggest(str(mode), list(_MODES))}", key="[sweep] mode")
+    scenes = _scene_files(table["scenes"], path, lines) if "scenes" in table else None
+    flat = []
+    for k, v in table.items():
+        if k in ("mode", "scenes"):
+            continue
+        if "." not in k and isinstance(v, dict) and k in _TABLES:  # dotted keys: transduction.gamma_per_pa = [...]
+            flat.extend((f"{k}.{k2}", v2, [("sweep", k, k2)]) for k2, v2 in v.items())
+        else:
+            flat.append((k, v, [("sweep", k), ("sweep", *k.split("."))]))
+    params, settings = {}, {}
+    for param, value, keys in flat:
+        tbl, _, key = param.partition(".")
+        if not key or tbl not in _TABLES:
+            hint = suggest(tbl, list(_SWEEPABLE))
+            raise _err(path, lines, keys, f"unknown key {param!r} in [sweep]; a swept key is \"table.key\" with table "
+                       f"one of {', '.join(_SWEEPABLE)} (e.g. \"transduction.gamma_per_pa\"), or mode, scenes.{hint}",
+                       key=f"[sweep] {param}")
+        if tbl not in _SWEEPABLE:
+            raise _err(path, lines, keys, f"[sweep] {param!r}: [{tbl}] cannot be swept (a sweep writes one table into "
+                       "its own output folder; scenes are named by [scene] name).", key=f"[sweep] {param}")
+        known = _keys_of(_TABLES[tbl][1])
+        if key not in known:
+            raise _err(path, lines, keys, f"[sweep] {param!r}: unknown key {key!r} in [{tbl}]; known keys are "
+                       f"{_known_keys_text(_TABLES[tbl][1])}.{suggest(key, list(known))}", key=f"[sweep] {param}")
+        setting = (tbl, known[key][0].name)
+        if setting in settings:
+            raise _err(path, lines, keys, f"[sweep] {param!r} and {settings[setting]!r} sweep the same setting; keep one.",
+                       key=f"[sweep] {param}")
+        settings[setting] = param
+        params[param] = (_values(param, value, path, lines, keys), keys)
+    if mode == "zip" and params:
+        n = {p: len(v) for p, (v, _) in params.items()}
+        first = next(iter(n))
+        for p, k in n.items():
+            if k != n[first]:
+                raise _err(path, lines, params[p][1], f"[sweep] mode = 'zip' pairs the i-th values of every key, so all "
+                           f"must have as many; {p!r} has {k}, {first!r} has {n[first]}.", key=f"[sweep] {p}")
+    return mode, scenes, params
+
+
+def _combinations(params: dict, mode: str) -> list[dict]:
+    names = list(params)
+    lists = [params[p][0] for p in names]
+    combos = zip(*lists) if mode == "zip" else itertools.product(*lists)
+    return [dict(zip(names, c)) for c in combos] or [{}]
+
+
+# ------------------------------------------------------------------------- building
+def _apply(data: dict, pset: dict) -> dict:
+    """The scene tables with a parameter set written in (a key giving the same setting in another unit is replaced)."""
+    from ..scene.parse import _keys_of
+
+    out = copy.deepcopy(data)
+    for param, value in pset.items():
+        tbl, _, key = param.partition(".")
+        known = _keys_of(_TABLES[tbl][1])
+        target = known[key][0].name
+        sec = out.setdefault(tbl, {})
+        if isinstance(sec, dict):
+            for k in [k for k in sec if k in known and known[k][0].name == target]:
+                del sec[k]
+            sec[key] = value
+    return out
+
+
+_PREFIX = re.compile(r"^Scene file '.*?'(?:, line \d+)?: |^Scene: ")
+
+
+def _build(data, lines, *, scene_path, base_dir, pset, params, sweep_path, sweep_lines):
+    """One resolved scene; a refused swept value is reported at its [sweep] line."""
+    from ..scene.defaults import resolve
+    from ..scene.parse import scene_from_dict
+
+    try:
+        return resolve(scene_from_dict(_apply(data, pset), base_dir=base_dir, source=scene_path, _lines=lines))
+    except SceneError as err:
+        for param, value in pset.items():
+            tbl, _, key = param.partition(".")
+            if err.key in (f"[{tbl}] {key}", f"[{tbl}]") and key in str(err):
+                msg = _PREFIX.sub("", str(err))
+                raise _err(sweep_path, sweep_lines, params[param][1], f"[sweep] {param!r} = {value!r}: {msg}",
+                           type(err), f"[sweep] {param}") from err
+        raise
+
+
+def _digest(obj) -> str:
+    return hashlib.sha256(json.dumps(obj, sort_keys=True, separators=(",", ":"), default=str).encode()).hexdigest()
+
+
+def _input_files(scene: Scene) -> list[str]:
+    from ..cache import export_files
+
+    files = export_files(scene.export.files)
+    for p in (scene.export.coordinates, scene.receptors.file, scene.synthesis.map, scene.fit.observed,
+              scene.stimulus.file, scene.transduction.calibration):
+        if p is not None and os.path.isfile(p):
+            files.append(p)
+    return files
+
+
+def _task(scene: Scene, pset: dict, hashes: dict) -> Task:
+    from ..cache import export_files
+    from ..scene.stages import _hash_all
+
+    files = _input_files(scene)
+    hashes.update(_hash_all({p: hashes.get(p) for p in files}))
+    d = scene.to_dict()
+    d["outputs"]["dir"] = None
+    group = _digest({"tables": {t: d[t] for t in _SAMPLING_TABLES},
+                     "exports": [hashes[p] for p in export_files(scene.export.files)],
+                     "files": {p: hashes[p] for p in (scene.export.coordinates, scene.receptors.file) if p in hashes}})
+    return Task(id=_digest({"scene": d, "inputs": {p: hashes[p] for p in files}})[:16], scene=scene,
+                label=scene.info.name, params=dict(pset), group=group)
+
+
+def _check_outputs(scene: Scene, where: str) -> None:
+    if not set(scene.outputs.want) & set(_AFFERENT_OUTPUTS):
+        raise SceneError(f"{where}: a sweep tabulates per-afferent results, so [outputs] want must include one of "
+                         f"{', '.join(map(repr, _AFFERENT_OUTPUTS))}; got {list(scene.outputs.want)!r} instead.",
+                         path=scene.source, key="[outputs] want")
+
+
+def load_sweep(sources) -> SweepSpec:
+    """Read sweep files, scene files or folders of scene files into tasks (each checked as a scene).
+
+    Parameters
+    ----------
+    sources : str, path-like, or a sequence of them
+        A sweep file (scene tables plus ``[sweep]``, or ``[sweep] scenes = [...]`` with the
+        parameter keys), a plain scene file (one task), or a folder (each ``.toml`` in it).
+
+    Returns
+    -------
+    SweepSpec
+
+    Raises
+    ------
+    FileNotFoundError
+        A source that does not exist.
+    SceneError, SceneTypeError
+        A bad ``[sweep]`` key or value (named with its file and line), a scene error, a
+        swept value a scene refuses (at its ``[sweep]`` line), two scenes with one name.
+    """
+    if isinstance(sources, (str, os.PathLike)):
+        sources = [sources]
+    files = []
+    for s in sources:
+        p = os.path.abspath(os.fspath(s))
+        if os.path.isdir(p):
+            found = sorted(os.path.join(p, f) for f in os.listdir(p) if f.endswith(".toml"))
+            if not found:
+                raise FileNotFoundError(f"Folder {p!r} holds no .toml scene or sweep file.")
+            files.extend(found)
+        else:
+            files.append(p)
+    if not files:
+        raise ValueError("'sources' must name at least one sweep file, scene file or folder; got none.")
+    tasks, keys, hashes, modes = [], [], {}, set()
+    for path in files:
+        data, lines = _read_toml(path, "Sweep file")
+        table = data.pop("sweep", None)
+        if table is None:
+            mode, scene_files, params = "product", None, {}
+        else:
+            if not isinstance(table, dict):
+                raise _err(path, lines, [("sweep",)], f"'sweep' must be a table ([sweep]); got {table!r} instead.",
+                           SceneTypeError, "sweep")
+            mode, scene_files, params = _params_of(table, path, lines)
+            modes.add(mode)
+        if scene_files is not None:
+            extra = [t for t in data if t in _TABLES]
+            if extra:
+                raise _err(path, lines, [(extra[0],)], f"[sweep] 'scenes' lists the scenes, so the sweep file must not "
+                           f"hold scene tables too; got [{extra[0]}]. Keep either the tables or 'scenes'.",
+                           key=f"[{extra[0]}]")
+            bases = [(f, *_read_toml(f, "Scene file")) for f in scene_files]
+        else:
+            bases = [(path, data, lines)]
+        for p in params:
+            if p not in keys:
+                keys.append(p)
+        for scene_path, sdata, slines in bases:
+            sdata.pop("sweep", None)
+            for pset in _combinations(params, mode):
+                scene = _build(sdata, slines, scene_path=scene_path, base_dir=os.path.dirname(scene_path), pset=pset,
+                               params=params, sweep_path=path, sweep_lines=lines)
+                _check_outputs(scene, f"Scene file {scene_path!r}")
+                tasks.append(_task(scene, pset, hashes))
+    by_label: dict = {}
+    for t in tasks:
+        by_label.setdefault(t.label, set()).add(t.scene.source)
+    for label, srcs in by_label.items():
+        if len(srcs) > 1:
+            raise SceneError(f"Scenes {', '.join(map(repr, sorted(srcs)))} are all named {label!r}; the sweep's table "
+                             "tells scenes apart by name: give each its own [scene] name.")
+    unique, seen = [], set()
+    for t in tasks:  # the same scene and values twice (e.g. a scene listed twice) is one task
+        if t.id not in seen:
+            seen.add(t.id)
+            unique.append(t)
+    return SweepSpec(tasks=tuple(unique), keys=tuple(keys), sources=tuple(files),
+                     mode=modes.pop() if len(modes) == 1 else "mixed" if modes else "product")

@@ -1,0 +1,267 @@
+"""Sweeps (afferent._sweep, `afferent sweep`): Dask equals serial, export sampled once, resume, failures,
+the no-Dask fallback, and errors that name the file, key and line."""
+
+from __future__ import annotations
+
+import json
+import sys
+import textwrap
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from afferent._sweep import load_sweep, read_table, sweep
+from afferent.cli import main
+from afferent.exceptions import OutputExistsError
+from afferent.scene import SceneError, SceneTypeError
+
+ROOT = Path(__file__).resolve().parents[1]
+SCENES = ROOT / "sample_sed" / "scenes"
+SWEEP_GAMMA = SCENES / "sweep_gamma.toml"
+needs_sample = pytest.mark.skipif(not SWEEP_GAMMA.is_file(), reason="sample_sed/ not present")
+pytestmark = needs_sample
+
+# the sample sweep's scene tables, with absolute paths: tests write their own [sweep]
+_BASE = SWEEP_GAMMA.read_text().split("[sweep]")[0].replace('"../', f'"{SCENES.parent.as_posix()}/')
+
+
+def write_sweep(tmp_path, sweep_table: str, name="s.toml", base=_BASE) -> Path:
+    p = tmp_path / name
+    p.write_text(base + "[sweep]\n" + textwrap.dedent(sweep_table))
+    return p
+
+
+SMALL = """\
+"transduction.gamma_per_pa" = [2e-3, 1e-2]
+"spikes.gain_ms" = [100, 300]
+"""
+
+
+def records(out: Path) -> dict:
+    """Task id -> record, from the sweep's tasks/*.jsonl (one JSON line per task)."""
+    recs = [json.loads(line) for f in sorted((out / "tasks").glob("*.jsonl")) for line in f.read_text().splitlines()]
+    return {r["task"]: r for r in recs}
+
+
+def _line(path: Path, text: str) -> int:
+    return next(n for n, line in enumerate(path.read_text().splitlines(), 1) if text in line)
+
+
+# ------------------------------------------------------------------------ the engines
+def test_dask_cluster_table_equals_serial_and_export_is_sampled_once(tmp_path, monkeypatch):
+    distributed = pytest.importorskip("distributed")
+    import afferent.io
+
+    src = write_sweep(tmp_path, SMALL)
+    reads = []
+    real = afferent.io.iter_sed
+    monkeypatch.setattr(afferent.io, "iter_sed", lambda *a, **k: (reads.append(a), real(*a, **k))[1])
+    serial = sweep(src, tmp_path / "serial", scheduler="serial", use_cache=False)
+    assert len(reads) == 1  # 4 parameter sets, one export: read and sampled once
+    assert serial.n_tasks == 4 and serial.n_failed == 0 and len(serial.table) == 4 * 3  # 3 afferents in the region
+    with distributed.Client(processes=False, n_workers=1, threads_per_worker=2, dashboard_address=None) as client:
+        shared = sweep(src, tmp_path / "cluster", scheduler=client, use_cache=False, batch_size=1)
+        scattered = sweep(src, tmp_path / "scattered", scheduler=client, use_cache=False, shared_disk=False)
+    assert len(reads) == 3  # once per sweep, on the cluster (shared disk) or here (scattered)
+    for res in (shared, scattered):
+        pd.testing.assert_frame_equal(res.table, serial.table)
+        pd.testing.assert_frame_equal(read_table(res.table_path), read_table(serial.table_path))
+    eng = shared.record["engine"]
+    assert eng["kind"] == "dask-distributed" and eng["cache_shared"] is True and eng["batches"] == 4
+    assert "read a token file" in eng["cache_why"]
+    assert scattered.record["engine"]["sampling"] == "here, then scattered to the workers"
+    # the table answers the sweep's question: a steeper sigmoid or a larger gain never fires less here
+    n = serial.table.groupby(["transduction.gamma_per_pa", "spikes.gain_ms"]).n_spikes.sum()
+    assert n[(2e-3, 100)] < n[(2e-3, 300)] and n[(2e-3, 100)] < n[(1e-2, 100)]
+    # a task's own record is the scene as run with its parameters
+    rec = records(tmp_path / "serial")[serial.table.task.iloc[-1]]
+    assert rec["status"] == "ok" and rec["params"] == {"transduction.gamma_per_pa": 1e-2, "spikes.gain_ms": 300}
+    assert rec["scene_tables"]["transduction"]["gamma_per_pa"] == 1e-2 and rec["scene_tables"]["spikes"]["gain_s"] == 0.3
+
+
+def test_scheduler_address_connects_probes_the_disk_and_closes(tmp_path):
+    distributed = pytest.importorskip("distributed")
+    src = write_sweep(tmp_path, '"transduction.gamma_per_pa" = [2e-3, 1e-2]\n')
+    serial = sweep(src, tmp_path / "serial", scheduler="serial")
+    with distributed.LocalCluster(processes=False, n_workers=1, threads_per_worker=1, dashboard_address=None) as cluster:
+        res = sweep(src, tmp_path / "addr", scheduler=cluster.scheduler_address)
+        assert res.record["engine"]["scheduler"] == cluster.scheduler_address and res.record["engine"]["cache_shared"]
+        assert not any(".probe-" in p.name for p in Path(res.record["engine"]["cache_why"].split("'")[1]).iterdir())
+    pd.testing.assert_frame_equal(res.table, serial.table)
+
+
+def test_local_schedulers_equal_serial_and_rows_match_a_scene_run(tmp_path):
+    pytest.importorskip("dask")
+    src = write_sweep(tmp_path, SMALL)
+    serial = sweep(src, tmp_path / "serial", scheduler="serial")
+    for kind, out in (("processes", sweep(src, tmp_path / "default")), ("threads", sweep(src, tmp_path / "threads",
+                                                                                             scheduler="threads"))):
+        assert out.record["engine"]["kind"] == f"dask-{kind}"
+        pd.testing.assert_frame_equal(out.table, serial.table)
+    # one parameter set, run as a plain scene by `afferent run`, gives the same spike counts
+    scene_file = tmp_path / "one.toml"
+    scene_file.write_text(_BASE.replace("gain_s = 0.2", "gain_s = 0.3").replace(
+        'params = "start"', 'params = "start"\ngamma_per_pa = 1e-2'))
+    assert main(["run", str(scene_file), "-o", str(tmp_path / "one"), "--quiet"]) == 0
+    ref = pd.read_csv(tmp_path / "one" / "spike_summary.csv")
+    rows = serial.table[(serial.table["transduction.gamma_per_pa"] == 1e-2) & (serial.table["spikes.gain_ms"] == 300)]
+    np.testing.assert_array_equal(rows.n_spikes.to_numpy(), ref.n_spikes.to_numpy())
+    np.testing.assert_array_equal(rows.afferent.to_numpy(), ref.afferent.astype(str).to_numpy())
+
+
+def test_without_dask_the_sweep_runs_serially_with_a_note(tmp_path, monkeypatch, capsys):
+    src = write_sweep(tmp_path, '"transduction.gamma_per_pa" = [2e-3, 1e-2]\n')
+    ref = sweep(src, tmp_path / "ref", scheduler="serial")
+    monkeypatch.setitem(sys.modules, "dask", None)  # import dask -> ImportError
+    capsys.readouterr()
+    res = sweep(src, tmp_path / "nodask")
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.startswith("afferent: note: Dask is not installed")
+    assert "running the 2 tasks serially" in err
+    assert res.record["engine"]["kind"] == "serial"
+    pd.testing.assert_frame_equal(res.table, ref.table)
+    monkeypatch.setitem(sys.modules, "distributed", None)
+    with pytest.raises(ImportError, match=r"scheduler='tcp://127.0.0.1:1' needs Dask's distributed scheduler"):
+        sweep(src, tmp_path / "cluster", scheduler="tcp://127.0.0.1:1")
+
+
+# --------------------------------------------------------------------- resume, failures
+def test_resume_skips_done_tasks_and_another_sweep_is_refused(tmp_path):
+    src = write_sweep(tmp_path, SMALL)
+    out = tmp_path / "out"
+    first = sweep(src, out, scheduler="serial")
+    lost = first.table.task.iloc[0]
+    files = [f for f in (out / "tasks").glob("*.jsonl") if lost in f.read_text()]
+    assert len(files) == 1 and len(files[0].read_text().splitlines()) == 1  # serial: 4 tasks in batches of 1
+    files[0].unlink()  # as if the run had been killed before this task
+    again = sweep(src, out, scheduler="serial")
+    assert (again.n_ran, again.n_skipped) == (1, 3)
+    pd.testing.assert_frame_equal(again.table, first.table)
+    done = sweep(src, out, scheduler="serial")
+    assert (done.n_ran, done.n_skipped) == (0, 4) and done.record["engine"]["kind"] == "none"
+    other = write_sweep(tmp_path, '"transduction.gamma_per_pa" = [3e-3]\n', name="other.toml")
+    with pytest.raises(OutputExistsError, match=r"holds another sweep \(4 tasks from .*s\.toml'\).*overwrite=True"):
+        sweep(other, out, scheduler="serial")
+    assert sweep(other, out, scheduler="serial", overwrite=True).n_ran == 1
+    (tmp_path / "busy").mkdir()
+    (tmp_path / "busy" / "notes.txt").write_text("mine")
+    with pytest.raises(OutputExistsError, match="already exists and is not a sweep's"):
+        sweep(other, tmp_path / "busy", scheduler="serial")
+
+
+def test_a_failing_task_is_reported_and_loses_nothing(tmp_path, capsys):
+    src = write_sweep(tmp_path, '"spikes.gain_s" = [0.2, -1.0, 0.3]\n')
+    out = tmp_path / "out"
+    assert main(["sweep", str(src), "-o", str(out), "--scheduler", "serial"]) == 1
+    err = capsys.readouterr().err
+    assert "afferent: warning: task " in err
+    assert "(ramp_0p88, {'spikes.gain_s': -1.0}) failed: ValueError: 'gain' must be >= 0 s; got -1.0 instead." in err
+    record = json.loads((out / "sweep.json").read_text())
+    assert record["n_failed"] == 1 and record["failures"][0]["params"] == {"spikes.gain_s": -1.0}
+    assert record["failures"][0]["stage"] == "input"
+    table = read_table(out / record["table"])
+    assert sorted(table["spikes.gain_s"].unique()) == [0.2, 0.3] and len(table) == 6
+    # a re-run retries only the failed task
+    res = sweep(src, out, scheduler="serial")
+    assert (res.n_ran, res.n_skipped, res.n_failed) == (1, 2, 1)
+
+
+# ---------------------------------------------------------------------- sweep files
+def test_ranges_modes_dotted_keys_and_scene_lists(tmp_path):
+    src = write_sweep(tmp_path, """\
+        mode = "zip"
+        "spikes.gain_ms" = {start = 100, stop = 300, num = 3}
+        transduction.gamma_per_pa = {start = 1e-3, stop = 1e-1, num = 3, spacing = "log"}
+        """)
+    spec = load_sweep(src)
+    assert [t.params for t in spec.tasks] == [
+        {"spikes.gain_ms": 100.0, "transduction.gamma_per_pa": 1e-3},
+        {"spikes.gain_ms": 200.0, "transduction.gamma_per_pa": pytest.approx(1e-2, rel=1e-12)},
+        {"spikes.gain_ms": 300.0, "transduction.gamma_per_pa": pytest.approx(1e-1, rel=1e-12)}]
+    assert [t.scene.spikes.gain_s for t in spec.tasks] == [0.1, 0.2, 0.3]  # ms -> s, the base's gain_s replaced
+    assert len({t.group for t in spec.tasks}) == 1 and len({t.id for t in spec.tasks}) == 3
+    # a sweep over scenes: each listed scene x the parameter sets; a plain scene file is one task
+    lst = tmp_path / "list.toml"
+    lst.write_text(f'[sweep]\nscenes = ["{SCENES.as_posix()}/profiles.toml", "{SCENES.as_posix()}/spikes_ramp.toml"]\n'
+                   '"transduction.gamma_per_pa" = [2e-3, 4.6e-3]\n')
+    spec = load_sweep([lst, SCENES / "profiles.toml"])
+    assert [(t.label, t.params.get("transduction.gamma_per_pa")) for t in spec.tasks] == [
+        ("profiles", 2e-3), ("profiles", 4.6e-3), ("spikes_ramp", 2e-3), ("spikes_ramp", 4.6e-3), ("profiles", None)]
+    assert len({t.group for t in spec.tasks}) == 2  # two exports: two samplings
+
+
+@pytest.mark.parametrize("table, match, cls", [
+    ('"transduction.gama_per_pa" = [1e-3]\n',
+     r"line {n}: \[sweep\] 'transduction.gama_per_pa': unknown key 'gama_per_pa' in \[transduction\]; known keys "
+     r"are .*Did you mean 'gamma_per_pa'\?", SceneError),
+    ('"spikes.engine" = ["exact", "bogus"]\n',
+     r"line {n}: \[sweep\] 'spikes.engine' = 'bogus': \[spikes\] 'engine' must be one of 'auto', .*; got 'bogus' "
+     r"instead\.", SceneError),
+    ('spikes.dt_ms = [0.1, "x"]\n',
+     r"line {n}: \[sweep\] 'spikes.dt_ms' = 'x': \[spikes\] 'dt_ms' must be a number in ms; got 'x' \(a string\) "
+     r"instead\.", SceneTypeError),
+    ('mode = "zip"\n"spikes.gain_ms" = [1, 2]\n"spikes.tau_ms" = [1, 2, 3]\n',
+     r"line {n}: \[sweep\] mode = 'zip' pairs .*; 'spikes.tau_ms' has 3, 'spikes.gain_ms' has 2\.", SceneError),
+    ('mode = "grid"\n', r"line {n}: \[sweep\] 'mode' must be one of 'product', 'zip'; got 'grid' instead\.", SceneError),
+    ('"outputs.want" = [["spikes"]]\n', r"line {n}: \[sweep\] 'outputs.want': \[outputs\] cannot be swept", SceneError),
+    ('"spikes.gain_ms" = {start = 1, stop = 2}\n',
+     r"line {n}: \[sweep\] 'spikes.gain_ms': a range is \{{start = A, stop = B, num = N\}}", SceneError),
+    ('"spikes.gain_ms" = []\n', r"line {n}: \[sweep\] 'spikes.gain_ms' must list at least one value", SceneError),
+])
+def test_errors_name_the_file_the_key_and_its_line(tmp_path, table, match, cls):
+    src = write_sweep(tmp_path, table)
+    last = table.strip().splitlines()[-1].split("=")[0].strip()
+    n = _line(src, last) if "mode = \"zip\"" not in table else _line(src, '"spikes.tau_ms"')
+    with pytest.raises(cls, match=f"^Sweep file '{src}', " + match.format(n=n)) as info:
+        load_sweep(src)
+    assert info.value.line == n
+
+
+def test_scene_errors_and_cli_errors(tmp_path, capsys):
+    # an error of the scene itself is the scene's, at its own line
+    with pytest.raises(SceneError, match=r"^Scene file '.*t\.toml', line \d+: unknown key 'tau_mss' in \[spikes\]") as info:
+        load_sweep(write_sweep(tmp_path, '"spikes.gain_ms" = [1]\n', name="t.toml",
+                               base=_BASE.replace("tau_ms = 5.0", "tau_mss = 5.0")))
+    assert info.value.line == _line(tmp_path / "t.toml", "tau_mss")
+    only_map = write_sweep(tmp_path, '"sampling.method" = ["linear", "nearest"]\n', name="m.toml",
+                           base=_BASE.replace('want = ["spikes", "profiles"]', 'want = ["sed_map"]'))
+    with pytest.raises(SceneError, match=r"a sweep tabulates per-afferent results, so \[outputs\] want must include one "
+                                         r"of 'currents', 'profiles', 'fit', 'spikes'; got \['sed_map'\] instead\."):
+        load_sweep(only_map)
+    src = write_sweep(tmp_path, '"transduction.gama_per_pa" = [1e-3]\n', name="e.toml")
+    assert main(["sweep", str(src), "-o", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"afferent: error: Sweep file '{src}', line {_line(src, 'gama')}: [sweep] ") and err.count("\n") == 1
+    assert not (tmp_path / "o").exists()  # checked before anything is written
+    assert main(["sweep", str(tmp_path / "missing.toml"), "-o", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("afferent: error: Sweep file '") and err.rstrip().endswith("missing.toml' not found.")
+
+
+def test_sample_sweep_file_is_a_valid_scene_plus_sweep():
+    spec = load_sweep(SWEEP_GAMMA)
+    assert len(spec.tasks) == 12 and spec.keys == ("transduction.gamma_per_pa", "spikes.gain_ms")
+    assert len(spec.groups) == 1
+    assert [t.params for t in spec.tasks][:3] == [{"transduction.gamma_per_pa": 2e-3, "spikes.gain_ms": g}
+                                                  for g in (100.0, 200.0, 300.0)]
+    assert {t.scene.spikes.gain_s for t in spec.tasks} == {0.1, 0.2, 0.3}
+
+
+def test_readme_sweep_example_runs_on_the_sample(tmp_path, monkeypatch, capsys):
+    """The README's "Sweeps" example, as written (output folder moved into tmp_path)."""
+    readme = (ROOT / "README.md").read_text(encoding="utf-8")
+    section = readme.split("## Sweeps")[1].split("\n## ")[0]
+    cmd = next(line[2:] for line in section.splitlines() if line.startswith("$ afferent sweep "))
+    argv = cmd.split()[1:]
+    monkeypatch.chdir(ROOT)
+    argv[argv.index("-o") + 1] = str(tmp_path / "sweep_gamma")
+    assert main(argv) == 0
+    assert "tasks: 12 (12 run, 0 done before, 0 failed)" in capsys.readouterr().err
+    table = read_table(tmp_path / "sweep_gamma" / "table.csv")
+    assert len(table) == 36  # 12 tasks x 3 afferents in the region, as the README says
+    n = table.pivot_table(index="transduction.gamma_per_pa", columns="spikes.gain_ms", values="n_spikes", aggfunc="sum")
+    # golden: the README's numbers, from this example run with the exact LIF engine (deterministic)
+    assert (n.loc[2e-3, 100.0], n.loc[1e-2, 300.0]) == (80, 273)
+    assert "80 ... 273 spikes per task" in section
