@@ -130,11 +130,12 @@ from __future__ import annotations
 import numpy as np
 
 from .._validation import check_option
-from ._drive import CEILING_FRACTION, DRIVE_MAPPINGS, drive_report, rheobase_scale  # noqa: F401 (CEILING_FRACTION: importable here)
+from . import _drive, _params
+from ._drive import CEILING_FRACTION, drive_report, rheobase_scale  # noqa: F401 (CEILING_FRACTION: importable here)
 from ._exact import _pieces, _run_exact_numba, _run_exact_numpy
 from ._grid import _peak_current, _plan, _run_brian2, _run_numba, _run_numpy, _silent
 from ._group import _numba_available
-from ._params import _MAX_DRIVE_V, LIF_PRESETS, LIFParams, _refractory_steps, grid_isi_bounds
+from ._params import _MAX_DRIVE_V, LIFParams, _refractory_steps, grid_isi_bounds
 from ._trains import SpikeTrains
 
 __all__ = [
@@ -150,6 +151,21 @@ __all__ = [
     "drive_report",
 ]
 
+#: Documented default parameter sets; see the module docstring for the sources.
+#:
+#: * ``'ra'``: RA-like, tau_m and t_ref from TouchSim's RA fits; r_m illustrative (rheobase 100 nA
+#:   inside the study's current range).
+#: * ``'sa1'``: SA-I skin-neuron model values from Gerling-lab model code (30 mV, 30 pF, 5 GOhm, 1 ms).
+LIF_PRESETS: dict[str, LIFParams] = _params.LIF_PRESETS
+#: How an input current (A) becomes the membrane drive ``r_m I`` (V) of the LIF:
+#:
+#: * ``'resistance'``: as is, through the preset's ``r_m`` (V = r_m I). The study's currents are
+#:   not physiological (its longitudinal fit gives 8-16 uA per afferent), so with a fixed r_m the
+#:   drive can be hundreds of rheobases and every afferent sits at 1 / t_ref.
+#: * ``'rheobase'``: the current is rescaled so that a reference current (the largest input
+#:   current of the run, or a stated one) is ``multiple`` x the rheobase; the pattern across
+#:   afferents and time is kept, the absolute level is a declared modelling choice.
+DRIVE_MAPPINGS = _drive.DRIVE_MAPPINGS
 
 #: Engines accepted by :func:`simulate_lif`.
 ENGINES = ("auto", "exact", "exact-numba", "exact-numpy", "fast", "fast-numba", "fast-numpy", "brian2")

@@ -8,14 +8,7 @@ from .._validation import check_positive
 from ._params import LIFParams
 from ._trains import SpikeTrains
 
-#: How an input current (A) becomes the membrane drive ``r_m I`` (V) of the LIF:
-#:
-#: * ``'resistance'``: as is, through the preset's ``r_m`` (V = r_m I). The study's currents are
-#:   not physiological (its longitudinal fit gives 8-16 uA per afferent), so with a fixed r_m the
-#:   drive can be hundreds of rheobases and every afferent sits at 1 / t_ref.
-#: * ``'rheobase'``: the current is rescaled so that a reference current (the largest input
-#:   current of the run, or a stated one) is ``multiple`` x the rheobase; the pattern across
-#:   afferents and time is kept, the absolute level is a declared modelling choice.
+# How an input current becomes the drive: see DRIVE_MAPPINGS in afferent.spiking (documented there).
 DRIVE_MAPPINGS = ("resistance", "rheobase")
 #: Fraction of the 1 / t_ref ceiling at which a rate counts as saturated by the LIF.
 CEILING_FRACTION = 0.9

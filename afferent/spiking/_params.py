@@ -1,4 +1,4 @@
-"""LIF parameters (:class:`LIFParams`, :data:`LIF_PRESETS`) and brian2's step arithmetic the grid engines share.
+"""LIF parameters (:class:`LIFParams`, :data:`~afferent.spiking.LIF_PRESETS`) and brian2's step arithmetic the grid engines share.
 
 The presets' sources are given in the docstring of :mod:`afferent.spiking`.
 """
@@ -57,7 +57,7 @@ class LIFParams:
 
     See Also
     --------
-    LIF_PRESETS : documented parameter sets with their sources.
+    afferent.spiking.LIF_PRESETS : documented parameter sets with their sources.
     simulate_lif : run the neuron on an afferent current.
 
     Examples
@@ -96,7 +96,7 @@ class LIFParams:
 
     @classmethod
     def from_preset(cls, name: str) -> LIFParams:
-        """Return one of the documented parameter sets of :data:`LIF_PRESETS` (``'ra'``, ``'sa1'``)."""
+        """Return one of the documented parameter sets of :data:`~afferent.spiking.LIF_PRESETS` (``'ra'``, ``'sa1'``)."""
         check_option("name", name, tuple(LIF_PRESETS))
         return LIF_PRESETS[name]
 
@@ -143,11 +143,7 @@ class LIFParams:
             return np.where(np.isfinite(isi), 1.0 / isi, 0.0)
 
 
-#: Documented default parameter sets; see the module docstring for the sources.
-#:
-#: * ``'ra'``: RA-like, tau_m and t_ref from TouchSim's RA fits; r_m illustrative (rheobase 100 nA
-#:   inside the study's current range).
-#: * ``'sa1'``: SA-I skin-neuron model values from Gerling-lab model code (30 mV, 30 pF, 5 GOhm, 1 ms).
+# Documented in afferent.spiking, where the API reference shows it.
 LIF_PRESETS: dict[str, LIFParams] = {
     "ra": LIFParams(tau_m=4.47e-3, r_m=2.0e5, v_rest=-0.070, v_thresh=-0.050, v_reset=-0.070, t_ref=1.2e-3),
     "sa1": LIFParams(tau_m=5e9 * 30e-12, r_m=5e9, v_rest=0.0, v_thresh=0.030, v_reset=0.0, t_ref=1e-3),
