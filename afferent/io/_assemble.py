@@ -8,7 +8,7 @@ when asked, and validate what the FE export holds.
 from __future__ import annotations
 
 import warnings
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -749,117 +749,146 @@ def _location_source(raw: RawExport, opts: ReadOptions, location: str) -> str:
     return f"{location} preferred over {other}" if found == other else f"only {location} data"
 
 
-def assemble(raw: RawExport, opts: ReadOptions) -> SEDField:
-    """Build the SI :class:`SEDField` from a reader's raw export and the user's declarations."""
+@dataclass
+class _Record:
+    """What :func:`assemble` learns on the way, for the provenance: notes, checks, columns, units, factors."""
+
+    notes: list
+    checks: dict = field(default_factory=dict)
+    columns: dict = field(default_factory=dict)
+    units: dict = field(default_factory=dict)
+    factors: dict = field(default_factory=dict)
+
+
+def _prepared(raw: RawExport, opts: ReadOptions) -> RawExport:
+    """The export with the declared coordinate file joined and, if asked, rows holding NaN dropped."""
     if opts.coordinates is not None:
         raw = join_coordinates(raw, opts.coordinates)
     if opts.on_nan == "drop":
         if raw.cells is not None:
             raise ValueError("on_nan='drop' applies to point tables (CSV); a mesh export cannot lose points.")
         raw = drop_nan_rows(raw, list(raw.arrays))
-    notes = list(raw.notes)
-    checks: dict = {}
-    columns: dict = {}
-    units: dict = {}
-    factors: dict = {}
+    return raw
 
+
+def _coordinates(raw: RawExport, opts: ReadOptions, rec: _Record):
+    """Coordinates in file units, and the length unit: (xyz, factor to m, unit, where the unit came from)."""
     xyz, coord_names = find_coordinates(raw, opts)
-    columns["coordinates"] = list(coord_names)
+    rec.columns["coordinates"] = list(coord_names)
     _check_values(raw, xyz[None], f"coordinates ({', '.join(coord_names)})")
     lu, lf, lsrc = _unit(raw, opts.length_unit, raw.length_unit, "length", "length_unit", "the coordinates")
-    units.update(length=lu, length_source=lsrc)
-    factors["length"] = lf
+    rec.units.update(length=lu, length_source=lsrc)
+    rec.factors["length"] = lf
+    return xyz, lf, lu, lsrc
 
-    if opts.sed_from == "field":
-        arrays = find_sed_array(raw, opts)
-        if len(arrays) > 1:
-            sed = np.concatenate([a.values for a in arrays], axis=0)
-        else:
-            sed = arrays[0].values
-        if sed.ndim == 3:
-            if sed.shape[2] != 1:
-                raise SEDFormatError(
-                    f"SED file {_where(raw)!r}: SED array {arrays[0].name!r} must be scalar; "
-                    f"got {sed.shape[2]} components instead."
-                )
-            sed = sed[..., 0]
-        location = arrays[0].location
-        label = ", ".join(a.name for a in arrays)
-        columns["sed"] = label
-        stated = {a.unit for a in arrays}
-        if len(stated) > 1:
-            raise UnitError(f"SED file {_where(raw)!r}: SED columns {label} state different units {sorted(map(str, stated))}.")
-        _check_values(raw, sed, f"SED column {label!r}")
-        su, sf, ssrc = _unit(raw, opts.sed_unit, stated.pop(), "sed", "sed_unit", f"SED column {label!r}")
-        units.update(sed=su, sed_source=ssrc)
-        factors["sed"] = sf
-        sed = sed * sf
-        if opts.stress_unit is not None:
-            notes.append(f"stress_unit={opts.stress_unit!r} ignored: SED read from the field, not computed from stress.")
+
+def _sed_from_field(raw: RawExport, opts: ReadOptions, rec: _Record) -> tuple[np.ndarray, str]:
+    """SED read from the export's SED array(s), in J/m^3: (sed (n_times, n_values), location)."""
+    arrays = find_sed_array(raw, opts)
+    if len(arrays) > 1:
+        sed = np.concatenate([a.values for a in arrays], axis=0)
     else:
-        if opts.sed_unit is not None:
-            raise ValueError(
-                f"sed_unit={opts.sed_unit!r} does not apply with sed_from={opts.sed_from!r}: SED is computed from "
-                "stress, so declare stress_unit= instead."
-            )
-        (s_name, s, location), (e_name, e, _) = find_tensors(raw, opts)
-        conv = _convention(opts, raw)
-        columns.update(stress=s_name, strain=e_name)
-        _check_values(raw, s, f"stress ({s_name})")
-        _check_values(raw, e, f"strain ({e_name})")
-        stated = {a.unit for a in raw.arrays.values() if a.name in s_name.split(", ") or a.name == s_name}
-        stated.discard(None)
-        su, sf, ssrc = _unit(
-            raw, opts.stress_unit, stated.pop() if len(stated) == 1 else None, "stress", "stress_unit", f"stress ({s_name})"
-        )
-        units.update(stress=su, stress_source=ssrc, strain="1")
-        factors["stress"] = sf
-        s = s * sf
-        notes.append(
-            f"SED computed from tensors: {'1/2 sigma:eps' if opts.sed_from == 'exact' else '1/2 sigma_e eps_e (nu=%g)' % opts.poisson}; "
-            f"shear strain read as {conv.shear} (preset={opts.preset or raw.preset!r}"
-            f"{', implied by the file format' if opts.preset is None and raw.preset else ''})."
-        )
-        sed = sed_exact(s, e) if opts.sed_from == "exact" else sed_equivalent(s, e, opts.poisson)
-        for msg in _tensor_checks(raw, opts, s, e, location, checks):
-            notes.append(msg)
-            warnings.warn(msg, AfferentWarning, stacklevel=3)
-
-    groups = integration_point_groups(raw) if opts.coordinates is not None else None
-    if groups is not None:
-        sed, first = average_per_element(sed, groups)
-        xyz = xyz[first]
-        counts = np.unique(np.bincount(groups))
-        notes.append(f"SED at {groups.size} integration points averaged per element ({sed.shape[1]} elements, "
-                     f"{', '.join(map(str, counts))} point(s) each, equal weights: the Gauss average for C3D8, C3D20R, "
-                     "C3D10, C3D4, C3D8R; not for C3D20 or wedges) and placed at the element's coordinates.")
-    negative = negative_sed_report(sed, opts.negative_tolerance)
-    if negative is not None:
-        unit_factor = factors.get("sed", factors.get("stress", 1.0))
-        where = f"row {negative['first_row']}" + (f", step {negative['first_step']}" if sed.shape[0] > 1 else "")
-        if not negative["within_tolerance"]:
-            rel = negative["min_relative"]
-            relative = (f"{rel:.3g} x the largest SED; the negatives sum to {negative['negative_share']:.3g} x the "
-                        "positives" if np.isfinite(rel) else "and no value is positive")
+        sed = arrays[0].values
+    if sed.ndim == 3:
+        if sed.shape[2] != 1:
             raise SEDFormatError(
-                f"SED file {_where(raw)!r}: SED must be >= 0 J/m^3 up to the nodal-extrapolation artefacts of FE tools; got "
-                f"{negative['count']} negative value(s) down to {negative['min_pa'] / unit_factor:.6g} in file units "
-                f"({relative}; first at {where}), beyond the tolerance {opts.negative_tolerance:g}. Check the column, the "
-                "sign convention and the shear convention; if the tool's extrapolation really is that coarse, raise "
-                "negative_tolerance."
+                f"SED file {_where(raw)!r}: SED array {arrays[0].name!r} must be scalar; "
+                f"got {sed.shape[2]} components instead."
             )
-        msg = (
-            f"SED file {_where(raw)!r}: {negative['count']} of {sed.size} SED value(s) are negative (down to "
-            f"{negative['min_relative']:.2g} x the largest SED; they sum to {negative['negative_share']:.2g} x the positive "
-            f"values; tolerance {opts.negative_tolerance:g}), as FE tools write where they extrapolate integration-point "
-            "values to the nodes near steep gradients; set to 0. SED near those nodes is unreliable (a finer mesh or "
-            "integration-point output tells how much)."
-        )
-        notes.append(msg)
-        warnings.warn(msg, AfferentWarning, stacklevel=3)
-        sed = np.maximum(sed, 0.0)
+        sed = sed[..., 0]
+    location = arrays[0].location
+    label = ", ".join(a.name for a in arrays)
+    rec.columns["sed"] = label
+    stated = {a.unit for a in arrays}
+    if len(stated) > 1:
+        raise UnitError(f"SED file {_where(raw)!r}: SED columns {label} state different units {sorted(map(str, stated))}.")
+    _check_values(raw, sed, f"SED column {label!r}")
+    su, sf, ssrc = _unit(raw, opts.sed_unit, stated.pop(), "sed", "sed_unit", f"SED column {label!r}")
+    rec.units.update(sed=su, sed_source=ssrc)
+    rec.factors["sed"] = sf
+    sed = sed * sf
+    if opts.stress_unit is not None:
+        rec.notes.append(f"stress_unit={opts.stress_unit!r} ignored: SED read from the field, not computed from stress.")
+    return sed, location
 
-    n_times = sed.shape[0]
+
+def _sed_from_tensors(raw: RawExport, opts: ReadOptions, rec: _Record) -> tuple[np.ndarray, str]:
+    """SED computed from the stress and strain tensors, in J/m^3, after their checks (which warn)."""
+    if opts.sed_unit is not None:
+        raise ValueError(
+            f"sed_unit={opts.sed_unit!r} does not apply with sed_from={opts.sed_from!r}: SED is computed from "
+            "stress, so declare stress_unit= instead."
+        )
+    (s_name, s, location), (e_name, e, _) = find_tensors(raw, opts)
+    conv = _convention(opts, raw)
+    rec.columns.update(stress=s_name, strain=e_name)
+    _check_values(raw, s, f"stress ({s_name})")
+    _check_values(raw, e, f"strain ({e_name})")
+    stated = {a.unit for a in raw.arrays.values() if a.name in s_name.split(", ") or a.name == s_name}
+    stated.discard(None)
+    su, sf, ssrc = _unit(
+        raw, opts.stress_unit, stated.pop() if len(stated) == 1 else None, "stress", "stress_unit", f"stress ({s_name})"
+    )
+    rec.units.update(stress=su, stress_source=ssrc, strain="1")
+    rec.factors["stress"] = sf
+    s = s * sf
+    rec.notes.append(
+        f"SED computed from tensors: {'1/2 sigma:eps' if opts.sed_from == 'exact' else '1/2 sigma_e eps_e (nu=%g)' % opts.poisson}; "
+        f"shear strain read as {conv.shear} (preset={opts.preset or raw.preset!r}"
+        f"{', implied by the file format' if opts.preset is None and raw.preset else ''})."
+    )
+    sed = sed_exact(s, e) if opts.sed_from == "exact" else sed_equivalent(s, e, opts.poisson)
+    for msg in _tensor_checks(raw, opts, s, e, location, rec.checks):
+        rec.notes.append(msg)
+        warnings.warn(msg, AfferentWarning, stacklevel=4)  # the caller of assemble's caller, as before the cut
+    return sed, location
+
+
+def _integration_points(raw: RawExport, opts: ReadOptions, sed: np.ndarray, xyz: np.ndarray, notes: list):
+    """SED at integration points (a joined coordinate file) averaged per element: (sed, xyz)."""
+    groups = integration_point_groups(raw) if opts.coordinates is not None else None
+    if groups is None:
+        return sed, xyz
+    sed, first = average_per_element(sed, groups)
+    counts = np.unique(np.bincount(groups))
+    notes.append(f"SED at {groups.size} integration points averaged per element ({sed.shape[1]} elements, "
+                 f"{', '.join(map(str, counts))} point(s) each, equal weights: the Gauss average for C3D8, C3D20R, "
+                 "C3D10, C3D4, C3D8R; not for C3D20 or wedges) and placed at the element's coordinates.")
+    return sed, xyz[first]
+
+
+def _negatives(raw: RawExport, opts: ReadOptions, sed: np.ndarray, rec: _Record):
+    """Negative SED: refused beyond the tolerance, else set to 0 with a warning: (sed, report or None)."""
+    negative = negative_sed_report(sed, opts.negative_tolerance)
+    if negative is None:
+        return sed, None
+    unit_factor = rec.factors.get("sed", rec.factors.get("stress", 1.0))
+    where = f"row {negative['first_row']}" + (f", step {negative['first_step']}" if sed.shape[0] > 1 else "")
+    if not negative["within_tolerance"]:
+        rel = negative["min_relative"]
+        relative = (f"{rel:.3g} x the largest SED; the negatives sum to {negative['negative_share']:.3g} x the "
+                    "positives" if np.isfinite(rel) else "and no value is positive")
+        raise SEDFormatError(
+            f"SED file {_where(raw)!r}: SED must be >= 0 J/m^3 up to the nodal-extrapolation artefacts of FE tools; got "
+            f"{negative['count']} negative value(s) down to {negative['min_pa'] / unit_factor:.6g} in file units "
+            f"({relative}; first at {where}), beyond the tolerance {opts.negative_tolerance:g}. Check the column, the "
+            "sign convention and the shear convention; if the tool's extrapolation really is that coarse, raise "
+            "negative_tolerance."
+        )
+    msg = (
+        f"SED file {_where(raw)!r}: {negative['count']} of {sed.size} SED value(s) are negative (down to "
+        f"{negative['min_relative']:.2g} x the largest SED; they sum to {negative['negative_share']:.2g} x the positive "
+        f"values; tolerance {opts.negative_tolerance:g}), as FE tools write where they extrapolate integration-point "
+        "values to the nodes near steep gradients; set to 0. SED near those nodes is unreliable (a finer mesh or "
+        "integration-point output tells how much)."
+    )
+    rec.notes.append(msg)
+    warnings.warn(msg, AfferentWarning, stacklevel=4)  # the caller of assemble's caller, as before the cut
+    return np.maximum(sed, 0.0), negative
+
+
+def _times(raw: RawExport, opts: ReadOptions, n_times: int, rec: _Record) -> np.ndarray:
+    """Step times in s: declared, else the export's, else 0, 1, ...; strictly increasing."""
     if opts.times is not None:
         times = np.asarray(opts.times, dtype=float)
         tu, tf, tsrc = (opts.time_unit or "s"), time_factor(opts.time_unit or "s"), "declared"
@@ -875,9 +904,9 @@ def assemble(raw: RawExport, opts: ReadOptions) -> SEDField:
         times = np.arange(n_times, dtype=float)
         tu, tf, tsrc = "s", 1.0, "none in the file: steps numbered 0, 1, ..."
         if n_times > 1:
-            notes.append("The export states no step times; steps are numbered 0, 1, ... (pass times= to set them).")
-    units.update(time=tu, time_source=tsrc)
-    factors["time"] = tf
+            rec.notes.append("The export states no step times; steps are numbered 0, 1, ... (pass times= to set them).")
+    rec.units.update(time=tu, time_source=tsrc)
+    rec.factors["time"] = tf
     times = times * tf
     if times.size > 1 and not np.all(np.diff(times) > 0):
         k = int(np.argmin(np.diff(times) > 0))
@@ -885,24 +914,49 @@ def assemble(raw: RawExport, opts: ReadOptions) -> SEDField:
             f"SED file {_where(raw)!r}: time steps must be strictly increasing; got {float(times[k] / tf)!r} followed by "
             f"{float(times[k + 1] / tf)!r} (steps {k} and {k + 1}) instead."
         )
+    return times
+
+
+def _plausibility(raw: RawExport, opts: ReadOptions, sed: np.ndarray, xyz_m: np.ndarray, length: str, rec: _Record):
+    """Warn when the SED or the span of the coordinates (m) is implausible for skin: a wrong unit, most likely."""
+    units = rec.units
+    unit_key = "sed_unit" if opts.sed_from == "field" else "stress_unit"
+    for msg in (
+        sed_warning(sed, what=f"SED file {_where(raw)!r} ({units.get('sed', units.get('stress'))} {units.get('sed_source', units.get('stress_source'))})",
+                    unit_hint=repr(unit_key)),
+        span_warning(xyz_m, what=f"SED file {_where(raw)!r} (length unit {length})", unit_hint="'length_unit'"),
+    ):
+        if msg:
+            rec.notes.append(msg)
+            warnings.warn(msg, AfferentWarning, stacklevel=4)  # the caller of assemble's caller, as before the cut
+
+
+def assemble(raw: RawExport, opts: ReadOptions) -> SEDField:
+    """Build the SI :class:`SEDField` from a reader's raw export and the user's declarations.
+
+    The steps, in order: coordinates, SED (from the field or from the tensors), integration
+    points averaged per element, negative SED, step times, duplicate points, plausibility.
+    """
+    raw = _prepared(raw, opts)
+    rec = _Record(notes=list(raw.notes))
+    xyz, lf, lu, lsrc = _coordinates(raw, opts, rec)
+    if opts.sed_from == "field":
+        sed, location = _sed_from_field(raw, opts, rec)
+    else:
+        sed, location = _sed_from_tensors(raw, opts, rec)
+    sed, xyz = _integration_points(raw, opts, sed, xyz, rec.notes)
+    sed, negative = _negatives(raw, opts, sed, rec)
+    times = _times(raw, opts, sed.shape[0], rec)
     if location == "cell" and raw.cells is None:
         raise SEDFormatError(f"SED file {_where(raw)!r}: SED is cell data but the file has no volume cells.")
     if raw.cells is None:
         xyz, sed, merged = _merge_duplicate_points(raw, xyz, sed)
         if merged:
-            notes.append(f"{merged} point(s) listed twice with the same SED merged (a table written per element?).")
-    unit_key = "sed_unit" if opts.sed_from == "field" else "stress_unit"
-    for msg in (
-        sed_warning(sed, what=f"SED file {_where(raw)!r} ({units.get('sed', units.get('stress'))} {units.get('sed_source', units.get('stress_source'))})",
-                    unit_hint=repr(unit_key)),
-        span_warning(xyz * lf, what=f"SED file {_where(raw)!r} (length unit {lu} {lsrc})", unit_hint="'length_unit'"),
-    ):
-        if msg:
-            notes.append(msg)
-            warnings.warn(msg, AfferentWarning, stacklevel=3)
+            rec.notes.append(f"{merged} point(s) listed twice with the same SED merged (a table written per element?).")
+    _plausibility(raw, opts, sed, xyz * lf, f"{lu} {lsrc}", rec)
     prov = Provenance(
-        files=raw.files, format=raw.format, sed_from=opts.sed_from, columns=columns, units=units,
-        factors=factors, notes=tuple(notes), negative_sed=negative, checks=checks,
+        files=raw.files, format=raw.format, sed_from=opts.sed_from, columns=rec.columns, units=rec.units,
+        factors=rec.factors, notes=tuple(rec.notes), negative_sed=negative, checks=rec.checks,
         location=location, location_source=_location_source(raw, opts, location),
     )
     try:
