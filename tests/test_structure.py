@@ -33,10 +33,6 @@ MAX_MODULE_LINES = 600
 #: ("path/relative/to/afferent", "qualified.function.name") -> reason it may stay long for now.
 FUNCTION_ALLOWLIST: dict[tuple[str, str], str] = {
     ("cli/_demo.py", "run"): "owned by another change this session",
-    ("spiking/_exact.py", "_exact_loop"): (
-        "the numba kernel of the exact engine: one compiled event loop whose state (u, ref_end, eg, the buffer "
-        "position) is resumed bit for bit; steps cut out of it would each have to be jitted and kept in step with "
-        "the numpy engine's vectorised copy (_run_exact_numpy, _crossings_any_input, _newton_crossing)"),
 }
 
 

@@ -89,6 +89,59 @@ def _pieces(current, dt, duration, times, tau_m: float, hold: str) -> _Pieces:
     return _Pieces(arr, starts, ends, decay, growth, nxt, inv_h, t_start, t_stop, ids, notes)
 
 
+def _held_crossing(uj, da, e, h, theta, tau):
+    """Crossing under a held drive ``da`` (V) from ``uj`` (V above rest) over ``h`` s, ``e = exp(-h / tau)``.
+
+    Returns (time to the crossing in s, < 0 for none in the piece; u at the piece's end in V).
+    Plain Python, compiled into :func:`_exact_loop` by numba (see :func:`_numba_exact`).
+    """
+    u_end = da + (uj - da) * e
+    x = -1.0
+    if da > theta and u_end >= theta:
+        x = min(tau * np.log1p((theta - uj) / (da - theta)), h)
+    return x, u_end
+
+
+def _linear_crossing(uj, da, s, h, wh, t, theta, tau):
+    """Crossing under a linear drive ``da + s y`` (V, V/s) from ``uj`` over ``h`` s, ``wh = 1 - exp(-h / tau)``.
+
+    The crossing is bracketed in closed form (u - theta is convex or concave in y) and found by
+    Newton's method from the side where it converges monotonically; ``t`` (s) sets its stopping
+    tolerance. Returns (time to the crossing in s, < 0 for none; u at the piece's end in V).
+    Plain Python, compiled into :func:`_exact_loop` by numba (see :func:`_numba_exact`).
+    """
+    db = da + s * h
+    # u(t + y) = uj + (da - uj) w + s (y - tau w), w = 1 - e^(-y / tau): every term
+    # is of the size of the change it describes (no s tau - s tau cancellation)
+    cc = uj - da + s * tau  # its sign is that of d2u/dy2
+    u_end = uj + (da - uj) * wh + s * (h - tau * wh)
+    x = -1.0
+    if da > theta or db > theta:
+        b = -1.0  # right end of a bracket [0, b] with g(0) < 0 <= g(b)
+        if u_end >= theta:
+            b = h
+        elif cc < 0.0 and s < 0.0:  # concave: the maximum may cross and come back
+            ystar = tau * np.log(cc / (s * tau))
+            if 0.0 < ystar < h and da + s * ystar >= theta:  # g(y*) = da + s y* - theta
+                b = ystar
+        if b >= 0.0:
+            # g concave: Newton from 0 stays left of the root; convex: from b, right
+            y = 0.0 if cc < 0.0 else b
+            for _ in range(100):
+                w = -np.expm1(-y / tau)
+                g = (uj - theta) + (da - uj) * w + s * (y - tau * w)
+                dg = (da - uj) * (1.0 - w) / tau + s * w
+                if dg == 0.0:
+                    break
+                y_new = min(max(y - g / dg, 0.0), b)
+                if abs(y_new - y) <= 4e-16 * (abs(t) + y_new):
+                    y = y_new
+                    break
+                y = y_new
+            x = y
+    return x, u_end
+
+
 def _exact_loop(values, cols, starts, ends, decay, growth, nxt, inv_h, k0, j0, u, ref_end, eg, consts, out_t, out_c):
     """Event loop of the exact engine (plain Python source, run compiled by numba).
 
@@ -146,41 +199,12 @@ def _exact_loop(values, cols, starts, ends, decay, growth, nxt, inv_h, k0, j0, u
             while True:
                 h = t1 - t
                 da = d0 + s * (t - t0)  # drive at t
-                x = -1.0  # time from t to the crossing; < 0: none in the piece
+                # x: time from t to the crossing (< 0: none in the piece); u_end: u at the piece's end
                 if s == 0.0:
-                    u_end = da + (uj - da) * e
-                    if da > theta and u_end >= theta:
-                        x = min(tau * np.log1p((theta - uj) / (da - theta)), h)
+                    x, u_end = _held_crossing(uj, da, e, h, theta, tau)
                 else:
-                    db = da + s * h
-                    # u(t + y) = uj + (da - uj) w + s (y - tau w), w = 1 - e^(-y / tau): every term
-                    # is of the size of the change it describes (no s tau - s tau cancellation)
-                    cc = uj - da + s * tau  # its sign is that of d2u/dy2
                     wh = growth[k] if t == t0 else -np.expm1(-h / tau)
-                    u_end = uj + (da - uj) * wh + s * (h - tau * wh)
-                    if da > theta or db > theta:
-                        b = -1.0  # right end of a bracket [0, b] with g(0) < 0 <= g(b)
-                        if u_end >= theta:
-                            b = h
-                        elif cc < 0.0 and s < 0.0:  # concave: the maximum may cross and come back
-                            ystar = tau * np.log(cc / (s * tau))
-                            if 0.0 < ystar < h and da + s * ystar >= theta:  # g(y*) = da + s y* - theta
-                                b = ystar
-                        if b >= 0.0:
-                            # g concave: Newton from 0 stays left of the root; convex: from b, right
-                            y = 0.0 if cc < 0.0 else b
-                            for _ in range(100):
-                                w = -np.expm1(-y / tau)
-                                g = (uj - theta) + (da - uj) * w + s * (y - tau * w)
-                                dg = (da - uj) * (1.0 - w) / tau + s * w
-                                if dg == 0.0:
-                                    break
-                                y_new = min(max(y - g / dg, 0.0), b)
-                                if abs(y_new - y) <= 4e-16 * (abs(t) + y_new):
-                                    y = y_new
-                                    break
-                                y = y_new
-                            x = y
+                    x, u_end = _linear_crossing(uj, da, s, h, wh, t, theta, tau)
                 if x < 0.0:
                     uj = u_end
                     break
@@ -225,6 +249,11 @@ def _numba_exact():
     if _NUMBA_EXACT is None:
         import numba
 
+        from numba.extending import register_jitable
+
+        # the crossing steps are compiled into the loop with the loop's own options
+        for step in (_held_crossing, _linear_crossing):
+            register_jitable(nogil=True, error_model="numpy")(step)
         _NUMBA_EXACT = numba.njit(cache=True, nogil=True, error_model="numpy")(_exact_loop)
     return _NUMBA_EXACT
 
