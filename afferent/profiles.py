@@ -15,6 +15,9 @@ normalisation, ``e_i = (A_i - min A) / (max A - min A)``, with
 - :func:`ssd`, ``sum (d - e)^2``, the calibration objective.
 
 ``d`` is always the observation (recording) and ``e`` the prediction.
+
+Size: just over 600 lines (285 of them docstrings), kept whole: the metrics, the observed
+profile and the comparison are used together by calibration and the pipeline, and each is short.
 """
 
 from __future__ import annotations

@@ -21,6 +21,9 @@ which stays finite, monotone and within [0, alpha] over the whole real line.
 :func:`saturation_report` says how many receptor samples sit in the sigmoid's sensitive
 range: the study's own longitudinal-section parameters saturate every receptor
 (:ref:`method-saturation`), so the current no longer depends on SED.
+
+Size: just over 600 lines (269 of them docstrings), kept whole: the sigmoid, the
+:class:`ReceptorCurrent` it produces and the saturation report on the same parameters form one stage.
 """
 
 from __future__ import annotations

@@ -187,7 +187,7 @@ def test_numba_and_numpy_backends_identical_including_buffer_regrowth(monkeypatc
     assert (a.backend, b.backend) == ("numpy", "numba")
     assert same_spikes(a, b)
     # Smallest spike buffer allowed: forces the numba loop to stop and resume many times.
-    monkeypatch.setattr(spiking, "_capacity_guess", lambda peak, plan, params, n_ref: peak.size)
+    monkeypatch.setattr(spiking._grid, "_capacity_guess", lambda peak, plan, params, n_ref: peak.size)
     c = simulate_lif(current, RA, dt=1e-4, engine="fast-numba")
     assert same_spikes(a, c)
 

@@ -398,11 +398,11 @@ def test_numba_and_numpy_backends_agree_including_buffer_regrowth(monkeypatch, h
     for x, y in zip(a.spike_times, b.spike_times):
         assert x.size == y.size
         np.testing.assert_allclose(x, y, rtol=0, atol=1e-12)
-    monkeypatch.setattr(spiking, "_exact_capacity", lambda peak, pc, params: 1)  # resume after every spike
+    monkeypatch.setattr(spiking._exact, "_exact_capacity", lambda peak, pc, params: 1)  # resume after every spike
     c = simulate_lif(cur, p, engine="exact-numba", times=times, input_hold=hold)
     assert all(np.array_equal(x, y) for x, y in zip(b.spike_times, c.spike_times))
-    assert spiking._exact_threads(1999) == 1  # small runs stay on one thread
-    monkeypatch.setattr(spiking, "_exact_threads", lambda n: 3)  # afferents split over 3 threads
+    assert spiking._exact._exact_threads(1999) == 1  # small runs stay on one thread
+    monkeypatch.setattr(spiking._exact, "_exact_threads", lambda n: 3)  # afferents split over 3 threads
     d = simulate_lif(cur, p, engine="exact-numba", times=times, input_hold=hold)
     assert all(np.array_equal(x, y) for x, y in zip(b.spike_times, d.spike_times))
 

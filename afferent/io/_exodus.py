@@ -140,6 +140,91 @@ def _per_step(values, n_t: int, n: int, path: str, what: str, per: str) -> np.nd
     return v.reshape(n_t, n)
 
 
+class _Block:  # what cells_from_meshio reads: .type and .data
+    def __init__(self, ctype, conn):
+        self.type, self.data = ctype, conn
+
+
+def _coordinates(nc, path: str) -> np.ndarray:
+    """Node coordinates (n_nodes, 3) in the model's length unit; 2-D models padded with z = 0."""
+    if "coord" in nc:
+        coords = nc.get("coord").T
+    elif "coordx" in nc:
+        axes = [np.asarray(nc.get(f"coord{a}")).ravel() for a in "xyz" if f"coord{a}" in nc]
+        if len({a.size for a in axes}) > 1:
+            raise SEDFormatError(f"SED file {path!r}: the coordinate arrays coordx/coordy/coordz have different "
+                                 f"lengths ({', '.join(str(a.size) for a in axes)}); expected one value per node.")
+        coords = np.column_stack(axes)
+    else:
+        raise SEDFormatError(f"SED file {path!r} has no node coordinates ('coordx'/'coordy'/'coordz' or 'coord'): "
+                             "is it an Exodus II file?")
+    coords = np.asarray(coords, dtype=float)
+    if coords.shape[1] < 3:
+        coords = np.column_stack([coords, np.zeros((coords.shape[0], 3 - coords.shape[1]))])
+    return coords
+
+
+def _volume_blocks(nc, path: str, n_nodes: int):
+    """The element blocks: (volume cells or None, [(block number, n_elements)] of volume blocks, skipped blocks)."""
+    from ._meshio import cells_from_meshio
+
+    n_blocks = sum(1 for k in nc.names if k.startswith("connect") and k[7:].isdigit())
+    blocks, volume, skipped = [], [], []
+    for j in range(1, n_blocks + 1):
+        conn = nc.get(f"connect{j}").astype(np.int64) - 1
+        etype = str(nc.attr(f"connect{j}", "elem_type") or "").upper()
+        ctype = EXODUS_ELEMENTS.get(etype) or _volume_type(etype, conn.shape[1] if conn.ndim == 2 else 0)
+        if ctype is None:
+            skipped.append(f"block {j} ({etype or 'no elem_type'}, {conn.shape[0]} elements)")
+            continue
+        if conn.size and (conn.min() < 0 or conn.max() >= n_nodes):
+            raise SEDFormatError(f"SED file {path!r}: element block {j} refers to node {int(conn.max()) + 1}, but "
+                                 f"the file has {n_nodes} nodes.")
+        blocks.append(_Block(ctype, conn))
+        volume.append((j, conn.shape[0]))
+    return (cells_from_meshio(blocks) if blocks else None), volume, skipped
+
+
+def _nodal_arrays(nc, path: str, n_t: int, n_nodes: int) -> dict[str, RawArray]:
+    """Every nodal variable as point data (n_t, n_nodes)."""
+    arrays: dict[str, RawArray] = {}
+    for i, name in enumerate(nc.strings("name_nod_var"), start=1):
+        if f"vals_nod_var{i}" in nc:
+            v = nc.get(f"vals_nod_var{i}")
+        elif "vals_nod_var" in nc:
+            combined = nc.get("vals_nod_var")  # (time, variable, node) in old Exodus files
+            if combined.ndim != 3 or combined.shape[1] < i:
+                raise SEDFormatError(f"SED file {path!r}: 'vals_nod_var' must be (time, variable, node) with a "
+                                     f"slot for nodal variable {i} ({name!r}); got shape {combined.shape} instead.")
+            v = combined[:, i - 1, :]
+        else:
+            raise SEDFormatError(f"SED file {path!r} names the nodal variable {name!r} but holds no values for it.")
+        arrays[name] = RawArray(name, _per_step(v, n_t, n_nodes, path, f"nodal variable {name!r}", "node"), "point")
+    return arrays
+
+
+def _element_arrays(nc, path: str, n_t: int, volume: list, arrays: dict[str, RawArray]) -> None:
+    """Add every element variable as cell data over the volume blocks (NaN in blocks that do not carry it)."""
+    table = nc.get("elem_var_tab") if "elem_var_tab" in nc else None
+    n_cells = sum(n for _, n in volume)
+    for i, name in enumerate(nc.strings("name_elem_var"), start=1):
+        parts, present = [], False
+        for k, (j, n) in enumerate(volume):
+            key = f"vals_elem_var{i}eb{j}"
+            in_table = table is None or (table.ndim == 2 and j - 1 < table.shape[0] and i - 1 < table.shape[1]
+                                         and bool(table[j - 1, i - 1]))
+            carried = key in nc and in_table
+            if carried:
+                v = _per_step(nc.get(key), n_t, n, path, f"element variable {name!r} of block {j}", "element")
+                present = True
+            else:
+                v = np.full((n_t, n), np.nan)
+            parts.append(v)
+        if present:
+            key = name if name not in arrays else f"{name}@cell"
+            arrays[key] = RawArray(name, np.concatenate(parts, axis=1).reshape(n_t, n_cells), "cell")
+
+
 def read_exodus(path: str, *, progress: bool = False) -> RawExport:
     """Read an Exodus II file: mesh, every time step, nodal and element variables.
 
@@ -162,83 +247,19 @@ def read_exodus(path: str, *, progress: bool = False) -> RawExport:
         Not a netCDF file, no coordinates, a variable whose size does not match the mesh, a
         damaged or truncated file.
     """
-    from ._meshio import cells_from_meshio
-
     if not os.path.isfile(path):
         raise FileNotFoundError(f"SED file {path!r} not found.")
     if os.path.getsize(path) == 0:
         raise SEDFormatError(f"SED file {path!r} is empty.")
     nc = _NetCDF(path)
     try:
-        if "coord" in nc:
-            coords = nc.get("coord").T
-        elif "coordx" in nc:
-            axes = [np.asarray(nc.get(f"coord{a}")).ravel() for a in "xyz" if f"coord{a}" in nc]
-            if len({a.size for a in axes}) > 1:
-                raise SEDFormatError(f"SED file {path!r}: the coordinate arrays coordx/coordy/coordz have different "
-                                     f"lengths ({', '.join(str(a.size) for a in axes)}); expected one value per node.")
-            coords = np.column_stack(axes)
-        else:
-            raise SEDFormatError(f"SED file {path!r} has no node coordinates ('coordx'/'coordy'/'coordz' or 'coord'): "
-                                 "is it an Exodus II file?")
-        coords = np.asarray(coords, dtype=float)
-        if coords.shape[1] < 3:
-            coords = np.column_stack([coords, np.zeros((coords.shape[0], 3 - coords.shape[1]))])
-        n_nodes = coords.shape[0]
-        n_blocks = sum(1 for k in nc.names if k.startswith("connect") and k[7:].isdigit())
-
-        class _Block:  # what cells_from_meshio reads: .type and .data
-            def __init__(self, ctype, conn):
-                self.type, self.data = ctype, conn
-
-        blocks, volume, skipped = [], [], []
-        for j in range(1, n_blocks + 1):
-            conn = nc.get(f"connect{j}").astype(np.int64) - 1
-            etype = str(nc.attr(f"connect{j}", "elem_type") or "").upper()
-            ctype = EXODUS_ELEMENTS.get(etype) or _volume_type(etype, conn.shape[1] if conn.ndim == 2 else 0)
-            if ctype is None:
-                skipped.append(f"block {j} ({etype or 'no elem_type'}, {conn.shape[0]} elements)")
-                continue
-            if conn.size and (conn.min() < 0 or conn.max() >= n_nodes):
-                raise SEDFormatError(f"SED file {path!r}: element block {j} refers to node {int(conn.max()) + 1}, but "
-                                     f"the file has {n_nodes} nodes.")
-            blocks.append(_Block(ctype, conn))
-            volume.append((j, conn.shape[0]))
-        cells = cells_from_meshio(blocks) if blocks else None
+        coords = _coordinates(nc, path)
+        cells, volume, skipped = _volume_blocks(nc, path, coords.shape[0])
         times = nc.get("time_whole").astype(float).ravel() if "time_whole" in nc else np.zeros(0)
         n_t = times.size  # 0: a mesh (Cubit .g) with no results
-        arrays: dict[str, RawArray] = {}
-        for i, name in enumerate(nc.strings("name_nod_var"), start=1):
-            if f"vals_nod_var{i}" in nc:
-                v = nc.get(f"vals_nod_var{i}")
-            elif "vals_nod_var" in nc:
-                combined = nc.get("vals_nod_var")  # (time, variable, node) in old Exodus files
-                if combined.ndim != 3 or combined.shape[1] < i:
-                    raise SEDFormatError(f"SED file {path!r}: 'vals_nod_var' must be (time, variable, node) with a "
-                                         f"slot for nodal variable {i} ({name!r}); got shape {combined.shape} instead.")
-                v = combined[:, i - 1, :]
-            else:
-                raise SEDFormatError(f"SED file {path!r} names the nodal variable {name!r} but holds no values for it.")
-            arrays[name] = RawArray(name, _per_step(v, n_t, n_nodes, path, f"nodal variable {name!r}", "node"), "point")
+        arrays = _nodal_arrays(nc, path, n_t, coords.shape[0])
         if cells is not None:
-            table = nc.get("elem_var_tab") if "elem_var_tab" in nc else None
-            n_cells = sum(n for _, n in volume)
-            for i, name in enumerate(nc.strings("name_elem_var"), start=1):
-                parts, present = [], False
-                for k, (j, n) in enumerate(volume):
-                    key = f"vals_elem_var{i}eb{j}"
-                    in_table = table is None or (table.ndim == 2 and j - 1 < table.shape[0] and i - 1 < table.shape[1]
-                                                 and bool(table[j - 1, i - 1]))
-                    carried = key in nc and in_table
-                    if carried:
-                        v = _per_step(nc.get(key), n_t, n, path, f"element variable {name!r} of block {j}", "element")
-                        present = True
-                    else:
-                        v = np.full((n_t, n), np.nan)
-                    parts.append(v)
-                if present:
-                    key = name if name not in arrays else f"{name}@cell"
-                    arrays[key] = RawArray(name, np.concatenate(parts, axis=1).reshape(n_t, n_cells), "cell")
+            _element_arrays(nc, path, n_t, volume, arrays)
         notes = [f"Exodus II, {nc.kind}: {n_t} time step(s), {len(volume)} volume block(s)"
                  + (f"; ignored {', '.join(skipped)}" if skipped else "") + "."]
     finally:

@@ -126,6 +126,131 @@ def step_count(path: str) -> int:
     return len(times)
 
 
+def _temporal_leaves(domain: ET.Element, path: str) -> list:
+    """(time, grid) of every uniform grid inside a temporal collection, in file order."""
+    leaves = []
+    for coll in domain.iter("Grid"):
+        if coll.get("GridType") != "Collection":
+            continue
+        if coll.get("CollectionType", "Temporal") != "Temporal":
+            raise SEDFormatError(f"SED file {path!r}: grid collection {coll.get('Name')!r} is "
+                                 f"{coll.get('CollectionType')!r}; afferent reads temporal collections.")
+        for k, grid in enumerate(coll.findall("Grid")):
+            t = grid.find("Time")
+            if t is None or t.get("Value") is None:
+                raise SEDFormatError(f"SED file {path!r}: grid {k} of collection {coll.get('Name')!r} has no <Time>.")
+            try:
+                leaves.append((float(t.get("Value")), grid))
+            except ValueError:
+                raise SEDFormatError(f"SED file {path!r}: grid {k} of collection {coll.get('Name')!r} has the time "
+                                     f"{t.get('Value')!r}, not a number.") from None
+    if not leaves:
+        raise SEDFormatError(f"SED file {path!r} has no grid inside a temporal collection.")
+    return leaves
+
+
+def _one_mesh(domain: ET.Element, leaves: list, path: str) -> ET.Element:
+    """The grid holding the mesh every leaf uses; more than one mesh is refused."""
+    try:
+        meshes = {id(_mesh_grid(domain, g)): _mesh_grid(domain, g) for _, g in leaves}
+    except SEDFormatError as err:
+        raise SEDFormatError(f"SED file {path!r}: {err}.") from None
+    if len(meshes) > 1:
+        raise SEDFormatError(f"SED file {path!r}: its grids use {len(meshes)} different meshes; afferent reads "
+                             "functions on one mesh.")
+    return next(iter(meshes.values()))
+
+
+def _mesh_points(heavy, mesh: ET.Element, path: str) -> np.ndarray:
+    """The mesh's points (n, 3) in the file's length unit; XY geometry padded with z = 0."""
+    geo = mesh.find("Geometry")
+    points = heavy.read(geo.find("DataItem"), f"the geometry of grid {mesh.get('Name')!r}").astype(float)
+    gtype = geo.get("GeometryType", "XYZ").upper()
+    if gtype not in ("XYZ", "XY"):
+        raise SEDFormatError(f"SED file {path!r}: GeometryType {gtype!r} is not supported (XYZ or XY).")
+    points = points.reshape(-1, 3 if gtype == "XYZ" else 2)
+    if points.shape[1] == 2:
+        points = np.column_stack([points, np.zeros(len(points))])
+    return points
+
+
+def _mesh_cells(heavy, mesh: ET.Element, n_points: int, path: str, notes: list):
+    """The mesh's volume cells (or None, noted), from its topology through meshio's XDMF tables."""
+    from ._meshio import cells_from_meshio
+
+    # XDMF topology names and mixed-cell codes as meshio defines them (meshio.xdmf.common)
+    from meshio.xdmf.common import translate_mixed_cells, xdmf_to_meshio_type
+
+    topo = mesh.find("Topology")
+    ttype = topo.get("TopologyType") or topo.get("Type") or ""
+    names = {k.lower(): v for k, v in xdmf_to_meshio_type.items()}
+    conn = heavy.read(topo.find("DataItem"), f"the topology of grid {mesh.get('Name')!r}").astype(np.int64)
+    if ttype.lower() == "mixed":
+        try:
+            blocks = translate_mixed_cells(conn.ravel())
+        except Exception as err:  # an unknown cell code or a short array
+            raise SEDFormatError(f"SED file {path!r}: the mixed topology of grid {mesh.get('Name')!r} could not be "
+                                 f"decoded: {type(err).__name__}: {err}") from err
+    elif ttype.lower() in names:
+        blocks = [SimpleNamespace(type=names[ttype.lower()],
+                                  data=conn.reshape(int(topo.get("NumberOfElements", conn.shape[0])), -1))]
+    else:
+        raise SEDFormatError(f"SED file {path!r}: TopologyType {ttype!r} is not an XDMF topology afferent knows.")
+    for b in blocks:
+        data = np.asarray(b.data)
+        if data.size and (data.min() < 0 or data.max() >= n_points):
+            raise SEDFormatError(f"SED file {path!r}: the topology refers to point {int(data.max())}, but the "
+                                 f"geometry has {n_points} points.")
+    cells = cells_from_meshio(blocks)
+    if cells is None:
+        notes.append(f"topology {ttype!r} has no volume cells: the points are treated as scattered samples.")
+    return cells
+
+
+def _step_attributes(heavy, grids: list, t: float, n_points: int, cells, first_names, path: str, bar) -> dict:
+    """The attributes of every grid at time ``t``: name -> RawArray (1, n[, n_components])."""
+    n_cells = cells.n_cells if cells is not None else 0
+    found: dict[str, RawArray] = {}
+    for grid in grids:
+        bar.update(1)
+        for att in grid.findall("Attribute"):
+            name = att.get("Name") or "unnamed"
+            center = (att.get("Center") or "Node").lower()
+            if center not in ("node", "cell"):
+                raise SEDFormatError(f"SED file {path!r}: attribute {name!r} has Center={att.get('Center')!r}; "
+                                     "afferent reads Node and Cell data.")
+            location = "point" if center == "node" else "cell"
+            expected = n_points if location == "point" else n_cells
+            what = f"attribute {name!r} at t = {t:g}"
+            data = heavy.read(att.find("DataItem"), what).astype(float)
+            data = data.reshape(data.shape[0], -1) if data.ndim > 1 else data.reshape(-1, 1)
+            if location == "cell" and cells is None:
+                continue
+            if data.shape[0] != expected:
+                raise SEDFormatError(f"SED file {path!r}: {what} must have one row per "
+                                     f"{'point' if location == 'point' else 'cell'} ({expected}); got {data.shape[0]}.")
+            if (first_names or {}).get(name, location) != location or name in found and found[name].location != location:
+                raise SEDFormatError(f"SED file {path!r}: attribute {name!r} is point data at one time and cell "
+                                     "data at another.")
+            values = data[:, 0] if data.shape[1] == 1 else data
+            found[name] = RawArray(name, values[None], location)
+    return found
+
+
+def _check_same_functions(found: dict, t: float, times: list, first_names: dict, first_shapes: dict, path: str) -> None:
+    """Every step holds the functions of the first, with as many components."""
+    names = {name: a.location for name, a in found.items()}
+    missing = sorted(set(first_names) - set(names)) or sorted(set(names) - set(first_names))
+    if missing:
+        at = t if set(first_names) - set(names) else times[0]
+        raise SEDFormatError(f"SED file {path!r}: function {missing[0]!r} has no value at t = {at:g}, a time "
+                             "the other functions have; write every function at every time.")
+    for name, a in found.items():
+        if a.values.shape[2:] != first_shapes[name]:
+            raise SEDFormatError(f"SED file {path!r}: function {name!r} has {a.values.shape[2:] or 1} "
+                                 f"component(s) at t = {t:g} but {first_shapes[name] or 1} at t = {times[0]:g}.")
+
+
 def iter_xdmf_collections(path: str, *, progress: bool = False):
     """Read an XDMF file made of grid collections (one or several functions over time), one time
     step at a time: the mesh is read once, then each step's attributes (memory: one step).
@@ -152,75 +277,17 @@ def iter_xdmf_collections(path: str, *, progress: bool = False):
     """
     from tqdm.auto import tqdm
 
-    from ._meshio import cells_from_meshio
-
     root = _parse(path)
     domain = root.find("Domain")
     if domain is None:
         raise SEDFormatError(f"SED file {path!r} has no <Domain>: not an XDMF file?")
     heavy = _Heavy(path)
     try:
-        leaves = []  # (time, grid) of every uniform grid inside a temporal collection
-        for coll in domain.iter("Grid"):
-            if coll.get("GridType") != "Collection":
-                continue
-            if coll.get("CollectionType", "Temporal") != "Temporal":
-                raise SEDFormatError(f"SED file {path!r}: grid collection {coll.get('Name')!r} is "
-                                     f"{coll.get('CollectionType')!r}; afferent reads temporal collections.")
-            for k, grid in enumerate(coll.findall("Grid")):
-                t = grid.find("Time")
-                if t is None or t.get("Value") is None:
-                    raise SEDFormatError(f"SED file {path!r}: grid {k} of collection {coll.get('Name')!r} has no <Time>.")
-                try:
-                    leaves.append((float(t.get("Value")), grid))
-                except ValueError:
-                    raise SEDFormatError(f"SED file {path!r}: grid {k} of collection {coll.get('Name')!r} has the time "
-                                         f"{t.get('Value')!r}, not a number.") from None
-        if not leaves:
-            raise SEDFormatError(f"SED file {path!r} has no grid inside a temporal collection.")
-        try:
-            meshes = {id(_mesh_grid(domain, g)): _mesh_grid(domain, g) for _, g in leaves}
-        except SEDFormatError as err:
-            raise SEDFormatError(f"SED file {path!r}: {err}.") from None
-        if len(meshes) > 1:
-            raise SEDFormatError(f"SED file {path!r}: its grids use {len(meshes)} different meshes; afferent reads "
-                                 "functions on one mesh.")
-        mesh = next(iter(meshes.values()))
-        topo, geo = mesh.find("Topology"), mesh.find("Geometry")
-        points = heavy.read(geo.find("DataItem"), f"the geometry of grid {mesh.get('Name')!r}").astype(float)
-        gtype = geo.get("GeometryType", "XYZ").upper()
-        if gtype not in ("XYZ", "XY"):
-            raise SEDFormatError(f"SED file {path!r}: GeometryType {gtype!r} is not supported (XYZ or XY).")
-        points = points.reshape(-1, 3 if gtype == "XYZ" else 2)
-        if points.shape[1] == 2:
-            points = np.column_stack([points, np.zeros(len(points))])
-        # XDMF topology names and mixed-cell codes as meshio defines them (meshio.xdmf.common)
-        from meshio.xdmf.common import translate_mixed_cells, xdmf_to_meshio_type
-
-        ttype = topo.get("TopologyType") or topo.get("Type") or ""
-        names = {k.lower(): v for k, v in xdmf_to_meshio_type.items()}
+        leaves = _temporal_leaves(domain, path)
+        mesh = _one_mesh(domain, leaves, path)
+        points = _mesh_points(heavy, mesh, path)
         notes = []
-        conn = heavy.read(topo.find("DataItem"), f"the topology of grid {mesh.get('Name')!r}").astype(np.int64)
-        if ttype.lower() == "mixed":
-            try:
-                blocks = translate_mixed_cells(conn.ravel())
-            except Exception as err:  # an unknown cell code or a short array
-                raise SEDFormatError(f"SED file {path!r}: the mixed topology of grid {mesh.get('Name')!r} could not be "
-                                     f"decoded: {type(err).__name__}: {err}") from err
-        elif ttype.lower() in names:
-            blocks = [SimpleNamespace(type=names[ttype.lower()],
-                                      data=conn.reshape(int(topo.get("NumberOfElements", conn.shape[0])), -1))]
-        else:
-            raise SEDFormatError(f"SED file {path!r}: TopologyType {ttype!r} is not an XDMF topology afferent knows.")
-        for b in blocks:
-            data = np.asarray(b.data)
-            if data.size and (data.min() < 0 or data.max() >= len(points)):
-                raise SEDFormatError(f"SED file {path!r}: the topology refers to point {int(data.max())}, but the "
-                                     f"geometry has {len(points)} points.")
-        cells = cells_from_meshio(blocks)
-        if cells is None:
-            notes.append(f"topology {ttype!r} has no volume cells: the points are treated as scattered samples.")
-        n_cells = cells.n_cells if cells is not None else 0
+        cells = _mesh_cells(heavy, mesh, len(points), path, notes)
         times = sorted({t for t, _ in leaves})
         by_time: dict[float, list] = {t: [] for t in times}
         for t, grid in leaves:
@@ -230,45 +297,14 @@ def iter_xdmf_collections(path: str, *, progress: bool = False):
         first_shapes: dict[str, tuple] = {}
         bar = tqdm(total=len(leaves), desc="reading xdmf", unit="grid", disable=not progress)
         for t in times:
-            found: dict[str, RawArray] = {}
-            for grid in by_time[t]:
-                bar.update(1)
-                for att in grid.findall("Attribute"):
-                    name = att.get("Name") or "unnamed"
-                    center = (att.get("Center") or "Node").lower()
-                    if center not in ("node", "cell"):
-                        raise SEDFormatError(f"SED file {path!r}: attribute {name!r} has Center={att.get('Center')!r}; "
-                                             "afferent reads Node and Cell data.")
-                    location = "point" if center == "node" else "cell"
-                    expected = len(points) if location == "point" else n_cells
-                    what = f"attribute {name!r} at t = {t:g}"
-                    data = heavy.read(att.find("DataItem"), what).astype(float)
-                    data = data.reshape(data.shape[0], -1) if data.ndim > 1 else data.reshape(-1, 1)
-                    if location == "cell" and cells is None:
-                        continue
-                    if data.shape[0] != expected:
-                        raise SEDFormatError(f"SED file {path!r}: {what} must have one row per "
-                                             f"{'point' if location == 'point' else 'cell'} ({expected}); got {data.shape[0]}.")
-                    if (first_names or {}).get(name, location) != location or name in found and found[name].location != location:
-                        raise SEDFormatError(f"SED file {path!r}: attribute {name!r} is point data at one time and cell "
-                                             "data at another.")
-                    values = data[:, 0] if data.shape[1] == 1 else data
-                    found[name] = RawArray(name, values[None], location)
-            names = {name: a.location for name, a in found.items()}
+            found = _step_attributes(heavy, by_time[t], t, len(points), cells, first_names, path, bar)
             if first_names is None:
-                first_names, first_shapes = names, {name: a.values.shape[2:] for name, a in found.items()}
+                first_names = {name: a.location for name, a in found.items()}
+                first_shapes = {name: a.values.shape[2:] for name, a in found.items()}
                 notes.insert(0, f"XDMF with {n_grids} grids in temporal collections: {len(times)} time step(s), "
                                 f"functions {', '.join(found) or 'none'}; mesh read once.")
             else:
-                missing = sorted(set(first_names) - set(names)) or sorted(set(names) - set(first_names))
-                if missing:
-                    at = t if set(first_names) - set(names) else times[0]
-                    raise SEDFormatError(f"SED file {path!r}: function {missing[0]!r} has no value at t = {at:g}, a time "
-                                         "the other functions have; write every function at every time.")
-                for name, a in found.items():
-                    if a.values.shape[2:] != first_shapes[name]:
-                        raise SEDFormatError(f"SED file {path!r}: function {name!r} has {a.values.shape[2:] or 1} "
-                                             f"component(s) at t = {t:g} but {first_shapes[name] or 1} at t = {times[0]:g}.")
+                _check_same_functions(found, t, times, first_names, first_shapes, path)
             yield RawExport(files=(path,), format="xdmf", points=points, arrays=found, times=np.array([t]),
                             cells=cells, notes=tuple(notes))
         bar.close()

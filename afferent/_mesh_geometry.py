@@ -1,0 +1,217 @@
+"""Geometry behind :mod:`afferent.sampling`: points located in tetrahedra (barycentric weights),
+cell volumes, cell-to-node averaging, and the Delaunay triangulation of a point table. Lengths in m.
+
+:func:`node_average` and :func:`cell_volumes` are importable from :mod:`afferent.sampling`.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from .field import Cells
+
+if TYPE_CHECKING:  # scipy loads when a sampler is built, not for a cached ReceptorSED
+    import scipy.sparse as sp
+
+#: Barycentric slack: a receptor within this (relative) distance outside a tetrahedron's
+#: face still counts as inside it (receptors on faces, float noise in exported coordinates).
+BARY_TOL = 1e-6
+
+
+def _barycentric(points: np.ndarray, tet_xyz: np.ndarray) -> np.ndarray:
+    """Barycentric coordinates of points (m, 3) in tets (m, 4, 3) -> (m, 4); NaN for degenerate tets.
+
+    A tetrahedron is degenerate (flat) when its volume is below 1e-12 of the product of its
+    three edge lengths from the first vertex: scale-free, so flat cells of a mesh in m are
+    skipped whatever their size (a fixed threshold let their round-off determinants through
+    to a singular solve).
+    """
+    t = tet_xyz[:, 1:, :] - tet_xyz[:, :1, :]  # (m, 3, 3) rows = edges
+    rhs = points - tet_xyz[:, 0, :]
+    det = np.linalg.det(t)
+    ok = np.abs(det) > 1e-12 * np.prod(np.linalg.norm(t, axis=2), axis=1)
+    lam = np.full((points.shape[0], 3), np.nan)
+    if ok.any():
+        lam[ok] = np.linalg.solve(np.transpose(t[ok], (0, 2, 1)), rhs[ok][..., None])[..., 0]
+    return np.column_stack([1.0 - lam.sum(axis=1), lam])
+
+
+def locate_in_tets(points: np.ndarray, xyz: np.ndarray, tetra: np.ndarray, *, k: int = 24):
+    """Find, for each point, a tetrahedron that contains it and its barycentric weights.
+
+    Candidate tetrahedra are those with the nearest centroids (KD-tree); points not found
+    among ``k`` candidates are retried with more, then against every tetrahedron whose
+    bounding box holds them.
+
+    Returns
+    -------
+    tet_index : ndarray of shape (n,), int (-1 where outside)
+    bary : ndarray of shape (n, 4)
+    """
+    from scipy.spatial import cKDTree
+
+    n = points.shape[0]
+    tet_index = np.full(n, -1, dtype=np.int64)
+    bary = np.zeros((n, 4))
+    if n == 0 or tetra.shape[0] == 0:
+        return tet_index, bary
+    if tetra.shape[0] > NEAR_NODES_FROM:
+        # A large mesh and (usually) few receptors: search first among the tetrahedra that touch
+        # the receptors' nearest nodes (a KD-tree over the nodes, not over millions of
+        # tetrahedra); the points not found there go through the full search below.
+        _, near = cKDTree(xyz).query(points, k=min(8, xyz.shape[0]))
+        touched = np.zeros(xyz.shape[0], bool)
+        touched[np.asarray(near).ravel()] = True
+        subset = np.flatnonzero(touched[tetra].any(axis=1))
+        sub_index, sub_bary = _locate(points, xyz, tetra[subset], k)
+        found = sub_index >= 0
+        tet_index[found], bary[found] = subset[sub_index[found]], sub_bary[found]
+        if found.all():
+            return tet_index, bary
+        rest = np.flatnonzero(~found)
+        tet_index[rest], bary[rest] = _locate(points[rest], xyz, tetra, k)
+        return tet_index, bary
+    return _locate(points, xyz, tetra, k)
+
+
+#: Meshes with more tetrahedra than this are searched first near the receptors' nearest nodes
+#: (:func:`locate_in_tets`); measured on a 970,299-hex (5.8M-tet) block: 11.6 s -> see
+#: ``benchmarks/bench_large_series.py``.
+NEAR_NODES_FROM = 200_000
+
+
+def _locate(points: np.ndarray, xyz: np.ndarray, tetra: np.ndarray, k: int):
+    """:func:`locate_in_tets` over every given tetrahedron (candidates by nearest centroids)."""
+    from scipy.spatial import cKDTree
+
+    n = points.shape[0]
+    tet_index = np.full(n, -1, dtype=np.int64)
+    bary = np.zeros((n, 4))
+    if n == 0 or tetra.shape[0] == 0:
+        return tet_index, bary
+    centroids = xyz[tetra].mean(axis=1)
+    tree = cKDTree(centroids)
+    todo = np.arange(n)
+    for kk in (k, 8 * k):
+        kk = min(kk, tetra.shape[0])
+        _, cand = tree.query(points[todo], k=kk)
+        cand = cand.reshape(len(todo), kk)
+        for j in range(kk):
+            c = cand[:, j]
+            b = _barycentric(points[todo], xyz[tetra[c]])
+            inside = np.all(b >= -BARY_TOL, axis=1)
+            tet_index[todo[inside]] = c[inside]
+            bary[todo[inside]] = b[inside]
+            todo = todo[~inside]
+            cand = cand[~inside]
+            if not todo.size:
+                return tet_index, bary
+    lo, hi = xyz[tetra].min(axis=1), xyz[tetra].max(axis=1)
+    for i in todo:  # few points: brute force over bounding boxes
+        span = np.abs(hi - lo).max()
+        box = np.all((points[i] >= lo - BARY_TOL * span) & (points[i] <= hi + BARY_TOL * span), axis=1)
+        c = np.flatnonzero(box)
+        if c.size:
+            b = _barycentric(np.repeat(points[i][None], c.size, 0), xyz[tetra[c]])
+            hit = np.flatnonzero(np.all(b >= -BARY_TOL, axis=1))
+            if hit.size:
+                tet_index[i] = c[hit[0]]
+                bary[i] = b[hit[0]]
+    return tet_index, bary
+
+
+def cell_volumes(cells: Cells, xyz: np.ndarray) -> np.ndarray:
+    """Volume of each original FE cell, ndarray of shape (n_cells,), in the unit of ``xyz`` cubed.
+
+    The sum of the volumes of the cell's tetrahedra (exact for cells with planar faces; for a
+    hexahedron with warped faces, the volume of its tetrahedral split).
+    """
+    t = xyz[cells.tetra]
+    vol = np.abs(np.linalg.det(t[:, 1:] - t[:, :1])) / 6.0
+    return np.bincount(cells.parent, weights=vol, minlength=cells.n_cells)
+
+
+def node_average(cells: Cells, xyz: np.ndarray, n_points: int) -> sp.csr_matrix:
+    """Matrix of shape (n_points, n_cells) averaging cell values to nodes, weighted by cell volume.
+
+    Each cell gives its whole volume (:func:`cell_volumes`) as weight to each of its corner
+    nodes (the nodes of its tetrahedra), once: a node's value is
+    ``sum_c V_c s_c / sum_c V_c`` over the cells ``c`` that have it as a corner. Nodes of no
+    cell (mid-side nodes of quadratic cells, stray points) get an all-zero row.
+
+    Parameters
+    ----------
+    cells : Cells
+    xyz : ndarray of shape (n_points, 3)
+        Node coordinates (any length unit: only volume ratios matter).
+    n_points : int
+
+    Returns
+    -------
+    scipy.sparse.csr_matrix
+        Rows sum to 1 (or 0 for nodes of no cell); ``node_values = matrix @ cell_values``.
+    """
+    import scipy.sparse as sp
+
+    corners = sp.csr_matrix(
+        (np.ones(cells.tetra.size), (cells.tetra.reshape(-1), np.repeat(cells.parent, 4))), shape=(n_points, cells.n_cells)
+    )
+    corners.sum_duplicates()
+    corners.data[:] = 1.0  # node-cell incidence: a corner shared by several of a cell's tetrahedra counts once
+    m = corners @ sp.diags(cell_volumes(cells, xyz))
+    norm = np.asarray(m.sum(axis=1)).ravel()
+    norm[norm == 0] = 1.0
+    return sp.diags(1.0 / norm) @ m
+
+
+#: on a structured grid have co-spherical subsets whose Delaunay tetrahedralisation holds
+#: zero-volume simplices; scipy's ``find_simplex`` cannot walk through those and falls back to a
+#: brute-force search (1.2 ms per receptor on the bundled 22,099-point COMSOL table). Joggling
+#: the points (seeded), as Qhull's ``QJ`` option does, gives every simplex a volume; the
+#: weights are those of the joggled simplex, so a value moves by at most this fraction of the
+#: extent times the SED gradient.
+JOGGLE = 1e-9
+
+
+def _triangulate(points: np.ndarray):
+    """scipy ``Delaunay`` of points normalised to extent ~1, joggled by :data:`JOGGLE` (seeded)."""
+    from scipy.spatial import Delaunay
+
+    return Delaunay(points + np.random.default_rng(0).uniform(-JOGGLE, JOGGLE, points.shape))
+
+
+def _find(tri, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Simplex of ``tri`` holding each point of ``x`` (-1 where none) and its barycentric weights.
+
+    ``find_simplex`` walks from the simplex it found last, so the points are visited in a
+    spatial order (rows of a coarse grid); the weights come from ``tri.transform``, in the
+    order of ``tri.simplices``.
+    """
+    simplex = np.full(len(x), -1, dtype=np.int64)
+    weights = np.zeros((len(x), tri.ndim + 1))
+    if not len(x):
+        return simplex, weights
+    span = np.ptp(x, axis=0)
+    bins = max(1, round(len(x) ** (1 / 3)))
+    cell = np.floor((x - x.min(axis=0)) / np.where(span > 0, span, 1.0) * bins)
+    order = np.lexsort(cell.T[::-1])
+    simplex[order] = tri.find_simplex(x[order], tol=BARY_TOL)
+    hit = np.flatnonzero(simplex >= 0)
+    t = tri.transform[simplex[hit]]
+    b = np.einsum("mij,mj->mi", t[:, :tri.ndim], x[hit] - t[:, tri.ndim])
+    weights[hit] = np.column_stack([b, 1.0 - b.sum(axis=1)])
+    bad = hit[~np.all(np.isfinite(weights[hit]), axis=1)]
+    simplex[bad], weights[bad] = -1, 0.0
+    return simplex, weights
+
+
+def _inside_hull(points: np.ndarray, equations: np.ndarray, tol: float) -> np.ndarray:
+    """Points within ``tol`` of the convex hull whose facets are ``equations`` (scipy ConvexHull)."""
+    inside = np.empty(points.shape[0], dtype=bool)
+    step = max(1, 4_000_000 // max(1, equations.shape[0]))  # bounded memory: (step, n_facets) at a time
+    for a in range(0, points.shape[0], step):
+        d = points[a:a + step] @ equations[:, :-1].T + equations[:, -1]
+        inside[a:a + step] = np.all(d <= tol, axis=1)
+    return inside

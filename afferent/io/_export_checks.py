@@ -1,0 +1,248 @@
+"""Checks of what an FE export holds: finite values, duplicate points, negative SED,
+SED from the tensors against the export's own SED, shear convention of the tensors.
+
+Used by :mod:`afferent.io._assemble`, which re-exports the public names.
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+
+from ..exceptions import SEDFormatError
+from ..strain_energy import PRESETS, sed_exact
+from ._find_arrays import _convention, _where, find_sed_array, find_tensors
+from ._raw import RawExport
+from ._read_options import CROSSCHECK_RTOL, NEGATIVE_SED_RTOL, SHEAR_RATIO_BAND, ReadOptions
+
+
+def _check_values(raw: RawExport, values: np.ndarray, what: str) -> None:
+    bad = ~np.isfinite(values)
+    if bad.any():
+        t, i = np.argwhere(bad.reshape(values.shape[0], values.shape[1], -1).any(-1))[0]
+        kind = "NaN" if np.isnan(values[t, i]).any() else "infinite"
+        raise SEDFormatError(
+            f"SED file {_where(raw)!r}: {what} must be finite; got {int(bad.sum())} non-finite value(s) "
+            f"(first: {kind} at row {int(i)}{f', step {int(t)}' if values.shape[0] > 1 else ''}) instead."
+            + (" Pass on_nan='drop' to leave such rows out." if raw.cells is None else "")
+        )
+
+
+def _merge_duplicate_points(raw: RawExport, xyz: np.ndarray, sed: np.ndarray):
+    """A point table listing a point twice: merged if the values agree, refused if not.
+
+    Tables written per element (element-nodal values) repeat shared nodes; where the values
+    agree the copies carry nothing, where they differ the table holds unaveraged element-nodal
+    values and no single SED belongs to the point.
+    """
+    _, first, inverse, counts = np.unique(xyz, axis=0, return_index=True, return_inverse=True, return_counts=True)
+    inverse = inverse.ravel()
+    if counts.max(initial=1) == 1:
+        return xyz, sed, 0
+    ref = sed[:, first[inverse]]  # each row's group's first value
+    scale = float(np.max(np.abs(sed))) or 1.0
+    differ = np.abs(sed - ref).max(axis=0) > 1e-12 * scale
+    if differ.any():
+        j = int(np.flatnonzero(differ)[0])
+        i = int(first[inverse[j]])
+        t = int(np.argmax(np.abs(sed[:, j] - sed[:, i])))
+        raise SEDFormatError(
+            f"SED file {_where(raw)!r} lists the point ({', '.join(f'{v:g}' for v in xyz[j])}) more than once with "
+            f"different SED (rows {i} and {j}: {sed[t, i]:.6g} and {sed[t, j]:.6g} J/m^3); {int(np.sum(counts > 1))} point(s) "
+            "repeat. These look like unaveraged element-nodal values: export one value per node (averaged, 'unique "
+            "nodal') or per element (centroid)."
+        )
+    keep = np.sort(first)
+    return xyz[keep], sed[:, keep], int(xyz.shape[0] - keep.size)
+
+
+def _scaled_difference(ref: np.ndarray, u: np.ndarray) -> tuple[float, float]:
+    """(relative L2 difference of ``ref`` and ``scale * u``, scale) for the least-squares scale."""
+    ok = np.isfinite(ref) & np.isfinite(u)
+    ref, u = ref[ok], u[ok]
+    nref, uu = float(np.linalg.norm(ref)), float(u @ u)
+    if nref == 0.0:
+        return (0.0 if uu == 0.0 else float("inf")), 1.0
+    if uu == 0.0:
+        return float("inf"), float("nan")
+    scale = float(ref @ u) / uu
+    return float(np.linalg.norm(ref - scale * u)) / nref, scale
+
+
+def _percent(rel: float) -> str:
+    return f"{100 * rel:.3g} %" if rel > 1e-9 else "< 1e-7 % (round-off)"
+
+
+def _presets_like(check: dict, name: str) -> str:
+    """The presets whose difference equals that of ``name`` up to round-off, as 'preset(s) ...'."""
+    ref = check["by_preset"][name]
+    same = [p for p, r in check["by_preset"].items() if abs(r - ref) <= 1e-9 + 1e-6 * ref]
+    return ("presets " if len(same) > 1 else "preset ") + ", ".join(map(repr, same)) + (" give" if len(same) > 1 else " gives")
+
+
+def tensor_sed_crosscheck(raw: RawExport, opts: ReadOptions) -> dict | None:
+    """Compare SED computed from the export's tensors with the export's own SED array.
+
+    Many tools write an SED array beside stress and strain. For linear elasticity the two
+    agree when the component order and shear convention are right, whatever the units (a
+    least-squares scale factor absorbs a unit difference and is reported). The comparison is
+    made at the step with the largest total SED, under the convention in use and under every
+    preset of :data:`afferent.strain_energy.PRESETS`.
+
+    What it can tell: the shear convention (engineering shear read as tensor shear doubles the
+    shear terms). What it cannot: the order of the shear components, since relabelling yz and
+    xz in both tensors leaves 1/2 sigma:eps unchanged - and the 'equivalent' SED too (its von
+    Mises forms depend on the sum of the squared shear components). So a mix-up among the shear
+    components cannot change any SED afferent computes; the order comes from the component
+    names or the preset.
+
+    Returns
+    -------
+    dict or None
+        None when the export lacks an SED array or tensors at the same location. Otherwise
+        ``sed_array``, ``step``, ``convention`` (the preset or shear in use), ``relative_difference``
+        and ``scale`` (SED array ~ scale x SED from the tensors, both in the file's units: 1 when
+        the SED array is in the stress unit; for the best preset when no convention is declared), ``by_preset`` (relative difference per
+        preset), ``best_preset``, ``tolerance`` (:data:`CROSSCHECK_RTOL`) and ``agree`` (bool).
+    """
+    try:
+        (_, _, tloc), _ = find_tensors(raw, replace(opts, sed_from="exact"), need_convention=False)
+        arr = find_sed_array(raw, ReadOptions(location=tloc))[0]
+    except (SEDFormatError, ValueError):
+        return None
+    if arr.location != tloc or (arr.values.ndim == 3 and arr.values.shape[2] != 1):
+        return None
+    ref = arr.values.reshape(arr.values.shape[0], -1)
+    step = int(np.argmax(np.nansum(np.abs(ref), axis=1)))
+    one = replace(raw, arrays={k: replace(a, values=a.values[step:step + 1]) for k, a in raw.arrays.items()}, times=None)
+    columns = dict(location=tloc, stress_columns=opts.stress_columns, strain_columns=opts.strain_columns)
+
+    def difference(raw_k, options):
+        (_, s, _), (_, e, _) = find_tensors(raw_k, options)
+        return _scaled_difference(ref[step], sed_exact(s, e)[0])
+
+    free = replace(one, preset=None)
+    by_preset, scales = {}, {}
+    for name in PRESETS:
+        by_preset[name], scales[name] = difference(free, ReadOptions(sed_from="exact", preset=name, **columns))
+    best = min(by_preset, key=by_preset.get)
+    in_use = opts.preset or raw.preset
+    if in_use or opts.shear:
+        rel, scale = difference(one, ReadOptions(sed_from="exact", preset=opts.preset, shear=opts.shear, **columns))
+    else:  # no convention declared (afferent info): report the presets only
+        rel, scale = by_preset[best], scales[best]
+    return {
+        "sed_array": arr.name, "step": step,
+        "convention": (f"preset={in_use!r}" if in_use else "") + (f" shear={opts.shear!r}" if opts.shear else ""),
+        "relative_difference": rel, "scale": scale, "by_preset": by_preset, "best_preset": best,
+        "location": tloc, "tolerance": CROSSCHECK_RTOL[tloc], "agree": bool(rel <= CROSSCHECK_RTOL[tloc]),
+    }
+
+
+def shear_consistency(stress, strain) -> dict | None:
+    """Is the strain's shear convention right? A check that needs no material data.
+
+    For an isotropic linear-elastic solid the deviatoric stress is 2G times the deviatoric
+    strain, for the normal (xx - mean) and the shear (xy, yz, xz) components alike. Fitting
+    ``sigma_dev = k_n eps_dev`` on the normal components and ``sigma_ij = k_s eps_ij`` on the
+    shear components over all points and steps gives ``k_s / k_n = 1`` when the shear strain is
+    read with the right convention, 0.5 when engineering shear is read as tensor shear and 2 for
+    the reverse. Averaging to the nodes is linear, so nodal data obey it too (CalculiX nodal
+    STRESS/TOSTRAIN: to 3e-6); several materials or mild nonlinearity move it a little, never
+    by a factor 2.
+
+    Parameters
+    ----------
+    stress, strain : ndarray of shape (..., 6)
+        Canonical components (xx yy zz xy yz xz); strain with the shear as read (tensor).
+
+    Returns
+    -------
+    dict or None
+        ``ratio`` (k_s / k_n), ``k_normal``, ``k_shear`` (Pa per unit strain, 2G for an
+        isotropic solid), ``band`` and ``consistent``; None when the data hold too little shear
+        or deviatoric strain to tell.
+    """
+    s = np.asarray(stress, dtype=float).reshape(-1, 6)
+    e = np.asarray(strain, dtype=float).reshape(-1, 6)
+    ok = np.isfinite(s).all(axis=1) & np.isfinite(e).all(axis=1)
+    s, e = s[ok], e[ok]
+    sd = s[:, :3] - s[:, :3].mean(axis=1, keepdims=True)
+    ed = e[:, :3] - e[:, :3].mean(axis=1, keepdims=True)
+    en, es = float(np.sum(ed * ed)), float(np.sum(e[:, 3:] ** 2))
+    if en == 0.0 or es <= 1e-6 * en or es == 0.0:
+        return None
+    k_n, k_s = float(np.sum(sd * ed)) / en, float(np.sum(s[:, 3:] * e[:, 3:])) / es
+    if k_n <= 0.0:
+        return None
+    ratio = k_s / k_n
+    return {"ratio": ratio, "k_normal": k_n, "k_shear": k_s, "band": list(SHEAR_RATIO_BAND),
+            "consistent": bool(SHEAR_RATIO_BAND[0] <= ratio <= SHEAR_RATIO_BAND[1])}
+
+
+def _tensor_checks(raw: RawExport, opts: ReadOptions, s: np.ndarray, e: np.ndarray, location: str, checks: dict):
+    """Run the tensor cross-checks, record them in ``checks``; return the warning texts."""
+    messages = []
+    conv = _convention(opts, raw)
+    in_use = (f"preset={opts.preset or raw.preset!r}" if (opts.preset or raw.preset) else "") + (
+        f" shear={opts.shear!r}" if opts.shear else "")
+    shear = shear_consistency(s, e)
+    if shear is not None:
+        checks["shear_convention"] = shear
+        if not shear["consistent"]:
+            other = "tensor" if conv.shear == "engineering" else "engineering"
+            messages.append(
+                f"SED file {_where(raw)!r}: with the shear strain read as {conv.shear} ({in_use.strip()}), the shear "
+                f"components of stress and strain are {shear['ratio']:.3g} x as stiff as the normal ones (1 for an "
+                f"isotropic solid): the file's shear strain looks {other}. Check the preset or pass shear={other!r}."
+            )
+    check = tensor_sed_crosscheck(raw, opts)
+    if check is not None:
+        checks["tensor_sed_vs_export_sed"] = check
+        if not check["agree"]:
+            best = check["best_preset"]
+            messages.append(
+                f"SED file {_where(raw)!r}: 1/2 sigma:eps from the tensors ({check['convention'].strip()}) differs from "
+                f"the file's own SED array {check['sed_array']!r} by {_percent(check['relative_difference'])} "
+                f"(relative L2 at step {check['step']}, after a scale of {check['scale']:.4g}; expected below "
+                f"{_percent(check['tolerance'])} for {check['location']} data); {_presets_like(check, best)} "
+                f"{_percent(check['by_preset'][best])}. Check the preset and the columns."
+            )
+    return messages
+
+
+def negative_sed_report(sed: np.ndarray, tolerance: float = NEGATIVE_SED_RTOL) -> dict | None:
+    """Count and size the negative values of an SED array; None when there are none.
+
+    Parameters
+    ----------
+    sed : ndarray of shape (n_times, n_values)
+        SED in any unit (the report's ``min_pa`` is in the same unit).
+    tolerance : float
+        Accepted size of the negatives: the most negative value at most ``tolerance`` x the
+        largest SED, and the negatives' sum at most ``tolerance`` x the positives' sum.
+
+    Returns
+    -------
+    dict or None
+        ``count``, ``n_values``, ``min_pa`` (most negative value), ``min_relative`` (that value
+        over the largest SED; -inf when no value is positive), ``negative_share`` (sum of the
+        negatives' magnitudes over the sum of the positive values), ``tolerance``,
+        ``within_tolerance``, ``action`` ('set to 0' or 'refused'), ``first_step``, ``first_row``.
+    """
+    neg = sed < 0
+    if not neg.any():
+        return None
+    smax = float(np.max(sed))
+    smin = float(np.min(sed))
+    pos_sum = float(np.sum(sed[sed > 0]))
+    rel = smin / smax if smax > 0 else -np.inf
+    share = float(-np.sum(sed[neg])) / pos_sum if pos_sum > 0 else np.inf
+    ok = bool(-rel <= tolerance and share <= tolerance)
+    t, i = np.argwhere(neg)[0]
+    return {
+        "count": int(neg.sum()), "n_values": int(sed.size), "min_pa": smin, "min_relative": rel,
+        "negative_share": share, "tolerance": float(tolerance), "within_tolerance": ok,
+        "action": "set to 0" if ok else "refused", "first_step": int(t), "first_row": int(i),
+    }

@@ -1,0 +1,87 @@
+"""What the user declares about an export (:class:`ReadOptions`) and the default tolerances of the checks.
+
+Used by :mod:`afferent.io._assemble`, which re-exports these names.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from .._validation import check_option
+from ..strain_energy import PRESETS
+
+#: Default tolerance for negative SED. FE tools compute SED at integration points and
+#: extrapolate/average it to the nodes (CalculiX ENER in the .frd, Abaqus unique-nodal
+#: averaging, ANSYS PowerGraphics); near steep gradients the extrapolation overshoots below
+#: zero. Measured on real CalculiX 2.20 indentation models (tests/data/calculix and finer
+#: versions of them): the most negative nodal ENER is -0.02 x the largest for C3D8 meshes at
+#: every resolution tried (the punch edge is a singularity: refining does not remove it) and
+#: -0.10 to -0.16 x for quadratic C3D20R/C3D10 meshes; the negative values sum to at most 0.093
+#: x the positive ones. A wrong column (a stress or displacement component, a flipped sign)
+#: is negative over a large share of the field. So negatives are accepted when both the most
+#: negative value and the sum of the negatives are at most this fraction of, respectively, the
+#: largest SED and the sum of the positive values; they are then counted, reported and set to 0
+#: (SED >= 0 for an elastic solid). Anything else is refused.
+NEGATIVE_SED_RTOL = 0.25
+
+SED_FROM = ("field", "exact", "equivalent")
+
+#: Relative L2 difference (at the most loaded step, after the best scale factor) above which
+#: the SED computed from an export's tensors and the export's own SED array are said to
+#: disagree. They agree to the file's precision only where both are values at the same points
+#: (CalculiX .dat integration points: 6e-7; DOLFINx DG0 interpolations and the bundled
+#: scikit-fem sample at cell centroids: round-off). Wherever either is an average they cannot:
+#: 1/2 sigma:eps of averaged tensors is not the average of 1/2 sigma:eps. Measured on real
+#: files: CalculiX nodal ENER vs nodal tensors 8-40 % (tests/data/calculix), SfePy element
+#: averages ('el_avg' tensors vs its element-average energy) 9 % (tests/data/sfepy) - as large
+#: as what a wrong shear convention does (15-40 %). So this comparison flags only gross errors
+#: (a wrong column, a mismatched unit shows in the recorded scale); the shear convention is
+#: checked by :func:`shear_consistency`, which averaging does not disturb.
+CROSSCHECK_RTOL = {"cell": 0.5, "point": 0.5}
+
+#: Accepted range of the shear-to-normal stiffness ratio of :func:`shear_consistency`: 1 when the
+#: strain's shear is read with the right convention, 0.5 when engineering shear is read as
+#: tensor shear, 2 for the reverse; the band's edges are the geometric midpoints.
+SHEAR_RATIO_BAND = (2 ** -0.5, 2 ** 0.5)
+
+
+@dataclass(frozen=True)
+class ReadOptions:
+    """Everything a user may declare when reading an export (see :func:`afferent.read_sed`)."""
+
+    length_unit: str | None = None
+    sed_unit: str | None = None
+    stress_unit: str | None = None
+    time_unit: str | None = None
+    sed_from: str = "field"
+    poisson: float | None = None
+    preset: str | None = None
+    shear: str | None = None
+    location: str | None = None
+    sed_column: str | tuple[str, ...] | None = None
+    stress_columns: str | tuple[str, ...] | None = None
+    strain_columns: str | tuple[str, ...] | None = None
+    coord_columns: tuple[str, str, str] | None = None
+    times: tuple[float, ...] | None = None
+    coordinates: str | None = None
+    on_nan: str = "raise"
+    negative_tolerance: float = NEGATIVE_SED_RTOL
+
+    def __post_init__(self):
+        check_option("sed_from", self.sed_from, SED_FROM)
+        if self.preset is not None:
+            check_option("preset", self.preset, tuple(PRESETS))
+        if self.shear is not None:
+            check_option("shear", self.shear, ("tensor", "engineering"))
+        if self.location is not None:
+            check_option("location", self.location, ("point", "cell"))
+        check_option("on_nan", self.on_nan, ("raise", "drop"))
+        tol = self.negative_tolerance
+        if isinstance(tol, bool) or not isinstance(tol, (int, float)) or not (0 <= tol < 1):
+            raise ValueError(f"'negative_tolerance' must be a number in [0, 1) (a fraction of the largest SED); got {tol!r} instead.")
+        if self.sed_from == "equivalent" and self.poisson is None:
+            raise ValueError(
+                "sed_from='equivalent' needs Poisson's ratio: pass poisson=NU (the study's skin model uses 0.48)."
+            )
+        if self.poisson is not None and not (-1 < float(self.poisson) <= 0.5):
+            raise ValueError(f"'poisson' must be in (-1, 0.5]; got {self.poisson!r} instead.")

@@ -1,0 +1,36 @@
+"""Receptor sites (RA-I Meissner corpuscles at dermal-papilla tips) and their sections.
+
+::
+
+    receptors CSV         --read_receptors-->  ReceptorLayout --sample_sed(field, layout)--> ReceptorSED
+    ranges + pitches      --grid_layout----->  ReceptorLayout
+    FE mesh + layer ids   --interface_tips-->  ReceptorLayout   (tips_from_export: from a file)
+
+All positions are in m.
+
+Axes follow the study: x runs across the fingerprint ridges, z along them, y is the thickness
+direction (up, towards the skin surface).
+A *longitudinal section* is a line of receptors parallel to the ridges (same x, varying z);
+a *cross-section* is a line across them (same z, varying x).
+
+Where the parts live: ``_layout.py`` (:class:`ReceptorLayout`, sections, the receptors file,
+:func:`central_line`), ``_grid.py`` (:func:`grid_layout`), ``_tips.py`` (papilla tips on an FE
+mesh). Every public name is importable from :mod:`afferent.receptors`.
+"""
+
+from __future__ import annotations
+
+from ._grid import PAPILLA_PITCH_M, RIDGE_PITCH_M, grid_layout  # noqa: F401 (constants importable here, as before)
+from ._layout import SECTION_TOLERANCE_M, ReceptorLayout, central_line, group_coordinates, read_receptors  # noqa: F401
+from ._tips import COORDINATE_NOISE_M, MIN_PROMINENCE_M, interface_nodes, interface_tips, tips_from_export  # noqa: F401
+
+__all__ = [
+    "ReceptorLayout",
+    "central_line",
+    "read_receptors",
+    "group_coordinates",
+    "grid_layout",
+    "interface_nodes",
+    "interface_tips",
+    "tips_from_export",
+]

@@ -1,0 +1,267 @@
+"""Receptor layouts: :class:`ReceptorLayout`, sections (:func:`group_coordinates`), :func:`read_receptors`, :func:`central_line`.
+
+Documented with the rest of :mod:`afferent.receptors`, which re-exports every public name.
+"""
+
+from __future__ import annotations
+
+import os
+import warnings
+from dataclasses import dataclass
+
+import numpy as np
+
+from .._validation import check_finite_array, check_positive
+from ..exceptions import AfferentWarning, SEDFormatError
+from ..io._columns import canonical
+from ..units import length_factor
+
+#: Default tolerance (m) when grouping receptors into sections: coordinates closer than
+#: this along the grouping axis fall into one section. 20 um is a tenth of the papilla
+#: pitch (0.22 mm) and far above FE coordinate noise.
+SECTION_TOLERANCE_M = 20e-6
+
+
+def group_coordinates(values, tol: float = SECTION_TOLERANCE_M) -> tuple[np.ndarray, np.ndarray]:
+    """Group 1-D coordinates that lie within ``tol`` of their neighbours (single linkage).
+
+    Parameters
+    ----------
+    values : array_like of shape (n,)
+        Coordinates in m.
+    tol : float
+        Largest gap in m inside one group.
+
+    Returns
+    -------
+    labels : ndarray of shape (n,), int
+        Group index of each value, numbered in increasing coordinate order from 0.
+    centres : ndarray of shape (n_groups,)
+        Mean coordinate of each group in m.
+
+    Examples
+    --------
+    >>> labels, centres = group_coordinates([0.0, 1e-3, 1e-7, 1.0000001e-3])
+    >>> labels.tolist()
+    [0, 1, 0, 1]
+    """
+    values = np.asarray(values, dtype=float)
+    tol = check_positive("tol", tol, unit="m")
+    if values.size == 0:
+        return np.zeros(0, dtype=np.int64), np.zeros(0)
+    order = np.argsort(values, kind="stable")
+    gaps = np.diff(values[order]) > tol
+    sorted_labels = np.concatenate([[0], np.cumsum(gaps)])
+    labels = np.empty_like(sorted_labels)
+    labels[order] = sorted_labels
+    centres = np.bincount(labels, weights=values) / np.bincount(labels)
+    return labels.astype(np.int64), centres
+
+
+@dataclass(frozen=True)
+class ReceptorLayout:
+    """Positions of receptor sites and the sections they belong to.
+
+    Parameters
+    ----------
+    positions : ndarray of shape (n_receptors, 3)
+        Receptor coordinates in m.
+    ids : ndarray of shape (n_receptors,) of str, optional
+        Receptor names; default ``'0'``, ``'1'``, ...
+    longitudinal : ndarray of shape (n_receptors,), int, optional
+        Longitudinal-section index (lines parallel to the ridges, grouped by x); computed
+        with :func:`group_coordinates` when not given.
+    cross : ndarray of shape (n_receptors,), int, optional
+        Cross-section index (lines across the ridges, grouped by z); computed when not given.
+    tol : float, default=20e-6
+        Grouping tolerance in m used when sections are computed.
+    source : str, optional
+        The receptor file the sites were read from (named in error messages), or None.
+    """
+
+    positions: np.ndarray
+    ids: np.ndarray | None = None
+    longitudinal: np.ndarray | None = None
+    cross: np.ndarray | None = None
+    tol: float = SECTION_TOLERANCE_M
+    source: str | None = None
+
+    def __post_init__(self):
+        pos = check_finite_array("positions", self.positions, ndim=2, shape_doc="(n_receptors, 3) in metres")
+        if pos.shape[1] != 3:
+            raise ValueError(
+                f"'positions' must be an array of shape (n_receptors, 3) in metres; got shape {pos.shape} instead."
+            )
+        n = pos.shape[0]
+        ids = np.arange(n).astype(str) if self.ids is None else np.asarray(self.ids).astype(str)
+        if ids.shape != (n,):
+            raise ValueError(f"'ids' must have one entry per receptor ({n}); got shape {ids.shape} instead.")
+        if len(set(ids.tolist())) != n:
+            dup = next(i for i in ids.tolist() if (ids == i).sum() > 1)
+            raise ValueError(f"Receptor ids must be unique; got {dup!r} more than once.")
+        sections = {}
+        for name, axis in (("longitudinal", 0), ("cross", 2)):
+            given = getattr(self, name)
+            if given is None:
+                lab, _ = group_coordinates(pos[:, axis], self.tol)
+            else:
+                lab = np.asarray(given)
+                if lab.shape != (n,) or not np.issubdtype(lab.dtype, np.integer):
+                    raise ValueError(
+                        f"'{name}' must be integer section labels of shape ({n},); got {lab.dtype} of shape {lab.shape} instead."
+                    )
+            sections[name] = lab.astype(np.int64)
+        for name, arr in (("positions", pos), ("ids", ids), *sections.items()):
+            arr.setflags(write=False)
+            object.__setattr__(self, name, arr)
+
+    @property
+    def n_receptors(self) -> int:
+        """Number of receptor sites."""
+        return self.positions.shape[0]
+
+    def section_positions(self, kind: str) -> np.ndarray:
+        """Mean coordinate (m) of each section: x for ``'longitudinal'``, z for ``'cross'``.
+
+        Returns an ndarray of shape (max_label + 1,), indexed by section label; NaN for a
+        label no receptor carries (after :meth:`subset`).
+        """
+        labels = self.longitudinal if kind == "longitudinal" else self.cross
+        axis = 0 if kind == "longitudinal" else 2
+        n = int(labels.max()) + 1 if labels.size else 0
+        counts = np.bincount(labels, minlength=n)
+        sums = np.bincount(labels, weights=self.positions[:, axis], minlength=n)
+        with np.errstate(invalid="ignore"):
+            return np.where(counts > 0, sums / np.maximum(counts, 1), np.nan)
+
+    def subset(self, mask) -> "ReceptorLayout":
+        """The layout restricted to ``mask`` (bool array or indices); section labels are kept."""
+        idx = np.arange(self.n_receptors)[mask]
+        return ReceptorLayout(
+            self.positions[idx], self.ids[idx], self.longitudinal[idx], self.cross[idx], tol=self.tol, source=self.source
+        )
+
+    def __len__(self) -> int:
+        return self.n_receptors
+
+    def __repr__(self) -> str:
+        return (
+            f"<ReceptorLayout: {self.n_receptors} receptors, "
+            f"{len(np.unique(self.longitudinal))} longitudinal sections, {len(np.unique(self.cross))} cross-sections>"
+        )
+
+
+#: Receptor-id columns, compared after :func:`afferent.io._columns.canonical` (case, spaces,
+#: underscores, dots and dashes ignored): ``id``, ``receptor_id``, ``Receptor ID``, ``site``...
+_ID_COLUMNS = ("id", "receptor", "receptorid", "receptorname", "receptorlabel", "name", "label", "site", "siteid",
+               "rid", "meissner", "meissnerid", "corpuscle", "corpuscleid", "tip", "tipid")
+_SECTION_COLUMNS = {"longitudinal": ("longitudinal", "longitudinal_section"), "cross": ("cross", "cross_section")}
+
+
+def read_receptors(path, *, length_unit: str, tol: float = SECTION_TOLERANCE_M) -> ReceptorLayout:
+    """Read receptor sites from a CSV with columns x, y, z (optional id and section labels).
+
+    Parameters
+    ----------
+    path : str or path-like
+        CSV file; comma, semicolon, tab or whitespace separated; ``#`` comment lines allowed.
+        Column names are case-insensitive: ``x, y, z`` (required), a receptor id (optional:
+        ``id``, ``receptor_id``, ``Receptor ID``, ``receptor``, ``name``, ``label``, ``site``,
+        ... the first found), ``longitudinal`` / ``cross`` (optional integer section labels).
+        Any other column is reported with an :class:`~afferent.exceptions.AfferentWarning`.
+    length_unit : str
+        Unit of x, y, z: ``'m'``, ``'mm'`` or ``'um'``. Required: never guessed.
+    tol : float, default=20e-6
+        Section-grouping tolerance in m.
+
+    Returns
+    -------
+    ReceptorLayout
+
+    Raises
+    ------
+    FileNotFoundError
+        If ``path`` does not exist.
+    SEDFormatError
+        If the file is empty, lacks x/y/z, or holds non-numeric or non-finite coordinates.
+    """
+
+    from .._tables import numeric_columns, read_table
+
+    path = os.fspath(path)
+    factor = length_factor(length_unit)
+    # as text, so that an error quotes a cell as written ('n/a', '')
+    df, cols = read_table(path, what="Receptor file", expected="x, y, z (optional id, longitudinal, cross)", as_text=True)
+    missing = [c for c in ("x", "y", "z") if c not in cols]
+    if missing:
+        found = ", ".join(repr(str(c)) for c in df.columns) or "none"
+        raise SEDFormatError(
+            f"Receptor file {path!r} must have columns 'x', 'y', 'z'; missing {', '.join(map(repr, missing))}. "
+            f"Found columns {found}."
+        )
+    if len(df) == 0:
+        raise SEDFormatError(f"Receptor file {path!r} has a header but no receptor rows.")
+    xyz = numeric_columns(df, [cols["x"], cols["y"], cols["z"]], what="Receptor file", path=path)
+    by_canonical = {canonical(c): df_col for c, df_col in cols.items()}
+    id_col = next((by_canonical[c] for c in _ID_COLUMNS if c in by_canonical), None)  # first in the order above
+    ids = df[id_col].astype(str).str.strip().to_numpy() if id_col is not None else None
+    sections = {}
+    used = {cols["x"], cols["y"], cols["z"], id_col}
+    for name, aliases in _SECTION_COLUMNS.items():
+        col = next((cols[c] for c in aliases if c in cols), None)
+        if col is not None:
+            labels = numeric_columns(df, [col], what="Receptor file", path=path)[:, 0]
+            if not np.all(labels == np.round(labels)):
+                k = int(np.flatnonzero(labels != np.round(labels))[0])
+                raise SEDFormatError(
+                    f"Receptor file {path!r}: column {str(col)!r} must hold whole-number section labels; got "
+                    f"{labels[k]!r} on data row {k + 1} instead."
+                )
+            sections[name] = labels.astype(np.int64)
+            used.add(col)
+    ignored = [str(c) for c in df.columns if c not in used]
+    if ignored:
+        warnings.warn(
+            f"Receptor file {path!r}: column(s) {', '.join(map(repr, ignored))} not used (afferent reads x, y, z, "
+            f"a receptor id such as 'id' or 'receptor_id', 'longitudinal' and 'cross'); "
+            + (f"receptor ids from {str(id_col)!r}." if id_col is not None else "receptors numbered 0, 1, ..."),
+            AfferentWarning, stacklevel=2,
+        )
+    try:
+        return ReceptorLayout(xyz * factor, ids, tol=tol, source=path, **sections)
+    except ValueError as err:
+        raise SEDFormatError(f"Receptor file {path!r}: {err}") from err
+
+
+def central_line(layout: ReceptorLayout, axis: str):
+    """The receptors on the section line through the middle of the layout, along ``axis``.
+
+    Along x: the cross section (constant z) whose centre is nearest the middle of the z extent;
+    along z: the longitudinal section nearest the middle of the x extent.
+
+    Parameters
+    ----------
+    layout : ReceptorLayout
+        Receptor sites in m, with section labels.
+    axis : {'x', 'z'}
+        The direction of the line.
+
+    Returns
+    -------
+    idx : ndarray of int
+        Receptor indices on the line, sorted by their coordinate along ``axis``.
+    coord : ndarray of float
+        Their coordinate along ``axis``, m.
+    at : float
+        The section's position on the other axis, m.
+    """
+    other = 2 if axis == "x" else 0
+    labels = layout.cross if axis == "x" else layout.longitudinal
+    kind = "cross" if axis == "x" else "longitudinal"
+    centres = layout.section_positions(kind)
+    mid = 0.5 * (layout.positions[:, other].min() + layout.positions[:, other].max())
+    best = int(np.nanargmin(np.abs(centres - mid)))
+    idx = np.flatnonzero(labels == best)
+    coord = layout.positions[idx, 0 if axis == "x" else 2]
+    order = np.argsort(coord)
+    return idx[order], coord[order], centres[best]

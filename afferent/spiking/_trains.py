@@ -1,0 +1,192 @@
+"""The result of :func:`afferent.spiking.simulate_lif`: :class:`SpikeTrains` (spike times per afferent, in s)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .._validation import check_positive
+from ._params import LIFParams
+
+def _readonly(a: np.ndarray) -> np.ndarray:
+    if not a.flags.c_contiguous:
+        a = np.ascontiguousarray(a)
+    if a.flags.writeable:
+        a = a.view()
+        a.setflags(write=False)
+    return a
+
+
+@dataclass(frozen=True, eq=False)
+class SpikeTrains:
+    """Spike times of a population of afferents, from :func:`simulate_lif`.
+
+    Parameters
+    ----------
+    spike_times : tuple of ndarray
+        One sorted array of spike times in s per afferent (``n_afferents`` arrays). Exact
+        engine: the threshold crossing times, in ``[t_start, t_start + duration)``. Grid
+        engines: ``t_start + k dt`` for whole steps ``k``, a spike stamped at the start of the
+        step in which V crossed threshold.
+    afferent_ids : ndarray of shape (n_afferents,)
+        Identifier of each afferent (the current's ``afferent_ids`` if it has them, else
+        ``0 .. n_afferents - 1``).
+    duration : float
+        Simulated time in s (a whole number of steps on a grid; as asked with the exact engine).
+    dt : float
+        Time step in s; ``0.0`` for the exact engine, which has no grid.
+    engine : str
+        ``'exact'``, ``'fast'`` or ``'brian2'``.
+    backend : str
+        What ran: ``'numba'`` or ``'numpy'`` for the exact and fast engines, ``'brian2-numpy'``
+        for brian2.
+    silent_skipped : ndarray of int
+        Positions (0-based columns of the current) of afferents that were not simulated
+        because they are provably silent: ``r_m max(I) <= v_thresh - v_rest`` over the
+        simulated window (see the Spikes page of the documentation, docs/spikes.md). The grid
+        engines keep a margin of a few rounding errors so the skip never disagrees with a
+        simulation; the exact engine, which fires only where the drive exceeds
+        ``v_thresh - v_rest``, needs none.
+    params : LIFParams
+        The neuron parameters used.
+    t_start : float, default=0.0
+        Time of the first step in s (the current's first sample time).
+    notes : tuple of str
+        Remarks recorded by the simulation (refractory rounding, unused input samples, ...).
+
+    Notes
+    -----
+    Arrays are read-only; the object compares by identity (``eq=False``).
+    """
+
+    spike_times: tuple
+    afferent_ids: np.ndarray
+    duration: float
+    dt: float
+    engine: str
+    backend: str
+    silent_skipped: np.ndarray
+    params: LIFParams
+    t_start: float = 0.0
+    notes: tuple = field(default_factory=tuple)
+
+    def __post_init__(self):
+        trains = tuple(_readonly(np.asarray(t, dtype=np.float64)) for t in self.spike_times)
+        object.__setattr__(self, "spike_times", trains)
+        object.__setattr__(self, "afferent_ids", _readonly(np.asarray(self.afferent_ids)))
+        object.__setattr__(self, "silent_skipped", _readonly(np.asarray(self.silent_skipped, dtype=np.int64)))
+        if self.afferent_ids.shape != (len(trains),):
+            raise ValueError(
+                f"'afferent_ids' must be an array of shape (n_afferents,) = ({len(trains)},); "
+                f"got shape {self.afferent_ids.shape} instead."
+            )
+
+    @property
+    def n_afferents(self) -> int:
+        """Number of afferents (simulated or skipped)."""
+        return len(self.spike_times)
+
+    @property
+    def n_spikes(self) -> np.ndarray:
+        """Spike count per afferent, ndarray of shape (n_afferents,)."""
+        return np.array([t.size for t in self.spike_times], dtype=np.int64)
+
+    @property
+    def simulated(self) -> np.ndarray:
+        """Boolean mask of shape (n_afferents,): True where the afferent was simulated."""
+        mask = np.ones(self.n_afferents, dtype=bool)
+        mask[self.silent_skipped] = False
+        return mask
+
+    def rates(self) -> np.ndarray:
+        """Mean firing rate over the simulated window, in Hz: ``n_spikes / duration``."""
+        return self.n_spikes / self.duration
+
+    def rates_between(self, t0: float, t1: float) -> np.ndarray:
+        """Mean rate of each afferent over [t0, t1) in s, in Hz (NaN for an empty interval)."""
+        if not t1 > t0:
+            return np.full(self.n_afferents, np.nan)
+        return np.array([np.count_nonzero((t >= t0) & (t < t1)) for t in self.spike_times], dtype=float) / (t1 - t0)
+
+    def peak_rate(self) -> np.ndarray:
+        """Peak instantaneous rate of each afferent, 1 / (shortest inter-spike interval), in Hz;
+        0 below two spikes. Bursts at a ramp's onset show here, not in the window mean."""
+        return np.array([1.0 / np.diff(t).min() if t.size >= 2 else 0.0 for t in self.spike_times])
+
+    def first_spike_latency(self) -> np.ndarray:
+        """Time from ``t_start`` to each afferent's first spike in s; NaN if it never fired."""
+        return np.array([t[0] - self.t_start if t.size else np.nan for t in self.spike_times])
+
+    def isi(self) -> tuple:
+        """Inter-spike intervals in s: one array of length ``n_spikes - 1`` per afferent."""
+        return tuple(np.diff(t) for t in self.spike_times)
+
+    def psth(self, bin_width: float) -> tuple[np.ndarray, np.ndarray]:
+        """Population peri-stimulus time histogram.
+
+        Parameters
+        ----------
+        bin_width : float
+            Bin width in s; the last bin is cut at the end of the window.
+
+        Returns
+        -------
+        rate_hz : ndarray of shape (n_bins,)
+            Mean rate per afferent in each bin, in Hz (spikes / (n_afferents * bin width)).
+        edges : ndarray of shape (n_bins + 1,)
+            Bin edges in s, from ``t_start`` to ``t_start + duration``.
+        """
+        bin_width = check_positive("bin_width", bin_width, unit="s")
+        n_bins = max(int(np.ceil(self.duration / bin_width - 1e-9)), 1)
+        edges = self.t_start + np.minimum(np.arange(n_bins + 1) * bin_width, self.duration)
+        allspikes = np.concatenate(self.spike_times) if self.n_afferents else np.empty(0)
+        counts, _ = np.histogram(allspikes, bins=edges)
+        denom = max(self.n_afferents, 1) * np.diff(edges)
+        return counts / denom, edges
+
+    def to_dataframe(self):
+        """Tidy table of every spike: columns ``afferent`` and ``spike_time_s``, sorted by afferent."""
+        import pandas as pd
+
+        counts = self.n_spikes
+        return pd.DataFrame(
+            {
+                "afferent": np.repeat(self.afferent_ids, counts),
+                "spike_time_s": np.concatenate(self.spike_times) if self.n_afferents else np.empty(0),
+            }
+        )
+
+    def summary(self):
+        """One row per afferent, as a DataFrame indexed by ``afferent``.
+
+        Columns: ``n_spikes``; ``rate_hz``; ``first_spike_latency_s`` (NaN if it never fired);
+        ``mean_isi_s`` (NaN below 2 spikes); ``cv_isi``, the standard deviation over the mean
+        of the ISIs (NaN below 3 spikes); ``simulated`` (False for afferents skipped as
+        provably silent).
+        """
+        import pandas as pd
+
+        isis = self.isi()
+        mean_isi = np.array([d.mean() if d.size >= 1 else np.nan for d in isis])
+        cv_isi = np.array([d.std() / d.mean() if d.size >= 2 else np.nan for d in isis])
+        df = pd.DataFrame(
+            {
+                "n_spikes": self.n_spikes,
+                "rate_hz": self.rates(),
+                "first_spike_latency_s": self.first_spike_latency(),
+                "mean_isi_s": mean_isi,
+                "cv_isi": cv_isi,
+                "simulated": self.simulated,
+            },
+            index=pd.Index(self.afferent_ids, name="afferent"),
+        )
+        return df
+
+    def __repr__(self) -> str:
+        return (
+            f"<SpikeTrains: {self.n_afferents} afferents ({self.silent_skipped.size} skipped as silent), "
+            f"{int(self.n_spikes.sum())} spikes in {self.duration:g} s, engine {self.engine!r} ({self.backend}), "
+            + (f"dt={self.dt:g} s>" if self.dt else "no grid>")
+        )
+
