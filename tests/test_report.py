@@ -97,9 +97,10 @@ def test_report_size_is_checked(tmp_path):
 
 def test_spiking_without_brian2_says_so(monkeypatch):
     import afferent.report as report
+    import afferent.report.measure as measure
     from afferent.spiking import LIF_PRESETS
 
-    monkeypatch.setattr(report, "_has_brian2", lambda: False)
+    monkeypatch.setattr(measure, "_has_brian2", lambda: False)
     times, current = report.synthetic_afferent_current(5, duration=0.2)
     rows = report.measure_spiking(current, times, 0.2, LIF_PRESETS["ra"], fast_dts=(1e-4,), brian2_dts=(1e-3,), repeat=1)
     assert rows[-1] == {"engine": "brian2", "backend": None, "dt_s": None, "wall_s": None, "spikes": None,
@@ -110,7 +111,7 @@ def test_spiking_without_brian2_says_so(monkeypatch):
 @pytest.mark.slow
 def test_report_renders_without_brian2(report, tmp_path):
     """A machine without brian2: its rows say skipped, the plots and headline leave it out."""
-    import afferent.report as rep
+    import afferent.report.render as rep
 
     _, results, _ = report
     results = dict(results, spiking=[r for r in results["spiking"] if r["engine"] != "brian2"]

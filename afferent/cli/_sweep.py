@@ -6,7 +6,7 @@ file, or a folder of scene files; several may be given.
 
 Writes into OUT: table.parquet (table.csv without pyarrow), one row per scene x parameter set
 x afferent (rate, first-spike latency, spike count, peak and profile current, fit R2 and ssd;
-NaN where the scene's outputs do not compute it); tasks/batch-*.jsonl, one record per task
+NaN where the scene's outputs do not compute it); ``tasks/batch-*.jsonl``, one record per task
 as a JSON line (failed ones with their error); sweep.json, the sweep's record. A re-run into OUT resumes: tasks
 done are skipped, failed ones retried. Exit code 1 when a task failed (the others are kept).
 
