@@ -418,6 +418,22 @@ def test_exact_numba_without_numba_raises(monkeypatch):
     assert simulate_lif(constant([1e-6], 5), RA, dt=1e-4).backend == "numpy"
 
 
+def test_auto_takes_numba_only_when_it_repays_its_import(monkeypatch):
+    """'exact' runs small simulations on numpy unless numba is already imported (importing it
+    costs 0.4-1 s, more than a small scene's whole simulation); large ones on numba."""
+    import sys
+
+    monkeypatch.delitem(sys.modules, "numba", raising=False)
+    assert not spiking._numba_repays(23_000, 3)          # the bundled ramp scene: ~0.24 s on numpy
+    import importlib.util
+
+    assert spiking._numba_repays(100_000, 12_500) == (importlib.util.find_spec("numba") is not None)  # ~31 s on numpy
+    monkeypatch.setitem(sys.modules, "numba", object())   # already imported: no import to repay
+    assert spiking._numba_repays(10, 1)
+    monkeypatch.setattr(spiking, "_numba_available", lambda: False)
+    assert not spiking._numba_repays(10, 1)
+
+
 def test_auto_is_exact():
     trains = simulate_lif(constant([3 * RA.rheobase], 5), RA, dt=1e-3)
     assert trains.engine == "exact" and trains.dt == 0.0

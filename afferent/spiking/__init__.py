@@ -30,9 +30,12 @@ Three engines:
     (V - v_thresh is convex or concave in time, so it has a single upward crossing in a
     bracket that ends at the piece's end or at the maximum of V) and found by Newton's method
     started on the side from which it converges monotonically. The cost is one pass over the
-    samples plus a log per spike: numba when it is installed (the afferents split in blocks
-    over one thread per core, with identical results), else numpy (``'exact-numba'`` /
-    ``'exact-numpy'`` force a back end; the two agree to ~1e-13 s).
+    samples plus a log per spike: numba (the afferents split in blocks over one thread per
+    core, with identical results) when it is installed and the run repays its import (numba
+    already imported, or the numpy loop estimated above :data:`NUMBA_FROM_S`: importing numba
+    and loading the compiled loop costs 0.4-1 s, more than a small scene's whole simulation),
+    else numpy (``'exact-numba'`` / ``'exact-numpy'`` force a back end; the two agree to
+    ~1e-13 s; the result's ``backend`` says which ran).
 ``'fast'``
     Exact exponential integration per step of a clock grid ``dt``, vectorised over afferents
     with a loop over time steps: numba when it is installed (``pip install
@@ -191,10 +194,29 @@ def _check_drive(values: np.ndarray, params: LIFParams) -> None:
         )
 
 
+#: The exact engine's ``'exact'`` (``'auto'``) back end is numba only when the numpy loop is
+#: estimated to take longer than this (s), or numba is already imported: a fresh ``import
+#: numba`` plus loading the cached compiled loop costs 0.4-1 s on the development machine,
+#: while the numpy loop costs about 10 us per input sample plus 25 ns per sample and afferent
+#: (measured: 23,000 samples x 3 afferents 0.22 s, 1,000 x 12,500 0.28 s).
+NUMBA_FROM_S = 0.5
+
+
+def _numba_repays(n_pieces: int, n_afferents: int) -> bool:
+    """Whether ``'exact'`` should run on numba: installed, and imported already or worth importing."""
+    import importlib.util
+    import sys
+
+    if "numba" in sys.modules:
+        return _numba_available()
+    # find_spec, not an import: importing is the cost being avoided
+    return n_pieces * (1e-5 + 2.5e-8 * n_afferents) > NUMBA_FROM_S and importlib.util.find_spec("numba") is not None
+
+
 def _simulate_exact(current, params: LIFParams, *, dt, engine: str, duration, times, hold: str) -> SpikeTrains:
     """The exact engine behind :func:`simulate_lif` (``engine`` 'exact', 'exact-numba', 'exact-numpy')."""
     if engine == "exact":
-        backend = "numba" if _numba_available() else "numpy"
+        backend = None  # chosen below, from the size of the run
     elif engine == "exact-numba":
         if not _numba_available():
             raise ImportError(
@@ -207,6 +229,8 @@ def _simulate_exact(current, params: LIFParams, *, dt, engine: str, duration, ti
     pc = _pieces(current, dt, duration, times, params.tau_m, hold)
     values = pc.values
     n_aff = values.shape[1]
+    if backend is None:
+        backend = "numba" if _numba_repays(pc.starts.size, n_aff) else "numpy"
     _check_drive(values, params)
     n_pieces = pc.starts.size
     if hold == "linear" and n_pieces:  # the drive reaches the next sample's value at the piece's end
@@ -275,7 +299,8 @@ def simulate_lif(current, params: LIFParams, *, dt: float | None = None, engine:
         ignored (validated, not used).
     engine : {'auto', 'exact', 'exact-numba', 'exact-numpy', 'fast', 'fast-numba', 'fast-numpy', 'brian2'}
         ``'auto'`` (default) means ``'exact'``: event-driven, exact spike times (numba if
-        installed, else numpy). ``'brian2'`` is the grid reference; ``'fast'`` gives the same
+        installed and the run is large enough to repay importing it, see the module
+        docstring; else numpy). ``'brian2'`` is the grid reference; ``'fast'`` gives the same
         spikes on the same grid, using numba if installed, else numpy.
     duration : float, optional
         Simulated time in s from the first sample time. Default: up to one sample interval
