@@ -149,6 +149,7 @@ __all__ = [
     "grid_isi_bounds",
     "ENGINES",
     "INPUT_HOLDS",
+    "NUMBA_FROM_S",
     "DRIVE_MAPPINGS",
     "rheobase_scale",
     "drive_report",
