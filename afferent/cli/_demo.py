@@ -83,18 +83,8 @@ def count_peaks(profile, *, rel_prominence: float = 0.05) -> int:
     return int(peaks.size)
 
 
-def run(args: argparse.Namespace) -> int:
-    import pandas as pd
-
-    from .. import plotting
-    from ..export import write_pipeline_outputs
-    from ..io import read_sed
-    from ..pipeline import run_pipeline
-    from ..receptors import central_line
-    from ..receptors import read_receptors
-    from ..synthesis import Branching, synthesize
-    from ..transduction import STUDY_PARAMS
-
+def _sample(args: argparse.Namespace) -> tuple[Path, dict]:
+    """The sample folder to run on and its record (``dir``, ``packaged``)."""
     sample = Path(args.sample_dir) if args.sample_dir else default_sample_dir()
     if not (sample / "block4" / "receptors.csv").is_file():
         raise FileNotFoundError(
@@ -102,66 +92,90 @@ def run(args: argparse.Namespace) -> int:
             "pass --sample-dir or set AFFERENT_SAMPLE_DIR to a folder laid out as sample_sed/."
         )
     packaged = sample.resolve() == packaged_sample_dir().resolve()
-    sample_record = {"dir": str(sample), "packaged": packaged}
-    if not args.quiet:
-        print(f"afferent demo: sample {str(sample)!r}" + (" (installed with the package)" if packaged else ""),
-              file=sys.stderr)
+    return sample, {"dir": str(sample), "packaged": packaged}
+
+
+def _run_case(sample: Path, sample_record: dict, case, folder: str):
+    """One indenter through the static pipeline, written into ``folder``; its summary row and profiles."""
+    from ..export import write_pipeline_outputs
+    from ..io import read_sed
+    from ..pipeline import run_pipeline
+    from ..receptors import central_line, read_receptors
+    from ..synthesis import Branching, synthesize
+    from ..transduction import STUDY_PARAMS
+
+    name, block, fname, width = case
+    path = sample / block / fname
+    if not path.is_file():
+        raise AfferentError(f"Sample file {str(path)!r} is missing: expected the layout of sample_sed/ "
+                            "(block4/, block8/, scenes/); regenerate with 'make samples'.")
     params = STUDY_PARAMS["start"]
+    field = read_sed(str(path), length_unit="mm", sed_unit="MPa")
+    layout = read_receptors(sample / block / "receptors.csv", length_unit="mm")
+    res = run_pipeline(field, layout, params, synthesis="longitudinal")
+    record = {"command": "afferent demo", "case": name, "indenter_mm": width, "sample": sample_record,
+              "field": field.provenance.to_dict(),
+              "transduction": {"alpha_a": params.alpha, "gamma_per_pa": params.gamma, "lambda_pa": params.lambda_,
+                               "source": "the study's start parameters, afferent.transduction.STUDY_PARAMS['start']"}}
+    write_pipeline_outputs(res, os.path.join(folder, name), record=record)
+    idx, coord, _ = central_line(layout, "x")
+    sed_line = res.sed.values[-1, idx]
+    cross = synthesize(res.current, Branching.cross(layout))
+    lon = res.afferent.values[-1]
+    row = {
+        "case": name, "indenter_mm": width,
+        "sed_max_pa": float(res.sed.values.max()), "sed_median_pa": float(np.median(res.sed.values)),
+        "sed_peaks_central_x": count_peaks(sed_line),
+        "interchange_zone": count_peaks(sed_line) >= 2,
+        "afferent_peaks_longitudinal": count_peaks(lon),
+        "afferent_peaks_cross": count_peaks(cross.values[-1]),
+        "fraction_sensitive": res.saturation.fraction_sensitive,
+    }
+    return row, (width, coord - coord.mean(), sed_line, res.afferent.positions - res.afferent.positions.mean(), lon)
+
+
+def _plot_indenters(profiles, path: str) -> None:
+    """``indenters_x.png``: normalised receptor SED and longitudinal afferent current along x, every indenter."""
+    import matplotlib.pyplot as plt
+
+    from .. import plotting
+    from ..profiles import minmax_normalise
+
+    fig, axes = plt.subplots(1, 2, figsize=(11, 4), layout="constrained", sharey=True)
+    for width, x, sed_line, xa, lon in profiles:
+        axes[0].plot(x * 1e3, minmax_normalise(sed_line), "o-", ms=3, label=f"{width:g} mm")
+        axes[1].plot(xa * 1e3, minmax_normalise(lon), "^-", ms=3, label=f"{width:g} mm")
+    axes[0].set_title("SED at receptors, central cross-section")
+    axes[1].set_title("afferent current, longitudinal sections")
+    for ax in axes:
+        ax.set_xlabel("x from the indenter centre (mm)")
+        ax.legend(title="indenter", fontsize="small")
+    axes[0].set_ylabel("normalised (min-max)")
+    plotting.save_figure(fig, path)
+
+
+def run(args: argparse.Namespace) -> int:
+    import pandas as pd
+
+    from ..scene import load_scene, run_scene
+
+    sample, sample_record = _sample(args)
+    say = (lambda msg: None) if args.quiet else (lambda msg: print(msg, file=sys.stderr))
+    say(f"afferent demo: sample {str(sample)!r}" + (" (installed with the package)" if sample_record["packaged"] else ""))
     rows, profiles = [], []
     with atomic_dir(args.output, overwrite=args.overwrite) as tmp:
-        for name, block, fname, width in CASES:
-            path = sample / block / fname
-            if not path.is_file():
-                raise AfferentError(f"Sample file {str(path)!r} is missing: expected the layout of sample_sed/ "
-                                    "(block4/, block8/, scenes/); regenerate with 'make samples'.")
-            if not args.quiet:
-                print(f"afferent demo: {name} ...", file=sys.stderr)
-            field = read_sed(str(path), length_unit="mm", sed_unit="MPa")
-            layout = read_receptors(sample / block / "receptors.csv", length_unit="mm")
-            res = run_pipeline(field, layout, params, synthesis="longitudinal")
-            record = {"command": "afferent demo", "case": name, "indenter_mm": width, "sample": sample_record,
-                      "field": field.provenance.to_dict(),
-                      "transduction": {"alpha_a": params.alpha, "gamma_per_pa": params.gamma, "lambda_pa": params.lambda_,
-                                       "source": "the study's start parameters, afferent.transduction.STUDY_PARAMS['start']"}}
-            write_pipeline_outputs(res, os.path.join(tmp, name), record=record)
-            idx, coord, _ = central_line(layout, "x")
-            sed_line = res.sed.values[-1, idx]
-            cross = synthesize(res.current, Branching.cross(layout))
-            lon = res.afferent.values[-1]
-            rows.append({
-                "case": name, "indenter_mm": width,
-                "sed_max_pa": float(res.sed.values.max()), "sed_median_pa": float(np.median(res.sed.values)),
-                "sed_peaks_central_x": count_peaks(sed_line),
-                "interchange_zone": count_peaks(sed_line) >= 2,
-                "afferent_peaks_longitudinal": count_peaks(lon),
-                "afferent_peaks_cross": count_peaks(cross.values[-1]),
-                "fraction_sensitive": res.saturation.fraction_sensitive,
-            })
-            profiles.append((width, coord - coord.mean(), sed_line, res.afferent.positions - res.afferent.positions.mean(), lon))
+        for case in CASES:
+            say(f"afferent demo: {case[0]} ...")
+            row, profile = _run_case(sample, sample_record, case, tmp)
+            rows.append(row)
+            profiles.append(profile)
         pd.DataFrame(rows).to_csv(os.path.join(tmp, "summary.csv"), index=False)
-        import matplotlib.pyplot as plt
-
-        fig, axes = plt.subplots(1, 2, figsize=(11, 4), layout="constrained", sharey=True)
-        for width, x, sed_line, xa, lon in profiles:
-            axes[0].plot(x * 1e3, plotting._norm(sed_line), "o-", ms=3, label=f"{width:g} mm")
-            axes[1].plot(xa * 1e3, plotting._norm(lon), "^-", ms=3, label=f"{width:g} mm")
-        axes[0].set_title("SED at receptors, central cross-section")
-        axes[1].set_title("afferent current, longitudinal sections")
-        for ax in axes:
-            ax.set_xlabel("x from the indenter centre (mm)")
-            ax.legend(title="indenter", fontsize="small")
-        axes[0].set_ylabel("normalised (min-max)")
-        plotting.save_figure(fig, os.path.join(tmp, "indenters_x.png"))
-        from ..scene import load_scene, run_scene
-
+        _plot_indenters(profiles, os.path.join(tmp, "indenters_x.png"))
         scene_path = sample / "scenes" / "spikes_ramp.toml"
-        if not args.quiet:
-            print(f"afferent demo: scene {scene_path.name} ...", file=sys.stderr)
+        say(f"afferent demo: scene {scene_path.name} ...")
         spikes = run_scene(load_scene(scene_path).with_output(os.path.join(tmp, "spikes_ramp")), use_cache=False)
-    if not args.quiet:
-        print(pd.DataFrame(rows).to_string(index=False), file=sys.stderr)
-        n = sum(len(t) for t in spikes.spikes.spike_times)
-        print(f"spikes_ramp: {n} spikes from {len(spikes.spikes.spike_times)} afferents (rate-sensitive input: "
-              "onset and release)", file=sys.stderr)
-        print(f"afferent demo: wrote {args.output}", file=sys.stderr)
+    say(pd.DataFrame(rows).to_string(index=False))
+    n = sum(len(t) for t in spikes.spikes.spike_times)
+    say(f"spikes_ramp: {n} spikes from {len(spikes.spikes.spike_times)} afferents (rate-sensitive input: onset and release)")
+    say(f"afferent demo: wrote {args.output}")
     return 0
