@@ -82,14 +82,9 @@ class SweepSpec:
 
 # --------------------------------------------------------------------------- reading
 def _read_toml(path: str, what: str):
-    if not os.path.isfile(path):
-        raise FileNotFoundError(f"{what} {path!r} not found.")
-    with open(path, "rb") as f:
-        raw = f.read()
-    try:
-        text = raw.decode("utf-8")
-    except UnicodeDecodeError as err:
-        raise SceneError(f"{what} {path!r} must be UTF-8 text (TOML); it is not: {err}.", path=path) from err
+    from ..scene.parse import read_toml_text
+
+    text = read_toml_text(path, what)
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as err:

@@ -238,6 +238,21 @@ def scene_from_dict(data: dict, *, base_dir=None, source=None, _lines=None) -> S
     return Scene(**sections, source=origin.path, origin=origin)
 
 
+def read_toml_text(path: str, what: str) -> str:
+    """The text of a TOML file (scene or sweep), or an error naming ``what`` and the file.
+
+    Raises FileNotFoundError when it does not exist, :class:`SceneError` when it is not UTF-8.
+    """
+    if not os.path.isfile(path):
+        raise FileNotFoundError(f"{what} {path!r} not found.")
+    with open(path, "rb") as f:
+        raw = f.read()
+    try:
+        return raw.decode("utf-8")
+    except UnicodeDecodeError as err:
+        raise SceneError(f"{what} {path!r} must be UTF-8 text (TOML); it is not: {err}.", path=path) from err
+
+
 def parse_scene(text: str, *, base_dir=None, source=None) -> Scene:
     """Parse a scene from TOML text (relative paths against ``base_dir``); see :func:`load_scene`."""
     try:
@@ -277,14 +292,7 @@ def load_scene(path, *, resolve_defaults: bool = True) -> Scene:
     ['reading', 'sampling']
     """
     path = os.path.abspath(os.fspath(path))
-    if not os.path.isfile(path):
-        raise FileNotFoundError(f"Scene file {path!r} not found.")
-    with open(path, "rb") as f:
-        raw = f.read()
-    try:
-        text = raw.decode("utf-8")
-    except UnicodeDecodeError as err:
-        raise SceneError(f"Scene file {path!r} must be UTF-8 text (TOML); it is not: {err}.", path=path) from err
+    text = read_toml_text(path, "Scene file")
     scene = parse_scene(text, base_dir=os.path.dirname(path), source=path)
     return resolve(scene) if resolve_defaults else scene
 

@@ -139,7 +139,7 @@ from ._exact import _pieces, _run_exact_numba, _run_exact_numpy
 from ._grid import _peak_current, _plan, _run_brian2, _run_numba, _run_numpy, _silent
 from ._group import _numba_available
 from ._params import _MAX_DRIVE_V, LIFParams, _refractory_steps, grid_isi_bounds
-from ._trains import SpikeTrains
+from ._trains import SpikeTrains, split_trains
 
 __all__ = [
     "LIFParams",
@@ -259,12 +259,9 @@ def _simulate_exact(current, params: LIFParams, *, dt, engine: str, duration, ti
         times_s, counts = _run_exact_numba(pc, cols, params, peak[cols])
     else:
         times_s, counts = _run_exact_numpy(pc, cols, params)
-    ends = np.cumsum(counts).tolist()
-    trains = [np.empty(0)] * n_aff
-    for c, lo, hi in zip(cols.tolist(), [0, *ends[:-1]], ends):
-        trains[c] = times_s[lo:hi]
+    trains = split_trains(times_s, counts, cols, n_aff)
     return SpikeTrains(
-        spike_times=tuple(trains),
+        spike_times=trains,
         afferent_ids=pc.afferent_ids,
         duration=pc.t_stop - pc.t_start,
         dt=0.0,
@@ -419,13 +416,10 @@ def simulate_lif(current, params: LIFParams, *, dt: float | None = None, engine:
     times_s = steps * plan.dt
     if plan.t_start:
         times_s += plan.t_start
-    ends = np.cumsum(counts).tolist()
-    trains = [np.empty(0)] * n_aff
-    for c, lo, hi in zip(cols.tolist(), [0, *ends[:-1]], ends):
-        trains[c] = times_s[lo:hi]
+    trains = split_trains(times_s, counts, cols, n_aff)
 
     return SpikeTrains(
-        spike_times=tuple(trains),
+        spike_times=trains,
         afferent_ids=plan.afferent_ids,
         duration=plan.n_steps * plan.dt,
         dt=plan.dt,

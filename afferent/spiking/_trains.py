@@ -9,6 +9,19 @@ import numpy as np
 from .._validation import check_positive
 from ._params import LIFParams
 
+def split_trains(times_s: np.ndarray, counts: np.ndarray, cols: np.ndarray, n_afferents: int) -> tuple:
+    """Per-afferent spike-time arrays from the engines' flat output.
+
+    ``times_s`` holds the spikes of the simulated afferents ``cols`` one after the other,
+    ``counts[j]`` of them for ``cols[j]``; afferents not in ``cols`` (silent) get an empty array.
+    """
+    ends = np.cumsum(counts).tolist()
+    trains = [np.empty(0)] * n_afferents
+    for c, lo, hi in zip(cols.tolist(), [0, *ends[:-1]], ends):
+        trains[c] = times_s[lo:hi]
+    return tuple(trains)
+
+
 def _readonly(a: np.ndarray) -> np.ndarray:
     if not a.flags.c_contiguous:
         a = np.ascontiguousarray(a)
