@@ -171,3 +171,17 @@ def test_a_scene_on_a_pvd_records_the_series_it_streamed(tmp_path):
     assert main(["run", str(SAMPLE_DIR / "scenes" / "spikes_ramp.toml"), "-o", str(out), "--quiet", "--no-cache"]) == 0
     field = json.loads((out / "run.json").read_text())["field"]
     assert field["n_times"] == 6 and field["files"][0].endswith("indent.pvd") and len(field["files"]) == 7
+
+
+def test_reading_without_progress_does_not_import_tqdm_and_with_it_draws_a_bar():
+    """tqdm.auto prints "IProgress not found" in a Jupyter kernel without ipywidgets even for a
+    disabled bar: with progress off it is not imported at all."""
+    import subprocess
+    import sys
+
+    code = ("import sys, afferent; afferent.read_sed({p!r}, length_unit='mm', sed_unit='MPa', progress={on}); "
+            "print('tqdm' in sys.modules)")
+    off = subprocess.run([sys.executable, "-c", code.format(p=str(PVD), on=False)], capture_output=True, text=True)
+    on = subprocess.run([sys.executable, "-c", code.format(p=str(PVD), on=True)], capture_output=True, text=True)
+    assert off.stdout.strip() == "False", off.stderr
+    assert on.stdout.strip() == "True" and "reading series" in on.stderr, on.stderr

@@ -289,9 +289,9 @@ def calibrate(
     gen = check_rng(seed)
     branching = make_branching(synthesis, layout, rng=seed if not isinstance(seed, np.random.Generator) else gen)
 
-    from tqdm.auto import tqdm
+    from .._progress import progress_bar
 
-    with tqdm(desc=f"calibrate {method}", unit="eval", disable=not progress, leave=False) as bar:
+    with progress_bar(enabled=progress, desc=f"calibrate {method}", unit="eval", leave=False) as bar:
         obj = Objective(sed_row, times_row, branching, observed, normalise, on_outside, bar)
         if method == "least_squares":
             out = least_squares_reference(obj, start, inc, max_iter, n_starts, gen, jac=jac, restarts=restarts)

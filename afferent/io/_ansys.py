@@ -82,8 +82,7 @@ def read_rst(path: str, *, progress: bool = False) -> RawExport:
     SEDFormatError
         The optional reader is not installed, or the file is not a readable MAPDL result file.
     """
-    from tqdm.auto import tqdm
-
+    from .._progress import progress_bar
     from ._meshio import cells_from_meshio
 
     if not os.path.isfile(path):
@@ -113,7 +112,7 @@ def read_rst(path: str, *, progress: bool = False) -> RawExport:
             order = np.argsort(node_numbers)
             sets = range(rst.nsets)
             stacks = {"U": [], "S": [], "EPEL": []}
-            for k in tqdm(sets, desc="reading rst", unit="set", disable=not progress):
+            for k in progress_bar(sets, enabled=progress, desc="reading rst", unit="set"):
                 for key, getter, ncomp in (("U", rst.nodal_displacement, 3), ("S", rst.nodal_stress, 6),
                                            ("EPEL", rst.nodal_elastic_strain, 6)):
                     nnum, values = getter(k)

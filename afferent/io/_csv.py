@@ -407,11 +407,9 @@ def read_csv(paths, *, sep: str | None = None, time_column: str | None = None,
     if time_column is not None and not isinstance(time_column, str):
         raise TypeError(f"'time_column' must be a column name (str) or None; got {time_column!r} instead.")
 
-    iterator = files
-    if progress:
-        from tqdm.auto import tqdm
+    from .._progress import progress_bar
 
-        iterator = tqdm(files, desc="Reading SED files", unit="file")
+    iterator = progress_bar(files, enabled=progress, desc="Reading SED files", unit="file")
     per_file = [_read_one(p, sep, time_column) for p in iterator]
     return _merge(files, per_file)
 

@@ -276,14 +276,14 @@ def iter_vtu_series(paths: list[str], times=None, *, progress: bool = False):
     progress : bool
         Show a progress bar (tqdm) over the files.
     """
-    from tqdm.auto import tqdm
+    from .._progress import progress_bar
 
     times = None if times is None else np.asarray(times, dtype=float)
     first = read_mesh_file(paths[0])
     n_points = first.points.shape[0]
     n_cells = first.cells.n_cells if first.cells is not None else None
     yield replace(first, times=None if times is None else times[:1])
-    for k, path in enumerate(tqdm(paths[1:], desc="reading series", unit="file", disable=not progress), start=1):
+    for k, path in enumerate(progress_bar(paths[1:], enabled=progress, desc="reading series", unit="file"), start=1):
         if not os.path.isfile(path):
             raise FileNotFoundError(f"SED file {path!r} not found.")
         if not path.lower().endswith(".vtu"):

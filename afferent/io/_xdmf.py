@@ -275,7 +275,7 @@ def iter_xdmf_collections(path: str, *, progress: bool = False):
         Invalid XML, a missing .h5 or dataset, sizes that do not match the mesh, grids on
         different meshes, a function missing at a time the others have.
     """
-    from tqdm.auto import tqdm
+    from .._progress import progress_bar
 
     root = _parse(path)
     domain = root.find("Domain")
@@ -295,7 +295,7 @@ def iter_xdmf_collections(path: str, *, progress: bool = False):
         n_grids = len({id(g) for _, g in leaves})
         first_names: dict[str, str] | None = None
         first_shapes: dict[str, tuple] = {}
-        bar = tqdm(total=len(leaves), desc="reading xdmf", unit="grid", disable=not progress)
+        bar = progress_bar(total=len(leaves), enabled=progress, desc="reading xdmf", unit="grid")
         for t in times:
             found = _step_attributes(heavy, by_time[t], t, len(points), cells, first_names, path, bar)
             if first_names is None:
