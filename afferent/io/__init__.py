@@ -322,10 +322,11 @@ def iter_sed(path_or_paths, *, format: str | None = None, progress: bool = False
     import warnings
     from dataclasses import replace
 
-    defaults = dict(length_unit=None, sed_unit=None, stress_unit=None, time_unit=None, sed_from="field", poisson=None,
-                    preset=None, shear=None, location=None, sed_column=None, stress_columns=None, strain_columns=None,
-                    coord_columns=None, times=None, coordinates=None, on_nan="raise",
-                    negative_tolerance=NEGATIVE_SED_RTOL)
+    import inspect
+
+    # read_sed's own declarations and defaults: one list, so the two entry points cannot drift apart
+    defaults = {name: p.default for name, p in inspect.signature(read_sed).parameters.items()
+                if p.kind is p.KEYWORD_ONLY and name not in ("format", "progress")}
     unknown = sorted(set(declarations) - set(defaults))
     if unknown:
         raise TypeError(f"iter_sed() got an unexpected keyword argument {unknown[0]!r}.")
