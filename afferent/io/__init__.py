@@ -28,7 +28,8 @@ __all__ = ["read_sed", "iter_sed", "series_provenance", "read_raw", "describe_ra
 
 #: Known formats: name -> file-name endings. '.gz' CSV files are read by the CSV reader.
 FORMATS: dict[str, tuple[str, ...]] = {
-    "csv": (".csv", ".txt", ".tsv", ".dat", ".rpt", ".log", ".csv.gz", ".txt.gz"),
+    "csv": (".csv", ".txt", ".tsv", ".dat", ".rpt", ".log", ".csv.gz", ".txt.gz", ".tsv.gz", ".dat.gz", ".rpt.gz",
+            ".log.gz"),
     "vtu": (".vtu",),
     "vtk": (".vtk",),
     "pvd": (".pvd",),
