@@ -37,6 +37,7 @@ FORMATS: dict[str, tuple[str, ...]] = {
     "frd": (".frd", ".frd.gz"),
     "exodus": (".e", ".exo", ".ex2", ".g"),
     "rst": (".rst", ".rth"),
+    "med": (".med", ".rmed"),
 }
 
 
@@ -113,7 +114,7 @@ def read_raw(path_or_paths, *, format: str | None = None, progress: bool = False
 
         return read_csv(paths if len(paths) > 1 else paths[0], progress=progress, **csv_kwargs)
     if len(paths) > 1:
-        if fmt in ("pvd", "xdmf", "frd", "exodus", "rst"):
+        if fmt in ("pvd", "xdmf", "frd", "exodus", "rst", "med"):
             raise SEDFormatError(f"Pass one .{fmt} file, not a list: it lists its own time steps ({paths!r}).")
         return _meshio.read_vtu_series(paths, progress=progress)
     if fmt == "pvd":
@@ -132,6 +133,10 @@ def read_raw(path_or_paths, *, format: str | None = None, progress: bool = False
         from ._frd import read_frd
 
         return read_frd(paths[0], progress=progress)
+    if fmt == "med":
+        from ._med import read_med
+
+        return read_med(paths[0], progress=progress)
     return _meshio.read_mesh_file(paths[0])
 
 
@@ -164,7 +169,8 @@ def read_sed(
     ----------
     path_or_paths : str, path-like or list of them
         One export (``.vtu``, ``.vtk``, ``.pvd``, ``.xdmf``, ``.csv``/``.txt``/``.rpt``, optionally
-        ``.gz``), or several files of one format, one per time step, in time order.
+        ``.gz``, ``.frd``, Exodus, ``.rst``, MED ``.med``/``.rmed``), or several files of one
+        format, one per time step, in time order.
     length_unit : {'m', 'mm', 'um', 'cm'}, optional
         Unit of the coordinates. Required unless the file states it (COMSOL ``% Length unit``,
         ``X Location (mm)``); if both are given they must agree. Never guessed.
@@ -212,7 +218,7 @@ def read_sed(
         set to 0, counted in ``provenance.negative_sed`` and reported with an
         :class:`~afferent.exceptions.AfferentWarning`; anything more negative is refused (a
         wrong column, sign or shear convention).
-    format : {'csv', 'vtu', 'vtk', 'pvd', 'xdmf'}, optional
+    format : {'csv', 'vtu', 'vtk', 'pvd', 'xdmf', 'frd', 'exodus', 'rst', 'med'}, optional
         Overrides the format deduced from the file name.
     progress : bool, default=False
         Show a progress bar while reading a series.
