@@ -82,6 +82,23 @@ def test_elno_averaged_at_the_nodes_is_code_aster_noeu(ref):
     assert spread > 0.01 * elno.max()  # the copies at a node differ (by 2 %): averaging is a real choice
 
 
+def test_elno_stored_per_cell_with_the_gauss_elno_localisation(tmp_path):
+    """MED also stores element-node values per cell (MAI.<type>) under its reserved localisation
+    MED_GAUSS_ELNO: read as ELNO too."""
+    import h5py
+
+    path = tmp_path / "gauss_elno.rmed"
+    shutil.copy(HEXA, path)
+    with h5py.File(path, "r+") as h5:
+        for step in h5["CHA"]["RESU____ENEL_ELNO"].values():
+            step.move("NOE.HE8", "MAI.HE8")
+            step["MAI.HE8"].attrs["GAU"] = np.bytes_(b"MED_GAUSS_ELNO")
+            step["MAI.HE8"]["MED_NO_PROFILE_INTERNAL"].attrs["GAU"] = np.bytes_(b"MED_GAUSS_ELNO")
+    raw = read_raw(path)
+    assert raw.arrays["ENEL_ELNO"].location == "point"
+    np.testing.assert_array_equal(raw.arrays["ENEL_ELNO"].values, read_raw(HEXA).arrays["ENEL_ELNO"].values)
+
+
 def test_read_sed_takes_enel_noeu_with_declared_units():
     with pytest.raises(UnitError, match=re.escape("declared; pass length_unit=")):
         read_sed(HEXA, sed_unit="Pa")
@@ -181,3 +198,4 @@ def test_info_lists_fields_components_and_steps(capsys):
            "3 step(s), t = 1 .. 3" in out
     assert "field 'RESU____ENEL_ELNO' -> point array 'ENEL_ELNO': on element nodes (ELNO), averaged at each node" in out
     assert "QU4 x 64 (not a volume: ignored)" in out
+    assert re.search(r"'EPSI_NOEU' +point 6 components .*\(EPXX EPYY EPZZ EPXY EPXZ EPYZ\)", out)

@@ -18,9 +18,9 @@ named by the option alone (``ENEL_ELNO``) and the result name is noted. How each
 an array (see the FE-export page of the documentation, "code_aster"):
 
 - nodes (``_NOEU``): point data;
-- element nodes (``_ELNO``): point data, the **arithmetic mean of the element-node copies at each
-  node** (the rule by which code_aster builds ``_NOEU`` from ``_ELNO``); nodes no element carries
-  are NaN;
+- element nodes (``_ELNO``; MED_NODE_ELEMENT, or per cell with MED's ``MED_GAUSS_ELNO``
+  localisation): point data, the **arithmetic mean of the element-node copies at each node** (the
+  rule by which code_aster builds ``_NOEU`` from ``_ELNO``); nodes no element carries are NaN;
 - Gauss points (``_ELGA``): cell data, the mean over each element's Gauss points weighted by the
   localisation's weights (the element average for elements of constant Jacobian);
 - one value per element (``_ELEM``): cell data. ``ENEL_ELEM`` is the element's elastic energy, not
@@ -51,6 +51,7 @@ MED_VOLUME_TYPES = {
     "P18": "wedge18", "HE8": "hexahedron", "H20": "hexahedron20", "H27": "hexahedron27",
 }
 _NO_PROFILE = "MED_NO_PROFILE_INTERNAL"
+_GAUSS_ELNO = "MED_GAUSS_ELNO"  # MED's reserved localisation: values per element node stored per cell
 _ASTER_OPTION = re.compile(r"^[A-Z][A-Z0-9]{3}(_[A-Z]{4})?$")  # DEPL, SIEF_ELGA, ENEL_NOEU, ...
 
 
@@ -212,7 +213,7 @@ def _step_values(f: _File, step, kind: str, ncomp: int, mesh: dict, notes: set) 
         total, count = np.zeros((n_nodes, ncomp)), np.zeros(n_nodes)
         for key in step:
             mtype = key.partition(".")[2]
-            if not key.startswith("NOE.") or mtype not in blocks:
+            if not _is_elno(step, key) or mtype not in blocks:
                 continue
             conn = blocks[mtype]
             vals, _ = _support(f, step, key, conn.shape[0], ncomp)
@@ -234,9 +235,22 @@ def _step_values(f: _File, step, kind: str, ncomp: int, mesh: dict, notes: set) 
         w, stated = _weights(f, loc, vals.shape[1])
         if vals.shape[1] > 1:
             notes.add(f"{mtype}: the mean of its {vals.shape[1]} Gauss points weighted by "
-                      + (f"localisation {loc!r}'s weights" if stated else "equal weights (no localisation weights in the file)"))
+                      + ("the localisation's weights" if stated else "equal weights (no localisation weights in the file)"))
         parts.append(np.einsum("cpk,p->ck", vals, w / w.sum()))
     return np.concatenate(parts) if parts else np.zeros((0, ncomp))
+
+
+def _is_elno(step, key: str) -> bool:
+    """Values at the element nodes: MED_NODE_ELEMENT (``NOE.<type>``), or per cell with MED's
+    reserved localisation ``MED_GAUSS_ELNO`` (``MAI.<type>``)."""
+    if key.startswith("NOE."):
+        return True
+    if not key.startswith("MAI."):
+        return False
+    group = step[key]
+    pfl = _text(group.attrs.get("PFL", _NO_PROFILE)).strip()
+    loc = group.attrs.get("GAU", group[pfl].attrs.get("GAU", b"") if pfl in group else b"")
+    return _text(loc).strip() == _GAUSS_ELNO
 
 
 def _kind(f: _File, step, name: str) -> str:
@@ -244,7 +258,7 @@ def _kind(f: _File, step, name: str) -> str:
     keys = list(step)
     if "NOE" in keys:
         return "node"
-    if any(k.startswith("NOE.") for k in keys):
+    if any(_is_elno(step, k) for k in keys):
         return "elno"
     if any(k.startswith("MAI.") for k in keys):
         return "cell"
