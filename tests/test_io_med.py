@@ -199,3 +199,38 @@ def test_info_lists_fields_components_and_steps(capsys):
     assert "field 'RESU____ENEL_ELNO' -> point array 'ENEL_ELNO': on element nodes (ELNO), averaged at each node" in out
     assert "QU4 x 64 (not a volume: ignored)" in out
     assert re.search(r"'EPSI_NOEU' +point 6 components .*\(EPXX EPYY EPZZ EPXY EPXZ EPYZ\)", out)
+
+
+def test_a_mesh_written_by_kratos_reads_with_its_nodes_and_hexahedra():
+    """KratosMedApplication 10.4.4 (a second MED writer, int32 attributes, mesh only): the 18 nodes
+    in Kratos's numbering and 4 hexahedra; no field, so no time step."""
+    raw = read_raw(MED / "kratos_block.med")
+    grid = np.array([(i, j, k) for k in range(2) for j in range(3) for i in range(3)], float) * 1e-3
+    np.testing.assert_allclose(raw.points, grid, rtol=0, atol=1e-15)
+    assert raw.cells.n_cells == 4 and raw.cells.cell_types == ("hexahedron",) and not raw.arrays
+    assert "The file holds a mesh and no field: no results to read." in raw.notes
+
+
+@pytest.mark.parametrize("name", ["block_hexa.rmed", "block_tetra.med", "kratos_block.med"])
+def test_med_cells_split_into_tetrahedra_tile_the_block(name):
+    """MED orders element nodes in the mirror of VTK's; the tetrahedra split from MED's order
+    still tile each 2 x 2 x 1 mm block exactly (4e-9 m^3), none degenerate."""
+    raw = read_raw(MED / name)
+    t = raw.points[raw.cells.tetra]
+    vol = np.abs(np.linalg.det(np.stack([t[:, 1] - t[:, 0], t[:, 2] - t[:, 0], t[:, 3] - t[:, 0]], 1))) / 6
+    assert vol.sum() == pytest.approx(4e-9, rel=1e-12) and vol.min() > 1e-3 * vol.max()
+
+
+@pytest.mark.parametrize("name", ["block_hexa.rmed", "block_tetra.med"])
+def test_linear_sampling_in_med_cells_is_exact_for_a_linear_field(name):
+    from dataclasses import replace
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        field = read_sed(MED / name, length_unit="m", sed_unit="Pa")
+    linear = lambda p: 5.0 + 2e3 * p[:, 0] - 1e3 * p[:, 1] + 4e3 * p[:, 2]  # noqa: E731
+    field = replace(field, sed=np.tile(linear(field.points), (field.n_times, 1)))
+    rng = np.random.default_rng(0)
+    sites = rng.uniform([0.1e-3, 0.1e-3, 0.1e-3], [1.9e-3, 1.9e-3, 0.9e-3], size=(50, 3))
+    sampled = sample_sed(field, ReceptorLayout(sites), method="linear")
+    np.testing.assert_allclose(sampled.values, np.tile(linear(sites), (field.n_times, 1)), rtol=1e-12)
