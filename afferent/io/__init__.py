@@ -304,8 +304,8 @@ def iter_sed(path_or_paths, *, format: str | None = None, progress: bool = False
     order whose steps, concatenated, are what :func:`read_sed` returns for a series of
     steps. A series of VTU files, a ParaView ``.pvd`` and an XDMF time series (FEniCS/DOLFINx,
     meshio) are read one step at a time: the mesh once, then each step's arrays, and every
-    field shares the first step's cells. Other formats (CSV tables, ``.frd``, Exodus, ``.rst``)
-    are read whole and yielded as one field.
+    field shares the first step's cells. Other formats (CSV tables, ``.frd``, Exodus, ``.rst``,
+    MED) are read whole and yielded as one field.
 
     Each step is interpreted and checked on its own (units, the SED or tensor arrays, NaN,
     negative nodal SED against ``negative_tolerance`` relative to that step's largest value,

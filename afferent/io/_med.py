@@ -8,9 +8,11 @@ each element type, stored component by component), ``/CHA/<field>`` the result f
 under each step one group per support: ``NOE`` (values at the nodes), ``NOE.<type>`` (at the nodes
 of each element: MED_NODE_ELEMENT) or ``MAI.<type>`` (per element, or at its Gauss points, with a
 localisation in ``/GAUSS`` giving their weights); values may cover only the entities a profile
-(``/PROFILS``) lists. meshio's MED reader keeps one time step per array name, drops the component
-names, and refuses files whose element fields do not cover every element type (a Salome mesh
-with its skin faces); this reader keeps every step.
+(``/PROFILS``) lists. meshio's MED reader (5.3.5) keeps each time step as a separate array, drops the
+component names, refuses files whose element fields do not cover every element type (a Salome
+mesh with its skin faces) and reads element-node and Gauss-point values element-fastest, mixing
+them up between elements (MED stores them point by point within each element); this reader
+keeps every step.
 
 code_aster names a field ``<result name padded to 8 with '_'><option>`` (``RESU____ENEL_ELNO``)
 unless ``NOM_CHAM_MED`` renames it; when every field carries one result name, the arrays are
