@@ -234,3 +234,11 @@ def test_linear_sampling_in_med_cells_is_exact_for_a_linear_field(name):
     sites = rng.uniform([0.1e-3, 0.1e-3, 0.1e-3], [1.9e-3, 1.9e-3, 0.9e-3], size=(50, 3))
     sampled = sample_sed(field, ReceptorLayout(sites), method="linear")
     np.testing.assert_allclose(sampled.values, np.tile(linear(sites), (field.n_times, 1)), rtol=1e-12)
+
+
+def test_cli_on_a_truncated_med_file_prints_one_line_and_exits_2(tmp_path, capsys):
+    cut = tmp_path / "cut.rmed"
+    cut.write_bytes(HEXA.read_bytes()[:60000])
+    assert main(["info", str(cut)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith(f"afferent: error: SED file {str(cut)!r}")
