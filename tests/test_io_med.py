@@ -242,3 +242,32 @@ def test_cli_on_a_truncated_med_file_prints_one_line_and_exits_2(tmp_path, capsy
     assert main(["info", str(cut)]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith(f"afferent: error: SED file {str(cut)!r}")
+
+
+def test_values_on_a_profile_are_placed_on_its_entities_nan_elsewhere(tmp_path):
+    """code_aster writes a field computed on a group of elements with a MED profile (/PROFILS):
+    the values land on the profile's elements, the others are NaN."""
+    import h5py
+
+    path = tmp_path / "profile.rmed"
+    shutil.copy(HEXA, path)
+    full = read_raw(HEXA).arrays["ENEL_ELGA"].values
+    keep = np.arange(1, 32, 2)  # 0-based: every second hexahedron
+    with h5py.File(path, "r+") as h5:
+        pfl = h5.require_group("PROFILS").create_group("EVEN")
+        pfl.attrs["NBR"] = np.int64(keep.size)
+        pfl.create_dataset("PFL", data=(keep + 1).astype(np.int64))
+        for step in h5["CHA"]["RESU____ENEL_ELGA"].values():
+            support = step["MAI.HE8"]
+            old = support["MED_NO_PROFILE_INTERNAL"]
+            values = old["CO"][()].reshape(32, 8)[keep].ravel()
+            new = support.create_group("EVEN")
+            for key, value in old.attrs.items():
+                new.attrs[key] = value
+            new.attrs["NBR"] = np.int64(keep.size)
+            new.create_dataset("CO", data=values)
+            del support["MED_NO_PROFILE_INTERNAL"]
+            support.attrs["PFL"] = np.bytes_(b"EVEN")
+    got = read_raw(path).arrays["ENEL_ELGA"].values
+    np.testing.assert_array_equal(got[:, keep], full[:, keep])
+    assert np.isnan(np.delete(got, keep, axis=1)).all()
