@@ -74,7 +74,8 @@ PRESETS: dict[str, Convention] = {
     "calculix-frd": Convention(("xx", "yy", "zz", "xy", "yz", "zx"), "tensor", ".frd / ccx2paraview XX YY ZZ XY YZ ZX; tensor shear [V]"),
     "calculix-dat": Convention(_VOIGT_ABQ, "tensor", ".dat sxx syy szz sxy sxz syz; tensor shear [V]"),
     "sfepy": Convention(_VOIGT_ABQ, "engineering", "cauchy_strain 11 22 33 12 13 23, shear doubled [V]"),
-    "code_aster": Convention(_VOIGT_ABQ, "tensor", "SIXX SIYY SIZZ SIXY SIXZ SIYZ [3P]; tensor shear [UNVERIFIED]"),
+    "code_aster": Convention(_VOIGT_ABQ, "tensor", "SIXX SIYY SIZZ SIXY SIXZ SIYZ, EPXX ... EPYZ [V, catalogue]; "
+                                                   "tensor shear [V, eps1mc.f halves the B-matrix shear]; MED read by name"),
     "lsdyna": Convention(_VOIGT_VTK, "tensor", "xx yy zz xy yz xz [V, lasso]; tensor shear [3P]"),
     "elmer": Convention(_VOIGT_VTK, "tensor", "Stress_xx yy zz xy yz xz; tensor shear [V]"),
     "vtk": Convention(_VOIGT_VTK, "tensor", "VTK symmetric-tensor order XX YY ZZ XY YZ XZ [UNVERIFIED]; shear assumed tensor"),

@@ -41,6 +41,7 @@ TARGETS: list[tuple[str, str]] = [
     ("vtu", ".vtu"), ("vtk", ".vtk"), ("pvd", ".pvd"), ("xdmf", ".xdmf"), ("frd", ".frd"),
     ("receptors", ".csv"), ("observed", ".csv"), ("waveform", ".csv"), ("scene", ".toml"), ("sed_table", ".csv"),
     ("exodus", ".e"),  # appended: existing findings keep their target (their first byte is below 15)
+    ("med", ".med"),
 ]
 
 
@@ -114,12 +115,12 @@ def _seed_corpus(corpus: Path) -> None:
         "rpt": ROOT / "tests/data/csv", "vtu": HERE / "seeds", "vtk": HERE / "seeds", "pvd": HERE / "seeds",
         "xdmf": HERE / "seeds", "scene": ROOT / "sample_sed/scenes", "receptors": HERE / "seeds",
         "observed": ROOT / "sample_sed/observed", "waveform": HERE / "seeds", "sed_table": HERE / "seeds",
-        "frd": ROOT / "tests/data/calculix", "exodus": ROOT / "tests/data/exodus",
+        "frd": ROOT / "tests/data/calculix", "exodus": ROOT / "tests/data/exodus", "med": ROOT / "tests/data/med",
     }
     suffixes = {"csv": (".csv",), "txt": (".txt",), "dat": (".dat",), "rpt": (".rpt",), "vtu": (".vtu",),
                 "vtk": (".vtk",), "pvd": (".pvd",), "xdmf": (".xdmf",), "scene": (".toml",), "receptors": ("receptors.csv",),
                 "observed": (".csv",), "waveform": ("waveform.csv",), "sed_table": ("sed_table.csv",), "frd": (".frd",),
-                "exodus": (".e", ".ex2", ".g")}
+                "exodus": (".e", ".ex2", ".g"), "med": (".med", ".rmed")}
     for target, folder in picks.items():
         if not folder.is_dir():
             continue
@@ -151,6 +152,7 @@ def main() -> None:
         import afferent.io._csv  # noqa: F401
         import afferent.io._exodus  # noqa: F401
         import afferent.io._frd  # noqa: F401
+        import afferent.io._med  # noqa: F401
         import afferent.io._meshio  # noqa: F401
         import afferent.io._xdmf  # noqa: F401
         import afferent.profiles  # noqa: F401

@@ -678,3 +678,61 @@ def test_round_trip(table):
     got = np.stack([raw.arrays[n].values[0] for n in names], axis=1)
     np.testing.assert_array_equal(got, values)  # exact: repr precision must round-trip
     assert raw.times is None
+
+
+# --------------------------------------------------------------------------------------
+# A real CalculiX .dat: *EL PRINT element tables next to *NODE PRINT node tables, and gzip
+# --------------------------------------------------------------------------------------
+
+CCX = Path(__file__).parent / "data" / "calculix"
+
+
+def test_calculix_dat_node_print_blocks_are_skipped():
+    """ccx 2.20 prints *NODE PRINT U as 'displacements (vx,vy,vz)' tables (node, 3 values) between
+    the *EL PRINT tables; they are skipped with a note and the element tables read as without them."""
+    raw = read_csv(str(CCX / "block_c3d8_print.dat"))
+    alone = read_csv(str(CCX / "block_c3d8.dat"))  # the same model printing *EL PRINT only
+    assert list(raw.arrays) == list(alone.arrays)
+    for name, arr in alone.arrays.items():
+        np.testing.assert_array_equal(raw.arrays[name].values, arr.values)
+    np.testing.assert_array_equal(raw.times, [1.0, 2.0, 3.0])
+    assert ("skipped 3 CalculiX node blocks (*NODE PRINT: 'displacements'): SED and the tensors are read from "
+            "the element blocks") in raw.notes
+
+
+def test_calculix_dat_gz_is_recognised_and_read_like_the_dat():
+    from afferent.io import format_of, read_sed
+
+    assert format_of(str(CCX / "block_c3d8_print.dat.gz")) == "csv"
+    kw = dict(coordinates=CCX / "block_c3d8.frd", length_unit="mm", sed_unit="MPa")
+    gz = read_sed(CCX / "block_c3d8_print.dat.gz", **kw)
+    plain = read_sed(CCX / "block_c3d8_print.dat", **kw)
+    np.testing.assert_array_equal(gz.sed, plain.sed)
+    assert gz.sed.shape == (3, 32) and "decompressed gzip data" in gz.provenance.notes
+
+
+def test_calculix_dat_ener_is_a_density_equal_to_half_sigma_eps():
+    """ENER of the .dat is the internal energy DENSITY at each integration point: 1/2 sigma:eps of the
+    S and E printed at the same points (order xx yy zz xy xz yz, tensor shear) to the print precision;
+    with engineering shear the sum is off."""
+    from afferent.strain_energy import sed_exact
+
+    a = read_csv(str(CCX / "block_c3d8_print.dat")).arrays
+    s = np.stack([a[k].values for k in ("sxx", "syy", "szz", "sxy", "syz", "sxz")], -1)
+    e = np.stack([a[k].values for k in ("exx", "eyy", "ezz", "exy", "eyz", "exz")], -1)
+    ener = a["internal energy density"].values
+    assert ener.shape == (3, 256) and ener.min() > 0
+    np.testing.assert_allclose(sed_exact(s, e), ener, rtol=2e-6, atol=1e-6 * ener.max())
+    halved = e.copy()
+    halved[..., 3:] /= 2
+    assert np.abs(sed_exact(s, halved) - ener).max() > 0.01 * ener.max()
+
+
+def test_calculix_dat_with_only_node_blocks_is_refused(tmp_path):
+    text = (" displacements (vx,vy,vz) for set NALL and time  0.1000000E+01\n\n"
+            "         1  0.000000E+00  0.000000E+00 -1.000000E-02\n         2  0.000000E+00  0.000000E+00  0.000000E+00\n")
+    p = _write(tmp_path, text, "job.dat")
+    msg = (f"CalculiX file {p!r} must have element blocks (*EL PRINT of ENER, or S and E, at the integration points); "
+           "got only node blocks (*NODE PRINT: 'displacements') instead.")
+    with pytest.raises(SEDFormatError, match=re.escape(msg)):
+        read_csv(p)

@@ -28,7 +28,8 @@ __all__ = ["read_sed", "iter_sed", "series_provenance", "read_raw", "describe_ra
 
 #: Known formats: name -> file-name endings. '.gz' CSV files are read by the CSV reader.
 FORMATS: dict[str, tuple[str, ...]] = {
-    "csv": (".csv", ".txt", ".tsv", ".dat", ".rpt", ".log", ".csv.gz", ".txt.gz"),
+    "csv": (".csv", ".txt", ".tsv", ".dat", ".rpt", ".log", ".csv.gz", ".txt.gz", ".tsv.gz", ".dat.gz", ".rpt.gz",
+            ".log.gz"),
     "vtu": (".vtu",),
     "vtk": (".vtk",),
     "pvd": (".pvd",),
@@ -36,6 +37,7 @@ FORMATS: dict[str, tuple[str, ...]] = {
     "frd": (".frd", ".frd.gz"),
     "exodus": (".e", ".exo", ".ex2", ".g"),
     "rst": (".rst", ".rth"),
+    "med": (".med", ".rmed"),
 }
 
 
@@ -112,7 +114,7 @@ def read_raw(path_or_paths, *, format: str | None = None, progress: bool = False
 
         return read_csv(paths if len(paths) > 1 else paths[0], progress=progress, **csv_kwargs)
     if len(paths) > 1:
-        if fmt in ("pvd", "xdmf", "frd", "exodus", "rst"):
+        if fmt in ("pvd", "xdmf", "frd", "exodus", "rst", "med"):
             raise SEDFormatError(f"Pass one .{fmt} file, not a list: it lists its own time steps ({paths!r}).")
         return _meshio.read_vtu_series(paths, progress=progress)
     if fmt == "pvd":
@@ -131,6 +133,10 @@ def read_raw(path_or_paths, *, format: str | None = None, progress: bool = False
         from ._frd import read_frd
 
         return read_frd(paths[0], progress=progress)
+    if fmt == "med":
+        from ._med import read_med
+
+        return read_med(paths[0], progress=progress)
     return _meshio.read_mesh_file(paths[0])
 
 
@@ -163,7 +169,8 @@ def read_sed(
     ----------
     path_or_paths : str, path-like or list of them
         One export (``.vtu``, ``.vtk``, ``.pvd``, ``.xdmf``, ``.csv``/``.txt``/``.rpt``, optionally
-        ``.gz``), or several files of one format, one per time step, in time order.
+        ``.gz``, ``.frd``, Exodus, ``.rst``, MED ``.med``/``.rmed``), or several files of one
+        format, one per time step, in time order.
     length_unit : {'m', 'mm', 'um', 'cm'}, optional
         Unit of the coordinates. Required unless the file states it (COMSOL ``% Length unit``,
         ``X Location (mm)``); if both are given they must agree. Never guessed.
@@ -211,7 +218,7 @@ def read_sed(
         set to 0, counted in ``provenance.negative_sed`` and reported with an
         :class:`~afferent.exceptions.AfferentWarning`; anything more negative is refused (a
         wrong column, sign or shear convention).
-    format : {'csv', 'vtu', 'vtk', 'pvd', 'xdmf'}, optional
+    format : {'csv', 'vtu', 'vtk', 'pvd', 'xdmf', 'frd', 'exodus', 'rst', 'med'}, optional
         Overrides the format deduced from the file name.
     progress : bool, default=False
         Show a progress bar while reading a series.
@@ -297,8 +304,8 @@ def iter_sed(path_or_paths, *, format: str | None = None, progress: bool = False
     order whose steps, concatenated, are what :func:`read_sed` returns for a series of
     steps. A series of VTU files, a ParaView ``.pvd`` and an XDMF time series (FEniCS/DOLFINx,
     meshio) are read one step at a time: the mesh once, then each step's arrays, and every
-    field shares the first step's cells. Other formats (CSV tables, ``.frd``, Exodus, ``.rst``)
-    are read whole and yielded as one field.
+    field shares the first step's cells. Other formats (CSV tables, ``.frd``, Exodus, ``.rst``,
+    MED) are read whole and yielded as one field.
 
     Each step is interpreted and checked on its own (units, the SED or tensor arrays, NaN,
     negative nodal SED against ``negative_tolerance`` relative to that step's largest value,

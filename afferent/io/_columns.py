@@ -66,7 +66,7 @@ SED_ALIASES: tuple[str, ...] = tuple(
     for n in (
         "sed", "sener", "eseden", "send", "sendelastic", "solid.Ws", "Ws", "ener",
         "strain energy density", "strain_energy_density", "strainenergydensity",
-        "elastic strain energy density", "internal energy density", "enel", "enel_elno", "enel_noeu", "enel_elga",
+        "elastic strain energy density", "internal energy density", "enel", "enel_noeu", "enel_elno", "enel_elga",
     )
 )
 
@@ -79,6 +79,8 @@ ENERGY_NOT_DENSITY: dict[str, str] = {
     canonical("strain energy"): "'Strain Energy' (Workbench) is an element energy, not a density",
     canonical("ALLSE"): "Abaqus ALLSE is the whole model's strain energy",
     canonical("internal energy"): "CalculiX 'internal energy' (ELSE, .dat) is the element's energy, not a density; print ENER",
+    canonical("ENEL_ELEM"): "code_aster ENEL_ELEM is the elastic energy per element, not a density; export ENEL_NOEU, "
+                            "ENEL_ELNO or ENEL_ELGA",
 }
 
 _AXES = {"1": "x", "2": "y", "3": "z", "x": "x", "y": "y", "z": "z"}
@@ -116,9 +118,13 @@ STRAIN_COMPONENTS = _component_aliases(
 for _comp, _names in (("xx", ("ex", "epelx", "eptox")), ("yy", ("ey", "epely", "eptoy")), ("zz", ("ez", "epelz", "eptoz"))):
     STRAIN_COMPONENTS[_comp] = STRAIN_COMPONENTS[_comp] | _c(*_names)
 
-#: Multi-component tensor arrays (VTU/XDMF): a 6- or 9-component array with one of these names.
+#: code_aster's field supports: nodes, element nodes, Gauss points (its ``SIEF_NOEU``, ``EPSI_ELGA``...).
+_ASTER_SUPPORTS = ("NOEU", "ELNO", "ELGA", "ELEM")
+
+#: Multi-component tensor arrays (VTU/XDMF/MED): a 6- or 9-component array with one of these names.
 TENSOR_ARRAY_NAMES: dict[str, frozenset[str]] = {
-    "stress": _c("S", "stress", "sigma", "cauchy_stress", "Stress", "SIEF", "SIGM", "STRESS", "nodal stress"),
+    "stress": _c("S", "stress", "sigma", "cauchy_stress", "Stress", "SIEF", "SIGM", "STRESS", "nodal stress",
+                 *(f"{q}_{where}" for q in ("SIEF", "SIGM") for where in _ASTER_SUPPORTS)),
     "strain": _c("E", "strain", "eps", "epsilon", "cauchy_strain", "Strain", "LE", "EE", "EPSI", "TOSTRAIN",
-                 "Lagrange strain", "infinitesimal strain", "EPEL", "EPTO"),
+                 "Lagrange strain", "infinitesimal strain", "EPEL", "EPTO", *(f"EPSI_{where}" for where in _ASTER_SUPPORTS)),
 }

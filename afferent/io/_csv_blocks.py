@@ -222,6 +222,25 @@ def _ccx_side_by_side(path: str, blocks: list, n_times: int) -> tuple[list[str],
     return headers, values
 
 
+def _node_blocks_skipped(path: str, records: list[dict], notes: list[str]) -> list[dict]:
+    """The element blocks (``*EL PRINT``: their first column is ``elem``); the node blocks
+    (``*NODE PRINT``: ``displacements (vx,vy,vz)``, no label column) are left out with a note."""
+    is_element = [any(canonical(n) in _CCX_LABELS for n in r["names"]) for r in records]
+    nodal = [r for r, element in zip(records, is_element) if not element]
+    kept = [r for r, element in zip(records, is_element) if element]
+    if not nodal:
+        return records
+    kinds = _join_names(list(dict.fromkeys(r["what"] for r in nodal)))
+    if not kept:
+        raise SEDFormatError(
+            f"CalculiX file {path!r} must have element blocks (*EL PRINT of ENER, or S and E, at the integration "
+            f"points); got only node blocks (*NODE PRINT: {kinds}) instead."
+        )
+    notes.append(f"skipped {_plural(len(nodal), 'CalculiX node block')} (*NODE PRINT: {kinds}): "
+                 "SED and the tensors are read from the element blocks")
+    return kept
+
+
 def _parse_ccx(path: str, lines: list[str], sep: str | None, notes: list[str]):
     """Read CalculiX ``.dat`` blocks; return (_Columns with all rows, n_times, times).
 
@@ -229,10 +248,11 @@ def _parse_ccx(path: str, lines: list[str], sep: str | None, notes: list[str]):
     rows (:ref:`fe-calculix`). Blocks of the same ``<what>`` at the same time
     (several sets) are concatenated; different ``<what>`` (stresses, strains, internal energy
     density) are put side by side when they have the same rows, their shared columns (``elem``,
-    ``integ.pnt.``) kept once; each distinct time is one time step. A block with a single value
+    ``integ.pnt.``) kept once; each distinct time is one time step. Node blocks (``*NODE PRINT``,
+    e.g. ``displacements (vx,vy,vz)``: no ``elem`` column) are skipped with a note. A block with a single value
     column names it after the block title (``'internal energy density'``, not ``'energy'``).
     """
-    records = _ccx_records(path, lines, notes)
+    records = _node_blocks_skipped(path, _ccx_records(path, lines, notes), notes)
     time_keys = list(dict.fromkeys(r["time"] for r in records))
     whats = list(dict.fromkeys(r["what"] for r in records))
     by_key: dict[tuple[str, str], list[dict]] = {}

@@ -28,7 +28,7 @@ def _unit_hint(value: float, table: dict, plausible: tuple[float, float], units:
 def describe_raw(raw) -> list[str]:
     """What an FE export holds, and how :func:`afferent.read_sed` would read it, as lines of text.
 
-    Points, cells, arrays with their components and ranges, time steps, bounds (file units),
+    Points, cells, arrays with their components (and their names, when the file gives them) and ranges, time steps, bounds (file units),
     the SED array and tensors afferent recognises, negative SED artefacts, the units stated in
     the file (or a hint of the plausible ones when not), and the reader's notes.
     ``afferent info`` prints these lines.
@@ -71,7 +71,8 @@ def describe_raw(raw) -> list[str]:
         unit = f" [{arr.unit}]" if arr.unit else ""
         with np.errstate(all="ignore"):
             rng = f"{np.nanmin(arr.values):.4g} .. {np.nanmax(arr.values):.4g}" if arr.values.size else "empty"
-        lines.append(f"    {arr.name!r:<28} {arr.location:<5} {comp:<13} {rng}{unit}")
+        names = f"  ({' '.join(arr.components)})" if arr.components else ""
+        lines.append(f"    {arr.name!r:<28} {arr.location:<5} {comp:<13} {rng}{unit}{names}")
     _sed_lines(raw, opts, add)
     _tensor_lines(raw, add)
     if xyz is not None:

@@ -13,7 +13,9 @@ E = 0.1 MPa, nu = 0.45 (dermis-like). Every step writes U (nodes) and S, E, ENER
 C3D20R (quadratic, reduced integration) and C3D10 (quadratic tetrahedra, the hexahedra split
 into 6). The C3D8 run also prints S, E, ENER at the integration points to the .dat (*EL PRINT);
 ``block_c3d8_binary`` is the same C3D8 model written with *NODE OUTPUT / *ELEMENT OUTPUT, which
-make ccx write the .frd records in binary; ``block_c3d8.frd.gz`` is the ASCII .frd gzipped.
+make ccx write the .frd records in binary; ``block_c3d8.frd.gz`` is the ASCII .frd gzipped;
+``block_c3d8_print.dat`` (and its gzip) is the C3D8 model printing S, E, ENER (*EL PRINT) and U
+(*NODE PRINT) to the .dat, element and node tables interleaved at every step.
 """
 
 from __future__ import annotations
@@ -104,7 +106,8 @@ def _lines(values, per_line=8):
     return ",\n".join(out)
 
 
-def write_inp(path: Path, kind: str, n_xy: int = 4, n_z: int = 2, el_print: bool = False, binary: bool = False) -> None:
+def write_inp(path: Path, kind: str, n_xy: int = 4, n_z: int = 2, el_print: bool = False, binary: bool = False,
+              node_print: bool = False) -> None:
     quadratic = kind in ("C3D20R", "C3D10")
     nodes, ids, k = _grid(n_xy, n_z, quadratic and kind == "C3D20R")
     if kind == "C3D8":
@@ -138,6 +141,8 @@ def write_inp(path: Path, kind: str, n_xy: int = 4, n_z: int = 2, el_print: bool
                 f.write("*NODE FILE\nU\n*EL FILE\nS, E, ENER\n")
             if el_print:
                 f.write("*EL PRINT, ELSET=EALL\nS, E, ENER\n")
+            if node_print:  # displacement tables at the nodes between the element tables
+                f.write("*NODE PRINT, NSET=NALL\nU\n")
             f.write("*END STEP\n")
 
 
@@ -161,6 +166,12 @@ def main() -> None:
     for job in ("block_c3d20r", "block_c3d10"):
         (HERE / f"{job}.dat").unlink(missing_ok=True)  # empty: no *EL PRINT
     (HERE / "block_c3d8.frd.gz").write_bytes(gzip.compress((HERE / "block_c3d8.frd").read_bytes(), mtime=0))
+    # *EL PRINT (S, E, ENER at the integration points) and *NODE PRINT (U) blocks in one .dat, and its gzip;
+    # the mesh is block_c3d8's, so its .frd is left out
+    write_inp(HERE / "block_c3d8_print.inp", "C3D8", el_print=True, node_print=True)
+    run("block_c3d8_print")
+    (HERE / "block_c3d8_print.frd").unlink(missing_ok=True)
+    (HERE / "block_c3d8_print.dat.gz").write_bytes(gzip.compress((HERE / "block_c3d8_print.dat").read_bytes(), mtime=0))
 
 
 if __name__ == "__main__":
