@@ -4,6 +4,24 @@ A reader's only job is to turn bytes into numbers: it returns a :class:`RawExpor
 export's own names and units, untouched. Choosing the SED array, recognising tensor
 components, converting units and validating is done once, for every format, in
 :mod:`afferent.io._assemble`.
+
+**Every file a reader opens is listed in** :attr:`RawExport.files` (the export first, then each
+side file in the order it was first opened), because the sampled-SED cache
+(:mod:`afferent.cache`) and ``run.json`` hash exactly that list: a side file missing from it
+is a file whose rewrite goes unnoticed (stale SED from the cache, an incomplete run record).
+The list is filled where the file is really opened, never by parsing the export for names:
+
+- a reader that opens a file itself adds that path (as opened: relative to the export's folder
+  when the export names it so); :func:`files_read` joins the lists without repeats;
+- HDF5 through h5py: :func:`h5_files` gives the files an object and every group on its path
+  really live in, so the targets of external links are included;
+- a library that opens files for you (meshio, VTK, netCDF4, ...): route its file access through
+  your own code (afferent's XDMF reads meshio's data items itself), or ask the library for
+  the files it opened (VTK: each piece reader's file name); if neither is possible, refuse
+  the construct rather than leave a file out.
+
+Step-wise readers (``iter_*``) give each step the files opened so far; :func:`afferent.io.
+series_provenance` joins them.
 """
 
 from __future__ import annotations
@@ -14,7 +32,7 @@ import numpy as np
 
 from ..field import Cells
 
-__all__ = ["RawExport", "RawArray", "drop_valueless_nodes", "split_steps", "stack_steps"]
+__all__ = ["RawExport", "RawArray", "drop_valueless_nodes", "split_steps", "stack_steps", "files_read", "h5_files"]
 
 
 @dataclass(frozen=True)
@@ -49,7 +67,10 @@ class RawExport:
     Parameters
     ----------
     files : tuple of str
-        Files read, in time order.
+        Every file the reader opened: the export file(s) as given, in time order, then the side
+        files they name (a ``.pvd``'s VTU files, an XDMF's HDF5 and ``.bin`` files, the targets
+        of HDF5 external links, a ``coordinates`` table), each once, in the order first opened.
+        The cache and ``run.json`` hash exactly these (see the module docstring).
     format : str
         Reader name (``'csv'``, ``'vtu'``, ``'pvd'``, ``'xdmf'``).
     points : ndarray of shape (n_points, 3) or None
@@ -91,6 +112,33 @@ class RawExport:
         for arr in self.arrays.values():
             return arr.values.shape[0]
         return 0
+
+
+def files_read(*groups) -> tuple[str, ...]:
+    """The paths of ``groups`` (iterables of str or path-like) in order, each once: for :attr:`RawExport.files`."""
+    import os
+
+    return tuple(dict.fromkeys(os.fspath(p) for group in groups for p in group))
+
+
+def h5_files(h5file, name: str) -> list[str]:
+    """The files the HDF5 object ``name`` of an open h5py file and every group on its path live in.
+
+    An external link (``h5py.ExternalLink``) makes HDF5 open another file: the object then
+    lives there, and that file is among the result. Paths as h5py reports them
+    (``File.filename``).
+
+    Parameters
+    ----------
+    h5file : h5py.File
+    name : str
+        An object path in it, e.g. ``'/Function/sed/1'``.
+    """
+    parts = [p for p in name.split("/") if p]
+    out = [h5file.filename]
+    for k in range(1, len(parts) + 1):
+        out.append(h5file["/" + "/".join(parts[:k])].file.filename)
+    return list(dict.fromkeys(out))
 
 
 def split_steps(raw: RawExport):
