@@ -115,6 +115,28 @@ def test_external_link_target_is_a_file_read_and_keys_the_cache(tmp_path):
     np.testing.assert_allclose(third.sed.values, 3 * first.sed.values, rtol=1e-12)
 
 
+def test_a_chain_of_external_links_is_followed_file_by_file(tmp_path):
+    """main.h5 -> hop.h5 -> target.h5: re-pointing the middle link to another file is a change."""
+    xdmf = _linked_block(tmp_path / "export")
+    folder = tmp_path / "export"
+    shutil.copy(folder / "target.h5", folder / "other.h5")
+    _scale(folder / "other.h5", "sed_data", 5.0)
+    with h5py.File(folder / "main.h5", "r+") as main, h5py.File(folder / "hop.h5", "w") as hop:
+        del main["Function/sed"]
+        main["Function/sed"] = h5py.ExternalLink("hop.h5", "/sed")
+        hop["sed"] = h5py.ExternalLink("target.h5", "/sed_data")
+    field = read_sed(xdmf, length_unit="mm", sed_unit="MPa", sed_column="sed")
+    assert [Path(f).name for f in field.provenance.files] == ["block.xdmf", "main.h5", "hop.h5", "target.h5"]
+    scene = _scene(tmp_path, xdmf)
+    first = _run(scene, tmp_path / "cache")
+    with h5py.File(folder / "hop.h5", "r+") as hop:
+        del hop["sed"]
+        hop["sed"] = h5py.ExternalLink("other.h5", "/sed_data")
+    second = _run(scene, tmp_path / "cache")
+    assert second.cache_hit is False and "hop.h5" in second.record["cache"]["miss"]
+    np.testing.assert_allclose(second.sed.values, 5 * first.sed.values, rtol=1e-12)
+
+
 def test_run_json_lists_every_file_read_with_its_sha256(tmp_path):
     xdmf = _linked_block(tmp_path / "export")
     scene = _scene(tmp_path, xdmf)

@@ -125,8 +125,9 @@ def h5_files(h5file, name: str) -> list[str]:
     """The files the HDF5 object ``name`` of an open h5py file and every group on its path live in.
 
     An external link (``h5py.ExternalLink``) makes HDF5 open another file: the object then
-    lives there, and that file is among the result. Paths as h5py reports them
-    (``File.filename``).
+    lives there, and that file is among the result, as is every file a chain of external links
+    passes through on the way (an external link to an external link). Paths as h5py reports
+    them (``File.filename``), each file once.
 
     Parameters
     ----------
@@ -134,11 +135,45 @@ def h5_files(h5file, name: str) -> list[str]:
     name : str
         An object path in it, e.g. ``'/Function/sed/1'``.
     """
+    import os
+
     parts = [p for p in name.split("/") if p]
     out = [h5file.filename]
     for k in range(1, len(parts) + 1):
-        out.append(h5file["/" + "/".join(parts[:k])].file.filename)
-    return list(dict.fromkeys(out))
+        prefix = "/" + "/".join(parts[:k])
+        out.extend(_link_chain(h5file, prefix, h5file[os.path.dirname(prefix)].file.filename))
+        out.append(h5file[prefix].file.filename)
+    seen, unique = set(), []
+    for f in out:
+        if os.path.abspath(f) not in seen:
+            seen.add(os.path.abspath(f))
+            unique.append(f)
+    return unique
+
+
+def _link_chain(h5file, name: str, parent: str, limit: int = 32) -> list[str]:
+    """The files a chain of external links starting at ``name`` (a link in the file ``parent``) opens.
+
+    Each target name is resolved as HDF5 does by default: absolute as written, else relative to
+    the folder of the file holding the link. A target that is not there ends the chain (HDF5
+    found it elsewhere, e.g. through ``HDF5_EXT_PREFIX``; its final file is still reported by
+    :func:`h5_files`).
+    """
+    import os
+
+    import h5py
+
+    out: list[str] = []
+    link = h5file.get(name, getlink=True)
+    while isinstance(link, h5py.ExternalLink) and len(out) < limit:
+        target = link.filename if os.path.isabs(link.filename) else os.path.join(os.path.dirname(parent), link.filename)
+        if not os.path.isfile(target):
+            break
+        out.append(target)
+        with h5py.File(target, "r") as f:
+            link = f.get(link.path, getlink=True)
+        parent = target
+    return out
 
 
 def split_steps(raw: RawExport):
