@@ -150,6 +150,21 @@ def test_run_json_lists_every_file_read_with_its_sha256(tmp_path):
         assert by_name["receptors.csv"] == file_sha256(tmp_path / "receptors.csv")
 
 
+def test_a_file_modified_while_being_read_is_not_cached(tmp_path):
+    """Its hash, taken after reading, may not describe the values read: no entry is written."""
+    import os
+    import time
+
+    xdmf = _block(tmp_path / "export", "data.h5")
+    later = time.time() + 3600  # as if rewritten during the read
+    os.utime(tmp_path / "export" / "data.h5", (later, later))
+    result = _run(_scene(tmp_path, xdmf), tmp_path / "cache")
+    assert result.cache_hit is False and "written" not in result.record["cache"]
+    assert "data.h5" in result.record["cache"]["not_written"] and "modified after reading began" in \
+        result.record["cache"]["not_written"]
+    assert _run(_scene(tmp_path, xdmf), tmp_path / "cache").cache_hit is False
+
+
 def test_copied_export_with_a_changed_side_file_misses(tmp_path):
     """The key ignores folders (a copy still hits), but the side files are checked where the copy is."""
     xdmf = _block(tmp_path / "a", "data.h5")

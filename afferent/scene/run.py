@@ -265,7 +265,7 @@ def _cache_key(run: _Run, layout, exp_files, hashes) -> str:
 
 def _receptor_sed(run: _Run, exp_files, hashes, *, cache_dir, use_cache: bool, progress: bool):
     """Stages 'reading' and 'sampling' (or a cache hit): SED at the region's receptors, J/m^3."""
-    from ..cache import SEDCache, file_records
+    from ..cache import SEDCache
 
     scene = run.scene
     with run.steps("receptors"):
@@ -287,22 +287,41 @@ def _receptor_sed(run: _Run, exp_files, hashes, *, cache_dir, use_cache: bool, p
         sed = _from_cache(run, entry, layout, key)
         _add_inputs(run, entry.files)
     else:
-        sed = _read_and_sample(run, layout, progress=progress)
-        read = run.record["field"]["files"]
-        with run.steps("hashing"):
-            _add_inputs(run, _hash_all({p: run.inputs.get(p) for p in read}))
-        if cache is not None:
-            with run.steps("cache"):
-                try:
-                    path = cache.put(key, sed, meta={"field": run.record["field"], "region_info": {
-                        k: v for k, v in run.region_info.items() if k != "region"}},
-                        files=file_records(read, run.inputs), base=_base(scene))
-                    cache_info["written"] = str(path)
-                except OSError as err:  # a read-only or full cache disk must not fail the run
-                    cache_info["write_error"] = str(err)
+        sed = _read_sample_store(run, layout, key, cache, cache_info, progress=progress)
     run.record["cache"] = cache_info
     run.region_info["n_receptors_sampled"] = int(sed.layout.n_receptors)
     run.record["receptors"] = {"source": scene.receptors.file or f"grid = {scene.receptors.grid!r}", **run.region_info}
+    return sed
+
+
+def _read_sample_store(run: _Run, layout, key: str, cache, cache_info: dict, *, progress: bool):
+    """Read and sample (cache miss); hash every file the reader opened; store the entry with their list.
+
+    A file modified after reading began (its modification time is later) may have been read
+    half old, half new: its hash would not describe the values, so no entry is written then.
+    """
+    from ..cache import file_records
+
+    t_read = time.time_ns()
+    sed = _read_and_sample(run, layout, progress=progress)
+    read = run.record["field"]["files"]
+    with run.steps("hashing"):
+        _add_inputs(run, _hash_all({p: run.inputs.get(p) for p in read}))
+        records = file_records(read, run.inputs)
+    if cache is None:
+        return sed
+    late = [r["path"] for r in records if r["mtime_ns"] >= t_read]
+    if late:
+        cache_info["not_written"] = (f"file {late[0]!r} was modified after reading began: the values may not match "
+                                     "its content; not cached")
+        return sed
+    with run.steps("cache"):
+        try:
+            path = cache.put(key, sed, meta={"field": run.record["field"], "region_info": {
+                k: v for k, v in run.region_info.items() if k != "region"}}, files=records, base=_base(run.scene))
+            cache_info["written"] = str(path)
+        except OSError as err:  # a read-only or full cache disk must not fail the run
+            cache_info["write_error"] = str(err)
     return sed
 
 
