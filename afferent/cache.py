@@ -11,14 +11,25 @@ a run; transduction, synthesis and spiking take milliseconds on the sampled valu
 (:mod:`afferent.scene`) re-run with other transduction, synthesis or spiking parameters
 therefore finds its :class:`~afferent.sampling.ReceptorSED` here.
 
-**What the key covers** (:func:`sampling_key`): the SHA-256 of the *content* of every file
-the reader opens (the export(s), the VTU files a ``.pvd`` lists, the HDF5 files an XDMF
-names, a ``coordinates`` table), the reader deduced from each file name, every read option
-(units, ``sed_from``, columns, times, ...), the receptor positions (their float64 bytes) or,
-for receptors found on the export itself (papilla tips, a grid over the export's extent),
-the specification that finds them, the sampling method, the afferent version and
-:data:`CACHE_VERSION`. File names, folders and modification times are not part of it:
-copying an export elsewhere still hits, changing one byte of it misses.
+**What the key covers** (:func:`sampling_key`): the SHA-256 of the *content* of the export
+file(s) the user names and of a ``coordinates`` table, the reader deduced from each file name,
+every read option (units, ``sed_from``, columns, times, ...), the receptor positions (their
+float64 bytes) or, for receptors found on the export itself (papilla tips, a grid over the
+export's extent), the specification that finds them, the sampling method, the afferent
+version and :data:`CACHE_VERSION`. File names, folders and modification times are not part
+of it: copying an export elsewhere still hits, changing one byte of it misses.
+
+**The files the reader opened.** Which side files an export makes the reader open (the VTU
+files of a ``.pvd``, the HDF5 and ``.bin`` files of an XDMF, the targets of HDF5 external
+links) is known only by reading it, so they cannot be in a key computed before reading.
+Instead each entry stores the list the reader itself reported
+(:attr:`afferent.field.Provenance.files`, see ``afferent.io._raw``) with each file's size,
+modification time and SHA-256 (:func:`file_records`), and :meth:`SEDCache.get` re-hashes
+them: an entry one of whose files changed or disappeared is stale (ignored, deleted,
+rebuilt). Whatever decides which side files are opened lies in the files opened before
+them (an XDMF's text, an HDF5 file's links), so an unchanged list means the same files.
+For an export copied to another folder, a file is looked for both where it was and at the
+same place relative to the export; every one that exists must be unchanged.
 
 **Never stale.** An entry stores its own key and the receptor positions; an entry whose
 key or positions do not match, or that cannot be read (truncated, corrupt, written by
@@ -40,8 +51,7 @@ import os
 import re
 import shutil
 import tempfile
-import xml.etree.ElementTree as ET
-from dataclasses import dataclass
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -49,7 +59,7 @@ import numpy as np
 __all__ = [
     "CACHE_VERSION",
     "default_cache_dir",
-    "export_files",
+    "file_records",
     "sampling_key",
     "positions_digest",
     "CachedSED",
@@ -59,7 +69,8 @@ __all__ = [
 
 #: Bumped whenever the entry layout, the meaning of a key or the sampling results change: old entries then miss.
 #: 2: cell data averaged to nodes by whole cell volumes ('linear' on cell data changed); placement recorded.
-CACHE_VERSION = 2
+#: 3: the key covers the named export files only; the entry lists (and get checks) every file the reader opened.
+CACHE_VERSION = 3
 
 _SUBDIR = "sed"
 _ARRAYS = ("values", "times", "positions", "ids", "longitudinal", "cross", "outside", "meta")
@@ -71,48 +82,57 @@ def default_cache_dir() -> Path:
     return Path(env).expanduser() if env else Path.home() / ".cache" / "afferent"
 
 
-def export_files(paths) -> list[str]:
-    """Every file the reader opens for ``paths``, in order: each path, then the files it names.
-
-    A ``.pvd`` collection names its VTU steps (``<DataSet file=...>``, relative to the
-    ``.pvd``); an XDMF file names HDF5 files (``file.h5:/dataset``). Files that do not exist
-    are left out here: reading then fails with its own message.
+def file_records(paths, hashes: dict | None = None) -> list[dict]:
+    """``{'path', 'size', 'mtime_ns', 'sha256'}`` of each file (absolute path), for an entry's ``files``.
 
     Parameters
     ----------
-    paths : str, path-like or sequence of them
+    paths : sequence of str or path-like
+        Files the reader opened (:attr:`afferent.field.Provenance.files`).
+    hashes : dict, optional
+        Path -> sha256 already computed (not hashed again); absolute or as given in ``paths``.
 
     Returns
     -------
-    list of str
-        Absolute paths, without duplicates.
+    list of dict
+        One per file without repeats, size in bytes, modification time in ns since the epoch.
     """
-    if isinstance(paths, (str, os.PathLike)):
-        paths = [paths]
-    out: list[str] = []
+    from .export import file_sha256
+
+    hashes = hashes or {}
+    out, seen = [], set()
     for p in paths:
-        p = os.path.abspath(os.fspath(p))
-        out.append(p)
-        lower = p.lower()
-        folder = os.path.dirname(p)
-        try:
-            if lower.endswith(".pvd"):
-                for ds in ET.parse(p).getroot().iter("DataSet"):
-                    f = ds.get("file")
-                    if f:
-                        out.append(os.path.abspath(os.path.join(folder, f)))
-            elif lower.endswith((".xdmf", ".xmf")):
-                text = Path(p).read_text(errors="replace")
-                for name in re.findall(r"([^\s<>\"']+\.(?:h5|hdf5|hdf))\s*:", text):
-                    out.append(os.path.abspath(os.path.join(folder, name)))
-        except (OSError, ET.ParseError):
-            pass  # unreadable: read_sed reports it
-    seen, unique = set(), []
-    for f in out:
-        if f not in seen and os.path.isfile(f):
-            seen.add(f)
-            unique.append(f)
-    return unique
+        given = os.fspath(p)
+        full = os.path.abspath(given)
+        if full in seen:
+            continue
+        seen.add(full)
+        st = os.stat(full)
+        sha = hashes.get(given) or hashes.get(full) or file_sha256(full)
+        out.append({"path": full, "size": st.st_size, "mtime_ns": st.st_mtime_ns, "sha256": sha})
+    return out
+
+
+def _changed_file(records, base_then: str | None, base_now: str | None, hashes: dict) -> str | None:
+    """Why an entry's files are stale (None: every one unchanged); fills ``hashes`` (path -> sha256)."""
+    from .export import file_sha256
+
+    for rec in records:
+        where = [rec["path"]]
+        if base_then and base_now and os.path.abspath(base_then) != os.path.abspath(base_now):
+            moved = os.path.normpath(os.path.join(os.path.abspath(base_now), os.path.relpath(rec["path"], base_then)))
+            where.append(moved)
+        present = [p for p in dict.fromkeys(where) if os.path.isfile(p)]
+        if not present:
+            return f"file {rec['path']!r} read for the entry is missing; entry ignored"
+        for p in present:
+            if os.path.getsize(p) != rec["size"]:
+                return f"file {p!r} changed since the entry was written (size); entry ignored"
+            sha = hashes.get(p) or file_sha256(p)
+            if sha != rec["sha256"]:
+                return f"file {p!r} changed since the entry was written (content); entry ignored"
+            hashes[p] = sha
+    return None
 
 
 def positions_digest(positions) -> str:
@@ -133,8 +153,9 @@ def sampling_key(*, exports, read_options: dict, receptors: dict, method: str) -
     Parameters
     ----------
     exports : sequence of (str, str)
-        ``(reader, content sha256)`` of every file the reader opens, in order (see
-        :func:`export_files`); the reader is the format deduced from the file name.
+        ``(reader, content sha256)`` of every export file the user names, in order; the reader
+        is the format deduced from the file name. The side files these make the reader open
+        are checked by :meth:`SEDCache.get` (the entry's ``files``).
     read_options : dict
         The options passed to :func:`afferent.read_sed` (units, columns, ``sed_from``, ...),
         with file paths among them replaced by their content hashes.
@@ -180,9 +201,13 @@ class CachedSED:
     outside : ndarray of shape (n_receptors,), bool
         Receptors outside the field.
     meta : dict
-        The key, the method and placement, the field's provenance and size, when it was written.
+        The key, the method and placement, the field's provenance and size, when it was written,
+        ``files`` (:func:`file_records` of every file the reader opened) and ``base`` (the
+        folder of the first export file).
     path : str
         The entry's file.
+    files : dict
+        Path -> sha256 of the entry's files as checked by :meth:`SEDCache.get` (where they are now).
     """
 
     values: np.ndarray
@@ -194,6 +219,7 @@ class CachedSED:
     outside: np.ndarray
     meta: dict
     path: str
+    files: dict = field(default_factory=dict)
 
     def layout(self):
         """The receptor sites as a :class:`~afferent.receptors.ReceptorLayout`."""
@@ -243,8 +269,9 @@ class SEDCache:
         except OSError:
             pass
 
-    def get(self, key: str, *, positions=None) -> CachedSED | None:
-        """The entry for ``key``, or None (no entry, or one that is corrupt or does not match).
+    def get(self, key: str, *, positions=None, base: str | None = None, hashes: dict | None = None
+            ) -> CachedSED | None:
+        """The entry for ``key``, or None (no entry, or one that is corrupt, stale or does not match).
 
         Parameters
         ----------
@@ -253,6 +280,14 @@ class SEDCache:
         positions : ndarray of shape (n_receptors, 3), optional
             Receptor positions in m the entry must hold exactly; an entry that does not is
             discarded.
+        base : str, optional
+            Folder of the first export file now; where the entry's files are also looked for
+            when it was written for an export in another folder (see the module docstring).
+        hashes : dict, optional
+            Path -> sha256 of files already hashed (not hashed again).
+
+        Every file the entry lists (the files the reader opened) is hashed again; an entry one
+        of whose files changed or is missing is discarded (:attr:`last_miss` says which).
         """
         path = self.path_for(key)
         if not path.is_file():
@@ -286,21 +321,29 @@ class SEDCache:
             if pos.shape != entry.positions.shape or not np.array_equal(pos, entry.positions):
                 self._discard(path, "entry's receptor positions differ; ignored")
                 return None
+        checked = {os.path.abspath(p): h for p, h in (hashes or {}).items() if h}
+        why = _changed_file(meta.get("files", ()), meta.get("base"), base, checked)
+        if why is not None:
+            self._discard(path, why)
+            return None
         self.last_miss = None
-        return entry
+        return replace(entry, files={p: checked[p] for p in checked if p in _where(meta, base)})
 
-    def put(self, key: str, sed, *, meta: dict | None = None) -> Path:
+    def put(self, key: str, sed, *, meta: dict | None = None, files=(), base: str | None = None) -> Path:
         """Store a :class:`~afferent.sampling.ReceptorSED` under ``key`` (atomically); returns the file.
 
         ``meta`` (JSON-able) is stored beside the arrays, with the key, the method, the
         placement (:attr:`~afferent.sampling.ReceptorSED.placement`) and :data:`CACHE_VERSION` added.
+        ``files`` (:func:`file_records` of every file the reader opened) and ``base`` (the
+        folder of the first export file) are what :meth:`get` checks.
         """
         path = self.path_for(key)
         path.parent.mkdir(parents=True, exist_ok=True)
         lay = sed.layout
         info = dict(meta or {})
         info.update({"key": key, "cache_version": CACHE_VERSION, "method": sed.method,
-                     "placement": getattr(sed, "placement", "")})
+                     "placement": getattr(sed, "placement", ""), "files": list(files),
+                     "base": None if base is None else os.path.abspath(base)})
         fd, tmp = tempfile.mkstemp(prefix=f".{key[:16]}.", suffix=".part", dir=path.parent)
         try:
             with os.fdopen(fd, "wb") as f:
@@ -315,6 +358,16 @@ class SEDCache:
             if os.path.exists(tmp):
                 os.remove(tmp)
         return path
+
+
+def _where(meta: dict, base: str | None) -> set:
+    """Every place the entry's files were checked (as they were, and moved with the export)."""
+    out = set()
+    for rec in meta.get("files", ()):
+        out.add(rec["path"])
+        if meta.get("base") and base:
+            out.add(os.path.normpath(os.path.join(os.path.abspath(base), os.path.relpath(rec["path"], meta["base"]))))
+    return out
 
 
 def clear_cache(directory=None) -> int:

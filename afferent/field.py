@@ -27,7 +27,10 @@ class Provenance:
     Parameters
     ----------
     files : tuple of str
-        The export files read, in time order.
+        Every file the reader opened: the export file(s), in time order, then their side files
+        (a ``.pvd``'s VTU files, an XDMF's HDF5 and ``.bin`` files, HDF5 external-link targets,
+        a ``coordinates`` table) in the order first opened. The sampled-SED cache and
+        ``run.json`` hash exactly these.
     format : str
         Reader used (``'vtu'``, ``'csv'``, ``'pvd'``, ``'xdmf'``).
     sed_from : str

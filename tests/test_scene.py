@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from afferent.cache import SEDCache, clear_cache, export_files
+from afferent.cache import SEDCache, clear_cache
 from afferent.exceptions import AfferentWarning, OutputExistsError
 from afferent.scene import (
     OUTPUTS,
@@ -335,14 +335,6 @@ def replace_params(scene, row):
     from dataclasses import replace
 
     return replace(scene, transduction=replace(scene.transduction, params=row))
-
-
-def test_export_files_follow_a_pvd(tmp_path):
-    pvd = SAMPLE / "block4" / "series_0p88mm" / "indent.pvd"
-    if not pvd.is_file():
-        pytest.skip("bundled sample not present")
-    files = export_files([pvd])
-    assert files[0] == str(pvd) and len(files) == 7 and files[-1].endswith("indent_005.vtu")
 
 
 # -------------------------------------------------------------------------- outputs, record

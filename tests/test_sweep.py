@@ -151,6 +151,23 @@ def test_resume_skips_done_tasks_and_another_sweep_is_refused(tmp_path):
         sweep(other, tmp_path / "busy", scheduler="serial")
 
 
+def test_resume_redoes_tasks_whose_export_side_file_changed(tmp_path):
+    """A task's id covers the files its scene names; a rewritten VTU of the .pvd (a file only the
+    reader knows of) makes the re-run redo the tasks instead of keeping their old results."""
+    import shutil
+
+    shutil.copytree(SCENES.parent / "block4" / "series_0p88mm", tmp_path / "series")
+    base = _BASE.replace(f"{SCENES.parent.as_posix()}/block4/series_0p88mm/", f"{(tmp_path / 'series').as_posix()}/")
+    src = write_sweep(tmp_path, SMALL, base=base)
+    out = tmp_path / "out"
+    first = sweep(src, out, scheduler="serial", cache_dir=tmp_path / "cache")
+    assert all(r["inputs"][str(tmp_path / "series" / "indent_003.vtu")] for r in records(out).values())
+    shutil.copy(tmp_path / "series" / "indent_001.vtu", tmp_path / "series" / "indent_003.vtu")
+    again = sweep(src, out, scheduler="serial", cache_dir=tmp_path / "cache")
+    assert (again.n_ran, again.n_skipped) == (4, 0)
+    assert not again.table.equals(first.table)
+
+
 def test_a_failing_task_is_reported_and_loses_nothing(tmp_path, capsys):
     src = write_sweep(tmp_path, '"spikes.gain_s" = [0.2, -1.0, 0.3]\n')
     out = tmp_path / "out"

@@ -147,7 +147,27 @@ def _prepare(output: str, spec: SweepSpec, overwrite: bool) -> dict:
                                     "pass overwrite=True to replace it, or choose another folder.")
     os.makedirs(os.path.join(output, "tasks"), exist_ok=True)
     ids = {t.id for t in spec.tasks}
-    return {k: r for k, r in _read_records(output).items() if k in ids and r.get("status") == "ok"}
+    done = {k: r for k, r in _read_records(output).items() if k in ids and r.get("status") == "ok"}
+    hashes: dict = {}
+    return {k: r for k, r in done.items() if _inputs_unchanged(r.get("inputs"), hashes)}
+
+
+def _inputs_unchanged(inputs, hashes: dict) -> bool:
+    """Whether every file a task read (path -> sha256 in its record: the export's side files too) is unchanged.
+
+    A task's id covers the files its scene names; the side files an export makes the reader open
+    (HDF5 of an XDMF, VTU of a .pvd) are known from its record only. A record without them is redone.
+    """
+    from ..export import file_sha256
+
+    if not isinstance(inputs, dict) or not inputs:
+        return False
+    for path, sha in inputs.items():
+        if path not in hashes:
+            hashes[path] = file_sha256(path) if os.path.isfile(path) else None
+        if hashes[path] != sha:
+            return False
+    return True
 
 
 def _read_records(output: str) -> dict:
@@ -268,7 +288,7 @@ def _shared_disk(client, groups, cache_dir) -> tuple[bool, str]:
     """Whether every worker sees the export files and the cache folder as this process does."""
     import secrets
 
-    from ..cache import default_cache_dir, export_files
+    from ..cache import default_cache_dir
 
     folder = os.path.abspath(os.fspath(cache_dir)) if cache_dir is not None else str(default_cache_dir())
     try:
@@ -279,7 +299,8 @@ def _shared_disk(client, groups, cache_dir) -> tuple[bool, str]:
             f.write(token)
     except OSError as err:
         return False, f"the cache folder {folder!r} is not writable here ({err})"
-    files = {p: os.path.getsize(p) for tasks in groups.values() for p in export_files(tasks[0].scene.export.files)}
+    files = {p: os.path.getsize(p) for tasks in groups.values() for p in tasks[0].scene.export.files
+             if os.path.isfile(p)}
 
     def check(probe=probe, token=token, files=files):
         try:

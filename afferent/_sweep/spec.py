@@ -253,9 +253,7 @@ def _digest(obj) -> str:
 
 
 def _input_files(scene: Scene) -> list[str]:
-    from ..cache import export_files
-
-    files = export_files(scene.export.files)
+    files = list(dict.fromkeys(p for p in scene.export.files if os.path.isfile(p)))
     for p in (scene.export.coordinates, scene.receptors.file, scene.synthesis.map, scene.fit.observed,
               scene.stimulus.file, scene.transduction.calibration):
         if p is not None and os.path.isfile(p):
@@ -264,7 +262,6 @@ def _input_files(scene: Scene) -> list[str]:
 
 
 def _task(scene: Scene, pset: dict, hashes: dict) -> Task:
-    from ..cache import export_files
     from ..scene.stages import _hash_all
 
     files = _input_files(scene)
@@ -272,7 +269,7 @@ def _task(scene: Scene, pset: dict, hashes: dict) -> Task:
     d = scene.to_dict()
     d["outputs"]["dir"] = None
     group = _digest({"tables": {t: d[t] for t in _SAMPLING_TABLES},
-                     "exports": [hashes[p] for p in export_files(scene.export.files)],
+                     "exports": [hashes[p] for p in dict.fromkeys(scene.export.files) if p in hashes],
                      "files": {p: hashes[p] for p in (scene.export.coordinates, scene.receptors.file) if p in hashes}})
     return Task(id=_digest({"scene": d, "inputs": {p: hashes[p] for p in files}})[:16], scene=scene,
                 label=scene.info.name, params=dict(pset), group=group)

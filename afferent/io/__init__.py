@@ -8,6 +8,16 @@ One private module per kind of file returns a :class:`~afferent.io._raw.RawExpor
 file's own names and units; :mod:`afferent.io._assemble` interprets it (SED column or
 stress/strain tensors, units, validation) the same way for every format. The registry is the
 explicit dict :data:`FORMATS`.
+
+**A reader lists every file it opened** in ``RawExport.files``: the export file(s) first, then
+each side file (VTU files of a ``.pvd``, HDF5 and ``.bin`` files of an XDMF, targets of HDF5
+external links, ...) in the order first opened, recorded where it is really opened
+(``_raw.files_read``, ``_raw.h5_files``), never found by parsing the export for names. The
+list becomes :attr:`~afferent.field.Provenance.files`; the sampled-SED cache
+(:mod:`afferent.cache`) re-checks each listed file's hash before serving an entry and
+``run.json`` records each with its SHA-256. A new reader must do the same (details in
+``afferent.io._raw``); a file it opens but does not list is a file whose rewrite goes
+unnoticed.
 """
 
 from __future__ import annotations

@@ -18,7 +18,7 @@ from ..exceptions import SEDFormatError
 from ..field import Cells
 from dataclasses import replace
 
-from ._raw import RawArray, RawExport, stack_steps
+from ._raw import RawArray, RawExport, files_read, stack_steps
 
 __all__ = ["read_mesh_file", "read_vtu_series", "read_pvd", "read_xdmf", "cells_from_meshio"]
 
@@ -64,8 +64,11 @@ def cells_from_meshio(cells) -> Cells | None:
     return Cells(np.concatenate(tets), np.concatenate(parents), offset, tuple(b[1] for b in blocks))
 
 
-def _read_meshio(path: str):
+def _read_meshio(path: str, opened: list | None = None):
+    """meshio's reader of ``path``'s format; the side files it read are appended to ``opened`` (XDMF)."""
     import meshio
+
+    from ._xdmf import read_single_grid
 
     if not os.path.isfile(path):
         raise FileNotFoundError(f"SED file {path!r} not found.")
@@ -73,15 +76,18 @@ def _read_meshio(path: str):
         raise SEDFormatError(f"SED file {path!r} is empty.")
     # The format's own reader, not meshio.read: its dispatcher prints and calls sys.exit on failure.
     ext = os.path.splitext(path)[1].lower()
-    reader = {".vtu": meshio.vtu.read, ".vtk": meshio.vtk.read, ".xdmf": meshio.xdmf.read, ".xmf": meshio.xdmf.read}.get(
-        ext, meshio.read
-    )
+    def xdmf(p):
+        return read_single_grid(p, [] if opened is None else opened)
+
+    reader = {".vtu": meshio.vtu.read, ".vtk": meshio.vtk.read, ".xdmf": xdmf, ".xmf": xdmf}.get(ext, meshio.read)
     if ext == ".vtu":
         _check_vtk_xml_type(path)
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")  # meshio warns on skipped data; we report what we keep
             return reader(path)
+    except SEDFormatError:
+        raise
     except meshio.ReadError as err:
         if not str(err).strip() or not _well_formed(path, ext):
             raise SEDFormatError(
@@ -172,8 +178,9 @@ def _arrays_from_mesh(mesh, path: str, cells_obj: Cells | None) -> dict[str, Raw
 
 
 def read_mesh_file(path: str) -> RawExport:
-    """A single VTU / VTK (or any meshio-readable) file: one time step."""
-    mesh = _read_meshio(path)
+    """A single VTU / VTK / single-grid XDMF (or any meshio-readable) file: one time step."""
+    side: list[str] = []
+    mesh = _read_meshio(path, side)
     cells_obj = cells_from_meshio(mesh.cells)
     points = np.asarray(mesh.points, dtype=float)
     if points.ndim != 2 or points.shape[0] == 0:
@@ -190,7 +197,7 @@ def read_mesh_file(path: str) -> RawExport:
                       if a.name in names and a.values.ndim == 3 and a.values.shape[2] == len(names[a.name]) else a)
                   for k, a in arrays.items()}
     return RawExport(
-        files=(path,), format=os.path.splitext(path)[1].lstrip(".").lower(), points=points,
+        files=files_read([path], side), format=os.path.splitext(path)[1].lstrip(".").lower(), points=points,
         arrays=arrays, cells=cells_obj, notes=tuple(notes),
     )
 

@@ -4,6 +4,24 @@ A reader's only job is to turn bytes into numbers: it returns a :class:`RawExpor
 export's own names and units, untouched. Choosing the SED array, recognising tensor
 components, converting units and validating is done once, for every format, in
 :mod:`afferent.io._assemble`.
+
+**Every file a reader opens is listed in** :attr:`RawExport.files` (the export first, then each
+side file in the order it was first opened), because the sampled-SED cache
+(:mod:`afferent.cache`) and ``run.json`` hash exactly that list: a side file missing from it
+is a file whose rewrite goes unnoticed (stale SED from the cache, an incomplete run record).
+The list is filled where the file is really opened, never by parsing the export for names:
+
+- a reader that opens a file itself adds that path (as opened: relative to the export's folder
+  when the export names it so); :func:`files_read` joins the lists without repeats;
+- HDF5 through h5py: :func:`h5_files` gives the files an object and every group on its path
+  really live in, so the targets of external links are included;
+- a library that opens files for you (meshio, VTK, netCDF4, ...): route its file access through
+  your own code (afferent's XDMF reads meshio's data items itself), or ask the library for
+  the files it opened (VTK: each piece reader's file name); if neither is possible, refuse
+  the construct rather than leave a file out.
+
+Step-wise readers (``iter_*``) give each step the files opened so far; :func:`afferent.io.
+series_provenance` joins them.
 """
 
 from __future__ import annotations
@@ -14,7 +32,7 @@ import numpy as np
 
 from ..field import Cells
 
-__all__ = ["RawExport", "RawArray", "drop_valueless_nodes", "split_steps", "stack_steps"]
+__all__ = ["RawExport", "RawArray", "drop_valueless_nodes", "split_steps", "stack_steps", "files_read", "h5_files"]
 
 
 @dataclass(frozen=True)
@@ -49,7 +67,10 @@ class RawExport:
     Parameters
     ----------
     files : tuple of str
-        Files read, in time order.
+        Every file the reader opened: the export file(s) as given, in time order, then the side
+        files they name (a ``.pvd``'s VTU files, an XDMF's HDF5 and ``.bin`` files, the targets
+        of HDF5 external links, a ``coordinates`` table), each once, in the order first opened.
+        The cache and ``run.json`` hash exactly these (see the module docstring).
     format : str
         Reader name (``'csv'``, ``'vtu'``, ``'pvd'``, ``'xdmf'``).
     points : ndarray of shape (n_points, 3) or None
@@ -91,6 +112,68 @@ class RawExport:
         for arr in self.arrays.values():
             return arr.values.shape[0]
         return 0
+
+
+def files_read(*groups) -> tuple[str, ...]:
+    """The paths of ``groups`` (iterables of str or path-like) in order, each once: for :attr:`RawExport.files`."""
+    import os
+
+    return tuple(dict.fromkeys(os.fspath(p) for group in groups for p in group))
+
+
+def h5_files(h5file, name: str) -> list[str]:
+    """The files the HDF5 object ``name`` of an open h5py file and every group on its path live in.
+
+    An external link (``h5py.ExternalLink``) makes HDF5 open another file: the object then
+    lives there, and that file is among the result, as is every file a chain of external links
+    passes through on the way (an external link to an external link). Paths as h5py reports
+    them (``File.filename``), each file once.
+
+    Parameters
+    ----------
+    h5file : h5py.File
+    name : str
+        An object path in it, e.g. ``'/Function/sed/1'``.
+    """
+    import os
+
+    parts = [p for p in name.split("/") if p]
+    out = [h5file.filename]
+    for k in range(1, len(parts) + 1):
+        prefix = "/" + "/".join(parts[:k])
+        out.extend(_link_chain(h5file, prefix, h5file[os.path.dirname(prefix)].file.filename))
+        out.append(h5file[prefix].file.filename)
+    seen, unique = set(), []
+    for f in out:
+        if os.path.abspath(f) not in seen:
+            seen.add(os.path.abspath(f))
+            unique.append(f)
+    return unique
+
+
+def _link_chain(h5file, name: str, parent: str, limit: int = 32) -> list[str]:
+    """The files a chain of external links starting at ``name`` (a link in the file ``parent``) opens.
+
+    Each target name is resolved as HDF5 does by default: absolute as written, else relative to
+    the folder of the file holding the link. A target that is not there ends the chain (HDF5
+    found it elsewhere, e.g. through ``HDF5_EXT_PREFIX``; its final file is still reported by
+    :func:`h5_files`).
+    """
+    import os
+
+    import h5py
+
+    out: list[str] = []
+    link = h5file.get(name, getlink=True)
+    while isinstance(link, h5py.ExternalLink) and len(out) < limit:
+        target = link.filename if os.path.isabs(link.filename) else os.path.join(os.path.dirname(parent), link.filename)
+        if not os.path.isfile(target):
+            break
+        out.append(target)
+        with h5py.File(target, "r") as f:
+            link = f.get(link.path, getlink=True)
+        parent = target
+    return out
 
 
 def split_steps(raw: RawExport):

@@ -13,7 +13,11 @@ reads the heavy data from HDF5 with h5py (or inline XML numbers):
   as such: tensor shear);
 - the mesh (topology, geometry) is read once.
 
-A file with a single grid and no collection is read by meshio (:mod:`afferent.io._meshio`).
+A file with a single grid and no collection is interpreted by meshio (:mod:`afferent.io._meshio`),
+its heavy data read here (:func:`read_single_grid`). Heavy data are HDF5 datasets (``file.h5:/path``,
+relative to the XDMF file; external links followed), raw ``Format="Binary"`` files or inline
+numbers; every file read is listed in :attr:`~afferent.io._raw.RawExport.files`. ``xi:include``
+is followed within the XDMF file only (DOLFINx's ``xpointer`` to the mesh grid).
 """
 
 from __future__ import annotations
@@ -26,9 +30,9 @@ from xml.etree import ElementTree as ET
 import numpy as np
 
 from ..exceptions import SEDFormatError
-from ._raw import RawArray, RawExport
+from ._raw import RawArray, RawExport, files_read
 
-__all__ = ["read_xdmf_collections", "has_collections"]
+__all__ = ["read_xdmf_collections", "has_collections", "read_single_grid"]
 
 #: xi:include, under the 2001 namespace (DOLFINx) or the 2003 one (meshio's time series writer).
 _XI_TAGS = ("{http://www.w3.org/2001/XInclude}include", "{http://www.w3.org/2003/XInclude}include")
@@ -46,48 +50,36 @@ def has_collections(path: str) -> bool:
 
 
 class _Heavy:
-    """Reads DataItems: HDF5 datasets (one open file per .h5) or inline XML numbers."""
+    """Reads DataItems: HDF5 datasets (one open file per .h5), raw binary files or inline XML numbers.
+
+    ``opened`` lists every file read so far (HDF5 files, the targets of their external links,
+    ``.bin`` files), in the order first opened: the side files of :attr:`RawExport.files`.
+    """
 
     def __init__(self, path: str):
-        self.path, self.folder, self.files = path, os.path.dirname(path), {}
+        self.path, self.folder, self.files, self.opened = path, os.path.dirname(path), {}, []
+
+    def _note(self, *paths) -> None:
+        for p in paths:
+            if p not in self.opened:
+                self.opened.append(p)
 
     def read(self, item: ET.Element, what: str) -> np.ndarray:
         fmt = item.get("Format", "XML").upper()
         dims = tuple(int(d) for d in (item.get("Dimensions") or "").split()) or None
         text = (item.text or "").strip()
         if fmt == "HDF":
-            if ":" not in text:
-                raise SEDFormatError(f"SED file {self.path!r}: the HDF DataItem of {what} must read 'file.h5:/path'; "
-                                     f"got {text!r} instead.")
-            name, dataset = text.split(":", 1)
-            h5path = os.path.join(self.folder, name)
-            if h5path not in self.files:
-                if not os.path.isfile(h5path):
-                    raise SEDFormatError(f"SED file {self.path!r}: the heavy-data file {h5path!r} of {what} is missing "
-                                         "(keep the .h5 beside the .xdmf).")
-                import h5py
-
-                try:
-                    self.files[h5path] = h5py.File(h5path, "r")
-                except OSError as err:
-                    raise SEDFormatError(f"SED file {self.path!r}: the heavy-data file {h5path!r} could not be opened "
-                                         f"(truncated or corrupt?): {err}") from err
-            h5 = self.files[h5path]
-            if dataset not in h5:
-                raise SEDFormatError(f"SED file {self.path!r}: dataset {dataset!r} of {what} is not in {h5path!r}.")
-            try:
-                data = np.asarray(h5[dataset][()])
-            except OSError as err:
-                raise SEDFormatError(f"SED file {self.path!r}: dataset {dataset!r} of {what} in {h5path!r} could not "
-                                     f"be read (truncated?): {err}") from err
+            data = self._hdf(text, what)
+        elif fmt == "BINARY":
+            data = self._binary(item, text, what, -1 if dims is None else int(np.prod(dims)))
         elif fmt == "XML":
             try:
                 data = np.array(text.split(), dtype=float)
             except ValueError as err:
                 raise SEDFormatError(f"SED file {self.path!r}: the inline numbers of {what} are not numbers: {err}") from err
         else:
-            raise SEDFormatError(f"SED file {self.path!r}: {what} is stored as Format={fmt!r}; afferent reads HDF and "
-                                 "XML DataItems.")
+            raise SEDFormatError(f"SED file {self.path!r}: {what} is stored as Format={fmt!r}; afferent reads HDF, "
+                                 "Binary and XML DataItems.")
         if dims is not None:
             if int(np.prod(dims)) != data.size:
                 raise SEDFormatError(f"SED file {self.path!r}: {what} must hold {' x '.join(map(str, dims))} values "
@@ -95,9 +87,97 @@ class _Heavy:
             data = data.reshape(dims)
         return data
 
+    def _hdf(self, text: str, what: str) -> np.ndarray:
+        """``file.h5:/dataset`` (the file relative to the XDMF file's folder)."""
+        if ":" not in text:
+            raise SEDFormatError(f"SED file {self.path!r}: the HDF DataItem of {what} must read 'file.h5:/path'; "
+                                 f"got {text!r} instead.")
+        name, dataset = text.split(":", 1)
+        h5path = os.path.join(self.folder, name)
+        if h5path not in self.files:
+            if not os.path.isfile(h5path):
+                raise SEDFormatError(f"SED file {self.path!r}: the heavy-data file {h5path!r} of {what} is missing "
+                                     "(keep the .h5 beside the .xdmf).")
+            import h5py
+
+            try:
+                self.files[h5path] = h5py.File(h5path, "r")
+            except OSError as err:
+                raise SEDFormatError(f"SED file {self.path!r}: the heavy-data file {h5path!r} could not be opened "
+                                     f"(truncated or corrupt?): {err}") from err
+            self._note(h5path)
+        h5 = self.files[h5path]
+        try:
+            found = dataset in h5
+        except (OSError, KeyError):  # an external link whose target file is missing
+            found = False
+        if not found:
+            raise SEDFormatError(f"SED file {self.path!r}: dataset {dataset!r} of {what} is not in {h5path!r} (or "
+                                 "an external link on its path points to a missing file).")
+        from ._raw import h5_files
+
+        self._note(*(h5path if f == h5.filename else f for f in h5_files(h5, dataset)))
+        try:
+            return np.asarray(h5[dataset][()])
+        except OSError as err:
+            raise SEDFormatError(f"SED file {self.path!r}: dataset {dataset!r} of {what} in {h5path!r} could not "
+                                 f"be read (truncated?): {err}") from err
+
+    def _binary(self, item: ET.Element, text: str, what: str, count: int) -> np.ndarray:
+        """A raw binary file (XDMF ``Format="Binary"``): relative to the XDMF file's folder, as XDMF defines it;
+        meshio writes the name relative to the folder it was run in, used when only that one exists."""
+        from meshio.xdmf.common import xdmf_to_numpy_type
+
+        binpath = os.path.join(self.folder, text)
+        if not os.path.isfile(binpath) and os.path.isfile(text):
+            binpath = text
+        if not os.path.isfile(binpath):
+            raise SEDFormatError(f"SED file {self.path!r}: the binary data file {text!r} of {what} is missing "
+                                 f"(looked for {os.path.join(self.folder, text)!r}).")
+        kind = (item.get("DataType") or item.get("NumberType") or "Float", item.get("Precision", "4"))
+        if kind not in xdmf_to_numpy_type:
+            raise SEDFormatError(f"SED file {self.path!r}: {what} has DataType/Precision {kind!r}, not one XDMF defines.")
+        if (item.get("Compression") or "Raw").lower() != "raw":
+            raise SEDFormatError(f"SED file {self.path!r}: {what} is compressed ({item.get('Compression')!r}); "
+                                 "afferent reads Raw binary data.")
+        endian = {"big": ">", "little": "<"}.get((item.get("Endian") or "Native").lower(), "=")
+        dtype = np.dtype(xdmf_to_numpy_type[kind]).newbyteorder(endian)
+        self._note(binpath)
+        with open(binpath, "rb") as f:
+            f.seek(int(item.get("Seek", 0)))
+            return np.fromfile(f, dtype=dtype, count=count).astype(dtype.newbyteorder("="))
+
     def close(self):
         for f in self.files.values():
             f.close()
+
+
+def read_single_grid(path: str, opened: list):
+    """A single-grid XDMF file through meshio's XDMF reader, its HDF and Binary DataItems read here.
+
+    meshio interprets the grid (topology, geometry, attributes); the heavy data go through
+    :class:`_Heavy`, so that every file read (HDF5 files, external-link targets, ``.bin``
+    files) is appended to ``opened``.
+
+    Returns
+    -------
+    meshio.Mesh
+    """
+    from meshio.xdmf.main import XdmfReader
+
+    heavy = _Heavy(path)
+
+    class _Reader(XdmfReader):
+        def _read_data_item(self, data_item, root=None):
+            if "Reference" not in data_item.attrib and data_item.get("Format", "XML").upper() in ("HDF", "BINARY"):
+                return heavy.read(data_item, f"the data item {(data_item.text or '').strip()!r}")
+            return super()._read_data_item(data_item, root)
+
+    try:
+        return _Reader(path).read()
+    finally:
+        opened.extend(heavy.opened)
+        heavy.close()
 
 
 def _mesh_grid(domain: ET.Element, grid: ET.Element) -> ET.Element:
@@ -305,7 +385,7 @@ def iter_xdmf_collections(path: str, *, progress: bool = False):
                                 f"functions {', '.join(found) or 'none'}; mesh read once.")
             else:
                 _check_same_functions(found, t, times, first_names, first_shapes, path)
-            yield RawExport(files=(path,), format="xdmf", points=points, arrays=found, times=np.array([t]),
+            yield RawExport(files=files_read([path], heavy.opened), format="xdmf", points=points, arrays=found, times=np.array([t]),
                             cells=cells, notes=tuple(notes))
         bar.close()
     finally:

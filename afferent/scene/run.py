@@ -211,14 +211,16 @@ def _compute_downstream(run: _Run, sed) -> None:
 
 
 def _hash_inputs(run: _Run):
-    """Content hashes of every input the planned stages read (they key the cache and go into the record)."""
-    from ..cache import export_files
+    """Content hashes of every input the planned stages name (they key the cache and go into the record).
 
+    The side files the export makes the reader open are hashed once known: after reading
+    (:func:`_read_and_sample`) or when a cache entry's files are checked (:func:`_receptor_sed`).
+    """
     scene, planned = run.scene, run.planned
     ex = scene.export
     with run.steps("hashing"):
-        exp_files = export_files(ex.files)
-        for p in ex.files:
+        exp_files = list(dict.fromkeys(ex.files))
+        for p in exp_files:
             if not os.path.exists(p):
                 raise FileNotFoundError(f"SED file {p!r}{' ([export] file)' if scene.source else ''} not found.")
         hashes = _hash_all({p: None for p in exp_files})
@@ -255,8 +257,9 @@ def _cache_key(run: _Run, layout, exp_files, hashes) -> str:
                                      "material_array", "upper", "lower")},
                 "region": {"x_range_m": _plain_json(scene.region.x_range_m),
                            "z_range_m": _plain_json(scene.region.z_range_m)}}
-    # each file the reader opens: (the reader its name selects, or 'member' of a .pvd/.xdmf; content hash)
-    readers = [(format_of(p, ex.format) if p in ex.files else "member", hashes[p]) for p in exp_files]
+    # each export file named: (the reader its name selects, content hash); the side files it makes the reader
+    # open are checked by SEDCache.get against the entry's list
+    readers = [(format_of(p, ex.format), hashes[p]) for p in exp_files]
     return sampling_key(exports=readers, read_options=read_opts, receptors=rkey, method=scene.sampling.method)
 
 
@@ -275,26 +278,63 @@ def _receptor_sed(run: _Run, exp_files, hashes, *, cache_dir, use_cache: bool, p
     if cache is not None:
         cache_info["dir"] = str(cache.directory)
         with run.steps("cache"):
-            entry = cache.get(key, positions=None if layout is None else layout.positions)
+            entry = cache.get(key, positions=None if layout is None else layout.positions, base=_base(scene),
+                              hashes=run.inputs)
         cache_info["hit"] = entry is not None
         if entry is None:
             cache_info["miss"] = cache.last_miss
     if entry is not None:
         sed = _from_cache(run, entry, layout, key)
+        _add_inputs(run, entry.files)
     else:
-        sed = _read_and_sample(run, layout, progress=progress)
-        if cache is not None:
-            with run.steps("cache"):
-                try:
-                    path = cache.put(key, sed, meta={"field": run.record["field"], "region_info": {
-                        k: v for k, v in run.region_info.items() if k != "region"}})
-                    cache_info["written"] = str(path)
-                except OSError as err:  # a read-only or full cache disk must not fail the run
-                    cache_info["write_error"] = str(err)
+        sed = _read_sample_store(run, layout, key, cache, cache_info, progress=progress)
     run.record["cache"] = cache_info
     run.region_info["n_receptors_sampled"] = int(sed.layout.n_receptors)
     run.record["receptors"] = {"source": scene.receptors.file or f"grid = {scene.receptors.grid!r}", **run.region_info}
     return sed
+
+
+def _read_sample_store(run: _Run, layout, key: str, cache, cache_info: dict, *, progress: bool):
+    """Read and sample (cache miss); hash every file the reader opened; store the entry with their list.
+
+    A file modified after reading began (its modification time is later) may have been read
+    half old, half new: its hash would not describe the values, so no entry is written then.
+    """
+    from ..cache import file_records
+
+    t_read = time.time_ns()
+    sed = _read_and_sample(run, layout, progress=progress)
+    read = run.record["field"]["files"]
+    with run.steps("hashing"):
+        _add_inputs(run, _hash_all({p: run.inputs.get(p) for p in read}))
+        records = file_records(read, run.inputs)
+    if cache is None:
+        return sed
+    late = [r["path"] for r in records if r["mtime_ns"] >= t_read]
+    if late:
+        cache_info["not_written"] = (f"file {late[0]!r} was modified after reading began: the values may not match "
+                                     "its content; not cached")
+        return sed
+    with run.steps("cache"):
+        try:
+            path = cache.put(key, sed, meta={"field": run.record["field"], "region_info": {
+                k: v for k, v in run.region_info.items() if k != "region"}}, files=records, base=_base(run.scene))
+            cache_info["written"] = str(path)
+        except OSError as err:  # a read-only or full cache disk must not fail the run
+            cache_info["write_error"] = str(err)
+    return sed
+
+
+def _add_inputs(run: _Run, hashes: dict) -> None:
+    """Files the reader opened (path -> sha256) into the record's inputs, once each (a path already there
+    under another spelling of the same file keeps its spelling)."""
+    known = {os.path.abspath(p) for p in run.inputs}
+    run.inputs.update({p: h for p, h in hashes.items() if p in run.inputs or os.path.abspath(p) not in known})
+
+
+def _base(scene: Scene) -> str:
+    """The folder of the first export file (where a cache entry's files are looked for when the export moved)."""
+    return os.path.dirname(os.path.abspath(scene.export.files[0]))
 
 
 def _from_cache(run: _Run, entry, layout, key: str):
