@@ -138,11 +138,28 @@ def _main(argv: list[str] | None) -> int:
             msg = speak_cli(msg, flags)  # in the command's own words; a scene's errors name its TOML keys
         print(f"afferent: error: {msg}", file=sys.stderr)
         return 2
+    except OSError as err:  # the environment (full or read-only disk, ...) is bad input too; others are bugs
+        message = _environment_message(err)
+        if message is None:
+            return _internal_error(err)
+        print(f"afferent: error: {message}", file=sys.stderr)
+        return 2
     except KeyboardInterrupt:
         print("afferent: interrupted", file=sys.stderr)
         return 130
     except Exception as err:  # a bug: say so, keep the traceback for the report
-        print(f"afferent: internal error (please report): {type(err).__name__}: {err}", file=sys.stderr)
-        if os.environ.get("AFFERENT_DEBUG"):
-            traceback.print_exc()
-        return 1
+        return _internal_error(err)
+
+
+def _internal_error(err: BaseException) -> int:
+    print(f"afferent: internal error (please report): {type(err).__name__}: {err}", file=sys.stderr)
+    if os.environ.get("AFFERENT_DEBUG"):
+        traceback.print_exc()
+    return 1
+
+
+def _environment_message(err: OSError) -> str | None:
+    """One line for an error of the environment (afferent._output.describe_os_error), else None."""
+    from .._output import describe_os_error
+
+    return describe_os_error(err)

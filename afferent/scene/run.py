@@ -141,16 +141,14 @@ def run_scene(scene: Scene, *, overwrite: bool = False, cache_dir=None, progress
     started = datetime.now(timezone.utc).isoformat(timespec="seconds")
     scene = resolve(scene)
     outdir = scene.outputs.dir
-    if not os.path.lexists(outdir):
-        os.makedirs(os.path.dirname(outdir), exist_ok=True)  # e.g. results/ of results/<name>; <name> comes whole
-    check_writable(outdir, overwrite=overwrite, what="Output folder")
+    check_writable(outdir, overwrite=overwrite, what="Output folder", inputs=scene.input_files, folder=True)
     run = _Run(scene, plan(scene), skip_reasons(scene), _Steps())
     want = set(scene.outputs.want)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         _compute(run, cache_dir=cache_dir, use_cache=use_cache, progress=progress)
         files: list[str] = []
-        with atomic_dir(outdir, overwrite=overwrite) as tmp:
+        with atomic_dir(outdir, overwrite=overwrite, inputs=scene.input_files) as tmp:
             with run.steps("writing"):
                 files = write_outputs(tmp, want=want, plots="plots" in want, **run.out)
             full = build_record(scene, run.planned, run.skipped, run.steps.seconds, run.record, run.inputs, caught,
