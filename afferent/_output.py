@@ -148,7 +148,7 @@ def _check_own(path: str, what: str) -> None:
                                 "would delete them: move them away or choose another folder.")
 
 
-def check_writable(path, *, overwrite: bool, what: str = "Output file", inputs: Iterable = (), folder: bool = False,
+def check_writable(path, *, overwrite: bool, what: str | None = None, inputs: Iterable = (), folder: bool = False,
                    resume: bool = False) -> None:
     """The guard every writer calls, before any work; create the missing parent folders.
 
@@ -158,8 +158,8 @@ def check_writable(path, *, overwrite: bool, what: str = "Output file", inputs: 
         The output file or folder.
     overwrite : bool
         Replace an existing output: a file that is not an input, or a folder afferent wrote whole.
-    what : str
-        How messages name it ('Output file', 'Output folder').
+    what : str, optional
+        How messages name it; default 'Output folder' or 'Output file'.
     inputs : iterable of paths
         The files and folders the run reads: the output may not be, hold or lie inside any of them.
     folder : bool
@@ -176,6 +176,7 @@ def check_writable(path, *, overwrite: bool, what: str = "Output file", inputs: 
         A folder output names a file, or a file output a folder.
     """
     path = os.fspath(path)
+    what = what or ("Output folder" if folder else "Output file")
     _check_place(path, inputs, what)
     if os.path.lexists(path):
         if folder and not os.path.isdir(path):

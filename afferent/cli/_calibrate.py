@@ -161,8 +161,7 @@ def run(args: argparse.Namespace) -> int:
     from ..export import file_sha256
     from ..profiles import read_observed
 
-    check_writable(args.output, overwrite=args.overwrite, what="Output folder", inputs=(args.sed, args.observed),
-                   folder=True)
+    check_writable(args.output, overwrite=args.overwrite, inputs=(args.sed, args.observed), folder=True)
     start = parse_start(args.start)
     sed = read_receptor_sed(args.sed)
     observed = read_observed(args.observed, length_unit=args.observed_unit)
