@@ -8,8 +8,8 @@ One guard, :func:`check_writable`, runs before any work and again at the final r
 - a folder output is created whole (:func:`atomic_dir`) with :data:`MARKER` inside, the list of the
   files afferent wrote there; ``overwrite`` replaces an existing folder only if it is empty, or
   carries that list and holds nothing else (a folder written before the list existed is recognised
-  by its afferent ``run.json`` / ``sweep.json``); a file output replaces only a file that is not an
-  input;
+  by its afferent ``run.json`` / ``sweep.json``, and only its CSV, PNG, VTU, JSON, Parquet and
+  Markdown files count as afferent's); a file output replaces only a file that is not an input;
 - the final rename never replaces what appeared meanwhile (Linux ``renameat2(RENAME_NOREPLACE)``,
   elsewhere a hard link for files and ``mkdir`` for folders); a replacement swaps old and new in one
   step (``RENAME_EXCHANGE``) and only then deletes the old one;
@@ -42,6 +42,8 @@ _ENVIRONMENT = {errno.ENOSPC: "the disk is full", errno.EDQUOT: "the disk quota 
                 errno.EPERM: "the operation is not permitted", errno.EIO: "an input/output error of the disk",
                 errno.EFBIG: "the file is too large for this file system", errno.ENAMETOOLONG: "the name is too long",
                 errno.ELOOP: "too many levels of symbolic links"}
+#: in a folder written before MARKER existed, the kinds of file afferent writes (a notes.txt there is not its)
+_LEGACY = tuple(f"*.{ext}" for ext in ("csv", "png", "vtu", "json", "jsonl", "parquet", "md"))
 _TEMPORARIES = (".*.part", "*/.*.part")  # afferent's own temporary names, left by a killed run
 _WRITING = (errno.ENOSPC, errno.EDQUOT, errno.EROFS, errno.EFBIG)  # only writing gives these
 
@@ -111,7 +113,8 @@ def _afferent_record(path: str) -> bool:
             data = json.load(f)
     except (OSError, ValueError):
         return False
-    return isinstance(data, dict) and ("afferent_sweep" in data or "afferent" in (data.get("versions") or {}))
+    versions = data.get("versions") if isinstance(data, dict) else None
+    return isinstance(data, dict) and ("afferent_sweep" in data or "afferent-skin" in (versions or {}))
 
 
 def _manifest(folder: str) -> dict | None:
@@ -126,7 +129,7 @@ def _manifest(folder: str) -> dict | None:
     records = [os.path.join(folder, n) for n in ("run.json", "sweep.json")]
     records += [os.path.join(folder, d, "run.json") for d in sorted(os.listdir(folder))]  # afferent demo's
     if any(_afferent_record(p) for p in records):
-        return {"files": [], "patterns": ["*"]}  # written by afferent before the list: all of it
+        return {"files": [], "patterns": list(_LEGACY)}  # written by afferent before the list: its kinds of file
     return None
 
 

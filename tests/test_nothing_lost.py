@@ -184,6 +184,14 @@ def test_overwrite_replaces_only_a_folder_afferent_wrote_whole(project, capsys):
     assert (project / "out" / "run.json").read_bytes() != before
     assert (project / "thesis.tex").is_file() and (project / "data" / "sub" / "notes.txt").is_file()
     assert sorted(p.name for p in project.iterdir()) == ["data", "out", "thesis.tex"]  # no temporary left
+    # a folder of an afferent before the list (no .afferent-output.json): its run.json says whose it is, and only
+    # the kinds of file afferent writes count as its own
+    (project / "out" / ".afferent-output.json").unlink()
+    (project / "out" / "notes.txt").write_text("mine\n")
+    assert main([*RUN, "-o", "out", "--overwrite"]) == 2
+    assert "holds files afferent did not write ('notes.txt')" in capsys.readouterr().err
+    (project / "out" / "notes.txt").unlink()
+    assert main([*RUN, "-o", "out", "--overwrite"]) == 0 and (project / "out" / ".afferent-output.json").is_file()
     (project / "link").symlink_to("out")
     assert main([*RUN, "-o", "link", "--overwrite"]) == 2
     assert "Output folder '" in (err := capsys.readouterr().err) and "is a symbolic link (to 'out')" in err

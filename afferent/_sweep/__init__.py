@@ -48,7 +48,9 @@ sampled SEDs are scattered to the workers: no worker reads an export or assumes 
 done. One file per batch, not per task: writing a file costs this machine ~0.5 ms, a record
 serialised by its worker costs the writer almost nothing, and the writer (this process) must
 keep up with every worker of a cluster. A re-run into the same folder skips the tasks whose records say 'ok' (resume) and retries
-failed ones; a folder holding another sweep is refused unless ``overwrite``.
+failed ones; a folder holding another sweep is refused unless ``overwrite``, and then the new sweep
+is written beside it and replaces it only when complete (``afferent._output.atomic_dir``: an
+interrupted ``overwrite`` keeps the previous sweep whole).
 """
 
 from __future__ import annotations
@@ -131,7 +133,7 @@ def _inputs(spec: SweepSpec) -> tuple:
 
 
 def _prepare(output: str, spec: SweepSpec, overwrite: bool, inputs: tuple) -> dict:
-    """Check the output folder (:func:`afferent._output.check_writable`); the records of tasks done before (resume).
+    """Check the output folder (``afferent._output.check_writable``); the records of tasks done before (resume).
 
     A folder of the same sweep is resumed; with ``overwrite`` an existing folder is checked here and
     replaced only when the new sweep is complete (:func:`sweep`)."""
@@ -404,7 +406,8 @@ def sweep(sources, output, *, scheduler=None, overwrite: bool = False, cache_dir
         when Dask is not installed; ``'threads'``, ``'processes'``, ``'serial'``; a scheduler
         address (``'tcp://host:8786'``) or a ``distributed.Client``.
     overwrite : bool, default=False
-        Replace an existing output folder.
+        Replace an existing output folder that afferent wrote (README "Outputs and --overwrite"); the
+        previous sweep stays whole until the new one is complete.
     cache_dir : str or path-like, optional
         Sampled-SED cache (:mod:`afferent.cache`); default ``$AFFERENT_CACHE_DIR`` or
         ``~/.cache/afferent``.
@@ -429,7 +432,8 @@ def sweep(sources, output, *, scheduler=None, overwrite: bool = False, cache_dir
     SceneError, SceneTypeError, FileNotFoundError
         From :func:`load_sweep`, before anything runs.
     OutputExistsError
-        ``output`` holds another sweep (or is not a sweep's folder) and ``overwrite`` is False.
+        ``output`` holds another sweep (or is not a sweep's folder) and ``overwrite`` is False; or
+        it may not be replaced (an input, the working folder, a link, files afferent did not write).
     ImportError
         ``scheduler`` names a cluster or a Dask scheduler and Dask is not installed.
 

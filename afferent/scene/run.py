@@ -98,7 +98,8 @@ def run_scene(scene: Scene, *, overwrite: bool = False, cache_dir=None, progress
     scene : Scene
         From :func:`load_scene` (resolved here if it is not yet).
     overwrite : bool, default=False
-        Replace an existing output folder. Without it an existing folder is an error, raised
+        Replace an existing output folder that afferent wrote (README "Outputs and --overwrite"),
+        once the new results are complete. Without it an existing folder is an error, raised
         before any work is done.
     cache_dir : str or path-like, optional
         Folder of the sampled-SED cache (:mod:`afferent.cache`); default
@@ -117,7 +118,10 @@ def run_scene(scene: Scene, *, overwrite: bool = False, cache_dir=None, progress
     Raises
     ------
     OutputExistsError
-        The output folder exists and ``overwrite`` is False.
+        The output folder exists and ``overwrite`` is False; or it may not be replaced (an input,
+        the working folder, a link, a folder holding files afferent did not write).
+    OutputWriteError
+        The disk refuses (full, read-only, permissions); the message names the output.
     SceneError
         As :func:`resolve`; a region with no receptor; an unreadable calibration result.
     FileNotFoundError, SEDFormatError, UnitError, FieldCoverageError, ValueError
