@@ -37,15 +37,16 @@ __all__ = ["atomic_file", "atomic_dir", "check_writable", "mark_folder", "descri
 MARKER = ".afferent-output.json"
 
 #: errno -> what it means for the user: the environment, not a bug (exit code 2 on the command line)
-_ENVIRONMENT = {errno.ENOSPC: "the disk is full", errno.EDQUOT: "the disk quota is exceeded",
-                errno.EROFS: "the file system is read-only", errno.EACCES: "permission denied",
-                errno.EPERM: "the operation is not permitted", errno.EIO: "an input/output error of the disk",
-                errno.EFBIG: "the file is too large for this file system", errno.ENAMETOOLONG: "the name is too long",
-                errno.ELOOP: "too many levels of symbolic links"}
+_ENVIRONMENT = {getattr(errno, name): reason for name, reason in (
+    ("ENOSPC", "the disk is full"), ("EDQUOT", "the disk quota is exceeded"), ("EROFS", "the file system is read-only"),
+    ("EACCES", "permission denied"), ("EPERM", "the operation is not permitted"),
+    ("EIO", "an input/output error of the disk"), ("EFBIG", "the file is too large for this file system"),
+    ("ENAMETOOLONG", "the name is too long"), ("ELOOP", "too many levels of symbolic links"),
+) if hasattr(errno, name)}  # EDQUOT: not on Windows
 #: in a folder written before MARKER existed, the kinds of file afferent writes (a notes.txt there is not its)
 _LEGACY = tuple(f"*.{ext}" for ext in ("csv", "png", "vtu", "json", "jsonl", "parquet", "md"))
 _TEMPORARIES = (".*.part", "*/.*.part")  # afferent's own temporary names, left by a killed run
-_WRITING = (errno.ENOSPC, errno.EDQUOT, errno.EROFS, errno.EFBIG)  # only writing gives these
+_WRITING = tuple(getattr(errno, n) for n in ("ENOSPC", "EDQUOT", "EROFS", "EFBIG") if hasattr(errno, n))  # only writing
 
 
 def _umask() -> int:
@@ -190,12 +191,13 @@ def check_writable(path, *, overwrite: bool, what: str | None = None, inputs: It
             raise OutputExistsError(f"{what} {path!r} already exists; pass overwrite=True to replace it.")
         if folder and overwrite and not resume:
             _check_own(path, what)
-    parent = os.path.dirname(os.path.abspath(path))
-    if os.path.exists(parent) and not os.path.isdir(parent):
-        raise NotADirectoryError(f"{what} {path!r}: {parent!r} is a file, not a folder.")
+    parent, base = os.path.split(os.path.abspath(path))
+    if os.path.lexists(parent) and not os.path.isdir(parent):
+        kind = "a broken symbolic link" if os.path.islink(parent) else "a file"
+        raise NotADirectoryError(f"{what} {path!r}: {parent!r} is {kind}, not a folder.")
     with _environment(path, os.sep):  # anything failing here is about the output's place
         os.makedirs(parent, exist_ok=True)  # results/ on a fresh checkout
-        fd, probe = tempfile.mkstemp(prefix=f".{os.path.basename(parent)}.", suffix=".part", dir=parent)
+        fd, probe = tempfile.mkstemp(prefix=f".{base}.", suffix=".part", dir=parent)  # the writers' temporary name
         try:  # the folder takes files (not read-only, forbidden or full): said now, before the work
             os.write(fd, b"\0")
         finally:
@@ -224,8 +226,8 @@ _AT_FDCWD, _RENAME_NOREPLACE, _RENAME_EXCHANGE = -100, 1, 2
 def _renameat2(src: str, dst: str, flags: int) -> bool:
     """Linux ``renameat2``; False when this system or file system has none (then the caller falls back)."""
     try:
-        fn = ctypes.CDLL(None, use_errno=True).renameat2
-    except (AttributeError, OSError):
+        fn = ctypes.CDLL(None, use_errno=True).renameat2  # glibc >= 2.28; not musl before 1.2.2, not macOS, not Windows
+    except (AttributeError, OSError, TypeError):
         return False
     if fn(_AT_FDCWD, os.fsencode(src), _AT_FDCWD, os.fsencode(dst), ctypes.c_uint(flags)) == 0:
         return True
@@ -249,7 +251,11 @@ def _rename_noreplace(src: str, dst: str, what: str) -> None:
             os.rename(src, dst)  # Windows never replaces
         elif os.path.isdir(src):
             os.mkdir(dst)  # claims the name; rename replaces only this empty folder
-            os.rename(src, dst)
+            try:
+                os.rename(src, dst)
+            except OSError:
+                os.rmdir(dst)
+                raise
         else:
             try:
                 os.link(src, dst)

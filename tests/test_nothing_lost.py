@@ -257,11 +257,17 @@ def test_an_interrupted_sweep_overwrite_keeps_the_previous_complete_sweep(projec
     assert proc.stderr.read().decode() == "afferent: interrupted\n"
 
 
-def test_the_final_rename_never_replaces_what_appeared_meanwhile(tmp_path):
+@pytest.mark.parametrize("renameat2", ["renameat2", "without renameat2"])
+def test_the_final_rename_never_replaces_what_appeared_meanwhile(tmp_path, monkeypatch, renameat2):
     """Issue 26.3: the existence check ran long before the final rename, so of two runs into the same
-    new folder the last silently replaced the first. The rename itself now refuses."""
+    new folder the last silently replaced the first. The rename itself now refuses: Linux's
+    renameat2(RENAME_NOREPLACE), or where there is none a hard link (files) or mkdir (folders)."""
+    import afferent._output
     from afferent._output import atomic_dir, atomic_file
     from afferent.exceptions import OutputExistsError
+
+    if renameat2 != "renameat2":  # as on macOS, musl or an old glibc: the portable route
+        monkeypatch.setattr(afferent._output, "_renameat2", lambda src, dst, flags: False)
 
     out = tmp_path / "out"
     with pytest.raises(OutputExistsError, match=r"Output folder '.*/out' appeared while this run was writing it "
@@ -277,6 +283,12 @@ def test_the_final_rename_never_replaces_what_appeared_meanwhile(tmp_path):
             Path(tmp).write_text("second\n")
             target.write_text("first\n")
     assert target.read_text() == "first\n" and sorted(p.name for p in tmp_path.iterdir()) == ["one.csv", "out"]
+    # with overwrite: afferent's own folder is replaced whole, old and new swapped in one step
+    for text in ("old\n", "new\n"):
+        with atomic_dir(tmp_path / "own", overwrite=True) as tmp:
+            (Path(tmp) / "a.csv").write_text(text)
+    assert (tmp_path / "own" / "a.csv").read_text() == "new\n"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["one.csv", "out", "own"]
 
 
 @pytest.mark.slow
@@ -323,3 +335,19 @@ def test_a_full_or_read_only_disk_is_one_error_line_not_an_internal_error(tmp_pa
                           timeout=120, env=dict(os.environ, MPLBACKEND="Agg"))
     assert done.returncode == 2, done.stderr
     assert re.fullmatch(rf"afferent: error: {message}\n", done.stderr), done.stderr
+
+
+def test_a_name_too_long_or_a_broken_parent_is_said_before_the_work(project, capsys):
+    """Issue 26.9: a name the file system refuses (ENAMETOOLONG) was an internal error after the whole
+    sampling; it is one line, exit 2, before any reading. A parent that is a broken link: named as such."""
+    from afferent.cli import main
+
+    sample = ["sample", "data/ex.vtu", "--receptors", "data/receptors.csv", "--length-unit", "mm", "--sed-unit", "MPa"]
+    long = "x" * 300 + ".csv"
+    assert main([*sample, "-o", long]) == 2
+    assert capsys.readouterr().err == f"afferent: error: cannot write {long!r}: the name is too long (ENAMETOOLONG)\n"
+    (project / "gone").symlink_to("nowhere")
+    assert main([*sample, "-o", "gone/sed.csv"]) == 2
+    assert re.fullmatch(r"afferent: error: Output file 'gone/sed.csv': '.*/gone' is a broken symbolic link, not a "
+                        r"folder.\n", capsys.readouterr().err)
+    assert sorted(p.name for p in project.iterdir()) == ["data", "gone", "thesis.tex"]
