@@ -341,8 +341,8 @@ def atomic_file(path, *, overwrite: bool = False, inputs: Iterable = ()):
     ...     df.to_csv(tmp)
     """
     path = os.fspath(path)
+    inputs = tuple(inputs)
     folder, base = os.path.split(os.path.abspath(path))
-    tmp = None
     with _environment(path, os.path.join(folder, f".{base}.")):
         check_writable(path, overwrite=overwrite, inputs=inputs)
         fd, tmp = tempfile.mkstemp(prefix=f".{base}.", suffix=".part", dir=folder)

@@ -351,3 +351,21 @@ def test_a_name_too_long_or_a_broken_parent_is_said_before_the_work(project, cap
     assert re.fullmatch(r"afferent: error: Output file 'gone/sed.csv': '.*/gone' is a broken symbolic link, not a "
                         r"folder.\n", capsys.readouterr().err)
     assert sorted(p.name for p in project.iterdir()) == ["data", "gone", "thesis.tex"]
+
+
+@pytest.mark.skipif(not os.path.exists("/dev/full"), reason="needs /dev/full (a device that is always full)")
+def test_the_commands_last_resort_names_an_error_of_the_environment():
+    """Any OSError of the environment that reaches the command (not through the writers) is one line,
+    exit 2, not 'internal error': cli._main asks afferent._output.describe_os_error."""
+    from afferent._output import describe_os_error
+    from afferent.cli._main import _environment_message
+
+    with pytest.raises(OSError) as full:
+        with open("/dev/full", "w") as f:
+            f.write("x")
+    assert describe_os_error(full.value, "out.csv") == "cannot write 'out.csv': the disk is full (ENOSPC)"
+    assert _environment_message(full.value) == "the disk is full (ENOSPC)"
+    with pytest.raises(OSError) as loop:
+        os.stat("/proc/self/cwd/" + "x/" * 1 + "y" * 5000)
+    assert _environment_message(loop.value).endswith("the name is too long (ENAMETOOLONG)")
+    assert _environment_message(ValueError("a bug")) is None

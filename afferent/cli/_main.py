@@ -138,28 +138,21 @@ def _main(argv: list[str] | None) -> int:
             msg = speak_cli(msg, flags)  # in the command's own words; a scene's errors name its TOML keys
         print(f"afferent: error: {msg}", file=sys.stderr)
         return 2
-    except OSError as err:  # the environment (full or read-only disk, ...) is bad input too; others are bugs
-        message = _environment_message(err)
-        if message is None:
-            return _internal_error(err)
-        print(f"afferent: error: {message}", file=sys.stderr)
-        return 2
     except KeyboardInterrupt:
         print("afferent: interrupted", file=sys.stderr)
         return 130
     except Exception as err:  # a bug: say so, keep the traceback for the report
-        return _internal_error(err)
+        if _environment_message(err):  # unless it is the environment (a full or read-only disk, ...): exit 2
+            print(f"afferent: error: {_environment_message(err)}", file=sys.stderr)
+            return 2
+        print(f"afferent: internal error (please report): {type(err).__name__}: {err}", file=sys.stderr)
+        if os.environ.get("AFFERENT_DEBUG"):
+            traceback.print_exc()
+        return 1
 
 
-def _internal_error(err: BaseException) -> int:
-    print(f"afferent: internal error (please report): {type(err).__name__}: {err}", file=sys.stderr)
-    if os.environ.get("AFFERENT_DEBUG"):
-        traceback.print_exc()
-    return 1
-
-
-def _environment_message(err: OSError) -> str | None:
-    """One line for an error of the environment (afferent._output.describe_os_error), else None."""
+def _environment_message(err: BaseException) -> str | None:
+    """One line for an OSError of the environment (afferent._output.describe_os_error), else None."""
     from .._output import describe_os_error
 
-    return describe_os_error(err)
+    return describe_os_error(err) if isinstance(err, OSError) else None
