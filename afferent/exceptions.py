@@ -9,6 +9,7 @@ pattern), so ``except ValueError`` keeps working::
     ├── UnitError(AfferentError, ValueError)            a unit missing, unknown or inconsistent
     ├── FieldCoverageError(AfferentError, ValueError)   receptors outside the FE field
     ├── OutputExistsError(AfferentError, FileExistsError)  refusing to overwrite results
+    ├── OutputWriteError(AfferentError, OSError)         the disk refuses (full, read-only, ...)
     └── CalibrationError(AfferentError, RuntimeError)   a calibration that cannot proceed
 
 Only :func:`afferent.cli.main` turns these into exit codes; the library never exits or prints.
@@ -22,6 +23,7 @@ __all__ = [
     "UnitError",
     "FieldCoverageError",
     "OutputExistsError",
+    "OutputWriteError",
     "CalibrationError",
     "AfferentWarning",
 ]
@@ -46,6 +48,18 @@ class FieldCoverageError(AfferentError, ValueError):
 
 class OutputExistsError(AfferentError, FileExistsError):
     """An output file or folder exists and overwriting was not asked for."""
+
+
+class OutputWriteError(AfferentError, OSError):
+    """An output could not be written for a reason of the environment: a full or read-only disk, a
+    quota, permissions. The message names the output and the reason; ``errno`` is the system's code."""
+
+    def __init__(self, code: int, message: str, filename: str | None = None):
+        super().__init__(message)
+        self.errno, self.filename = code, filename
+
+    def __str__(self) -> str:
+        return str(self.args[0])
 
 
 class CalibrationError(AfferentError, RuntimeError):

@@ -101,7 +101,7 @@ def test_run_cli_writes_every_output(capsys, tmp_path, bump):
     code = main(argv + ["--observed-unit", "mm"])
     assert code == 0, capsys.readouterr().err
     names = {p.name for p in out.iterdir()}
-    assert names == {"receptors.csv", "afferents.csv", "fit.csv", "profile_fit.csv", "receptors.vtu", "run.json",
+    assert names == {".afferent-output.json", "receptors.csv", "afferents.csv", "fit.csv", "profile_fit.csv", "receptors.vtu", "run.json",
                      "sed_map.png", "profiles_x.png", "profiles_z.png", "fit.png", "sed_map.csv", "profiles.csv"}
     rec = pd.read_csv(out / "receptors.csv")
     assert list(rec.columns) == ["receptor", "x_m", "y_m", "z_m", "longitudinal", "cross", "time_s", "sed_pa", "current_a"]

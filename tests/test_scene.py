@@ -275,7 +275,7 @@ def test_sed_only_scene_never_imports_brian2(tmp_path):
     assert skipped["spiking"] == "not needed: the requested outputs ['sed_map', 'plots'] do not include 'spikes'"
     assert [s["stage"] for s in record["stages"]][-1] == "writing"
     assert record["plan"] == ["reading", "sampling"]
-    assert sorted(os.listdir(tmp_path / "b")) == ["run.json", "sed_map.csv", "sed_map.png"]
+    assert sorted(os.listdir(tmp_path / "b")) == [".afferent-output.json", "run.json", "sed_map.csv", "sed_map.png"]
     # the record: resolved scene, inputs with hashes, versions, warnings
     from afferent.export import file_sha256
 

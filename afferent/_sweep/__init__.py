@@ -48,7 +48,9 @@ sampled SEDs are scattered to the workers: no worker reads an export or assumes 
 done. One file per batch, not per task: writing a file costs this machine ~0.5 ms, a record
 serialised by its worker costs the writer almost nothing, and the writer (this process) must
 keep up with every worker of a cluster. A re-run into the same folder skips the tasks whose records say 'ok' (resume) and retries
-failed ones; a folder holding another sweep is refused unless ``overwrite``.
+failed ones; a folder holding another sweep is refused unless ``overwrite``, and then the new sweep
+is written beside it and replaces it only when complete (``afferent._output.atomic_dir``: an
+interrupted ``overwrite`` keeps the previous sweep whole).
 """
 
 from __future__ import annotations
@@ -118,34 +120,45 @@ def _write_json(path: str, data: dict) -> None:
             json.dump(jsonable(data), f, indent=1)
 
 
-def _prepare(output: str, spec: SweepSpec, overwrite: bool) -> dict:
-    """Check or create the output folder; the records of tasks done before (resume)."""
-    import shutil
+#: what a sweep writes in its folder (fnmatch patterns, for the folder's list of afferent's files)
+SWEEP_FILES = ("sweep.json", "table.parquet", "table.csv", "tasks/*.jsonl")
 
+
+def _inputs(spec: SweepSpec) -> tuple:
+    """The sweep files and every file its scenes read: the output may not be, hold or lie inside one."""
+    seen = dict.fromkeys(spec.sources)
+    for tasks in spec.groups.values():
+        seen.update(dict.fromkeys(tasks[0].scene.input_files))
+    return tuple(seen)
+
+
+def _prepare(output: str, spec: SweepSpec, overwrite: bool, inputs: tuple) -> dict:
+    """Check the output folder (``afferent._output.check_writable``); the records of tasks done before (resume).
+
+    A folder of the same sweep is resumed; with ``overwrite`` an existing folder is checked here and
+    replaced only when the new sweep is complete (:func:`sweep`)."""
+    from .._output import check_writable
     from ..exceptions import OutputExistsError
 
     record = os.path.join(output, "sweep.json")
-    if os.path.lexists(output):
-        if not os.path.isdir(output):
-            raise NotADirectoryError(f"Output folder {output!r} is a file, not a folder.")
-        if overwrite:
-            shutil.rmtree(output)
-        elif os.path.isfile(record):
-            try:
-                with open(record) as f:
-                    old = json.load(f)
-            except (OSError, json.JSONDecodeError) as err:
-                raise OutputExistsError(f"Output folder {output!r} holds an unreadable sweep.json ({err}); pass "
-                                        "overwrite=True to replace the folder.") from err
-            if old.get("sweep_digest") != spec.digest:
-                raise OutputExistsError(
-                    f"Output folder {output!r} holds another sweep ({old.get('n_tasks')} tasks from "
-                    f"{', '.join(map(repr, old.get('sources', [])))}); a re-run resumes only the same sweep. Pass "
-                    "overwrite=True to replace it, or choose another folder.")
-        elif os.listdir(output):
-            raise OutputExistsError(f"Output folder {output!r} already exists and is not a sweep's (no sweep.json); "
-                                    "pass overwrite=True to replace it, or choose another folder.")
-    os.makedirs(os.path.join(output, "tasks"), exist_ok=True)
+    check_writable(output, overwrite=overwrite, what="Output folder", inputs=inputs, folder=True, resume=not overwrite)
+    if overwrite or not os.path.lexists(output):
+        return {}
+    if os.path.isfile(record):
+        try:
+            with open(record) as f:
+                old = json.load(f)
+        except (OSError, json.JSONDecodeError) as err:
+            raise OutputExistsError(f"Output folder {output!r} holds an unreadable sweep.json ({err}); pass "
+                                    "overwrite=True to replace the folder.") from err
+        if old.get("sweep_digest") != spec.digest:
+            raise OutputExistsError(
+                f"Output folder {output!r} holds another sweep ({old.get('n_tasks')} tasks from "
+                f"{', '.join(map(repr, old.get('sources', [])))}); a re-run resumes only the same sweep. Pass "
+                "overwrite=True to replace it, or choose another folder.")
+    elif os.listdir(output):
+        raise OutputExistsError(f"Output folder {output!r} already exists and is not a sweep's (no sweep.json); "
+                                "pass overwrite=True to replace it, or choose another folder.")
     ids = {t.id for t in spec.tasks}
     done = {k: r for k, r in _read_records(output).items() if k in ids and r.get("status") == "ok"}
     hashes: dict = {}
@@ -168,6 +181,20 @@ def _inputs_unchanged(inputs, hashes: dict) -> bool:
         if hashes[path] != sha:
             return False
     return True
+
+
+def _open_folder(output: str, existed: bool) -> None:
+    """Create the sweep's folder (refused if it appeared since the check) and its list of afferent's files."""
+    from .._output import MARKER, _appeared, mark_folder
+
+    if not existed:
+        try:
+            os.mkdir(output)
+        except FileExistsError:
+            raise _appeared(output, "Output folder") from None
+    os.makedirs(os.path.join(output, "tasks"), exist_ok=True)
+    if not os.path.exists(os.path.join(output, MARKER)):
+        mark_folder(output, patterns=SWEEP_FILES, files=())
 
 
 def _read_records(output: str) -> dict:
@@ -400,7 +427,8 @@ def sweep(sources, output, *, scheduler=None, overwrite: bool = False, cache_dir
         when Dask is not installed; ``'threads'``, ``'processes'``, ``'serial'``; a scheduler
         address (``'tcp://host:8786'``) or a ``distributed.Client``.
     overwrite : bool, default=False
-        Replace an existing output folder.
+        Replace an existing output folder that afferent wrote (README "Outputs and --overwrite"); the
+        previous sweep stays whole until the new one is complete.
     cache_dir : str or path-like, optional
         Sampled-SED cache (:mod:`afferent.cache`); default ``$AFFERENT_CACHE_DIR`` or
         ``~/.cache/afferent``.
@@ -425,7 +453,8 @@ def sweep(sources, output, *, scheduler=None, overwrite: bool = False, cache_dir
     SceneError, SceneTypeError, FileNotFoundError
         From :func:`load_sweep`, before anything runs.
     OutputExistsError
-        ``output`` holds another sweep (or is not a sweep's folder) and ``overwrite`` is False.
+        ``output`` holds another sweep (or is not a sweep's folder) and ``overwrite`` is False; or
+        it may not be replaced (an input, the working folder, a link, files afferent did not write).
     ImportError
         ``scheduler`` names a cluster or a Dask scheduler and Dask is not installed.
 
@@ -437,8 +466,8 @@ def sweep(sources, output, *, scheduler=None, overwrite: bool = False, cache_dir
     from datetime import datetime, timezone
 
     from .. import __version__
+    from .._output import atomic_dir
     from ..export import file_sha256
-    from .table import assemble, write_table
 
     import multiprocessing
 
@@ -450,17 +479,38 @@ def sweep(sources, output, *, scheduler=None, overwrite: bool = False, cache_dir
     started = datetime.now(timezone.utc).isoformat(timespec="seconds")
     spec = load_sweep(sources)
     output = os.path.abspath(os.fspath(output))
-    done = _prepare(output, spec, overwrite)
-    todo = [t for t in spec.tasks if t.id not in done]
-    groups: dict = {}
-    for t in todo:
-        groups.setdefault(t.group, []).append(t)
+    inputs = _inputs(spec)
+    done = _prepare(output, spec, overwrite, inputs)
     head = {"afferent_sweep": 1, "afferent": __version__, "started_utc": started,
             "sources": list(spec.sources), "sources_sha256": {p: file_sha256(p) for p in spec.sources},
             "mode": spec.mode, "keys": list(spec.keys), "sweep_digest": spec.digest, "n_tasks": len(spec.tasks),
             "n_sampling_groups": len(spec.groups), "tasks": [{"task": t.id, "scene": t.label, "params": t.params}
                                                               for t in spec.tasks], **(record_extra or {})}
-    _write_json(os.path.join(output, "sweep.json"), dict(head, status="running"))
+    run = dict(scheduler=scheduler, cache_dir=cache_dir, use_cache=use_cache, batch_size=batch_size,
+               shared_disk=shared_disk, progress=progress, head=head, t0=t0)
+    if overwrite and os.path.lexists(output):  # the previous sweep stays whole until this one is complete
+        with atomic_dir(output, overwrite=True, inputs=inputs, patterns=SWEEP_FILES) as tmp:
+            os.mkdir(os.path.join(tmp, "tasks"))
+            table, table_path, seen, failures, full = _execute(spec, tmp, done, **run)
+        table_path = os.path.join(output, os.path.basename(table_path))
+    else:
+        _open_folder(output, existed=os.path.lexists(output))
+        table, table_path, seen, failures, full = _execute(spec, output, done, **run)
+    return SweepResult(output=output, table=table, table_path=table_path, n_tasks=len(spec.tasks),
+                       n_ran=len(seen), n_skipped=len(done), n_failed=len(failures), failures=failures,
+                       record=full)
+
+
+def _execute(spec: SweepSpec, where: str, done: dict, *, scheduler, cache_dir, use_cache, batch_size, shared_disk,
+             progress, head: dict, t0: float):
+    """Run the tasks not ``done`` and write their records, the table and sweep.json into ``where``."""
+    from .table import assemble, write_table
+
+    todo = [t for t in spec.tasks if t.id not in done]
+    groups: dict = {}
+    for t in todo:
+        groups.setdefault(t.group, []).append(t)
+    _write_json(os.path.join(where, "sweep.json"), dict(head, status="running"))
     info: dict = {}
     kind = LOCAL_DEFAULT if scheduler in (None, "local") else scheduler
     if isinstance(kind, str) and kind in _LOCAL:
@@ -478,7 +528,7 @@ def sweep(sources, output, *, scheduler=None, overwrite: bool = False, cache_dir
         except ImportError as err:
             raise ImportError(f"scheduler={scheduler!r} needs Dask's distributed scheduler: pip install "
                               "'afferent-skin[dask]'.") from err
-    sink = _Sink(output, len(todo), progress=progress and (kind == "serial" or kind in _LOCAL))
+    sink = _Sink(where, len(todo), progress=progress and (kind == "serial" or kind in _LOCAL))
     try:
         if not todo:
             info.update(kind="none", why="every task was done before (resume)")
@@ -492,10 +542,10 @@ def sweep(sources, output, *, scheduler=None, overwrite: bool = False, cache_dir
                          shared_disk=shared_disk, progress=progress, info=info)
     finally:
         sink.close()
-    found = _read_records(output)
+    found = _read_records(where)
     records = [found[t.id] for t in spec.tasks if t.id in found]
     table = assemble(records, spec.keys)
-    table_path = write_table(table, output)
+    table_path = write_table(table, where)
     failures = [{k: r.get(k) for k in ("task", "scene", "scene_file", "params", "stage", "error")}
                 for r in records if r.get("status") != "ok"]
     full = dict(head, status="done" if not failures else "done, with failed tasks", engine=info,
@@ -504,7 +554,5 @@ def sweep(sources, output, *, scheduler=None, overwrite: bool = False, cache_dir
                                                                                           "written") for c in table.columns if c not in ("scene", "task")},
                 task_seconds=sum(sec for _, sec in sink.seen.values()),
                 wall_seconds=time.perf_counter() - t0)
-    _write_json(os.path.join(output, "sweep.json"), full)
-    return SweepResult(output=output, table=table, table_path=table_path, n_tasks=len(spec.tasks),
-                       n_ran=len(sink.seen), n_skipped=len(done), n_failed=len(failures), failures=failures,
-                       record=full)
+    _write_json(os.path.join(where, "sweep.json"), full)
+    return table, table_path, sink.seen, failures, full

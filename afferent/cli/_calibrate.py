@@ -161,7 +161,7 @@ def run(args: argparse.Namespace) -> int:
     from ..export import file_sha256
     from ..profiles import read_observed
 
-    check_writable(args.output, overwrite=args.overwrite, what="Output folder")
+    check_writable(args.output, overwrite=args.overwrite, inputs=(args.sed, args.observed), folder=True)
     start = parse_start(args.start)
     sed = read_receptor_sed(args.sed)
     observed = read_observed(args.observed, length_unit=args.observed_unit)
@@ -194,7 +194,7 @@ def run(args: argparse.Namespace) -> int:
                     "seed": args.seed, **{k: kwargs[k] for k in ("tol", "max_iter", "max_steps") if k in kwargs}},
     }
     plots = not args.no_plots
-    with atomic_dir(args.output, overwrite=args.overwrite) as tmp:
+    with atomic_dir(args.output, overwrite=args.overwrite, inputs=(args.sed, args.observed)) as tmp:
         if len(syntheses) == 1:
             _write_one(all_results[syntheses[0]], primary, tmp, plots=plots, extra=extra)
         else:

@@ -163,7 +163,7 @@ def run(args: argparse.Namespace) -> int:
     say = (lambda msg: None) if args.quiet else (lambda msg: print(msg, file=sys.stderr))
     say(f"afferent demo: sample {str(sample)!r}" + (" (installed with the package)" if sample_record["packaged"] else ""))
     rows, profiles = [], []
-    with atomic_dir(args.output, overwrite=args.overwrite) as tmp:
+    with atomic_dir(args.output, overwrite=args.overwrite, inputs=(sample,)) as tmp:
         for case in CASES:
             say(f"afferent demo: {case[0]} ...")
             row, profile = _run_case(sample, sample_record, case, tmp)

@@ -142,7 +142,17 @@ def _main(argv: list[str] | None) -> int:
         print("afferent: interrupted", file=sys.stderr)
         return 130
     except Exception as err:  # a bug: say so, keep the traceback for the report
+        if _environment_message(err):  # unless it is the environment (a full or read-only disk, ...): exit 2
+            print(f"afferent: error: {_environment_message(err)}", file=sys.stderr)
+            return 2
         print(f"afferent: internal error (please report): {type(err).__name__}: {err}", file=sys.stderr)
         if os.environ.get("AFFERENT_DEBUG"):
             traceback.print_exc()
         return 1
+
+
+def _environment_message(err: BaseException) -> str | None:
+    """One line for an OSError of the environment (afferent._output.describe_os_error), else None."""
+    from .._output import describe_os_error
+
+    return describe_os_error(err) if isinstance(err, OSError) else None

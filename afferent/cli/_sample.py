@@ -14,7 +14,7 @@ from __future__ import annotations
 import argparse
 import sys
 
-from .._output import write_csv
+from .._output import check_writable, write_csv
 from itertools import chain
 
 from ..io import iter_sed
@@ -33,12 +33,14 @@ def add_args(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    inputs = (*args.exports, args.receptors)
+    check_writable(args.output, overwrite=args.overwrite, inputs=inputs)  # before the reading, not after
     # one step at a time: memory is one step of the mesh plus the result (iter_sed, sample_steps)
     steps = iter_sed(args.exports if len(args.exports) > 1 else args.exports[0], **input_kwargs(args))
     first = next(steps)
     layout = layout_from_args(args, first)
     sed = sample_steps(chain([first], steps), layout, method=args.method, on_outside=args.on_outside)
-    write_csv(sed.to_dataframe(), args.output, overwrite=args.overwrite)
+    write_csv(sed.to_dataframe(), args.output, overwrite=args.overwrite, inputs=inputs)
     if not args.quiet:
         inside = sed.values[:, ~sed.outside]
         span = f"SED {inside.min():.4g} .. {inside.max():.4g} J/m^3" if inside.size else "no receptor inside the field"

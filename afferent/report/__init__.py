@@ -91,7 +91,7 @@ def run_report(output, *, size: str | ReportSize = "quick", overwrite: bool = Fa
             raise ValueError(f"'size' must be one of {sorted(SIZES)}; got {size!r} instead.")
         size = SIZES[size]
     output = os.fspath(output)
-    check_writable(output, overwrite=overwrite, what="Output folder")  # before minutes of measuring
+    check_writable(output, overwrite=overwrite, what="Output folder", folder=True)  # before minutes of measuring
     say = progress or (lambda msg: None)
     t0 = time.perf_counter()
     with tempfile.TemporaryDirectory(prefix="afferent-report-") as work:

@@ -98,7 +98,8 @@ def run_scene(scene: Scene, *, overwrite: bool = False, cache_dir=None, progress
     scene : Scene
         From :func:`load_scene` (resolved here if it is not yet).
     overwrite : bool, default=False
-        Replace an existing output folder. Without it an existing folder is an error, raised
+        Replace an existing output folder that afferent wrote (README "Outputs and --overwrite"),
+        once the new results are complete. Without it an existing folder is an error, raised
         before any work is done.
     cache_dir : str or path-like, optional
         Folder of the sampled-SED cache (:mod:`afferent.cache`); default
@@ -117,7 +118,10 @@ def run_scene(scene: Scene, *, overwrite: bool = False, cache_dir=None, progress
     Raises
     ------
     OutputExistsError
-        The output folder exists and ``overwrite`` is False.
+        The output folder exists and ``overwrite`` is False; or it may not be replaced (an input,
+        the working folder, a link, a folder holding files afferent did not write).
+    OutputWriteError
+        The disk refuses (full, read-only, permissions); the message names the output.
     SceneError
         As :func:`resolve`; a region with no receptor; an unreadable calibration result.
     FileNotFoundError, SEDFormatError, UnitError, FieldCoverageError, ValueError
@@ -141,16 +145,14 @@ def run_scene(scene: Scene, *, overwrite: bool = False, cache_dir=None, progress
     started = datetime.now(timezone.utc).isoformat(timespec="seconds")
     scene = resolve(scene)
     outdir = scene.outputs.dir
-    if not os.path.lexists(outdir):
-        os.makedirs(os.path.dirname(outdir), exist_ok=True)  # e.g. results/ of results/<name>; <name> comes whole
-    check_writable(outdir, overwrite=overwrite, what="Output folder")
+    check_writable(outdir, overwrite=overwrite, what="Output folder", inputs=scene.input_files, folder=True)
     run = _Run(scene, plan(scene), skip_reasons(scene), _Steps())
     want = set(scene.outputs.want)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         _compute(run, cache_dir=cache_dir, use_cache=use_cache, progress=progress)
         files: list[str] = []
-        with atomic_dir(outdir, overwrite=overwrite) as tmp:
+        with atomic_dir(outdir, overwrite=overwrite, inputs=scene.input_files) as tmp:
             with run.steps("writing"):
                 files = write_outputs(tmp, want=want, plots="plots" in want, **run.out)
             full = build_record(scene, run.planned, run.skipped, run.steps.seconds, run.record, run.inputs, caught,

@@ -405,6 +405,14 @@ class Scene:
             out[table] = {f.name: _plain_json(getattr(sec, f.name)) for f in fields(sec)}
         return out
 
+    @property
+    def input_files(self) -> tuple:
+        """Every file the scene names (its own file, exports, coordinates, receptors, calibration, map,
+        waveform, observed profile): an output may not be, hold or lie inside one of them."""
+        paths = (self.source, *(self.export.files or ()), self.export.coordinates, self.receptors.file,
+                 self.transduction.calibration, self.synthesis.map, self.stimulus.file, self.fit.observed)
+        return tuple(p for p in paths if p)
+
     def with_output(self, path) -> "Scene":
         """The same scene writing into ``path`` (relative to the current folder)."""
         return replace(self, outputs=replace(self.outputs, dir=os.path.abspath(os.fspath(path))))
