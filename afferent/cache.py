@@ -71,11 +71,43 @@ def default_cache_dir() -> Path:
     return Path(env).expanduser() if env else Path.home() / ".cache" / "afferent"
 
 
+def _members(p: str) -> list[str]:
+    """The files one export file names (relative to it): a .pvd's or .vtm's ``file=``, a .pvtu's
+    ``<Piece Source=...>``, a JSON ``.series``' ``files[].name``, an XDMF's HDF5 files."""
+    lower, folder = p.lower(), os.path.dirname(p)
+    if lower.endswith((".pvd", ".vtm", ".pvtu")):
+        root = ET.parse(p).getroot()
+        names = [e.get("file") or e.get("Source") for e in root.iter() if e.tag in ("DataSet", "Piece")]
+    elif lower.endswith(".series"):
+        import json
+
+        names = [f.get("name") for f in json.loads(Path(p).read_text()).get("files", []) if isinstance(f, dict)]
+    elif lower.endswith((".xdmf", ".xmf")):
+        names = re.findall(r"([^\s<>\"']+\.(?:h5|hdf5|hdf))\s*:", Path(p).read_text(errors="replace"))
+    else:
+        return []
+    return [os.path.abspath(os.path.join(folder, n)) for n in names if n]
+
+
+def _add_with_members(p: str, out: list, depth: int) -> None:
+    """Append ``p`` and, recursively (a .pvd of .pvtu records of pieces), the files it names."""
+    out.append(p)
+    if depth > 4:
+        return
+    try:
+        members = _members(p)
+    except (OSError, ValueError, AttributeError, ET.ParseError):
+        return  # unreadable: read_sed reports it
+    for m in members:
+        _add_with_members(m, out, depth + 1)
+
+
 def export_files(paths) -> list[str]:
     """Every file the reader opens for ``paths``, in order: each path, then the files it names.
 
     A ``.pvd`` collection names its VTU steps (``<DataSet file=...>``, relative to the
-    ``.pvd``); an XDMF file names HDF5 files (``file.h5:/dataset``). Files that do not exist
+    ``.pvd``), a ``.pvtu`` its pieces, a ``.vtm`` its blocks, a JSON ``.series`` its steps
+    (recursively: a .pvd of .pvtu records); an XDMF file names HDF5 files (``file.h5:/dataset``). Files that do not exist
     are left out here: reading then fails with its own message.
 
     Parameters
@@ -91,22 +123,7 @@ def export_files(paths) -> list[str]:
         paths = [paths]
     out: list[str] = []
     for p in paths:
-        p = os.path.abspath(os.fspath(p))
-        out.append(p)
-        lower = p.lower()
-        folder = os.path.dirname(p)
-        try:
-            if lower.endswith(".pvd"):
-                for ds in ET.parse(p).getroot().iter("DataSet"):
-                    f = ds.get("file")
-                    if f:
-                        out.append(os.path.abspath(os.path.join(folder, f)))
-            elif lower.endswith((".xdmf", ".xmf")):
-                text = Path(p).read_text(errors="replace")
-                for name in re.findall(r"([^\s<>\"']+\.(?:h5|hdf5|hdf))\s*:", text):
-                    out.append(os.path.abspath(os.path.join(folder, name)))
-        except (OSError, ET.ParseError):
-            pass  # unreadable: read_sed reports it
+        _add_with_members(os.path.abspath(os.fspath(p)), out, depth=0)
     seen, unique = set(), []
     for f in out:
         if f not in seen and os.path.isfile(f):

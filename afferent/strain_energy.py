@@ -77,6 +77,8 @@ PRESETS: dict[str, Convention] = {
     "code_aster": Convention(_VOIGT_ABQ, "tensor", "SIXX SIYY SIZZ SIXY SIXZ SIYZ [3P]; tensor shear [UNVERIFIED]"),
     "lsdyna": Convention(_VOIGT_VTK, "tensor", "xx yy zz xy yz xz [V, lasso]; tensor shear [3P]"),
     "elmer": Convention(_VOIGT_VTK, "tensor", "Stress_xx yy zz xy yz xz; tensor shear [V]"),
+    "kratos": Convention(_VOIGT_VTK, "engineering",
+                         "CAUCHY_STRESS_VECTOR, GREEN_LAGRANGE_STRAIN_VECTOR xx yy zz xy yz xz; engineering shear [V]"),
     "vtk": Convention(_VOIGT_VTK, "tensor", "VTK symmetric-tensor order XX YY ZZ XY YZ XZ [UNVERIFIED]; shear assumed tensor"),
 }
 

@@ -46,6 +46,8 @@ def describe_raw(raw) -> list[str]:
     lines = [f"{raw.files[0]}" + (f" (+{len(raw.files) - 1} files)" if len(raw.files) > 1 else "")]
     add = lambda k, v: lines.append(f"  {k:<12} {v}")  # noqa: E731
     add("format", raw.format)
+    if raw.reader:
+        add("reader", raw.reader)
     opts = ReadOptions()
     try:
         xyz, coord_names = find_coordinates(raw, opts)

@@ -172,27 +172,59 @@ def _arrays_from_mesh(mesh, path: str, cells_obj: Cells | None) -> dict[str, Raw
 
 
 def read_mesh_file(path: str) -> RawExport:
-    """A single VTU / VTK (or any meshio-readable) file: one time step."""
-    mesh = _read_meshio(path)
+    """A single VTU / VTK (or any meshio-readable) file: one time step.
+
+    ``.pvtu`` and ``.vtm`` files, and ``.vtk``/``.vtu`` files meshio cannot read, are read
+    through VTK (:mod:`afferent.io._vtk`, the ``vtk`` extra); ``RawExport.reader`` says which.
+    """
+    import meshio
+
+    ext = os.path.splitext(path)[1].lower()
+    if ext in (".pvtu", ".vtm"):
+        from ._vtk import read_vtk_file
+
+        return read_vtk_file(path)
+    try:
+        mesh = _read_meshio(path)
+    except SEDFormatError as err:
+        if ext not in (".vtk", ".vtu") or not os.path.isfile(path) or os.path.getsize(path) == 0 or _not_unstructured(path):
+            raise
+        from ._vtk import read_vtk_file
+
+        return read_vtk_file(path, meshio_error=err)
+    names = _vtu_component_names(path) if ext == ".vtu" else {}  # meshio drops the arrays' ComponentName attributes
+    return raw_from_mesh(mesh, path, ext.lstrip("."), names, [], reader=f"meshio {meshio.__version__}")
+
+
+def _not_unstructured(path: str) -> bool:
+    """Whether a .vtu's own header says it is not an UnstructuredGrid (refused as such, not re-read by VTK)."""
+    try:
+        _check_vtk_xml_type(path)
+    except SEDFormatError:
+        return True
+    return False
+
+
+def raw_from_mesh(mesh, path: str, fmt: str, components: dict, notes: list, *, reader: str) -> RawExport:
+    """A meshio.Mesh (from meshio, or built from VTK's output) as a one-step RawExport.
+
+    ``components`` maps array names to their component names (``XX YY ZZ XY YZ ZX``).
+    """
     cells_obj = cells_from_meshio(mesh.cells)
     points = np.asarray(mesh.points, dtype=float)
     if points.ndim != 2 or points.shape[0] == 0:
         raise SEDFormatError(f"SED file {path!r} holds no points.")
     if points.shape[1] == 2:
         points = np.column_stack([points, np.zeros(len(points))])
-    notes = []
+    notes = list(notes)
     if cells_obj is None:
         notes.append("No volume cells in the file: the points are treated as scattered samples.")
     arrays = _arrays_from_mesh(mesh, path, cells_obj)
-    if path.lower().endswith(".vtu"):  # meshio drops the arrays' ComponentName attributes: keep them
-        names = _vtu_component_names(path)
-        arrays = {k: (RawArray(a.name, a.values, a.location, a.unit, names[a.name])
-                      if a.name in names and a.values.ndim == 3 and a.values.shape[2] == len(names[a.name]) else a)
-                  for k, a in arrays.items()}
-    return RawExport(
-        files=(path,), format=os.path.splitext(path)[1].lstrip(".").lower(), points=points,
-        arrays=arrays, cells=cells_obj, notes=tuple(notes),
-    )
+    arrays = {k: (RawArray(a.name, a.values, a.location, a.unit, components[a.name])
+                  if a.name in components and a.values.ndim == 3 and a.values.shape[2] == len(components[a.name]) else a)
+              for k, a in arrays.items()}
+    return RawExport(files=(path,), format=fmt, points=points, arrays=arrays, cells=cells_obj, notes=tuple(notes),
+                     reader=reader)
 
 
 _DATA_ARRAY = re.compile(rb"<DataArray\b[^>]*>")
@@ -340,10 +372,24 @@ def read_vtu_series(paths: list[str], times=None, *, progress: bool = False) -> 
                        notes=tuple(first_notes) + (f"{len(paths)} steps read; mesh decoded once, from {paths[0]!r}.",))
 
 
-def pvd_entries(path: str) -> tuple[list[str], list[float]]:
-    """The files and times of a ParaView ``.pvd`` collection (``<DataSet timestep=... file=...>``)."""
-    if not os.path.isfile(path):
-        raise FileNotFoundError(f"SED file {path!r} not found.")
+def _series_entries(path: str) -> list[tuple[float | None, int, str]]:
+    """(time or None, part, file) of a ParaView JSON file series (``{"files": [{"name", "time"}]}``)."""
+    import json
+
+    try:
+        with open(path, encoding="utf-8") as fh:
+            files = json.load(fh)["files"]
+        entries = [(None if f.get("time") is None else float(f["time"]), 0, str(f["name"])) for f in files]
+    except (ValueError, KeyError, TypeError, AttributeError) as err:
+        raise SEDFormatError(f"SED file {path!r} is not a ParaView file series (JSON with files: [{{name, time}}]): "
+                             f"{type(err).__name__}: {err}") from err
+    if not entries:
+        raise SEDFormatError(f"SED file {path!r} lists no files; expected a ParaView file series.")
+    return entries
+
+
+def _pvd_xml_entries(path: str) -> list[tuple[float | None, int, str]]:
+    """(timestep or None, part, file) of each ``<DataSet>`` of a .pvd."""
     try:
         root = ET.parse(path).getroot()
     except ET.ParseError as err:
@@ -351,13 +397,12 @@ def pvd_entries(path: str) -> tuple[list[str], list[float]]:
     datasets = root.findall(".//DataSet")
     if not datasets:
         raise SEDFormatError(f"SED file {path!r} lists no <DataSet> entries; expected a ParaView collection.")
-    folder = os.path.dirname(path)
     entries = []
     for k, ds in enumerate(datasets):
         if "file" not in ds.attrib:
             raise SEDFormatError(f"SED file {path!r}: DataSet {k} has no 'file' attribute.")
         try:
-            t = float(ds.attrib.get("timestep", k))
+            t = float(ds.attrib["timestep"]) if "timestep" in ds.attrib else None
         except ValueError as err:
             raise SEDFormatError(
                 f"SED file {path!r}: DataSet {k} timestep must be a number; got {ds.attrib['timestep']!r} instead."
@@ -368,9 +413,27 @@ def pvd_entries(path: str) -> tuple[list[str], list[float]]:
             raise SEDFormatError(
                 f"SED file {path!r}: DataSet {k} part must be a whole number; got {ds.attrib['part']!r} instead."
             ) from err
-        entries.append((t, part, os.path.join(folder, ds.attrib["file"])))
+        entries.append((t, part, ds.attrib["file"]))
+    return entries
+
+
+def pvd_entries(path: str) -> tuple[list[str], list[float] | None]:
+    """The files and times of a ParaView ``.pvd`` collection (``<DataSet timestep=... file=...>``) or
+    JSON file series (``.vtu.series``, Kratos' ``.vtm.series``); times None when no entry states one
+    (the steps are then numbered, not given invented seconds)."""
+    if not os.path.isfile(path):
+        raise FileNotFoundError(f"SED file {path!r} not found.")
+    raw = _series_entries(path) if path.lower().endswith(".series") else _pvd_xml_entries(path)
+    folder = os.path.dirname(path)
+    entries = [(t, part, os.path.join(folder, f)) for t, part, f in raw]
     if len({e[1] for e in entries}) > 1:
         raise SEDFormatError(f"SED file {path!r} has several parts per time step; afferent reads single-part series.")
+    stated = [e[0] is not None for e in entries]
+    if any(stated) and not all(stated):
+        k = stated.index(False)
+        raise SEDFormatError(f"SED file {path!r}: entry {k} states no time while others do; state a time for every entry.")
+    if not all(stated):
+        return [e[2] for e in entries], None
     times = [e[0] for e in entries]
     if any(b <= a for a, b in zip(times, times[1:])):
         k = next(i for i, (a, b) in enumerate(zip(times, times[1:])) if b <= a)
@@ -407,4 +470,4 @@ def read_xdmf(path: str, *, progress: bool = False) -> RawExport:
     if has_collections(path):
         return read_xdmf_collections(path, progress=progress)
     raw = read_mesh_file(path)
-    return RawExport(raw.files, "xdmf", raw.points, raw.arrays, None, raw.cells, notes=raw.notes)
+    return RawExport(raw.files, "xdmf", raw.points, raw.arrays, None, raw.cells, notes=raw.notes, reader=raw.reader)

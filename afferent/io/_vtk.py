@@ -1,0 +1,325 @@
+"""The VTK family through VTK's own readers (the optional extra ``vtk``).
+
+VTK's readers are the reference implementation of the formats most FE tools write. afferent
+reads ``.vtu`` and legacy ``.vtk`` files through meshio first (light, always installed) and
+through VTK only where meshio cannot:
+
+- legacy ``.vtk`` (and ``.vtu``) files meshio refuses: Kratos' default ``VtkOutputProcess``
+  output (binary, no newline after each binary block) and FreeFEM's ``savevtk`` legacy files
+  (:func:`afferent.io._meshio.read_mesh_file` falls back to :func:`read_vtk_file`);
+- parallel ``.pvtu`` records (deal.II, FEniCS, OpenFOAM, Kratos under MPI) and ``.vtm``
+  multiblock files (Kratos' ``VtuOutputProcess``), which meshio does not read at all.
+
+Without the ``vtk`` package the error names the extra that reads the file
+(``pip install 'afferent-skin[vtk]'``). Why VTK is an extra and not a dependency, with the
+measured install size and read times, is in the documentation's formats page
+(docs/fe-export.md, "The VTK family").
+
+Pieces of a ``.pvtu`` and blocks of a ``.vtm`` are merged into one mesh. Nodes that two
+*different* pieces list at the same coordinates (within :data:`MERGE_RTOL` x the median edge
+length) *with the same values* in every point array (within :data:`VALUE_RTOL` x the array's
+largest magnitude) are partition-boundary copies and are merged into one node; how many is
+stated in the notes. Coincident nodes whose values differ (discontinuous output such as
+deal.II's per-cell patches) and coincident nodes within one piece are kept as they are: the
+sampling stage handles coincident points with different values. This is the only merge done
+at read time, and it is kept minimal on purpose.
+"""
+
+from __future__ import annotations
+
+import os
+from xml.etree import ElementTree as ET
+
+import numpy as np
+
+from ..exceptions import SEDFormatError
+
+__all__ = ["EXTRA", "read_vtk_file", "vtk_version", "merge_piece_nodes", "MERGE_RTOL", "VALUE_RTOL"]
+
+#: The install command named when VTK is needed and missing.
+EXTRA = "pip install 'afferent-skin[vtk]'"
+#: Coordinates of two pieces' nodes closer than this x the median cell-edge length are the same place.
+MERGE_RTOL = 1e-6
+#: Values of two coincident nodes differing by at most this x the array's largest magnitude are equal
+#: (VTK files often store float32: 6e-8 relative).
+VALUE_RTOL = 1e-6
+
+
+def _vtk(problem: str):
+    """The VTK modules afferent uses, or a SEDFormatError saying ``problem`` and naming the extra."""
+    try:
+        from vtkmodules import vtkCommonCore, vtkCommonDataModel, vtkIOLegacy, vtkIOXML
+        from vtkmodules.util import numpy_support
+    except ImportError as err:
+        raise SEDFormatError(f"{problem}; VTK's own readers read it: {EXTRA}.") from err
+    return vtkCommonCore, vtkCommonDataModel, vtkIOLegacy, vtkIOXML, numpy_support
+
+
+def vtk_version() -> str | None:
+    """The installed VTK version, or None when the ``vtk`` extra is not installed."""
+    try:
+        from vtkmodules.vtkCommonCore import vtkVersion
+    except ImportError:
+        return None
+    return vtkVersion.GetVTKVersion()
+
+
+def _run_reader(reader, path: str, core) -> list[str]:
+    """Update a VTK reader; return its warnings, and raise SEDFormatError on what it reports as an error.
+
+    VTK prints its errors and carries on: a truncated legacy .vtk comes back with the arrays read
+    before the cut and a warning "Error reading binary data!". Messages are captured (not printed)
+    and any that says "Error" refuses the file.
+    """
+    window = core.vtkStringOutputWindow()
+    previous = core.vtkOutputWindow.GetInstance()
+    verbosity = core.vtkLogger.GetCurrentVerbosityCutoff()  # the stderr level when no log file is open
+    core.vtkOutputWindow.SetInstance(window)
+    core.vtkLogger.SetStderrVerbosity(core.vtkLogger.VERBOSITY_OFF)
+    try:
+        reader.SetFileName(path)
+        reader.Update()
+    finally:
+        core.vtkOutputWindow.SetInstance(previous)
+        core.vtkLogger.SetStderrVerbosity(core.vtkLogger.ConvertToVerbosity(verbosity))
+    messages = [m.strip() for m in window.GetOutput().split("\n\n") if m.strip()]
+    # each message: 'ERROR: In file, line N\nvtkClass (0x...): text' -> 'text'
+    texts = [m.splitlines()[-1].split("): ", 1)[-1].strip() for m in messages]
+    errors = [t for m, t in zip(messages, texts) if m.startswith("ERROR") or "Error" in t]
+    if errors or reader.GetErrorCode():
+        raise SEDFormatError(f"SED file {path!r} could not be read by VTK {vtk_version()} (truncated or corrupt?): "
+                             f"{errors[0] if errors else 'error code ' + str(reader.GetErrorCode())}")
+    return [f"VTK warned: {t}" for t in texts]
+
+
+def _datasets(path: str, mods, warned: list) -> list:
+    """The leaf datasets of a VTK-family file: one for .vtk/.vtu, one per piece of a .pvtu, every block of a .vtm."""
+    core, data, legacy, xml, _ = mods
+    ext = os.path.splitext(path)[1].lower()
+    if ext == ".pvtu":
+        return [ds for piece in _pvtu_pieces(path) for ds in _datasets(piece, mods, warned)]
+    reader = {".vtk": legacy.vtkGenericDataObjectReader, ".vtu": xml.vtkXMLUnstructuredGridReader,
+              ".vtm": xml.vtkXMLMultiBlockDataReader}.get(ext, xml.vtkXMLGenericDataObjectReader)()
+    warned.extend(_run_reader(reader, path, core))
+    out = reader.GetOutput()
+    if out is None:
+        raise SEDFormatError(f"SED file {path!r} could not be read by VTK {vtk_version()}: it returned no data.")
+    if isinstance(out, data.vtkCompositeDataSet):
+        it = out.NewIterator()
+        it.SkipEmptyNodesOn()
+        it.InitTraversal()
+        leaves = []
+        while not it.IsDoneWithTraversal():
+            leaves.append(it.GetCurrentDataObject())
+            it.GoToNextItem()
+        if not leaves:
+            raise SEDFormatError(f"SED file {path!r} lists no readable blocks (missing block files?).")
+        return leaves
+    return [out]
+
+
+def _pvtu_pieces(path: str) -> list[str]:
+    """The piece files a .pvtu record lists (``<Piece Source=...>``), each checked to exist."""
+    try:
+        root = ET.parse(path).getroot()
+    except ET.ParseError as err:
+        raise SEDFormatError(f"SED file {path!r} is not a valid .pvtu (XML) file: {err}") from err
+    sources = [p.attrib.get("Source") for p in root.iter("Piece")]
+    if not sources or None in sources:
+        raise SEDFormatError(f"SED file {path!r} lists no <Piece Source=...> entries; expected a parallel VTU record.")
+    folder = os.path.dirname(path)
+    pieces = [os.path.join(folder, s) for s in sources]
+    for p in pieces:
+        if not os.path.isfile(p):
+            raise FileNotFoundError(f"SED file {path!r} lists the piece {p!r}, which does not exist.")
+    return pieces
+
+
+def _array(arr, numpy_support) -> tuple[np.ndarray, tuple[str, ...]]:
+    """A vtkDataArray as float64 (n,) or (n, k), with its component names when it has them all."""
+    values = np.asarray(numpy_support.vtk_to_numpy(arr), dtype=float)
+    k = arr.GetNumberOfComponents()
+    names = tuple(arr.GetComponentName(i) or "" for i in range(k)) if k > 1 else ()
+    return values.reshape(-1, k) if k > 1 else values, names if all(names) else ()
+
+
+def _cell_types(ds):
+    """The cell-type array: ``GetCellTypes()`` from VTK 9.6 on, ``GetCellTypesArray()`` before."""
+    try:
+        types = ds.GetCellTypes()
+    except TypeError:  # VTK < 9.6: GetCellTypes fills a vtkCellTypes argument
+        types = None
+    return types if types is not None and hasattr(types, "GetNumberOfTuples") else ds.GetCellTypesArray()
+
+
+def _piece(ds, path: str, mods) -> dict:
+    """One unstructured dataset as numpy: points, cells grouped by type, point and cell arrays."""
+    from meshio._vtk_common import vtk_to_meshio_type
+
+    _, data, _, _, nps = mods
+    if not isinstance(ds, data.vtkUnstructuredGrid):
+        raise SEDFormatError(
+            f"SED file {path!r} holds a {ds.GetClassName().removeprefix('vtk')}, not the UnstructuredGrid (volume mesh) "
+            "afferent reads; in ParaView apply 'Clean to Grid' (or 'Merge Blocks') and save as .vtu."
+        )
+    n = ds.GetNumberOfPoints()
+    points = nps.vtk_to_numpy(ds.GetPoints().GetData()).astype(float) if n else np.zeros((0, 3))
+    cells = ds.GetCells()
+    offsets = nps.vtk_to_numpy(cells.GetOffsetsArray()).astype(np.int64) if ds.GetNumberOfCells() else np.zeros(1, int)
+    conn = nps.vtk_to_numpy(cells.GetConnectivityArray()).astype(np.int64) if ds.GetNumberOfCells() else np.zeros(0, int)
+    types = nps.vtk_to_numpy(_cell_types(ds)) if ds.GetNumberOfCells() else np.zeros(0, int)
+    blocks = []
+    for t in np.unique(types):
+        idx = np.flatnonzero(types == t)
+        sizes = offsets[idx + 1] - offsets[idx]
+        name = vtk_to_meshio_type.get(int(t))
+        if name is None or name == "polyhedron" or len(np.unique(sizes)) != 1:
+            continue  # cell kinds afferent does not sample in (their data is dropped with them)
+        blocks.append((name, conn[offsets[idx][:, None] + np.arange(sizes[0])], idx))
+    pd, cd = ds.GetPointData(), ds.GetCellData()
+    point_data = {pd.GetArrayName(i): _array(pd.GetArray(i), nps) for i in range(pd.GetNumberOfArrays()) if pd.GetArray(i)}
+    cell_data = {cd.GetArrayName(i): _array(cd.GetArray(i), nps) for i in range(cd.GetNumberOfArrays()) if cd.GetArray(i)}
+    return {"points": points, "blocks": blocks, "point_data": point_data, "cell_data": cell_data}
+
+
+def _edge_length(points: np.ndarray, blocks) -> float:
+    """Median length of the first edge (nodes 0-1) of the cells: the mesh size."""
+    edges = [np.linalg.norm(points[conn[:, 1]] - points[conn[:, 0]], axis=1) for _, conn, _ in blocks if conn.shape[1] > 1]
+    lengths = np.concatenate(edges) if edges else np.zeros(0)
+    lengths = lengths[lengths > 0]
+    if lengths.size:
+        return float(np.median(lengths))
+    span = float(np.ptp(points, axis=0).max()) if len(points) else 0.0
+    return span or 1.0
+
+
+def merge_piece_nodes(points: np.ndarray, piece: np.ndarray, values: list[np.ndarray], tol: float):
+    """Merge the nodes that different pieces list at one place with the same values.
+
+    Parameters
+    ----------
+    points : ndarray of shape (n, 3)
+        Every piece's nodes, concatenated (file length unit).
+    piece : ndarray of shape (n,)
+        The piece each node comes from.
+    values : list of ndarray of shape (n, ...)
+        The point arrays; coincident nodes are merged only where all of them agree within
+        :data:`VALUE_RTOL` x the array's largest magnitude.
+    tol : float
+        Coordinates closer than this are the same place (file length unit).
+
+    Returns
+    -------
+    keep : ndarray of int
+        Indices of the nodes kept, increasing.
+    new_index : ndarray of shape (n,)
+        For every node, its index among the kept nodes (merged nodes map to their kept twin).
+    n_different : int
+        Nodes of different pieces at one place whose values differ: kept as separate copies.
+    """
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+    from scipy.spatial import cKDTree
+
+    n = points.shape[0]
+    pairs = cKDTree(points).query_pairs(tol, output_type="ndarray") if n else np.zeros((0, 2), int)
+    pairs = pairs[piece[pairs[:, 0]] != piece[pairs[:, 1]]]
+    same = np.ones(len(pairs), bool)
+    for v in values:
+        v2 = v.reshape(n, -1)
+        scale = float(np.nanmax(np.abs(v2))) if v2.size else 0.0
+        same &= (np.abs(v2[pairs[:, 0]] - v2[pairs[:, 1]]) <= VALUE_RTOL * scale).all(axis=1)
+    n_different = int(np.unique(pairs[~same]).size)
+    pairs = pairs[same]
+    graph = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(n, n))
+    _, label = connected_components(graph, directed=False)
+    first = np.full(label.max() + 1 if n else 0, n)
+    np.minimum.at(first, label, np.arange(n))
+    keep = np.sort(first)
+    position = np.empty(n, np.int64)
+    position[keep] = np.arange(keep.size)
+    return keep, position[first[label]], n_different
+
+
+def _common(pieces: list[dict], key: str, notes: list, path: str) -> list[str]:
+    """The array names every piece has (others are dropped with a note)."""
+    names = [n for n in pieces[0][key] if all(n in p[key] for p in pieces)]
+    dropped = sorted({n for p in pieces for n in p[key]} - set(names))
+    if dropped:
+        notes.append(f"{', '.join(map(repr, dropped))} dropped: not in every piece of {path!r}.")
+    return names
+
+
+def _merged_mesh(pieces: list[dict], path: str, notes: list):
+    """One meshio.Mesh from the pieces (nodes shared by pieces merged), and the component names."""
+    import meshio
+
+    offsets = np.cumsum([0] + [len(p["points"]) for p in pieces])
+    points = np.concatenate([p["points"] for p in pieces])
+    piece_of = np.repeat(np.arange(len(pieces)), np.diff(offsets))
+    pnames = _common(pieces, "point_data", notes, path)
+    cnames = _common(pieces, "cell_data", notes, path)
+    pdata = {n: np.concatenate([p["point_data"][n][0] for p in pieces]) for n in pnames}
+    blocks = [(name, conn + offsets[k], idx, k) for k, p in enumerate(pieces) for name, conn, idx in p["blocks"]]
+    new_index = np.arange(len(points))
+    if len(pieces) > 1:
+        tol = MERGE_RTOL * _edge_length(points, [(b[0], b[1], b[2]) for b in blocks])
+        keep, new_index, n_diff = merge_piece_nodes(points, piece_of, list(pdata.values()), tol)
+        notes.append(
+            f"{len(pieces)} pieces merged into one mesh: {len(points) - keep.size} node(s) that pieces share (same place "
+            f"within {tol:.3g} file units, same values) merged, {keep.size} nodes left"
+            + (f"; {n_diff} coincident node(s) of different pieces with different values kept as separate copies "
+               "(discontinuous output, handled when sampling)." if n_diff else ".")
+        )
+        points, pdata = points[keep], {n: v[keep] for n, v in pdata.items()}
+    types = list(dict.fromkeys(b[0] for b in blocks))  # one block per cell type, pieces in order
+    cells = [meshio.CellBlock(t, new_index[np.concatenate([b[1] for b in blocks if b[0] == t])]) for t in types]
+    cell_data = {n: [np.concatenate([pieces[k]["cell_data"][n][0][idx] for name, _, idx, k in blocks if name == t])
+                     for t in types] for n in cnames}
+    comps = {n: pieces[0]["point_data"][n][1] for n in pnames}
+    comps.update({n: pieces[0]["cell_data"][n][1] for n in cnames})
+    return meshio.Mesh(points, cells, point_data=pdata, cell_data=cell_data), {n: c for n, c in comps.items() if c}
+
+
+def read_vtk_file(path: str, *, meshio_error: Exception | None = None):
+    """Read a ``.vtk``, ``.vtu``, ``.pvtu`` or ``.vtm`` file through VTK into a RawExport.
+
+    Parameters
+    ----------
+    path : str
+        The file.
+    meshio_error : Exception, optional
+        Why meshio could not read it (a ``.vtk``/``.vtu`` file), for the notes and errors.
+
+    Returns
+    -------
+    RawExport
+        One step; ``reader`` names VTK and its version; the notes say why VTK read it and how
+        many shared nodes of the pieces were merged.
+
+    Raises
+    ------
+    SEDFormatError
+        VTK is not installed (the message names the extra), or cannot read the file either.
+    """
+    from ._meshio import raw_from_mesh
+
+    ext = os.path.splitext(path)[1].lower()
+    problem = (str(meshio_error).rstrip(".") if meshio_error is not None else
+               f"SED file {path!r} is a {'parallel VTU record' if ext == '.pvtu' else 'VTK multiblock file'}, "
+               "which meshio does not read")
+    mods = _vtk(problem)
+    warned: list[str] = []
+    try:
+        datasets = _datasets(path, mods, warned)
+    except SEDFormatError as err:
+        if meshio_error is None:
+            raise
+        detail = str(err).split("(truncated or corrupt?): ", 1)[-1]
+        raise SEDFormatError(f"{str(meshio_error).rstrip('.')}; VTK {vtk_version()} could not read it either: {detail}") from err
+    pieces = [_piece(ds, path, mods) for ds in datasets]
+    notes = [f"read by VTK {vtk_version()}" + (" (meshio could not read it)." if meshio_error is not None else "."),
+             *dict.fromkeys(warned)]
+    mesh, components = _merged_mesh(pieces, path, notes)
+    fmt = ext.lstrip(".")
+    return raw_from_mesh(mesh, path, fmt, components, notes, reader=f"VTK {vtk_version()}")
