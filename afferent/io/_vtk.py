@@ -259,6 +259,12 @@ def _merged_mesh(pieces: list[dict], path: str, notes: list):
     piece_of = np.repeat(np.arange(len(pieces)), np.diff(offsets))
     pnames = _common(pieces, "point_data", notes, path)
     cnames = _common(pieces, "cell_data", notes, path)
+    for key, names in (("point_data", pnames), ("cell_data", cnames)):
+        for n in names:
+            shapes = {p[key][n][0].shape[1:] for p in pieces}
+            if len(shapes) > 1:
+                raise SEDFormatError(f"SED file {path!r}: the pieces' {key.replace('_', ' ')} array {n!r} has "
+                                     f"different numbers of components ({', '.join(map(str, sorted(shapes)))}).")
     pdata = {n: np.concatenate([p["point_data"][n][0] for p in pieces]) for n in pnames}
     blocks = [(name, conn + offsets[k], idx, k) for k, p in enumerate(pieces) for name, conn, idx in p["blocks"]]
     new_index = np.arange(len(points))
@@ -317,9 +323,13 @@ def read_vtk_file(path: str, *, meshio_error: Exception | None = None):
             raise
         detail = str(err).split("(truncated or corrupt?): ", 1)[-1]
         raise SEDFormatError(f"{str(meshio_error).rstrip('.')}; VTK {vtk_version()} could not read it either: {detail}") from err
-    pieces = [_piece(ds, path, mods) for ds in datasets]
     notes = [f"read by VTK {vtk_version()}" + (" (meshio could not read it)." if meshio_error is not None else "."),
              *dict.fromkeys(warned)]
+    grids = [ds for ds in datasets if isinstance(ds, mods[1].vtkUnstructuredGrid)]
+    if grids and len(grids) < len(datasets):  # a .vtm's surface (PolyData) blocks beside its volume
+        others = sorted({ds.GetClassName().removeprefix("vtk") for ds in datasets if ds not in grids})
+        notes.append(f"{len(datasets) - len(grids)} block(s) that are not unstructured grids ({', '.join(others)}) left out.")
+    pieces = [_piece(ds, path, mods) for ds in (grids or datasets)]
     mesh, components = _merged_mesh(pieces, path, notes)
     fmt = ext.lstrip(".")
     return raw_from_mesh(mesh, path, fmt, components, notes, reader=f"VTK {vtk_version()}")
