@@ -276,3 +276,12 @@ def test_a_vtm_with_a_surface_block_reads_its_volume_block(tmp_path):
     assert raw.points.shape == (405, 3) and raw.cells.n_cells == 256
     assert "1 block(s) that are not unstructured grids (PolyData) left out." in raw.notes
     np.testing.assert_array_equal(raw.arrays["STRAIN_ENERGY"].values, read_raw(KRATOS_VTK).arrays["STRAIN_ENERGY"].values)
+
+
+def test_a_pvtu_record_named_vtu_is_told_to_be_named_pvtu(tmp_path):
+    p = tmp_path / "record.vtu"
+    p.write_text(open(DEALII_PVTU[0]).read())
+    with pytest.raises(SEDFormatError, match=re.escape(
+            f"SED file {str(p)!r} holds a parallel index (.pvtu) listing its pieces, not the UnstructuredGrid (volume "
+            "mesh) afferent reads from a .vtu; name it .pvtu (read through VTK, the 'vtk' extra).")):
+        read_raw(p)

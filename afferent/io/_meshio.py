@@ -117,8 +117,8 @@ _VTK_XML_TYPES = {
     "StructuredGrid": ("a StructuredGrid", "in ParaView apply 'Clean to Grid' and save as .vtu"),
     "RectilinearGrid": ("a RectilinearGrid", "in ParaView apply 'Clean to Grid' and save as .vtu"),
     "ImageData": ("an ImageData volume", "in ParaView apply 'Clean to Grid' and save as .vtu"),
-    "PUnstructuredGrid": ("a parallel index (.pvtu) listing its pieces", "in ParaView apply 'Merge Blocks' and save as .vtu"),
-    "vtkMultiBlockDataSet": ("a multiblock index (.vtm) listing its blocks", "in ParaView apply 'Merge Blocks' and save as .vtu"),
+    "PUnstructuredGrid": ("a parallel index (.pvtu) listing its pieces", "name it .pvtu (read through VTK, the 'vtk' extra)"),
+    "vtkMultiBlockDataSet": ("a multiblock index (.vtm) listing its blocks", "name it .vtm (read through VTK, the 'vtk' extra)"),
 }
 
 
@@ -330,6 +330,9 @@ def iter_vtu_series(paths: list[str], times=None, *, progress: bool = False):
             raise SEDFormatError(
                 f"SED file {path!r} is not on the same mesh as {paths[0]!r} "
                 f"({npts} points vs {n_points}, or moved points); a series must share one mesh."
+                + (" The nodes that pieces share are merged where their values agree at that step: a field continuous "
+                   "across pieces at one step and not at another is merged differently (see each step's notes)."
+                   if path.lower().endswith((".pvtu", ".vtm")) else "")
             )
         arrays = {}
         for key, arr in first.arrays.items():
