@@ -285,3 +285,34 @@ def test_a_pvtu_record_named_vtu_is_told_to_be_named_pvtu(tmp_path):
             f"SED file {str(p)!r} holds a parallel index (.pvtu) listing its pieces, not the UnstructuredGrid (volume "
             "mesh) afferent reads from a .vtu; name it .pvtu (read through VTK, the 'vtk' extra).")):
         read_raw(p)
+
+
+def test_spiking_on_step_numbers_warns_and_run_json_says_so(tmp_path):
+    """A Kratos series states no times: spiking on its step numbers is warned about, not silent."""
+    import json
+
+    from afferent.scene import run_scene_cli
+
+    (tmp_path / "r.csv").write_text("id,x,y,z\n1,2,2,1.9\n2,1.5,2,1.9\n3,2.5,2,1.9\n")
+    scene = tmp_path / "s.toml"
+    scene.write_text(f"""[export]
+files = [{KRATOS_VTK!r}, {KRATOS_VTK2!r}]
+length_unit = "m"
+sed_unit = "Pa"
+[receptors]
+file = "r.csv"
+length_unit = "mm"
+[transduction]
+params = "start"
+[synthesis]
+kind = "longitudinal"
+[spikes]
+engine = "exact"
+[outputs]
+want = ["spikes"]
+""")
+    run_scene_cli(scene, output=tmp_path / "out", quiet=True, cache_dir=tmp_path / "cache")
+    record = json.loads((tmp_path / "out" / "run.json").read_text())
+    assert record["field"]["units"]["time"] == "step"
+    assert any(w["message"].startswith("The export states no step times: its steps are numbered 0, 1, ... (time unit "
+                                       "'step'), and spiking reads those numbers as seconds") for w in record["warnings"])
