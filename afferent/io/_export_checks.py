@@ -162,8 +162,8 @@ def density_by_values(raw: RawExport, arr) -> dict | None:
     rel, scale = check["by_preset"][best], check["scale"]
     density = bool(rel <= check["tolerance"] and DENSITY_SCALE_BAND[0] <= scale <= DENSITY_SCALE_BAND[1])
     note = (f"{arr.name!r} ({arr.location} data) is named like an energy, but its values are a density: "
-            f"{scale:.3g} x 1/2 sigma:eps of the file's tensors (relative difference {rel:.2g} under preset={best!r}; "
-            f"a density has a scale in {DENSITY_SCALE_BAND}, an element energy the element volume).")
+            f"{scale:.3g} x 1/2 sigma:eps of the file's tensors (relative difference {rel:.2g} for the best preset; a "
+            f"density has a scale in {DENSITY_SCALE_BAND}, an element energy the element volume).")
     return {"relative_difference": rel, "scale": scale, "best_preset": best, "density": density, "note": note}
 
 
