@@ -319,3 +319,41 @@ want = ["spikes"]
     assert record["field"]["units"]["time"] == "step"
     assert any(w["message"].startswith("The export states no step times: its steps are numbered 0, 1, ... (time unit "
                                        "'step'), and spiking reads those numbers as seconds") for w in record["warnings"])
+
+
+def _two_piece_series(folder, steps):
+    """A .pvtu series of two hexahedra (pieces) sharing the face x = 1; ``steps``: per step, the
+    'sed' of piece 0's and piece 1's nodes on that face (the other nodes carry 1)."""
+    hexa = np.array([[0, 1, 3, 2, 4, 5, 7, 6]])
+    files = []
+    for k, (a, b) in enumerate(steps):
+        for j, (x0, face) in enumerate(((0.0, a), (1.0, b))):
+            pts = np.array([[x0 + dx, dy, dz] for dz in (0, 1) for dy in (0, 1) for dx in (0, 1)], float)
+            sed = np.where(pts[:, 0] == 1.0, face, 1.0)
+            meshio.Mesh(pts, [("hexahedron", hexa)], point_data={"sed": sed}).write(folder / f"s{k}_{j}.vtu")
+        (folder / f"s{k}.pvtu").write_text(
+            '<?xml version="1.0"?><VTKFile type="PUnstructuredGrid" version="0.1"><PUnstructuredGrid GhostLevel="0">'
+            '<PPointData><PDataArray type="Float64" Name="sed"/></PPointData><PPoints><PDataArray type="Float64" '
+            f'NumberOfComponents="3"/></PPoints><Piece Source="s{k}_0.vtu"/><Piece Source="s{k}_1.vtu"/>'
+            '</PUnstructuredGrid></VTKFile>')
+        files.append(str(folder / f"s{k}.pvtu"))
+    return files
+
+
+def test_a_series_merges_the_pieces_once_by_its_first_and_last_steps(tmp_path):
+    """All zero at t = 0, discontinuous between the pieces later: one merge for every step (none here)."""
+    files = _two_piece_series(tmp_path, [(0.0, 0.0), (2.0, 3.0)])
+    alone = read_raw(files[0])
+    assert alone.points.shape == (12, 3)  # read alone, step 0's equal face nodes are merged
+    f = read_sed(files, length_unit="mm", sed_unit="Pa")
+    assert f.points.shape == (16, 3) and f.sed.shape == (2, 16)
+    assert any("0 node(s) that pieces share" in n and "8 coincident node(s) of different pieces with different values kept"
+               in n for n in f.provenance.notes)
+
+
+def test_a_series_whose_pieces_part_between_first_and_last_steps_is_refused(tmp_path):
+    files = _two_piece_series(tmp_path, [(0.0, 0.0), (2.0, 3.0), (1.0, 1.0)])
+    with pytest.raises(SEDFormatError, match=re.escape(
+            f"SED file {files[1]!r}: nodes its pieces share carry different values here but equal ones at the first and "
+            "last steps ('s0.pvtu', 's2.pvtu')")):
+        read_sed(files, length_unit="mm", sed_unit="Pa")

@@ -311,7 +311,15 @@ def iter_vtu_series(paths: list[str], times=None, *, progress: bool = False):
     from .._progress import progress_bar
 
     times = None if times is None else np.asarray(times, dtype=float)
-    first = read_mesh_file(paths[0])
+    read_step = read_mesh_file
+    if len(paths) > 1 and all(p.lower().endswith((".pvtu", ".vtm")) for p in (paths[0], paths[-1])):
+        from ._vtk import read_vtk_file, series_merge_plan
+
+        plan = series_merge_plan(paths[0], paths[-1])  # one merge of the pieces' shared nodes for every step
+
+        def read_step(path):
+            return read_vtk_file(path, plan=plan) if path.lower().endswith((".pvtu", ".vtm")) else read_mesh_file(path)
+    first = read_step(paths[0])
     n_points = first.points.shape[0]
     n_cells = first.cells.n_cells if first.cells is not None else None
     yield replace(first, times=None if times is None else times[:1])
@@ -319,7 +327,7 @@ def iter_vtu_series(paths: list[str], times=None, *, progress: bool = False):
         if not os.path.isfile(path):
             raise FileNotFoundError(f"SED file {path!r} not found.")
         if not path.lower().endswith(".vtu"):
-            step = read_mesh_file(path)
+            step = read_step(path)
             pd = {a.name: a.values[0] for a in step.arrays.values() if a.location == "point"}
             cd = {a.name: a.values[0] for a in step.arrays.values() if a.location == "cell"}
             pts, npts = step.points, step.points.shape[0]

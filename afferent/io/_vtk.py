@@ -22,19 +22,23 @@ largest magnitude) are partition-boundary copies and are merged into one node; h
 stated in the notes. Coincident nodes whose values differ (discontinuous output such as
 deal.II's per-cell patches) and coincident nodes within one piece are kept as they are: the
 sampling stage handles coincident points with different values. This is the only merge done
-at read time, and it is kept minimal on purpose.
+at read time, and it is kept minimal on purpose. In a series of ``.pvtu``/``.vtm`` files one
+merge (:class:`MergePlan`, from the first and last steps' values) serves every step and is
+checked at each: a field all zero at t = 0 and discontinuous later is not merged at t = 0 alone.
 """
 
 from __future__ import annotations
 
 import os
+from dataclasses import dataclass
 from xml.etree import ElementTree as ET
 
 import numpy as np
 
 from ..exceptions import SEDFormatError
 
-__all__ = ["EXTRA", "read_vtk_file", "vtk_version", "merge_piece_nodes", "MERGE_RTOL", "VALUE_RTOL"]
+__all__ = ["EXTRA", "read_vtk_file", "vtk_version", "merge_piece_nodes", "series_merge_plan", "MergePlan", "MERGE_RTOL",
+           "VALUE_RTOL"]
 
 #: The install command named when VTK is needed and missing.
 EXTRA = "pip install 'afferent-skin[vtk]'"
@@ -217,20 +221,35 @@ def merge_piece_nodes(points: np.ndarray, piece: np.ndarray, values: list[np.nda
     n_different : int
         Nodes of different pieces at one place whose values differ: kept as separate copies.
     """
-    from scipy.sparse import coo_matrix
-    from scipy.sparse.csgraph import connected_components
+    pairs = _cross_pairs(points, piece, tol)
+    same = _same_values(pairs, values, points.shape[0])
+    keep, new_index = _joined(pairs[same], points.shape[0])
+    return keep, new_index, int(np.unique(pairs[~same]).size)
+
+
+def _cross_pairs(points: np.ndarray, piece: np.ndarray, tol: float) -> np.ndarray:
+    """(k, 2) pairs of nodes of different pieces closer than ``tol``."""
     from scipy.spatial import cKDTree
 
-    n = points.shape[0]
-    pairs = cKDTree(points).query_pairs(tol, output_type="ndarray") if n else np.zeros((0, 2), int)
-    pairs = pairs[piece[pairs[:, 0]] != piece[pairs[:, 1]]]
+    pairs = cKDTree(points).query_pairs(tol, output_type="ndarray") if len(points) else np.zeros((0, 2), int)
+    return pairs[piece[pairs[:, 0]] != piece[pairs[:, 1]]]
+
+
+def _same_values(pairs: np.ndarray, values: list[np.ndarray], n: int) -> np.ndarray:
+    """Which pairs carry equal values in every array (within :data:`VALUE_RTOL` x its largest magnitude)."""
     same = np.ones(len(pairs), bool)
     for v in values:
         v2 = v.reshape(n, -1)
         scale = float(np.nanmax(np.abs(v2))) if v2.size else 0.0
         same &= (np.abs(v2[pairs[:, 0]] - v2[pairs[:, 1]]) <= VALUE_RTOL * scale).all(axis=1)
-    n_different = int(np.unique(pairs[~same]).size)
-    pairs = pairs[same]
+    return same
+
+
+def _joined(pairs: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """(nodes kept, new index of every node) when each pair of nodes becomes one node."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
     graph = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(n, n))
     _, label = connected_components(graph, directed=False)
     first = np.full(label.max() + 1 if n else 0, n)
@@ -238,7 +257,53 @@ def merge_piece_nodes(points: np.ndarray, piece: np.ndarray, values: list[np.nda
     keep = np.sort(first)
     position = np.empty(n, np.int64)
     position[keep] = np.arange(keep.size)
-    return keep, position[first[label]], n_different
+    return keep, position[first[label]]
+
+
+@dataclass(frozen=True)
+class MergePlan:
+    """Which nodes of a .pvtu's (or .vtm's) pieces become one node, decided once for a whole series.
+
+    Decided per file, a field equal across pieces at one step (all zero at t = 0) and not at
+    another would merge differently from step to step; a series' steps share one plan, made
+    from the values of its first and last steps and checked at every step.
+    """
+
+    pairs: np.ndarray  # (k, 2) node pairs merged, indices into the pieces' concatenated nodes
+    n_points: int
+    tol: float
+    n_different: int
+    basis: str  # what the values were compared at, for the notes
+
+
+def _point_values(pieces: list[dict], names: list[str]) -> list[np.ndarray]:
+    return [np.concatenate([p["point_data"][n][0] for p in pieces]) for n in names]
+
+
+def _plan(piece_sets: list[list[dict]], path: str, basis: str) -> MergePlan:
+    """The merge plan for pieces (of one file, or of a series' first and last files, on the same nodes)."""
+    first = piece_sets[0]
+    points = np.concatenate([p["points"] for p in first])
+    piece = np.repeat(np.arange(len(first)), [len(p["points"]) for p in first])
+    blocks = [b for p in first for b in p["blocks"]]
+    offsets = np.cumsum([0] + [len(p["points"]) for p in first])
+    tol = MERGE_RTOL * _edge_length(points, [(n, c + offsets[k], i) for k, p in enumerate(first) for n, c, i in p["blocks"]]
+                                    if blocks else [])
+    pairs = _cross_pairs(points, piece, tol)
+    same = np.ones(len(pairs), bool)
+    for pieces in piece_sets:
+        if len(pieces) != len(first) or not np.array_equal(np.concatenate([p["points"] for p in pieces]), points):
+            raise SEDFormatError(f"SED file {path!r}: the steps of the series are not cut into the same pieces on the same "
+                                 "nodes (repartitioned?); afferent reads a series of parallel records on one partition.")
+        names = [n for n in pieces[0]["point_data"] if all(n in p["point_data"] for p in pieces)]
+        same &= _same_values(pairs, _point_values(pieces, names), len(points))
+    return MergePlan(pairs[same], len(points), tol, int(np.unique(pairs[~same]).size), basis)
+
+
+def series_merge_plan(first: str, last: str) -> MergePlan:
+    """One :class:`MergePlan` for a series of .pvtu/.vtm files, from its first and last steps' values."""
+    sets = [_read_pieces(p)[0] for p in dict.fromkeys((first, last))]
+    return _plan(sets, first, f"the first and last steps ({os.path.basename(first)!r}, {os.path.basename(last)!r})")
 
 
 def _common(pieces: list[dict], key: str, notes: list, path: str) -> list[str]:
@@ -250,13 +315,13 @@ def _common(pieces: list[dict], key: str, notes: list, path: str) -> list[str]:
     return names
 
 
-def _merged_mesh(pieces: list[dict], path: str, notes: list):
-    """One meshio.Mesh from the pieces (nodes shared by pieces merged), and the component names."""
+def _merged_mesh(pieces: list[dict], path: str, notes: list, plan: MergePlan | None = None):
+    """One meshio.Mesh from the pieces (nodes shared by pieces merged by ``plan``, or by their own
+    values), and the component names."""
     import meshio
 
     offsets = np.cumsum([0] + [len(p["points"]) for p in pieces])
     points = np.concatenate([p["points"] for p in pieces])
-    piece_of = np.repeat(np.arange(len(pieces)), np.diff(offsets))
     pnames = _common(pieces, "point_data", notes, path)
     cnames = _common(pieces, "cell_data", notes, path)
     for key, names in (("point_data", pnames), ("cell_data", cnames)):
@@ -269,13 +334,18 @@ def _merged_mesh(pieces: list[dict], path: str, notes: list):
     blocks = [(name, conn + offsets[k], idx, k) for k, p in enumerate(pieces) for name, conn, idx in p["blocks"]]
     new_index = np.arange(len(points))
     if len(pieces) > 1:
-        tol = MERGE_RTOL * _edge_length(points, [(b[0], b[1], b[2]) for b in blocks])
-        keep, new_index, n_diff = merge_piece_nodes(points, piece_of, list(pdata.values()), tol)
+        plan = plan or _plan([pieces], path, "this step")
+        if plan.n_points != len(points) or not _same_values(plan.pairs, list(pdata.values()), len(points)).all():
+            raise SEDFormatError(
+                f"SED file {path!r}: nodes its pieces share carry different values here but equal ones at {plan.basis} "
+                "(or the pieces differ): a field continuous between pieces at some steps and not at others; read the "
+                "steps one by one.")
+        keep, new_index = _joined(plan.pairs, len(points))
         notes.append(
             f"{len(pieces)} pieces merged into one mesh: {len(points) - keep.size} node(s) that pieces share (same place "
-            f"within {tol:.3g} file units, same values) merged, {keep.size} nodes left"
-            + (f"; {n_diff} coincident node(s) of different pieces with different values kept as separate copies "
-               "(discontinuous output, handled when sampling)." if n_diff else ".")
+            f"within {plan.tol:.3g} file units, same values at {plan.basis}) merged, {keep.size} nodes left"
+            + (f"; {plan.n_different} coincident node(s) of different pieces with different values kept as separate "
+               "copies (discontinuous output, handled when sampling)." if plan.n_different else ".")
         )
         points, pdata = points[keep], {n: v[keep] for n, v in pdata.items()}
     types = list(dict.fromkeys(b[0] for b in blocks))  # one block per cell type, pieces in order
@@ -287,29 +357,8 @@ def _merged_mesh(pieces: list[dict], path: str, notes: list):
     return meshio.Mesh(points, cells, point_data=pdata, cell_data=cell_data), {n: c for n, c in comps.items() if c}
 
 
-def read_vtk_file(path: str, *, meshio_error: Exception | None = None):
-    """Read a ``.vtk``, ``.vtu``, ``.pvtu`` or ``.vtm`` file through VTK into a RawExport.
-
-    Parameters
-    ----------
-    path : str
-        The file.
-    meshio_error : Exception, optional
-        Why meshio could not read it (a ``.vtk``/``.vtu`` file), for the notes and errors.
-
-    Returns
-    -------
-    RawExport
-        One step; ``reader`` names VTK and its version; the notes say why VTK read it and how
-        many shared nodes of the pieces were merged.
-
-    Raises
-    ------
-    SEDFormatError
-        VTK is not installed (the message names the extra), or cannot read the file either.
-    """
-    from ._meshio import raw_from_mesh
-
+def _read_pieces(path: str, meshio_error: Exception | None = None) -> tuple[list[dict], list[str]]:
+    """The unstructured pieces (or blocks) of a VTK-family file as numpy, and the notes."""
     ext = os.path.splitext(path)[1].lower()
     problem = (str(meshio_error).rstrip(".") if meshio_error is not None else
                f"SED file {path!r} is a {'parallel VTU record' if ext == '.pvtu' else 'VTK multiblock file'}, "
@@ -329,7 +378,36 @@ def read_vtk_file(path: str, *, meshio_error: Exception | None = None):
     if grids and len(grids) < len(datasets):  # a .vtm's surface (PolyData) blocks beside its volume
         others = sorted({ds.GetClassName().removeprefix("vtk") for ds in datasets if ds not in grids})
         notes.append(f"{len(datasets) - len(grids)} block(s) that are not unstructured grids ({', '.join(others)}) left out.")
-    pieces = [_piece(ds, path, mods) for ds in (grids or datasets)]
-    mesh, components = _merged_mesh(pieces, path, notes)
-    fmt = ext.lstrip(".")
+    return [_piece(ds, path, mods) for ds in (grids or datasets)], notes
+
+
+def read_vtk_file(path: str, *, meshio_error: Exception | None = None, plan: MergePlan | None = None):
+    """Read a ``.vtk``, ``.vtu``, ``.pvtu`` or ``.vtm`` file through VTK into a RawExport.
+
+    Parameters
+    ----------
+    path : str
+        The file.
+    meshio_error : Exception, optional
+        Why meshio could not read it (a ``.vtk``/``.vtu`` file), for the notes and errors.
+    plan : MergePlan, optional
+        Which nodes of the pieces to merge (one plan for every step of a series,
+        :func:`series_merge_plan`); by default decided from this file's own values.
+
+    Returns
+    -------
+    RawExport
+        One step; ``reader`` names VTK and its version; the notes say why VTK read it and how
+        many shared nodes of the pieces were merged.
+
+    Raises
+    ------
+    SEDFormatError
+        VTK is not installed (the message names the extra), or cannot read the file either.
+    """
+    from ._meshio import raw_from_mesh
+
+    pieces, notes = _read_pieces(path, meshio_error)
+    mesh, components = _merged_mesh(pieces, path, notes, plan)
+    fmt = os.path.splitext(path)[1].lower().lstrip(".")
     return raw_from_mesh(mesh, path, fmt, components, notes, reader=f"VTK {vtk_version()}")
