@@ -30,6 +30,7 @@ checked at each: a field all zero at t = 0 and discontinuous later is not merged
 from __future__ import annotations
 
 import os
+import threading
 from dataclasses import dataclass
 from xml.etree import ElementTree as ET
 
@@ -39,6 +40,8 @@ from ..exceptions import SEDFormatError
 
 __all__ = ["EXTRA", "read_vtk_file", "vtk_version", "merge_piece_nodes", "series_merge_plan", "MergePlan", "MERGE_RTOL",
            "VALUE_RTOL"]
+
+_OUTPUT_LOCK = threading.Lock()
 
 #: The install command named when VTK is needed and missing.
 EXTRA = "pip install 'afferent-skin[vtk]'"
@@ -75,17 +78,18 @@ def _run_reader(reader, path: str, core) -> list[str]:
     before the cut and a warning "Error reading binary data!". Messages are captured (not printed)
     and any that says "Error" refuses the file.
     """
-    window = core.vtkStringOutputWindow()
-    previous = core.vtkOutputWindow.GetInstance()
-    verbosity = core.vtkLogger.GetCurrentVerbosityCutoff()  # the stderr level when no log file is open
-    core.vtkOutputWindow.SetInstance(window)
-    core.vtkLogger.SetStderrVerbosity(core.vtkLogger.VERBOSITY_OFF)
-    try:
-        reader.SetFileName(path)
-        reader.Update()
-    finally:
-        core.vtkOutputWindow.SetInstance(previous)
-        core.vtkLogger.SetStderrVerbosity(core.vtkLogger.ConvertToVerbosity(verbosity))
+    with _OUTPUT_LOCK:  # VTK's output window is process-wide: one reader at a time (Dask's thread scheduler)
+        window = core.vtkStringOutputWindow()
+        previous = core.vtkOutputWindow.GetInstance()
+        verbosity = core.vtkLogger.GetCurrentVerbosityCutoff()  # the stderr level when no log file is open
+        core.vtkOutputWindow.SetInstance(window)
+        core.vtkLogger.SetStderrVerbosity(core.vtkLogger.VERBOSITY_OFF)
+        try:
+            reader.SetFileName(path)
+            reader.Update()
+        finally:
+            core.vtkOutputWindow.SetInstance(previous)
+            core.vtkLogger.SetStderrVerbosity(core.vtkLogger.ConvertToVerbosity(verbosity))
     messages = [m.strip() for m in window.GetOutput().split("\n\n") if m.strip()]
     # each message: 'ERROR: In file, line N\nvtkClass (0x...): text' -> 'text'
     texts = [m.splitlines()[-1].split("): ", 1)[-1].strip() for m in messages]
