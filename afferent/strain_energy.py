@@ -78,6 +78,8 @@ PRESETS: dict[str, Convention] = {
                                                    "tensor shear [V, eps1mc.f halves the B-matrix shear]; MED read by name"),
     "lsdyna": Convention(_VOIGT_VTK, "tensor", "xx yy zz xy yz xz [V, lasso]; tensor shear [3P]"),
     "elmer": Convention(_VOIGT_VTK, "tensor", "Stress_xx yy zz xy yz xz; tensor shear [V]"),
+    "kratos": Convention(_VOIGT_VTK, "engineering",
+                         "CAUCHY_STRESS_VECTOR, GREEN_LAGRANGE_STRAIN_VECTOR xx yy zz xy yz xz; engineering shear [V]"),
     "vtk": Convention(_VOIGT_VTK, "tensor", "VTK symmetric-tensor order XX YY ZZ XY YZ XZ [UNVERIFIED]; shear assumed tensor"),
 }
 

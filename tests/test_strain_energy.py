@@ -63,6 +63,7 @@ WRITTEN = {
     "lsdyna": (("xx", "yy", "zz", "xy", "yz", "xz"), 1),   # lasso d3plot order
     "elmer": (("xx", "yy", "zz", "xy", "yz", "xz"), 1),    # Stress_xx ... Stress_xz
     "vtk": (("XX", "YY", "ZZ", "XY", "YZ", "XZ"), 1),      # VTK symmetric tensor
+    "kratos": (("XX", "YY", "ZZ", "XY", "YZ", "XZ"), 2),   # CAUCHY_STRESS_VECTOR Voigt; GREEN_LAGRANGE_STRAIN_VECTOR engineering
 }
 _AXIS = {"1": "x", "2": "y", "3": "z", "X": "x", "Y": "y", "Z": "z", "x": "x", "y": "y", "z": "z"}
 

@@ -36,13 +36,17 @@ from ._raw import RawExport
 
 __all__ = ["read_sed", "iter_sed", "series_provenance", "read_raw", "describe_raw", "format_of", "FORMATS"]
 
-#: Known formats: name -> file-name endings. '.gz' CSV files are read by the CSV reader.
+#: Known formats: name -> file-name endings. '.gz' CSV files are read by the CSV reader. A ParaView
+#: JSON file series (``.vtu.series``, Kratos' ``.vtm.series``) is read like a ``.pvd``. ``.pvtu`` and
+#: ``.vtm`` (and ``.vtk``/``.vtu`` files meshio refuses) need the ``vtk`` extra (see docs/fe-export.md).
 FORMATS: dict[str, tuple[str, ...]] = {
     "csv": (".csv", ".txt", ".tsv", ".dat", ".rpt", ".log", ".csv.gz", ".txt.gz", ".tsv.gz", ".dat.gz", ".rpt.gz",
             ".log.gz"),
     "vtu": (".vtu",),
     "vtk": (".vtk",),
-    "pvd": (".pvd",),
+    "pvtu": (".pvtu",),
+    "vtm": (".vtm",),
+    "pvd": (".pvd", ".vtu.series", ".vtk.series", ".pvtu.series", ".vtm.series"),
     "xdmf": (".xdmf", ".xmf"),
     "frd": (".frd", ".frd.gz"),
     "exodus": (".e", ".exo", ".ex2", ".g"),
@@ -178,9 +182,12 @@ def read_sed(
     Parameters
     ----------
     path_or_paths : str, path-like or list of them
-        One export (``.vtu``, ``.vtk``, ``.pvd``, ``.xdmf``, ``.csv``/``.txt``/``.rpt``, optionally
-        ``.gz``, ``.frd``, Exodus, ``.rst``, MED ``.med``/``.rmed``), or several files of one
-        format, one per time step, in time order.
+        One export (``.vtu``, ``.vtk``, ``.pvtu``, ``.vtm``, ``.pvd``, a JSON ``.vtu.series``/``.vtm.series``,
+        ``.xdmf``, ``.csv``/``.txt``/``.rpt``, optionally ``.gz``, ``.frd``, Exodus, ``.rst``, MED
+        ``.med``/``.rmed``), or several files of one format, one per time step, in time order.
+        ``.pvtu`` and ``.vtm`` files, and ``.vtk``/``.vtu`` files meshio refuses, are read through VTK
+        (``pip install 'afferent-skin[vtk]'``); a ``.pvtu``'s pieces are joined into one mesh, the nodes
+        they share with the same values merged.
     length_unit : {'m', 'mm', 'um', 'cm'}, optional
         Unit of the coordinates. Required unless the file states it (COMSOL ``% Length unit``,
         ``X Location (mm)``); if both are given they must agree. Never guessed.
@@ -206,10 +213,13 @@ def read_sed(
         data (the choice is recorded in the provenance).
     sed_column, stress_columns, strain_columns, coord_columns : optional
         Explicit names for anything not recognised. ``sed_column`` may list one column per time
-        step; ``stress_columns``/``strain_columns`` take a tensor array name or 6 column names in
+        step, and confirms that an array named like an energy (Kratos' ``STRAIN_ENERGY``) is a
+        density where the file has no tensors to decide it from the values; ``stress_columns``/``strain_columns`` take a tensor array name or 6 column names in
         the order xx yy zz xy yz xz.
     times : sequence of float, optional
-        Step times, overriding what the file states (unit ``time_unit``, default s).
+        Step times, overriding what the file states (unit ``time_unit``, default s). A series
+        whose files state no time is numbered 0, 1, ... with the time unit ``'step'`` in the
+        provenance (not seconds).
     time_unit : {'s', 'ms', 'us'}, optional
         Unit of the times stated in the file or passed as ``times``.
     coordinates : str or path-like, optional
@@ -228,7 +238,7 @@ def read_sed(
         set to 0, counted in ``provenance.negative_sed`` and reported with an
         :class:`~afferent.exceptions.AfferentWarning`; anything more negative is refused (a
         wrong column, sign or shear convention).
-    format : {'csv', 'vtu', 'vtk', 'pvd', 'xdmf', 'frd', 'exodus', 'rst', 'med'}, optional
+    format : {'csv', 'vtu', 'vtk', 'pvtu', 'vtm', 'pvd', 'xdmf', 'frd', 'exodus', 'rst', 'med'}, optional
         Overrides the format deduced from the file name.
     progress : bool, default=False
         Show a progress bar while reading a series.
@@ -294,7 +304,7 @@ def _raw_steps(path_or_paths, fmt: str | None, progress: bool):
     paths = _paths(path_or_paths)
     formats = {_format_of(p, fmt) for p in paths}
     kind = formats.pop() if len(formats) == 1 else None
-    if kind == "vtu" and len(paths) > 1:
+    if kind in ("vtu", "vtk", "pvtu", "vtm") and len(paths) > 1:
         return len(paths), _meshio.iter_vtu_series(paths, progress=progress)
     if kind == "pvd" and len(paths) == 1:
         files, _ = _meshio.pvd_entries(paths[0])
@@ -361,12 +371,13 @@ def iter_sed(path_or_paths, *, format: str | None = None, progress: bool = False
         numbered = raw.times is None and opts.times is None  # numbered 0, 1, ... as read_sed does
         if numbered:
             raw = replace(raw, times=np.array([float(k)]), notes=raw.notes + (
-                "The export states no step times; steps are numbered 0, 1, ... (pass times= to set them).",))
+                "The export states no step times; steps are numbered 0, 1, ... (step numbers, not seconds; pass times= "
+                "to set them).",))
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
             field = assemble(raw, opts if opts.times is None else replace(opts, times=opts.times[k:k + 1]))
         if numbered:
-            units = dict(field.provenance.units, time_source="none in the file: steps numbered 0, 1, ...")
+            units = dict(field.provenance.units, time="step", time_source="none in the file: steps numbered 0, 1, ...")
             field = replace(field, provenance=replace(field.provenance, units=units))
         for w in caught:
             key = re.sub(r"[-+]?\d[\d.eE+-]*", "#", str(w.message))

@@ -32,6 +32,7 @@ from ._export_checks import (  # noqa: F401 (importable from here, as before the
     tensor_sed_crosscheck,
 )
 from ._find_arrays import (
+    FULL_TENSORS,
     _convention,
     _where,
     average_per_element,
@@ -145,6 +146,7 @@ def _sed_from_field(raw: RawExport, opts: ReadOptions, rec: _Record) -> tuple[np
     location = arrays[0].location
     label = ", ".join(a.name for a in arrays)
     rec.columns["sed"] = label
+    _energy_named(raw, opts, arrays[0], rec)
     stated = {a.unit for a in arrays}
     if len(stated) > 1:
         raise UnitError(f"SED file {_where(raw)!r}: SED columns {label} state different units {sorted(map(str, stated))}.")
@@ -156,6 +158,29 @@ def _sed_from_field(raw: RawExport, opts: ReadOptions, rec: _Record) -> tuple[np
     if opts.stress_unit is not None:
         rec.notes.append(f"stress_unit={opts.stress_unit!r} ignored: SED read from the field, not computed from stress.")
     return sed, location
+
+
+def _energy_named(raw: RawExport, opts: ReadOptions, arr, rec: _Record) -> None:
+    """Record why an array named like an energy (Kratos' STRAIN_ENERGY) is read as a density:
+    its values (against the tensors), or the user's sed_column= confirmation."""
+    from . import _columns as C
+    from ._export_checks import density_by_values
+
+    reason = C.ENERGY_NOT_DENSITY.get(C.canonical(arr.name))
+    if not reason:
+        return
+    check = density_by_values(raw, arr)
+    if check is not None:
+        rec.checks["density_by_values"] = {k: check[k] for k in ("relative_difference", "scale", "best_preset", "density")}
+    if check is not None and check["density"]:
+        rec.notes.append(check["note"])
+    else:
+        msg = (f"{arr.name!r} is named like an energy ({reason}); read as a density because sed_column= says so"
+               + (f", although its values are {check['scale']:.3g} x 1/2 sigma:eps of the file's tensors." if check else
+                  " (the file has no tensors to check it against)."))
+        rec.notes.append(msg)
+        if check is not None:
+            warnings.warn(msg, AfferentWarning, stacklevel=5)
 
 
 def _sed_from_tensors(raw: RawExport, opts: ReadOptions, rec: _Record) -> tuple[np.ndarray, str]:
@@ -181,7 +206,8 @@ def _sed_from_tensors(raw: RawExport, opts: ReadOptions, rec: _Record) -> tuple[
     rec.notes.append(
         f"SED computed from tensors: {'1/2 sigma:eps' if opts.sed_from == 'exact' else '1/2 sigma_e eps_e (nu=%g)' % opts.poisson}; "
         f"shear strain read as {conv.shear} (preset={opts.preset or raw.preset!r}"
-        f"{', implied by the file format' if opts.preset is None and raw.preset else ''})."
+        f"{', implied by the file format' if opts.preset is None and raw.preset else ''})"
+        + (f": {conv.note}, so no preset or shear is needed." if conv.note == FULL_TENSORS else ".")
     )
     sed = sed_exact(s, e) if opts.sed_from == "exact" else sed_equivalent(s, e, opts.poisson)
     for msg in _tensor_checks(raw, opts, s, e, location, rec.checks):
@@ -247,10 +273,11 @@ def _times(raw: RawExport, opts: ReadOptions, n_times: int, rec: _Record) -> np.
         tu, tf, tsrc = _unit(raw, opts.time_unit, raw.time_unit, "time", "time_unit", "the step times") if (
             opts.time_unit or raw.time_unit) else ("s", 1.0, "assumed: no unit stated; FE step times are in s")
     else:
-        times = np.arange(n_times, dtype=float)
-        tu, tf, tsrc = "s", 1.0, "none in the file: steps numbered 0, 1, ..."
+        times = np.arange(n_times, dtype=float)  # step numbers, not seconds: the unit says so
+        tu, tf, tsrc = "step", 1.0, "none in the file: steps numbered 0, 1, ..."
         if n_times > 1:
-            rec.notes.append("The export states no step times; steps are numbered 0, 1, ... (pass times= to set them).")
+            rec.notes.append("The export states no step times; steps are numbered 0, 1, ... (step numbers, not "
+                             "seconds; pass times= to set them).")
     rec.units.update(time=tu, time_source=tsrc)
     rec.factors["time"] = tf
     times = times * tf

@@ -2,7 +2,8 @@
 
 Names are matched after :func:`canonical` (lower case; spaces, dots, dashes, colons and
 underscores removed), so ``S.S11``, ``S-S11``, ``S:S11`` and ``s_11`` all read ``ss11``/``s11``.
-Matching is by name only; values never decide what a column is.
+Names are hints: where an array named like an energy sits beside stress and strain tensors,
+its values decide whether it is a density (:func:`afferent.io._export_checks.density_by_values`).
 """
 
 from __future__ import annotations
@@ -76,7 +77,8 @@ ENERGY_NOT_DENSITY: dict[str, str] = {
     canonical("SENE"): "ANSYS SENE is the element strain energy (J), not a density; export SEND",
     canonical("element strain energy"): "FEBio 'element strain energy' is an energy, not a density",
     canonical("solid.Ws_tot"): "COMSOL solid.Ws_tot is the integrated energy, not a density; export solid.Ws",
-    canonical("strain energy"): "'Strain Energy' (Workbench) is an element energy, not a density",
+    canonical("strain energy"): "'Strain Energy' (Workbench) is an element energy, not a density; Kratos' "
+                                "STRAIN_ENERGY is a density despite its name",
     canonical("ALLSE"): "Abaqus ALLSE is the whole model's strain energy",
     canonical("internal energy"): "CalculiX 'internal energy' (ELSE, .dat) is the element's energy, not a density; print ENER",
     canonical("ENEL_ELEM"): "code_aster ENEL_ELEM is the elastic energy per element, not a density; export ENEL_NOEU, "
@@ -124,7 +126,9 @@ _ASTER_SUPPORTS = ("NOEU", "ELNO", "ELGA", "ELEM")
 #: Multi-component tensor arrays (VTU/XDMF/MED): a 6- or 9-component array with one of these names.
 TENSOR_ARRAY_NAMES: dict[str, frozenset[str]] = {
     "stress": _c("S", "stress", "sigma", "cauchy_stress", "Stress", "SIEF", "SIGM", "STRESS", "nodal stress",
+                 "CAUCHY_STRESS_VECTOR", "CAUCHY_STRESS_TENSOR",
                  *(f"{q}_{where}" for q in ("SIEF", "SIGM") for where in _ASTER_SUPPORTS)),
     "strain": _c("E", "strain", "eps", "epsilon", "cauchy_strain", "Strain", "LE", "EE", "EPSI", "TOSTRAIN",
-                 "Lagrange strain", "infinitesimal strain", "EPEL", "EPTO", *(f"EPSI_{where}" for where in _ASTER_SUPPORTS)),
+                 "Lagrange strain", "infinitesimal strain", "EPEL", "EPTO", "GREEN_LAGRANGE_STRAIN_VECTOR",
+                 "GREEN_LAGRANGE_STRAIN_TENSOR", *(f"EPSI_{where}" for where in _ASTER_SUPPORTS)),
 }

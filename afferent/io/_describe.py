@@ -46,6 +46,8 @@ def describe_raw(raw) -> list[str]:
     lines = [f"{raw.files[0]}" + (f" (+{len(raw.files) - 1} files)" if len(raw.files) > 1 else "")]
     add = lambda k, v: lines.append(f"  {k:<12} {v}")  # noqa: E731
     add("format", raw.format)
+    if raw.reader:
+        add("reader", raw.reader)
     opts = ReadOptions()
     try:
         xyz, coord_names = find_coordinates(raw, opts)
@@ -95,6 +97,7 @@ def _sed_lines(raw, opts, add) -> None:
         sed_arrays = find_sed_array(raw, opts)
         sed = np.concatenate([a.values.reshape(a.values.shape[0], -1) for a in sed_arrays])
         add("SED", f"{', '.join(repr(a.name) for a in sed_arrays)} ({sed_arrays[0].location} data)")
+        _density_line(raw, sed_arrays[0], add)
         others = [a for a in raw.arrays.values() if a.name == sed_arrays[0].name and a.location != sed_arrays[0].location]
         if others:
             add("", f"{others[0].location} data of the same name also present: --location {others[0].location} to use it")
@@ -119,6 +122,17 @@ def _sed_lines(raw, opts, add) -> None:
                             f"(1..1e5 J/m^3) in: {_unit_hint(level, SED_UNITS, PLAUSIBLE_SED_PA, ('Pa', 'kPa', 'MPa'))}")
     except SEDFormatError as err:
         add("SED", f"no SED array: {str(err).split('. Found')[0].split(': ', 1)[-1]}")
+
+
+def _density_line(raw, arr, add) -> None:
+    """For an array named like an energy and read as a density: why (its values against the tensors)."""
+    from . import _columns as C
+    from ._export_checks import density_by_values
+
+    if C.ENERGY_NOT_DENSITY.get(C.canonical(arr.name)):
+        check = density_by_values(raw, arr)
+        if check is not None:
+            add("", check["note"])
 
 
 def _tensor_lines(raw, add) -> None:

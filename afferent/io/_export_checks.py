@@ -14,7 +14,7 @@ from ..exceptions import SEDFormatError
 from ..strain_energy import PRESETS, sed_exact
 from ._find_arrays import _convention, _where, find_sed_array, find_tensors
 from ._raw import RawExport
-from ._read_options import CROSSCHECK_RTOL, NEGATIVE_SED_RTOL, SHEAR_RATIO_BAND, ReadOptions
+from ._read_options import CROSSCHECK_RTOL, DENSITY_SCALE_BAND, NEGATIVE_SED_RTOL, SHEAR_RATIO_BAND, ReadOptions
 
 
 def _check_values(raw: RawExport, values: np.ndarray, what: str) -> None:
@@ -108,7 +108,7 @@ def tensor_sed_crosscheck(raw: RawExport, opts: ReadOptions) -> dict | None:
     """
     try:
         (_, _, tloc), _ = find_tensors(raw, replace(opts, sed_from="exact"), need_convention=False)
-        arr = find_sed_array(raw, ReadOptions(location=tloc))[0]
+        arr = find_sed_array(raw, ReadOptions(location=tloc, sed_column=opts.sed_column))[0]
     except (SEDFormatError, ValueError):
         return None
     if arr.location != tloc or (arr.values.ndim == 3 and arr.values.shape[2] != 1):
@@ -138,6 +138,33 @@ def tensor_sed_crosscheck(raw: RawExport, opts: ReadOptions) -> dict | None:
         "relative_difference": rel, "scale": scale, "by_preset": by_preset, "best_preset": best,
         "location": tloc, "tolerance": CROSSCHECK_RTOL[tloc], "agree": bool(rel <= CROSSCHECK_RTOL[tloc]),
     }
+
+
+def density_by_values(raw: RawExport, arr) -> dict | None:
+    """Is an array named like an energy (ELSE, SENE, Kratos' STRAIN_ENERGY) a density? The values decide.
+
+    Compares it with 1/2 sigma:eps of the export's stress and strain tensors (at the array's
+    location) under every preset (:func:`tensor_sed_crosscheck`): it is a density when the best
+    preset agrees within :data:`CROSSCHECK_RTOL` with a least-squares scale inside
+    :data:`DENSITY_SCALE_BAND` (an element energy is the density x the element volume).
+
+    Returns
+    -------
+    dict or None
+        None when the export has no tensors at that location; else the cross-check's
+        ``relative_difference``, ``scale`` and ``best_preset`` for the best preset, ``density``
+        (bool) and ``note`` (a sentence for the provenance).
+    """
+    check = tensor_sed_crosscheck(raw, ReadOptions(sed_column=arr.name, location=arr.location))
+    if check is None or check["sed_array"] != arr.name:
+        return None
+    best = check["best_preset"]
+    rel, scale = check["by_preset"][best], check["scale"]
+    density = bool(rel <= check["tolerance"] and DENSITY_SCALE_BAND[0] <= scale <= DENSITY_SCALE_BAND[1])
+    note = (f"{arr.name!r} ({arr.location} data) is named like an energy, but its values are a density: "
+            f"{scale:.3g} x 1/2 sigma:eps of the file's tensors (relative difference {rel:.2g} for the best preset; a "
+            f"density has a scale in {DENSITY_SCALE_BAND}, an element energy the element volume).")
+    return {"relative_difference": rel, "scale": scale, "best_preset": best, "density": density, "note": note}
 
 
 def shear_consistency(stress, strain) -> dict | None:

@@ -17,7 +17,9 @@ from ._read_options import ReadOptions
 
 
 def _where(raw: RawExport) -> str:
-    return raw.files[0] if len(raw.files) == 1 else f"{raw.files[0]} (+{len(raw.files) - 1} more files)"
+    """The file messages name: the export the user gave (the first of :attr:`RawExport.files`; the rest are
+    the files it names, such as a .pvd's steps or an XDMF's HDF5 files)."""
+    return raw.files[0]
 
 
 def _names(raw: RawExport) -> str:
@@ -236,10 +238,20 @@ def find_sed_array(raw: RawExport, opts: ReadOptions) -> list[RawArray]:
             return _pick_location(raw, hits, hits[0].name, opts.location)[:1] if len(hits) > 1 else hits
     for a in arrays:
         reason = C.ENERGY_NOT_DENSITY.get(C.canonical(a.name))
-        if reason:
+        if reason and (opts.location is None or a.location == opts.location):
+            from ._export_checks import density_by_values  # values decide where tensors are present
+
+            check = density_by_values(raw, a)
+            if check is not None and check["density"]:
+                return [a]
             raise SEDFormatError(
-                f"SED file {_where(raw)!r}: column {a.name!r} holds an energy, not an energy density ({reason}). "
-                "Export the density, or divide by the element volume first."
+                f"SED file {_where(raw)!r}: column {a.name!r} holds an energy, not an energy density ({reason}); "
+                + (f"its values are {check['scale']:.3g} x 1/2 sigma:eps of the file's tensors (relative difference "
+                   f"{check['relative_difference']:.2g}), as an element energy is the density x the element volume. "
+                   if check is not None else "so its name says, and the file has no stress and strain tensors to "
+                   "decide from the values. ")
+                + f"Export the density, or divide by the element volume first; if it is a density after all, confirm "
+                f"with sed_column={a.name!r} (--sed-column {a.name})."
             )
     tensors = _tensor_summary(raw)
     hint = (
@@ -377,6 +389,20 @@ def _halve_shear(values: np.ndarray, kind: str, conv: Convention | None) -> np.n
     return values
 
 
+#: The convention's note when stress and strain are both full 3x3 arrays (no preset or shear needed).
+FULL_TENSORS = "stress and strain are full 3x3 tensors (9 components): their off-diagonals are tensor components"
+
+
+def _full_tensors(raw: RawExport, opts: ReadOptions) -> bool:
+    """Whether the stress and strain found are both 9-component arrays (then no shear convention applies)."""
+    try:
+        (s_name, _, s_loc), (e_name, _, _) = find_tensors(raw, opts, need_convention=False)
+    except (SEDFormatError, ValueError):
+        return False
+    full = {a.name for a in raw.arrays.values() if a.location == s_loc and a.values.ndim == 3 and a.values.shape[2] == 9}
+    return s_name in full and e_name in full
+
+
 def _convention(opts: ReadOptions, raw: RawExport | None = None) -> Convention:
     """The tensors' convention: the user's preset/shear, else the one the file's format implies."""
     implied = raw.preset if raw is not None else None
@@ -386,6 +412,8 @@ def _convention(opts: ReadOptions, raw: RawExport | None = None) -> Convention:
             "drop preset (the file's own convention is used)."
         )
     preset = opts.preset or implied
+    if preset is None and opts.shear is None and raw is not None and _full_tensors(raw, opts):
+        return Convention(PRESETS["vtk"].order, "tensor", FULL_TENSORS)
     if preset is None and opts.shear is None:
         raise ValueError(
             "Computing SED from tensors needs the tool's shear convention: pass preset=one of "

@@ -123,8 +123,8 @@ _VTK_XML_TYPES = {
     "StructuredGrid": ("a StructuredGrid", "in ParaView apply 'Clean to Grid' and save as .vtu"),
     "RectilinearGrid": ("a RectilinearGrid", "in ParaView apply 'Clean to Grid' and save as .vtu"),
     "ImageData": ("an ImageData volume", "in ParaView apply 'Clean to Grid' and save as .vtu"),
-    "PUnstructuredGrid": ("a parallel index (.pvtu) listing its pieces", "in ParaView apply 'Merge Blocks' and save as .vtu"),
-    "vtkMultiBlockDataSet": ("a multiblock index (.vtm) listing its blocks", "in ParaView apply 'Merge Blocks' and save as .vtu"),
+    "PUnstructuredGrid": ("a parallel index (.pvtu) listing its pieces", "name it .pvtu (read through VTK, the 'vtk' extra)"),
+    "vtkMultiBlockDataSet": ("a multiblock index (.vtm) listing its blocks", "name it .vtm (read through VTK, the 'vtk' extra)"),
 }
 
 
@@ -178,28 +178,63 @@ def _arrays_from_mesh(mesh, path: str, cells_obj: Cells | None) -> dict[str, Raw
 
 
 def read_mesh_file(path: str) -> RawExport:
-    """A single VTU / VTK / single-grid XDMF (or any meshio-readable) file: one time step."""
-    side: list[str] = []
-    mesh = _read_meshio(path, side)
+    """A single VTU / VTK / single-grid XDMF (or any meshio-readable) file: one time step.
+
+    ``.pvtu`` and ``.vtm`` files, and ``.vtk``/``.vtu`` files meshio cannot read, are read
+    through VTK (:mod:`afferent.io._vtk`, the ``vtk`` extra); ``RawExport.reader`` says which.
+    """
+    import meshio
+
+    ext = os.path.splitext(path)[1].lower()
+    if ext in (".pvtu", ".vtm"):
+        from ._vtk import read_vtk_file
+
+        return read_vtk_file(path)
+    side: list[str] = []  # the files meshio opened besides path (an XDMF's HDF5 and .bin files)
+    try:
+        mesh = _read_meshio(path, side)
+    except SEDFormatError as err:
+        if ext not in (".vtk", ".vtu") or not os.path.isfile(path) or os.path.getsize(path) == 0 or _not_unstructured(path):
+            raise
+        from ._vtk import read_vtk_file
+
+        return read_vtk_file(path, meshio_error=err)
+    names = _vtu_component_names(path) if ext == ".vtu" else {}  # meshio drops the arrays' ComponentName attributes
+    return raw_from_mesh(mesh, path, ext.lstrip("."), names, [], reader=f"meshio {meshio.__version__}",
+                         files=files_read([path], side))
+
+
+def _not_unstructured(path: str) -> bool:
+    """Whether a .vtu's own header says it is not an UnstructuredGrid (refused as such, not re-read by VTK)."""
+    try:
+        _check_vtk_xml_type(path)
+    except SEDFormatError:
+        return True
+    return False
+
+
+def raw_from_mesh(mesh, path: str, fmt: str, components: dict, notes: list, *, reader: str,
+                  files: tuple[str, ...]) -> RawExport:
+    """A meshio.Mesh (from meshio, or built from VTK's output) as a one-step RawExport.
+
+    ``components`` maps array names to their component names (``XX YY ZZ XY YZ ZX``); ``files`` is
+    every file read for it (:attr:`RawExport.files`).
+    """
     cells_obj = cells_from_meshio(mesh.cells)
     points = np.asarray(mesh.points, dtype=float)
     if points.ndim != 2 or points.shape[0] == 0:
         raise SEDFormatError(f"SED file {path!r} holds no points.")
     if points.shape[1] == 2:
         points = np.column_stack([points, np.zeros(len(points))])
-    notes = []
+    notes = list(notes)
     if cells_obj is None:
         notes.append("No volume cells in the file: the points are treated as scattered samples.")
     arrays = _arrays_from_mesh(mesh, path, cells_obj)
-    if path.lower().endswith(".vtu"):  # meshio drops the arrays' ComponentName attributes: keep them
-        names = _vtu_component_names(path)
-        arrays = {k: (RawArray(a.name, a.values, a.location, a.unit, names[a.name])
-                      if a.name in names and a.values.ndim == 3 and a.values.shape[2] == len(names[a.name]) else a)
-                  for k, a in arrays.items()}
-    return RawExport(
-        files=files_read([path], side), format=os.path.splitext(path)[1].lstrip(".").lower(), points=points,
-        arrays=arrays, cells=cells_obj, notes=tuple(notes),
-    )
+    arrays = {k: (RawArray(a.name, a.values, a.location, a.unit, components[a.name])
+                  if a.name in components and a.values.ndim == 3 and a.values.shape[2] == len(components[a.name]) else a)
+              for k, a in arrays.items()}
+    return RawExport(files=tuple(files), format=fmt, points=points, arrays=arrays, cells=cells_obj, notes=tuple(notes),
+                     reader=reader)
 
 
 _DATA_ARRAY = re.compile(rb"<DataArray\b[^>]*>")
@@ -286,7 +321,15 @@ def iter_vtu_series(paths: list[str], times=None, *, progress: bool = False):
     from .._progress import progress_bar
 
     times = None if times is None else np.asarray(times, dtype=float)
-    first = read_mesh_file(paths[0])
+    read_step = read_mesh_file
+    if len(paths) > 1 and all(p.lower().endswith((".pvtu", ".vtm")) for p in (paths[0], paths[-1])):
+        from ._vtk import read_vtk_file, series_merge_plan
+
+        plan = series_merge_plan(paths[0], paths[-1])  # one merge of the pieces' shared nodes for every step
+
+        def read_step(path):
+            return read_vtk_file(path, plan=plan) if path.lower().endswith((".pvtu", ".vtm")) else read_mesh_file(path)
+    first = read_step(paths[0])
     n_points = first.points.shape[0]
     n_cells = first.cells.n_cells if first.cells is not None else None
     yield replace(first, times=None if times is None else times[:1])
@@ -294,7 +337,7 @@ def iter_vtu_series(paths: list[str], times=None, *, progress: bool = False):
         if not os.path.isfile(path):
             raise FileNotFoundError(f"SED file {path!r} not found.")
         if not path.lower().endswith(".vtu"):
-            step = read_mesh_file(path)
+            step = read_step(path)
             pd = {a.name: a.values[0] for a in step.arrays.values() if a.location == "point"}
             cd = {a.name: a.values[0] for a in step.arrays.values() if a.location == "cell"}
             pts, npts = step.points, step.points.shape[0]
@@ -305,6 +348,9 @@ def iter_vtu_series(paths: list[str], times=None, *, progress: bool = False):
             raise SEDFormatError(
                 f"SED file {path!r} is not on the same mesh as {paths[0]!r} "
                 f"({npts} points vs {n_points}, or moved points); a series must share one mesh."
+                + (" The nodes that pieces share are merged where their values agree at that step: a field continuous "
+                   "across pieces at one step and not at another is merged differently (see each step's notes)."
+                   if path.lower().endswith((".pvtu", ".vtm")) else "")
             )
         arrays = {}
         for key, arr in first.arrays.items():
@@ -326,7 +372,8 @@ def iter_vtu_series(paths: list[str], times=None, *, progress: bool = False):
                     f"{paths[0]!r} has {arr.values.shape[2:]}."
                 )
             arrays[key] = replace(arr, values=values[None])
-        yield replace(first, files=(path,), arrays=arrays, times=None if times is None else times[k:k + 1])
+        files = step.files if isinstance(step, RawExport) else (path,)  # a .pvtu's pieces, a .vtm's blocks
+        yield replace(first, files=files, arrays=arrays, times=None if times is None else times[k:k + 1])
 
 
 def read_vtu_series(paths: list[str], times=None, *, progress: bool = False) -> RawExport:
@@ -334,23 +381,38 @@ def read_vtu_series(paths: list[str], times=None, *, progress: bool = False) -> 
 
     The steps of :func:`iter_vtu_series`, stacked (all in memory).
     """
-    first_notes = []
+    first_notes, files = [], []
 
     def steps():
         for k, step in enumerate(iter_vtu_series(paths, times, progress=progress)):
             if k == 0:
                 first_notes.extend(step.notes)
+            files.append(step.files)
             yield step
 
     raw = stack_steps(steps())
-    return replace(raw, files=tuple(paths), format="vtu-series",
+    return replace(raw, files=files_read(*files), format="vtu-series",
                        notes=tuple(first_notes) + (f"{len(paths)} steps read; mesh decoded once, from {paths[0]!r}.",))
 
 
-def pvd_entries(path: str) -> tuple[list[str], list[float]]:
-    """The files and times of a ParaView ``.pvd`` collection (``<DataSet timestep=... file=...>``)."""
-    if not os.path.isfile(path):
-        raise FileNotFoundError(f"SED file {path!r} not found.")
+def _series_entries(path: str) -> list[tuple[float | None, int, str]]:
+    """(time or None, part, file) of a ParaView JSON file series (``{"files": [{"name", "time"}]}``)."""
+    import json
+
+    try:
+        with open(path, encoding="utf-8") as fh:
+            files = json.load(fh)["files"]
+        entries = [(None if f.get("time") is None else float(f["time"]), 0, str(f["name"])) for f in files]
+    except (ValueError, KeyError, TypeError, AttributeError) as err:
+        raise SEDFormatError(f"SED file {path!r} is not a ParaView file series (JSON with files: [{{name, time}}]): "
+                             f"{type(err).__name__}: {err}") from err
+    if not entries:
+        raise SEDFormatError(f"SED file {path!r} lists no files; expected a ParaView file series.")
+    return entries
+
+
+def _pvd_xml_entries(path: str) -> list[tuple[float | None, int, str]]:
+    """(timestep or None, part, file) of each ``<DataSet>`` of a .pvd."""
     try:
         root = ET.parse(path).getroot()
     except ET.ParseError as err:
@@ -358,13 +420,12 @@ def pvd_entries(path: str) -> tuple[list[str], list[float]]:
     datasets = root.findall(".//DataSet")
     if not datasets:
         raise SEDFormatError(f"SED file {path!r} lists no <DataSet> entries; expected a ParaView collection.")
-    folder = os.path.dirname(path)
     entries = []
     for k, ds in enumerate(datasets):
         if "file" not in ds.attrib:
             raise SEDFormatError(f"SED file {path!r}: DataSet {k} has no 'file' attribute.")
         try:
-            t = float(ds.attrib.get("timestep", k))
+            t = float(ds.attrib["timestep"]) if "timestep" in ds.attrib else None
         except ValueError as err:
             raise SEDFormatError(
                 f"SED file {path!r}: DataSet {k} timestep must be a number; got {ds.attrib['timestep']!r} instead."
@@ -375,9 +436,27 @@ def pvd_entries(path: str) -> tuple[list[str], list[float]]:
             raise SEDFormatError(
                 f"SED file {path!r}: DataSet {k} part must be a whole number; got {ds.attrib['part']!r} instead."
             ) from err
-        entries.append((t, part, os.path.join(folder, ds.attrib["file"])))
+        entries.append((t, part, ds.attrib["file"]))
+    return entries
+
+
+def pvd_entries(path: str) -> tuple[list[str], list[float] | None]:
+    """The files and times of a ParaView ``.pvd`` collection (``<DataSet timestep=... file=...>``) or
+    JSON file series (``.vtu.series``, Kratos' ``.vtm.series``); times None when no entry states one
+    (the steps are then numbered, not given invented seconds)."""
+    if not os.path.isfile(path):
+        raise FileNotFoundError(f"SED file {path!r} not found.")
+    raw = _series_entries(path) if path.lower().endswith(".series") else _pvd_xml_entries(path)
+    folder = os.path.dirname(path)
+    entries = [(t, part, os.path.join(folder, f)) for t, part, f in raw]
     if len({e[1] for e in entries}) > 1:
         raise SEDFormatError(f"SED file {path!r} has several parts per time step; afferent reads single-part series.")
+    stated = [e[0] is not None for e in entries]
+    if any(stated) and not all(stated):
+        k = stated.index(False)
+        raise SEDFormatError(f"SED file {path!r}: entry {k} states no time while others do; state a time for every entry.")
+    if not all(stated):
+        return [e[2] for e in entries], None
     times = [e[0] for e in entries]
     if any(b <= a for a, b in zip(times, times[1:])):
         k = next(i for i, (a, b) in enumerate(zip(times, times[1:])) if b <= a)
@@ -414,4 +493,4 @@ def read_xdmf(path: str, *, progress: bool = False) -> RawExport:
     if has_collections(path):
         return read_xdmf_collections(path, progress=progress)
     raw = read_mesh_file(path)
-    return RawExport(raw.files, "xdmf", raw.points, raw.arrays, None, raw.cells, notes=raw.notes)
+    return RawExport(raw.files, "xdmf", raw.points, raw.arrays, None, raw.cells, notes=raw.notes, reader=raw.reader)

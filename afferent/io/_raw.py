@@ -93,6 +93,9 @@ class RawExport:
         The tool whose conventions the file follows when the format itself says so (a
         CalculiX ``.frd`` is always CalculiX's component order and shear), a key of
         :data:`afferent.strain_energy.PRESETS`; None when only the user can tell.
+    reader : str or None
+        The library that decoded the file when it is not afferent's own code (``'meshio 5.3.5'``,
+        ``'VTK 9.5.2'``), for ``afferent info`` and the provenance notes.
     """
 
     files: tuple[str, ...]
@@ -105,6 +108,7 @@ class RawExport:
     time_unit: str | None = None
     notes: tuple[str, ...] = ()
     preset: str | None = None
+    reader: str | None = None
 
     @property
     def n_times(self) -> int:

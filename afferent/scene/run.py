@@ -486,6 +486,12 @@ def _spike(run: _Run) -> None:
     duration = sp.duration_s
     if duration is None and out["afferent"].n_times == 1:
         duration = 1.0
+    if (run.record.get("field", {}).get("units") or {}).get("time") == "step" and out["afferent"].n_times > 1:
+        from ..exceptions import AfferentWarning
+
+        warnings.warn("The export states no step times: its steps are numbered 0, 1, ... (time unit 'step'), and "
+                      "spiking reads those numbers as seconds; give the steps' times ([export] times, --times).",
+                      AfferentWarning, stacklevel=2)
     pr = PipelineResult(out["sed"], out["current"], out["branching"], out["afferent"], out["saturation"], out["fit"],
                         {}, waveform=out["waveform"])
     pr = run_spikes(pr, lif, dt=sp.dt_s, engine=sp.engine, input=sp.input, gain=sp.gain_s, tau=sp.tau_s,
