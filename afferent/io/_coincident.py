@@ -1,0 +1,181 @@
+"""Coincident points of a mesh export (discontinuous output) merged into nodes.
+
+deal.II's ``DataOut`` writes every cell as its own patch, DOLFINx writes DG fields per cell
+and FreeFEM's P1dc does the same: each mesh node is then 4-8 points at one place, one per
+cell around it, with different values. Sampling such a mesh takes one copy (the one of the
+cell the receptor is found in first), so the value at a receptor depends on an arbitrary
+choice. Here the copies are found (a KD-tree, tolerance relative to the mesh's shortest cell
+edge) and merged into one node whose value is the **volume-weighted mean of the copies**:
+each copy weighs the volume of the cells that use it, which is what :func:`afferent.sampling.node_average`
+does for cell data (a cell gives its whole volume to each of its corners). The merge, the
+number of copies and how far they disagree are recorded (:attr:`afferent.field.Provenance.coincident`).
+
+Used by :mod:`afferent.io._assemble` (reading) and :mod:`afferent.io._describe` (``afferent info``).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..field import Cells, NodeSides
+
+__all__ = ["COINCIDENT_RTOL", "COINCIDENT_WARN_RTOL", "coincident_labels", "merge_coincident"]
+
+#: Points closer than this fraction of the mesh's shortest cell edge are copies of one node.
+#: Coordinates written with 6 significant digits are off by up to 5e-6 of their magnitude; a
+#: cell edge is rarely below 1e-3 of the model's extent, so copies written in single precision
+#: (6e-8 relative) are found, and distinct nodes (one edge apart) never are.
+COINCIDENT_RTOL = 1e-6
+
+#: Copies of a node whose SED differs from their mean by more than this fraction of it (at the
+#: most loaded step, largest over the nodes) are reported with a warning: the merged value is
+#: then an average over cells that disagree (a material interface, a steep gradient on a coarse
+#: mesh), not a value any cell had. On the deal.II export of tests/data/dealii (Q1, two
+#: materials) copies differ from their mean by a median 9 % and up to 1.5 x it.
+COINCIDENT_WARN_RTOL = 0.25
+
+#: Nodes whose mean SED is below this fraction of the largest node mean are left out of the
+#: disagreement statistics (relative differences of near-zero values say nothing).
+SPREAD_FLOOR = 1e-3
+
+_EDGES = ((0, 1), (0, 2), (0, 3), (1, 2), (1, 3), (2, 3))
+
+
+def shortest_edge(xyz: np.ndarray, tetra: np.ndarray) -> float:
+    """Length of the shortest non-zero edge of the tetrahedra, in the unit of ``xyz`` (inf when none)."""
+    if not tetra.size:
+        return float("inf")
+    lengths = np.concatenate([np.linalg.norm(xyz[tetra[:, a]] - xyz[tetra[:, b]], axis=1) for a, b in _EDGES])
+    lengths = lengths[lengths > 0]
+    return float(lengths.min()) if lengths.size else float("inf")
+
+
+def coincident_labels(xyz: np.ndarray, tetra: np.ndarray, rtol: float = COINCIDENT_RTOL):
+    """Which points are copies of one node: (labels of shape (n_points,), n_nodes, tolerance) or None.
+
+    ``labels[p]`` is the node of point ``p``; nodes are numbered in the order of their first
+    copy. The tolerance (unit of ``xyz``) is ``rtol`` x the shortest cell edge. None when no two
+    points are that close.
+    """
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+    from scipy.spatial import cKDTree
+
+    tol = rtol * shortest_edge(xyz, tetra)
+    if not np.isfinite(tol) or xyz.shape[0] < 2:
+        return None
+    pairs = cKDTree(xyz).query_pairs(tol, output_type="ndarray")
+    if not len(pairs):
+        return None
+    n = xyz.shape[0]
+    graph = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(n, n))
+    n_nodes, comp = connected_components(graph, directed=False)
+    first = np.full(n_nodes, n, dtype=np.int64)
+    np.minimum.at(first, comp, np.arange(n))
+    order = np.empty(n_nodes, dtype=np.int64)
+    order[np.argsort(first, kind="stable")] = np.arange(n_nodes)
+    return order[comp], int(n_nodes), float(tol)
+
+
+def _point_cells(cells: Cells, xyz: np.ndarray):
+    """(point, cell, cell volume) for each point and each cell using it as a corner (once)."""
+    from .._mesh_geometry import cell_volumes
+
+    pairs = np.unique(np.column_stack([cells.tetra.reshape(-1), np.repeat(cells.parent, 4)]), axis=0)
+    return pairs[:, 0], pairs[:, 1], cell_volumes(cells, xyz)[pairs[:, 1]]
+
+
+def node_sides(sed: np.ndarray, labels: np.ndarray, cells: Cells, xyz: np.ndarray) -> NodeSides | None:
+    """Per node and material, the volume-weighted mean of the node's copies in cells of that material.
+
+    Kept only for nodes where several materials meet; None when there are none (or no
+    material ids). ``sed`` is point data of shape (n_times, n_points), any unit.
+    """
+    import scipy.sparse as sp
+
+    if cells.materials is None:
+        return None
+    point, cell, vol = _point_cells(cells, xyz)
+    mats, mat_of = np.unique(cells.materials[cell], return_inverse=True)
+    key = labels[point] * mats.size + mat_of.ravel()
+    uniq, col = np.unique(key, return_inverse=True)
+    node, mat = uniq // mats.size, uniq % mats.size
+    several = np.bincount(node, minlength=int(labels.max()) + 1)[node] > 1
+    if not several.any():
+        return None
+    m = sp.csr_matrix((np.where(vol > 0, vol, 1.0), (col.ravel(), point)), shape=(uniq.size, sed.shape[1]))
+    m = sp.diags(1.0 / np.asarray(m.sum(axis=1)).ravel()) @ m
+    per = np.asarray((m @ sed.T).T)
+    return NodeSides(node[several], mats[mat[several]], per[:, several])
+
+
+def _copy_weights(cells: Cells, xyz: np.ndarray) -> np.ndarray:
+    """Weight of each point: the volume of the cells that use it as a corner (each cell once)."""
+    point, _, vol = _point_cells(cells, xyz)
+    return np.bincount(point, weights=vol, minlength=xyz.shape[0])
+
+
+def _disagreement(sed: np.ndarray, labels: np.ndarray, mean: np.ndarray, counts: np.ndarray) -> dict:
+    """How far copies differ from their node's mean, at the most loaded step (relative to the mean)."""
+    step = int(np.argmax(sed.sum(axis=1))) if sed.size else 0
+    dev = np.zeros(mean.shape[1])
+    np.maximum.at(dev, labels, np.abs(sed[step] - mean[step, labels]))
+    m = mean[step]
+    top = float(m.max(initial=0.0))
+    ok = (counts > 1) & (m > SPREAD_FLOOR * top) if top > 0 else np.zeros_like(counts, bool)
+    rel = dev[ok] / m[ok]
+    node = int(np.flatnonzero(ok)[np.argmax(rel)]) if rel.size else -1
+    return {"step": step, "nodes_compared": int(ok.sum()),
+            "median_relative": float(np.median(rel)) if rel.size else 0.0,
+            "max_relative": float(rel.max()) if rel.size else 0.0, "max_node": node}
+
+
+def merge_coincident(xyz: np.ndarray, sed: np.ndarray, location: str, cells: Cells, rtol: float = COINCIDENT_RTOL):
+    """Merge coincident points into nodes: (xyz, sed, cells, report) or the inputs and None when there are none.
+
+    Parameters
+    ----------
+    xyz : ndarray of shape (n_points, 3)
+        Coordinates (any length unit).
+    sed : ndarray of shape (n_times, n_values)
+        SED (any unit); point values are merged, cell values are kept.
+    location : {'point', 'cell'}
+    cells : Cells
+        The mesh; its tetrahedra are renumbered onto the nodes.
+
+    Returns
+    -------
+    xyz, sed, cells, report, sides
+        Node coordinates (those of each node's first copy), SED (point data: the volume-weighted
+        mean of the copies, see the module docstring), the renumbered cells, and ``report``
+        (dict): ``n_points`` (before), ``n_nodes``, ``n_copies_merged`` (points removed),
+        ``max_copies`` (copies of the most copied node), ``tolerance`` (unit of ``xyz``),
+        ``rule``, and for point data ``step``, ``nodes_compared``, ``median_relative``,
+        ``max_relative`` (copies' largest difference from their node's mean over that mean) and
+        ``max_node``; ``sides`` (:class:`~afferent.field.NodeSides` or None): for point data
+        on cells with material ids, the mean of each material's copies where materials meet.
+    """
+    import scipy.sparse as sp
+
+    found = coincident_labels(xyz, cells.tetra, rtol)
+    if found is None:
+        return xyz, sed, cells, None, None
+    labels, n_nodes, tol = found
+    n = xyz.shape[0]
+    counts = np.bincount(labels, minlength=n_nodes)
+    first = np.full(n_nodes, n, dtype=np.int64)
+    np.minimum.at(first, labels, np.arange(n))
+    merged = Cells(labels[cells.tetra], cells.parent, cells.n_cells, cells.cell_types, cells.materials)
+    report = {"n_points": int(n), "n_nodes": int(n_nodes), "n_copies_merged": int(n - n_nodes),
+              "max_copies": int(counts.max()), "tolerance": tol,
+              "rule": "volume-weighted mean of the copies (each copy weighs the volume of the cells using it)"}
+    if location == "point":
+        w = _copy_weights(cells, xyz)
+        alone = np.bincount(labels, weights=w, minlength=n_nodes) == 0  # copies no cell uses: equal weights
+        w = np.where(alone[labels], 1.0, w)
+        m = sp.csr_matrix((w, (labels, np.arange(n))), shape=(n_nodes, n))
+        m = sp.diags(1.0 / np.asarray(m.sum(axis=1)).ravel()) @ m
+        mean = np.asarray((m @ sed.T).T)
+        report.update(_disagreement(sed, labels, mean, counts))
+        return xyz[first], mean, merged, report, node_sides(sed, labels, cells, xyz)
+    return xyz[first], sed, merged, report, None
