@@ -16,7 +16,7 @@ the reader opens (the export(s), the VTU files a ``.pvd`` lists, the HDF5 files 
 names, a ``coordinates`` table), the reader deduced from each file name, every read option
 (units, ``sed_from``, columns, times, ...), the receptor positions (their float64 bytes) or,
 for receptors found on the export itself (papilla tips, a grid over the export's extent),
-the specification that finds them, the sampling method, the afferent version and
+the specification that finds them, the sampling method and side, the afferent version and
 :data:`CACHE_VERSION`. File names, folders and modification times are not part of it:
 copying an export elsewhere still hits, changing one byte of it misses.
 
@@ -59,7 +59,8 @@ __all__ = [
 
 #: Bumped whenever the entry layout, the meaning of a key or the sampling results change: old entries then miss.
 #: 2: cell data averaged to nodes by whole cell volumes ('linear' on cell data changed); placement recorded.
-CACHE_VERSION = 2
+#: 3: coincident points merged into nodes (discontinuous output changed); the interface side in the key.
+CACHE_VERSION = 3
 
 _SUBDIR = "sed"
 _ARRAYS = ("values", "times", "positions", "ids", "longitudinal", "cross", "outside", "meta")
@@ -127,7 +128,7 @@ def _canonical(obj) -> str:
     return json.dumps(obj, sort_keys=True, separators=(",", ":"), default=str)
 
 
-def sampling_key(*, exports, read_options: dict, receptors: dict, method: str) -> str:
+def sampling_key(*, exports, read_options: dict, receptors: dict, method: str, side="average") -> str:
     """The cache key of one sampling: SHA-256 (hex) of a canonical JSON of everything it depends on.
 
     Parameters
@@ -143,6 +144,8 @@ def sampling_key(*, exports, read_options: dict, receptors: dict, method: str) -
         before reading, or the specification that finds them on the export.
     method : str
         Sampling method (``'linear'`` or ``'nearest'``).
+    side : 'average' or int
+        The side taken at receptors on a material interface (:func:`afferent.sample_sed`).
 
     Returns
     -------
@@ -158,6 +161,7 @@ def sampling_key(*, exports, read_options: dict, receptors: dict, method: str) -
         "read_options": read_options,
         "receptors": receptors,
         "method": method,
+        "side": side,
     }
     return hashlib.sha256(_canonical(payload).encode()).hexdigest()
 

@@ -282,7 +282,10 @@ def test_sed_only_scene_never_imports_brian2(tmp_path):
     assert record["inputs"][str(EXPORT)] == file_sha256(str(EXPORT))
     assert record["inputs"][str(RECEPTORS)] == file_sha256(str(RECEPTORS))
     assert record["scene"]["sampling"]["method"] == "linear"
-    assert record["sampling"] == {"method": "linear", "placement": "linear in the mesh's cells (split into tetrahedra)"}
+    assert {k: record["sampling"][k] for k in ("method", "placement", "side")} == {
+        "method": "linear", "placement": "linear in the mesh's cells (split into tetrahedra)", "side": "average"}
+    interface = record["sampling"]["interface"]  # the tips on the epidermis/dermis interface; nodal SED: no sides
+    assert (interface["interfaces"], interface["separable"], interface["side"]) == ({"1/2": 119}, False, "average")
     assert (record["field"]["location"], record["field"]["location_source"]) == ("point", "point preferred over cell")
     assert record["scene_file"]["path"] == str(SCENES / "sed_map.toml")
     assert {"python", "numpy", "afferent-skin"} <= set(record["versions"]) and record["warnings"] == []
