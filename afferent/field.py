@@ -63,7 +63,7 @@ class Provenance:
         sampling (:attr:`afferent.sampling.ReceptorSED.placement`).
     coincident : dict or None
         Coincident points merged into nodes (discontinuous output: deal.II ``DataOut``, DG
-        fields), from :func:`afferent.io._coincident.merge_coincident`: ``n_points``,
+        fields), from ``afferent.io._coincident.merge_coincident``: ``n_points``,
         ``n_nodes``, ``n_copies_merged``, ``max_copies``, ``tolerance`` (m), ``rule``, and for
         point data how far the copies disagreed (``median_relative``, ``max_relative``). None
         when no two points coincide.
@@ -118,7 +118,7 @@ class Cells:
     materials : ndarray of shape (n_cells,), int, or None
         Material id of each original cell when the export has a material array
         (``Provenance.columns['material']`` names it), else None. Used to tell which materials
-        meet at a receptor (:mod:`afferent._interfaces`).
+        meet at a receptor (see :ref:`fe-interfaces`).
     """
 
     tetra: np.ndarray
@@ -153,7 +153,7 @@ class NodeSides:
     """SED on each side of a material interface, at the nodes where materials meet.
 
     Discontinuous output (deal.II ``DataOut``, DG fields) gives each cell its own copy of a
-    node; merging the copies (:func:`afferent.io._coincident.merge_coincident`) keeps, besides
+    node; merging the copies (``afferent.io._coincident.merge_coincident``) keeps, besides
     their mean, the mean of the copies of each material at the nodes where several meet.
 
     Parameters

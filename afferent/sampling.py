@@ -79,7 +79,7 @@ class ReceptorSED:
         ``'cell value of the containing cell'``, ``'cells averaged to nodes by cell volume, then
         linear'``); empty when unknown (a table read back).
     interface : dict or None
-        Receptors on a material interface, each side's SED, the side used (see :mod:`afferent._interfaces`).
+        Receptors on a material interface, each side's SED, the side used (see :ref:`fe-interfaces`).
     """
 
     values: np.ndarray
@@ -401,7 +401,7 @@ def sample_sed(
     side : 'average' or int, default='average'
         Receptors on an interface between materials (cells with material ids): ``'average'`` across
         them, or a material id for that material's SED alone (the dermis for Meissner corpuscles).
-        See :mod:`afferent._interfaces`.
+        See :ref:`fe-interfaces`.
 
     Returns
     -------

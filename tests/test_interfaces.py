@@ -179,3 +179,32 @@ def test_sample_side_option(capsys, tmp_path):
     assert code == 0 and "25 on a material interface, side=2" in err
     code, _, err = run(capsys, *base, "--side", "7", "--overwrite")
     assert code == 2 and err.strip().splitlines()[-1].startswith("afferent: error: --side 7 must be one of the materials")
+
+
+def test_a_scene_takes_the_side_and_records_it(tmp_path):
+    import json
+
+    from afferent.scene import load_scene, run_scene
+
+    path = tmp_path / "s.toml"
+    path.write_text(f"""
+[export]
+file = {str(VTU)!r}
+length_unit = "mm"
+sed_unit = "MPa"
+
+[receptors]
+file = {str(RECEPTORS)!r}
+
+[sampling]
+side = 2
+
+[outputs]
+want = ["sed_map"]
+dir = {str(tmp_path / "out")!r}
+""", encoding="utf-8")
+    _quiet(run_scene, load_scene(path), use_cache=False)
+    record = json.loads((tmp_path / "out" / "run.json").read_text())
+    assert record["sampling"]["side"] == 2 and record["sampling"]["interface"]["n_changed"] == 25
+    assert record["field"]["coincident"]["n_copies_merged"] == 2505
+    assert any("lie on an interface between materials" in w for w in map(str, record["warnings"]))

@@ -167,6 +167,8 @@ def test_wrong_type_names_key_and_line(tmp_path):
      "line 2: [outputs] 'want' must list outputs among 'sed_map', 'currents', 'profiles', 'fit', 'spikes', 'plots', "
      "'vtu'; got 'spiks' instead. Did you mean 'spikes'?"),
     ('\n[sampling]\nmethod = "cubic"\n', "line 3: [sampling] 'method' must be one of 'linear', 'nearest'; got 'cubic' instead."),
+    ('[sampling]\nside = "dermis"\n',
+     "line 2: [sampling] 'side' must be 'average' or a material id (an integer); got 'dermis' (a string) instead."),
     ('[region]\nx_range_mm = [2, 1]\n',
      "line 2: [region] 'x_range_mm' must be a pair [min, max] in mm with min <= max; got [2, 1] instead."),
     ('[region]\nx_range_mm = [1, 2, 3]\n',

@@ -26,7 +26,7 @@
 using namespace dealii;
 constexpr int dim = 3;
 
-// Young's moduli (MPa) of /work METHOD: epidermis 0.136, dermis 0.08; Poisson 0.48.
+// Young's moduli (MPa) of the study's skin model (docs/method.md): epidermis 0.136, dermis 0.08; Poisson 0.48.
 double lambda_of(types::material_id m) { const double E = m == 1 ? 0.136 : 0.08, nu = 0.48; return E * nu / ((1 + nu) * (1 - 2 * nu)); }
 double mu_of(types::material_id m) { const double E = m == 1 ? 0.136 : 0.08, nu = 0.48; return E / (2 * (1 + nu)); }
 
