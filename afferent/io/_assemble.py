@@ -299,7 +299,10 @@ def _mesh(raw: RawExport, xyz: np.ndarray, sed: np.ndarray, location: str, rec: 
            f"{'SED = ' + report['rule'] if location == 'point' else 'cell SED kept'}.")
     if location == "point" and report["max_relative"] > COINCIDENT_WARN_RTOL:
         msg += (f" The copies differ from their node's mean by a median {report['median_relative']:.2g} and up to "
-                f"{report['max_relative']:.2g} x it (step {report['step']}, {report['nodes_compared']} nodes; warned above "
+                f"{report['max_relative']:.2g} x it (step {report['step']}, {report['nodes_compared']} nodes"
+                + (f"; within one material a median {report['within_material']['median_relative']:.2g}, up to "
+                   f"{report['within_material']['max_relative']:.2g}" if "within_material" in report else "")
+                + f"; warned above "
                 f"{COINCIDENT_WARN_RTOL:g}): values near material interfaces and steep gradients are averages across cells "
                 "that disagree (see 'afferent info --receptors' and the sampling option side=).")
         warnings.warn(msg, AfferentWarning, stacklevel=4)

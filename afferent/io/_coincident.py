@@ -128,6 +128,17 @@ def node_sides(sed: np.ndarray, labels: np.ndarray, cells: Cells, xyz: np.ndarra
     return NodeSides(node[several], mats[mat[several]], per[:, several])
 
 
+def _grouped_mean(sed: np.ndarray, group: np.ndarray, n_groups: int, w: np.ndarray) -> np.ndarray:
+    """Weighted mean of the points of each group, (n_times, n_groups); equal weights in a group weighing 0."""
+    import scipy.sparse as sp
+
+    alone = np.bincount(group, weights=w, minlength=n_groups) == 0  # copies no cell uses
+    w = np.where(alone[group], 1.0, w)
+    m = sp.csr_matrix((w, (group, np.arange(group.size))), shape=(n_groups, group.size))
+    m = sp.diags(1.0 / np.asarray(m.sum(axis=1)).ravel()) @ m
+    return np.asarray((m @ sed.T).T)
+
+
 def _copy_weights(cells: Cells, xyz: np.ndarray) -> np.ndarray:
     """Weight of each point: the volume of the cells that use it as a corner (each cell once)."""
     point, _, vol = _point_cells(cells, xyz)
@@ -170,15 +181,14 @@ def merge_coincident(xyz: np.ndarray, sed: np.ndarray, location: str, cells: Cel
         (dict): ``n_points`` (before), ``n_nodes``, ``n_copies_merged`` (points removed),
         ``max_copies`` (copies of the most copied node), ``tolerance`` (unit of ``xyz``),
         ``rule``, and for point data ``step``, ``nodes_compared``, ``median_relative``,
-        ``max_relative`` (copies' largest difference from their node's mean over that mean) and
-        ``max_node``; ``sides`` (:class:`~afferent.field.NodeSides` or None): for point data
+        ``max_relative`` (copies' largest difference from their node's mean over that mean),
+        ``max_node`` and, with material ids, ``within_material`` (the same among the copies of
+        one material: the mesh's own discontinuity, apart from the interface's jump); ``sides`` (:class:`~afferent.field.NodeSides` or None): for point data
         on cells with material ids, the mean of each material's copies where materials meet.
     """
     found = coincident_labels(xyz, cells.tetra[np.unique(cells.parent, return_index=True)[1]], rtol)
     if found is None:
         return xyz, sed, cells, None, None
-    import scipy.sparse as sp
-
     labels, n_nodes, tol = found
     n = xyz.shape[0]
     counts = np.bincount(labels, minlength=n_nodes)
@@ -190,11 +200,16 @@ def merge_coincident(xyz: np.ndarray, sed: np.ndarray, location: str, cells: Cel
               "rule": "volume-weighted mean of the copies (each copy weighs the volume of the cells using it)"}
     if location == "point":
         w = _copy_weights(cells, xyz)
-        alone = np.bincount(labels, weights=w, minlength=n_nodes) == 0  # copies no cell uses: equal weights
-        w = np.where(alone[labels], 1.0, w)
-        m = sp.csr_matrix((w, (labels, np.arange(n))), shape=(n_nodes, n))
-        m = sp.diags(1.0 / np.asarray(m.sum(axis=1)).ravel()) @ m
-        mean = np.asarray((m @ sed.T).T)
+        mean = _grouped_mean(sed, labels, n_nodes, w)
         report.update(_disagreement(sed, labels, mean, counts))
+        if cells.materials is not None:  # copies of one material: the mesh's own discontinuity, not the interface's
+            point, cell, _ = _point_cells(cells, xyz)
+            mat = np.zeros(n, dtype=np.int64)
+            mat[point] = cells.materials[cell]
+            groups, group = np.unique(labels * (int(mat.max()) + 1) + (mat - mat.min()), return_inverse=True)
+            group = group.ravel()
+            within = _disagreement(sed, group, _grouped_mean(sed, group, groups.size, w),
+                                   np.bincount(group, minlength=groups.size))
+            report["within_material"] = {k: within[k] for k in ("median_relative", "max_relative", "nodes_compared")}
         return xyz[first], mean, merged, report, node_sides(sed, labels, cells, xyz)
     return xyz[first], sed, merged, report, None

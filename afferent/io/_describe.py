@@ -146,7 +146,10 @@ def _mesh_lines(raw, opts, add) -> None:
                 "discontinuous output, one patch per cell); read_sed merges them")
         if "median_relative" in rep:
             text += (f"; the SED copies differ from their node's mean by a median {_percent(rep['median_relative'])}, "
-                     f"up to {_percent(rep['max_relative'])} ({rep['nodes_compared']:,} nodes); merged value: {rep['rule']}")
+                     f"up to {_percent(rep['max_relative'])} ({rep['nodes_compared']:,} nodes)"
+                     + (f", within one material a median {_percent(rep['within_material']['median_relative'])}, up to "
+                        f"{_percent(rep['within_material']['max_relative'])}" if "within_material" in rep else "")
+                     + f"; merged value: {rep['rule']}")
         add("coincident", text)
     if material is None:
         add("materials", f"no material-id array (cell data named like {', '.join(MATERIAL_ARRAY_NAMES[:6])}, ...)")
