@@ -143,8 +143,10 @@ def build_interface(field, layout) -> InterfaceSampler | None:
     r, t, bary = _touching(field, layout.positions)
     cell = cells.parent[t]
     mat = cells.materials[cell]
-    materials_at = tuple(tuple(int(m) for m in np.unique(mat[r == i])) for i in range(layout.n_receptors))
-    several = np.array([len(m) > 1 for m in materials_at], bool)
+    rm = np.unique(np.column_stack([r, mat]), axis=0)  # (receptor, material) pairs, sorted
+    bounds = np.searchsorted(rm[:, 0], np.arange(layout.n_receptors + 1))
+    materials_at = tuple(tuple(rm[a:b, 1].tolist()) for a, b in zip(bounds[:-1], bounds[1:]))
+    several = np.diff(bounds) > 1
     keep = several[r]
     r, t, bary, cell, mat = r[keep], t[keep], bary[keep], cell[keep], mat[keep]
     rows, inverse = np.unique(np.column_stack([r, mat]), axis=0, return_inverse=True)
