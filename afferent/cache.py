@@ -69,7 +69,8 @@ __all__ = [
 
 #: Bumped whenever the entry layout, the meaning of a key or the sampling results change: old entries then miss.
 #: 2: cell data averaged to nodes by whole cell volumes ('linear' on cell data changed); placement recorded.
-#: 3: the key covers the named export files only; the entry lists (and get checks) every file the reader opened.
+#: 3: the key covers the named export files only; the entry lists (and get checks) every file the reader opened;
+#: coincident points merged into nodes (discontinuous output changed); the interface side in the key.
 CACHE_VERSION = 3
 
 _SUBDIR = "sed"
@@ -147,7 +148,7 @@ def _canonical(obj) -> str:
     return json.dumps(obj, sort_keys=True, separators=(",", ":"), default=str)
 
 
-def sampling_key(*, exports, read_options: dict, receptors: dict, method: str) -> str:
+def sampling_key(*, exports, read_options: dict, receptors: dict, method: str, side="average") -> str:
     """The cache key of one sampling: SHA-256 (hex) of a canonical JSON of everything it depends on.
 
     Parameters
@@ -164,6 +165,8 @@ def sampling_key(*, exports, read_options: dict, receptors: dict, method: str) -
         before reading, or the specification that finds them on the export.
     method : str
         Sampling method (``'linear'`` or ``'nearest'``).
+    side : 'average' or int
+        The side taken at receptors on a material interface (:func:`afferent.sample_sed`).
 
     Returns
     -------
@@ -179,6 +182,7 @@ def sampling_key(*, exports, read_options: dict, receptors: dict, method: str) -
         "read_options": read_options,
         "receptors": receptors,
         "method": method,
+        "side": side,
     }
     return hashlib.sha256(_canonical(payload).encode()).hexdigest()
 

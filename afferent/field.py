@@ -17,7 +17,7 @@ import numpy as np
 
 from ._validation import check_finite_array
 
-__all__ = ["SEDField", "Provenance", "Cells"]
+__all__ = ["SEDField", "Provenance", "Cells", "NodeSides"]
 
 
 @dataclass(frozen=True)
@@ -64,6 +64,12 @@ class Provenance:
         ``'point preferred over cell'`` (it holds both; point data is the default). Empty for a
         field built by hand. How the values are then placed at the receptors is recorded by
         sampling (:attr:`afferent.sampling.ReceptorSED.placement`).
+    coincident : dict or None
+        Coincident points merged into nodes (discontinuous output: deal.II ``DataOut``, DG
+        fields), from ``afferent.io._coincident.merge_coincident``: ``n_points``,
+        ``n_nodes``, ``n_copies_merged``, ``max_copies``, ``tolerance`` (m), ``rule``, and for
+        point data how far the copies disagreed (``median_relative``, ``max_relative``). None
+        when no two points coincide.
     """
 
     files: tuple[str, ...] = ()
@@ -77,6 +83,7 @@ class Provenance:
     checks: dict = field(default_factory=dict)
     location: str = ""
     location_source: str = ""
+    coincident: dict | None = None
 
     def to_dict(self) -> dict:
         """Plain-dict form, for JSON records."""
@@ -92,6 +99,7 @@ class Provenance:
             "checks": {k: dict(v) for k, v in self.checks.items()},
             "location": self.location,
             "location_source": self.location_source,
+            "coincident": None if self.coincident is None else dict(self.coincident),
         }
 
 
@@ -110,12 +118,17 @@ class Cells:
         Number of original volume cells.
     cell_types : tuple of str
         meshio names of the original volume cell blocks, in order.
+    materials : ndarray of shape (n_cells,), int, or None
+        Material id of each original cell when the export has a material array
+        (``Provenance.columns['material']`` names it), else None. Used to tell which materials
+        meet at a receptor (see :ref:`fe-interfaces`).
     """
 
     tetra: np.ndarray
     parent: np.ndarray
     n_cells: int
     cell_types: tuple[str, ...] = ()
+    materials: np.ndarray | None = None
 
     def __post_init__(self):
         object.__setattr__(self, "tetra", np.ascontiguousarray(self.tetra, dtype=np.int64))
@@ -129,6 +142,46 @@ class Cells:
             )
         self.tetra.setflags(write=False)
         self.parent.setflags(write=False)
+        if self.materials is not None:
+            mat = np.ascontiguousarray(self.materials, dtype=np.int64)
+            if mat.shape != (self.n_cells,):
+                raise ValueError(f"'materials' must be an array of shape (n_cells,) = ({self.n_cells},); "
+                                 f"got shape {mat.shape} instead.")
+            mat.setflags(write=False)
+            object.__setattr__(self, "materials", mat)
+
+
+@dataclass(frozen=True)
+class NodeSides:
+    """SED on each side of a material interface, at the nodes where materials meet.
+
+    Discontinuous output (deal.II ``DataOut``, DG fields) gives each cell its own copy of a
+    node; merging the copies (``afferent.io._coincident.merge_coincident``) keeps, besides
+    their mean, the mean of the copies of each material at the nodes where several meet.
+
+    Parameters
+    ----------
+    nodes : ndarray of shape (k,), int
+        Node index (into the field's points) of each entry.
+    materials : ndarray of shape (k,), int
+        Material id of each entry.
+    sed : ndarray of shape (n_times, k)
+        SED in J/m^3: the volume-weighted mean of the node's copies in cells of that material.
+    """
+
+    nodes: np.ndarray
+    materials: np.ndarray
+    sed: np.ndarray
+
+    def __post_init__(self):
+        for name, dtype in (("nodes", np.int64), ("materials", np.int64), ("sed", float)):
+            arr = np.ascontiguousarray(getattr(self, name), dtype=dtype)
+            arr.setflags(write=False)
+            object.__setattr__(self, name, arr)
+        k = self.nodes.shape[0]
+        if self.materials.shape != (k,) or self.sed.ndim != 2 or self.sed.shape[1] != k:
+            raise ValueError(f"'nodes' (k,), 'materials' (k,) and 'sed' (n_times, k) must agree; got shapes "
+                             f"{self.nodes.shape}, {self.materials.shape}, {self.sed.shape} instead.")
 
 
 @dataclass(frozen=True)
@@ -151,6 +204,9 @@ class SEDField:
         The mesh's volume cells; ``None`` for scattered points (a CSV without connectivity).
     provenance : Provenance
         Files, columns, units and conversions that produced the field.
+    sides : NodeSides or None
+        SED of each material at the nodes where materials meet, when the export held one copy
+        of those nodes per cell (discontinuous output) and material ids; else None.
 
     Notes
     -----
@@ -163,6 +219,7 @@ class SEDField:
     location: Literal["point", "cell"] = "point"
     cells: Cells | None = None
     provenance: Provenance = field(default_factory=Provenance)
+    sides: NodeSides | None = None
 
     def __post_init__(self):
         where = self.provenance.files[0] if len(self.provenance.files) == 1 else ""

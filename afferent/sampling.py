@@ -78,6 +78,8 @@ class ReceptorSED:
         How the field's values were placed at the receptors, one of :data:`PLACEMENTS` (e.g.
         ``'cell value of the containing cell'``, ``'cells averaged to nodes by cell volume, then
         linear'``); empty when unknown (a table read back).
+    interface : dict or None
+        Receptors on a material interface, each side's SED, the side used (see :ref:`fe-interfaces`).
     """
 
     values: np.ndarray
@@ -86,6 +88,7 @@ class ReceptorSED:
     method: str
     outside: np.ndarray
     placement: str = ""
+    interface: dict | None = None
 
     def __array__(self, dtype=None, copy=None):
         return np.asarray(self.values, dtype=dtype)
@@ -371,6 +374,7 @@ def sample_sed(
     method: str = "linear",
     on_outside: str = "raise",
     sampler: Sampler | None = None,
+    side: str | int = "average",
 ) -> ReceptorSED:
     """SED at each receptor site and time step.
 
@@ -394,13 +398,18 @@ def sample_sed(
         them, or keep them as NaN (with an :class:`AfferentWarning` for ``'warn'``).
     sampler : Sampler, optional
         Weights from :func:`build_sampler` to reuse (same geometry, same layout).
+    side : 'average' or int, default='average'
+        Receptors on an interface between materials (cells with material ids): ``'average'`` across
+        them, or a material id for that material's SED alone (the dermis for Meissner corpuscles).
+        See :ref:`fe-interfaces`.
 
     Returns
     -------
     ReceptorSED
         Values of shape (n_times, n_receptors) in J/m^3, times in s, the receptors outside,
-        and ``placement``: how the values were placed (e.g. ``'cell value of the containing
-        cell'``, ``'cells averaged to nodes by cell volume, then linear'``).
+        ``placement``: how the values were placed (e.g. ``'cell value of the containing
+        cell'``, ``'cells averaged to nodes by cell volume, then linear'``), and ``interface``:
+        the receptors on a material interface, each side's SED and the side used.
 
     Raises
     ------
@@ -408,6 +417,17 @@ def sample_sed(
         Receptors outside the field with ``on_outside='raise'``; ``'linear'`` on a table of
         points that lie on a line.
     """
+    from ._interfaces import build_interface, check_side, sided
+
+    side = check_side(side)
+    head = _sample_field(field, layout, method=method, on_outside=on_outside, sampler=sampler)
+    isamp = build_interface(field, layout)
+    return sided(head, field, isamp, [isamp.step_values(field)] if isamp else [], side, stacklevel=3)
+
+
+def _sample_field(field: SEDField, layout: ReceptorLayout, *, method: str, on_outside: str,
+                  sampler: Sampler | None) -> ReceptorSED:
+    """:func:`sample_sed` without the side: the values ``method`` gives."""
     check_option("method", method, METHODS)
     check_option("on_outside", on_outside, ON_OUTSIDE)
     if sampler is None:
@@ -421,13 +441,13 @@ def sample_sed(
         where = f"{sampler.domain}; field bounds {bounds} m" if sampler.domain else f"field bounds {bounds} m"
         report_outside(layout, sampler.outside, on_outside, where=where,
                        hint="Pass on_outside='nan' to keep them as NaN or on_outside='warn' to continue."
-                       + (f" {units}" if units else ""), stacklevel=3)
+                       + (f" {units}" if units else ""), stacklevel=4)
     return ReceptorSED(sampler.apply(field.sed), field.times.copy(), layout, method, sampler.outside.copy(),
                        sampler.placement)
 
 
 def sample_steps(fields, layout: ReceptorLayout, *, method: str = "linear", on_outside: str = "raise",
-                 sampler: Sampler | None = None) -> ReceptorSED:
+                 sampler: Sampler | None = None, side: str | int = "average") -> ReceptorSED:
     """SED at each receptor site, from fields that arrive one time step at a time.
 
     The streaming form of :func:`sample_sed` for series too large to hold in memory: the
@@ -442,7 +462,7 @@ def sample_steps(fields, layout: ReceptorLayout, *, method: str = "linear", on_o
         Steps in time order, on one mesh (e.g. :func:`afferent.io.iter_sed`); SED in J/m^3.
     layout : ReceptorLayout
         Receptor sites in m.
-    method, on_outside
+    method, on_outside, side
         As for :func:`sample_sed`.
     sampler : Sampler, optional
         Weights from :func:`build_sampler` to use (built on the first field's geometry, or a
@@ -462,16 +482,19 @@ def sample_steps(fields, layout: ReceptorLayout, *, method: str = "linear", on_o
     ValueError
         No field at all.
     """
+    from ._interfaces import build_interface, check_side, sided
     from .exceptions import SEDFormatError
 
-    first, values, times = None, [], []
+    side = check_side(side)
+    first, values, times, isamp, side_values = None, [], [], None, []
     for field in fields:
         if first is None:
             first = field
             if sampler is None:
                 sampler = build_sampler(field, layout, method=method)
-            head = sample_sed(field, layout, method=method, on_outside=on_outside, sampler=sampler)
+            head = _sample_field(field, layout, method=method, on_outside=on_outside, sampler=sampler)
             values.append(head.values)
+            isamp = build_interface(field, layout)
         else:
             same = (field.location == first.location and field.sed.shape[1] == first.sed.shape[1]
                     and (field.cells is first.cells or (field.cells is not None and first.cells is not None
@@ -483,10 +506,13 @@ def sample_steps(fields, layout: ReceptorLayout, *, method: str = "linear", on_o
                                      f"({first.sed.shape[1]} {first.location} values); a series must share one mesh.")
             values.append(sampler.apply(field.sed))
         times.append(field.times)
+        if isamp is not None:
+            side_values.append(isamp.step_values(field))
     if first is None:
         raise ValueError("'fields' must hold at least one SEDField; got none.")
-    return ReceptorSED(np.concatenate(values), np.concatenate(times), layout, method, sampler.outside.copy(),
-                       sampler.placement)
+    sed = ReceptorSED(np.concatenate(values), np.concatenate(times), layout, method, sampler.outside.copy(),
+                      sampler.placement)
+    return sided(sed, first, isamp, side_values, side)
 
 
 #: Columns of the long-form table written by ``afferent sample`` (:meth:`ReceptorSED.to_dataframe`).

@@ -147,8 +147,10 @@ def _dealii_sed(points_mm, t):
 def test_dealii_pvd_of_pvtu_pieces_is_one_mesh_with_its_times():
     f = read_sed(DEALII_PVD, length_unit="mm", sed_unit="MPa")
     assert f.times.tolist() == [0.5, 1.0] and f.cells.n_cells == 256
-    # 2048 per-cell patch nodes (deal.II writes each cell's nodes); 211 shared by the two pieces merged
-    assert f.points.shape == (2048 - 211, 3)
+    # 2048 per-cell patch nodes (deal.II writes each cell's nodes); 211 shared by the two pieces merged when the
+    # pieces are joined, then the copies inside each piece merged by read_sed: the 9 x 9 x 5 nodes of the mesh
+    assert f.points.shape == (9 * 9 * 5, 3)
+    assert f.provenance.coincident["n_points"] == 2048 - 211 and f.provenance.coincident["n_nodes"] == 405
     assert any("2 pieces merged into one mesh: 211 node(s) that pieces share" in n for n in f.provenance.notes)
     for k, t in enumerate((0.5, 1.0)):
         np.testing.assert_allclose(f.sed[k] / 1e6, _dealii_sed(f.points * 1e3, t), rtol=1e-6, atol=1e-12)
@@ -350,7 +352,9 @@ def test_a_series_merges_the_pieces_once_by_its_first_and_last_steps(tmp_path):
     alone = read_raw(files[0])
     assert alone.points.shape == (12, 3)  # read alone, step 0's equal face nodes are merged
     f = read_sed(files, length_unit="mm", sed_unit="Pa")
-    assert f.points.shape == (16, 3) and f.sed.shape == (2, 16)
+    # the join keeps the face's 4 + 4 copies apart (values differ at t = 1); read_sed then merges them as
+    # coincident copies (the discontinuous-output rule, recorded in provenance.coincident)
+    assert f.provenance.coincident["n_points"] == 16 and f.points.shape == (12, 3) and f.sed.shape == (2, 12)
     assert any("0 node(s) that pieces share" in n and "8 coincident node(s) of different pieces with different values kept"
                in n for n in f.provenance.notes)
 

@@ -167,6 +167,8 @@ def test_wrong_type_names_key_and_line(tmp_path):
      "line 2: [outputs] 'want' must list outputs among 'sed_map', 'currents', 'profiles', 'fit', 'spikes', 'plots', "
      "'vtu'; got 'spiks' instead. Did you mean 'spikes'?"),
     ('\n[sampling]\nmethod = "cubic"\n', "line 3: [sampling] 'method' must be one of 'linear', 'nearest'; got 'cubic' instead."),
+    ('[sampling]\nside = "dermis"\n',
+     "line 2: [sampling] 'side' must be 'average' or a material id (an integer); got 'dermis' (a string) instead."),
     ('[region]\nx_range_mm = [2, 1]\n',
      "line 2: [region] 'x_range_mm' must be a pair [min, max] in mm with min <= max; got [2, 1] instead."),
     ('[region]\nx_range_mm = [1, 2, 3]\n',
@@ -282,7 +284,10 @@ def test_sed_only_scene_never_imports_brian2(tmp_path):
     assert record["inputs"][str(EXPORT)] == file_sha256(str(EXPORT))
     assert record["inputs"][str(RECEPTORS)] == file_sha256(str(RECEPTORS))
     assert record["scene"]["sampling"]["method"] == "linear"
-    assert record["sampling"] == {"method": "linear", "placement": "linear in the mesh's cells (split into tetrahedra)"}
+    assert {k: record["sampling"][k] for k in ("method", "placement", "side")} == {
+        "method": "linear", "placement": "linear in the mesh's cells (split into tetrahedra)", "side": "average"}
+    interface = record["sampling"]["interface"]  # the tips on the epidermis/dermis interface; nodal SED: no sides
+    assert (interface["interfaces"], interface["separable"], interface["side"]) == ({"1/2": 119}, False, "average")
     assert (record["field"]["location"], record["field"]["location_source"]) == ("point", "point preferred over cell")
     assert record["scene_file"]["path"] == str(SCENES / "sed_map.toml")
     assert {"python", "numpy", "afferent-skin"} <= set(record["versions"]) and record["warnings"] == []

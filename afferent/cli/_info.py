@@ -1,31 +1,48 @@
 """Describe what an FE export holds, and how afferent would read it.
 
 Points, cells, arrays and their components, time steps, bounds, SED range, the columns
-afferent recognises, the units it would use (and whether the file states them), and a hint
-when magnitudes look like another unit.
+afferent recognises, the units it would use (and whether the file states them), coincident
+points and material ids, and a hint when magnitudes look like another unit. With
+``--receptors``: which materials meet at the receptors and what the side choice
+(``afferent sample --side``) does to their SED (the export is then read: declare its units).
 
 Example::
 
     $ afferent info sample_sed/block4/indent_0p88mm.vtu
+    $ afferent info tests/data/dealii/indent_block.vtu --receptors tests/data/dealii/receptors.csv \\
+          --length-unit mm --sed-unit MPa
 """
 
 from __future__ import annotations
 
 import argparse
 
-from ..io import FORMATS, describe_raw, read_raw
-from ._options import add_quiet, show_progress
+from ..io import describe_raw, read_raw
+from ._options import add_input_options, add_quiet, input_kwargs, show_progress
 
 describe = describe_raw  # the name notebooks/01_read_fe_export.ipynb imports
 
 
 def add_args(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("exports", nargs="+", metavar="EXPORT", help="FE export file(s); several files are one time step each")
-    parser.add_argument("--format", choices=tuple(FORMATS), help="file format, when the extension does not tell")
+    parser.add_argument("--receptors", metavar="R.csv",
+                        help="receptor sites (x, y, z): say which materials meet there and what --side does to their SED")
+    parser.add_argument("--receptor-unit", metavar="U", help="length unit of R.csv (default: the export's length unit)")
+    parser.add_argument("--method", choices=("linear", "nearest"), default="linear", help="sampling method for --receptors")
+    add_input_options(parser)
     add_quiet(parser)
 
 
 def run(args: argparse.Namespace) -> int:
-    raw = read_raw(args.exports if len(args.exports) > 1 else args.exports[0], format=args.format, progress=show_progress(args))
+    source = args.exports if len(args.exports) > 1 else args.exports[0]
+    raw = read_raw(source, format=args.format, progress=show_progress(args))
     print("\n".join(describe_raw(raw)))
+    if args.receptors is not None:
+        from .._interfaces import interface_lines
+        from ..io import read_sed
+        from ..receptors import read_receptors
+
+        field = read_sed(source, **input_kwargs(args))
+        layout = read_receptors(args.receptors, length_unit=args.receptor_unit or field.provenance.units.get("length"))
+        print("\n".join(interface_lines(field, layout, method=args.method)))
     return 0

@@ -66,6 +66,13 @@ def input_kwargs(args: argparse.Namespace) -> dict:
     )
 
 
+def add_side_option(parser: argparse.ArgumentParser) -> None:
+    """Which side of a material interface the receptors on it take (see :func:`afferent.sample_sed`)."""
+    parser.add_argument("--side", default="average", metavar="SIDE",
+                        help="receptors on a material interface: 'average' across the materials (default), or a material "
+                             "id to take that material's SED alone (the dermis for Meissner corpuscles)")
+
+
 def add_output_options(parser: argparse.ArgumentParser, *, what: str, required: bool = True) -> None:
     parser.add_argument("-o", "--output", required=required, metavar="OUT", help=what)
     parser.add_argument("--overwrite", action="store_true", help="replace an existing output (never done silently)")

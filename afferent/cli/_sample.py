@@ -17,15 +17,18 @@ import sys
 from .._output import check_writable, write_csv
 from itertools import chain
 
+from .._interfaces import check_side
 from ..io import iter_sed
 from ..sampling import METHODS, sample_steps
-from ._options import add_input_options, add_receptor_options, layout_from_args, add_output_options, add_quiet, input_kwargs
+from ._options import add_input_options, add_receptor_options, layout_from_args, add_output_options, add_quiet, input_kwargs, \
+    add_side_option
 
 
 def add_args(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("exports", nargs="+", metavar="EXPORT", help="FE export file(s); several files are one time step each")
     parser.add_argument("--method", choices=METHODS, default="linear", help="interpolate inside the mesh cells (linear) or take the nearest node (nearest)")
     parser.add_argument("--on-outside", choices=("raise", "warn", "nan"), default="raise", help="receptors outside the mesh: error (default) or NaN")
+    add_side_option(parser)
     add_receptor_options(parser)
     add_input_options(parser)
     add_output_options(parser, what="output CSV (long form)")
@@ -39,13 +42,17 @@ def run(args: argparse.Namespace) -> int:
     steps = iter_sed(args.exports if len(args.exports) > 1 else args.exports[0], **input_kwargs(args))
     first = next(steps)
     layout = layout_from_args(args, first)
-    sed = sample_steps(chain([first], steps), layout, method=args.method, on_outside=args.on_outside)
+    sed = sample_steps(chain([first], steps), layout, method=args.method, on_outside=args.on_outside,
+                       side=check_side(args.side))
     write_csv(sed.to_dataframe(), args.output, overwrite=args.overwrite, inputs=inputs)
     if not args.quiet:
         inside = sed.values[:, ~sed.outside]
         span = f"SED {inside.min():.4g} .. {inside.max():.4g} J/m^3" if inside.size else "no receptor inside the field"
         if sed.outside.any():
             span += f"; {int(sed.outside.sum())} receptor(s) outside the field written as NaN"
+        if sed.interface:
+            span += (f"; {sed.interface['n_on_interface']} on a material interface, side={sed.interface['side']!r} "
+                     f"(sides differ by up to {sed.interface['max_spread']:.2g} x their mean)")
         print(f"wrote {args.output}: {layout.n_receptors} receptors x {sed.values.shape[0]} step(s), method={args.method} "
               f"({sed.placement}), {span}", file=sys.stderr)
     return 0

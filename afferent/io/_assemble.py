@@ -38,11 +38,13 @@ from ._find_arrays import (
     average_per_element,
     drop_nan_rows,
     find_coordinates,
+    find_material_array,
     find_sed_array,
     find_tensors,
     integration_point_groups,
     join_coordinates,
 )
+from ._coincident import COINCIDENT_WARN_RTOL, merge_coincident
 from ._raw import RawExport
 from ._read_options import (  # noqa: F401 (importable from here, as before the split)
     CROSSCHECK_RTOL,
@@ -304,11 +306,43 @@ def _plausibility(raw: RawExport, opts: ReadOptions, sed: np.ndarray, xyz_m: np.
             warnings.warn(msg, AfferentWarning, stacklevel=4)  # the caller of assemble's caller, as before the cut
 
 
+def _mesh(raw: RawExport, xyz: np.ndarray, sed: np.ndarray, location: str, rec: _Record):
+    """Material ids onto the cells, coincident points merged into nodes: (xyz, sed, cells, report, sides)."""
+    cells = raw.cells
+    if cells is None:
+        return xyz, sed, None, None, None
+    material = find_material_array(raw)
+    if material is not None:
+        cells = replace(cells, materials=material[2])
+        rec.columns["material"] = material[0]
+        rec.columns["material_location"] = material[1]
+    xyz, sed, cells, report, sides = merge_coincident(xyz, sed, location, cells)
+    if report is None:
+        return xyz, sed, cells, None, None
+    lf = rec.factors["length"]
+    report["tolerance"] *= lf
+    msg = (f"SED file {_where(raw)!r}: {report['n_points']} points are {report['n_nodes']} nodes (up to "
+           f"{report['max_copies']} coincident copies each, as in discontinuous output: one patch per cell); merged, "
+           f"{'SED = ' + report['rule'] if location == 'point' else 'cell SED kept'}.")
+    if location == "point" and report["max_relative"] > COINCIDENT_WARN_RTOL:
+        msg += (f" The copies differ from their node's mean by a median {report['median_relative']:.2g} and up to "
+                f"{report['max_relative']:.2g} x it (step {report['step']}, {report['nodes_compared']} nodes"
+                + (f"; within one material a median {report['within_material']['median_relative']:.2g}, up to "
+                   f"{report['within_material']['max_relative']:.2g}" if "within_material" in report else "")
+                + f"; warned above "
+                f"{COINCIDENT_WARN_RTOL:g}): values near material interfaces and steep gradients are averages across cells "
+                "that disagree (see 'afferent info --receptors' and the sampling option side=).")
+        warnings.warn(msg, AfferentWarning, stacklevel=4)
+    rec.notes.append(msg)
+    return xyz, sed, cells, report, sides
+
+
 def assemble(raw: RawExport, opts: ReadOptions) -> SEDField:
     """Build the SI :class:`SEDField` from a reader's raw export and the user's declarations.
 
     The steps, in order: coordinates, SED (from the field or from the tensors), integration
-    points averaged per element, negative SED, step times, duplicate points, plausibility.
+    points averaged per element, negative SED, step times, duplicate points, material ids and
+    coincident points (:mod:`afferent.io._coincident`), plausibility.
     """
     raw = _prepared(raw, opts)
     rec = _Record(notes=list(raw.notes))
@@ -326,13 +360,14 @@ def assemble(raw: RawExport, opts: ReadOptions) -> SEDField:
         xyz, sed, merged = _merge_duplicate_points(raw, xyz, sed)
         if merged:
             rec.notes.append(f"{merged} point(s) listed twice with the same SED merged (a table written per element?).")
+    xyz, sed, cells, coincident, sides = _mesh(raw, xyz, sed, location, rec)
     _plausibility(raw, opts, sed, xyz * lf, f"{lu} {lsrc}", rec)
     prov = Provenance(
         files=raw.files, format=raw.format, sed_from=opts.sed_from, columns=rec.columns, units=rec.units,
         factors=rec.factors, notes=tuple(rec.notes), negative_sed=negative, checks=rec.checks,
-        location=location, location_source=_location_source(raw, opts, location),
+        location=location, location_source=_location_source(raw, opts, location), coincident=coincident,
     )
     try:
-        return SEDField(xyz * lf, sed, times, location=location, cells=raw.cells, provenance=prov)
+        return SEDField(xyz * lf, sed, times, location=location, cells=cells, provenance=prov, sides=sides)
     except ValueError as err:
         raise SEDFormatError(f"SED file {_where(raw)!r}: {err}") from err

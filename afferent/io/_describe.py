@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 
 from .._plausibility import robust_level
@@ -76,6 +78,7 @@ def describe_raw(raw) -> list[str]:
         names = f"  ({' '.join(arr.components)})" if arr.components else ""
         lines.append(f"    {arr.name!r:<28} {arr.location:<5} {comp:<13} {rng}{unit}{names}")
     _sed_lines(raw, opts, add)
+    _mesh_lines(raw, opts, add)
     _tensor_lines(raw, add)
     if xyz is not None:
         span = float(np.nanmax(np.nanmax(xyz, 0) - np.nanmin(xyz, 0)))
@@ -133,6 +136,42 @@ def _density_line(raw, arr, add) -> None:
         check = density_by_values(raw, arr)
         if check is not None:
             add("", check["note"])
+
+
+def _mesh_lines(raw, opts, add) -> None:
+    """Coincident points (discontinuous output) and the cells' material ids."""
+    from ._coincident import merge_coincident
+    from ._find_arrays import MATERIAL_ARRAY_NAMES, find_material_array
+
+    if raw.cells is None or raw.points is None:
+        return
+    material = find_material_array(raw)
+    cells = raw.cells if material is None else replace(raw.cells, materials=material[2])
+    try:
+        arr = find_sed_array(raw, opts)[0]
+        sed = arr.values.reshape(arr.values.shape[0], -1)
+        location = arr.location if np.all(np.isfinite(sed)) else "cell"
+    except SEDFormatError:
+        sed, location = np.zeros((1, raw.cells.n_cells)), "cell"
+    _, _, _, rep, sides = merge_coincident(raw.points, sed, location, cells)
+    if rep is None:
+        add("coincident", "none: every point is its own node")
+    else:
+        text = (f"{rep['n_points']:,} points are {rep['n_nodes']:,} nodes (up to {rep['max_copies']} copies at one place: "
+                "discontinuous output, one patch per cell); read_sed merges them")
+        if "median_relative" in rep:
+            text += (f"; the SED copies differ from their node's mean by a median {_percent(rep['median_relative'])}, "
+                     f"up to {_percent(rep['max_relative'])} ({rep['nodes_compared']:,} nodes)"
+                     + (f", within one material a median {_percent(rep['within_material']['median_relative'])}, up to "
+                        f"{_percent(rep['within_material']['max_relative'])}" if "within_material" in rep else "")
+                     + f"; merged value: {rep['rule']}")
+        add("coincident", text)
+    if material is None:
+        add("materials", f"no material-id array (cell data named like {', '.join(MATERIAL_ARRAY_NAMES[:6])}, ...)")
+        return
+    ids, counts = np.unique(material[2], return_counts=True)
+    add("materials", f"{material[0]!r} ({material[1]}): " + ", ".join(f"{i} ({c:,} cells)" for i, c in zip(ids, counts))
+        + ("; discontinuous copies keep each material's SED at the nodes where they meet" if sides is not None else ""))
 
 
 def _tensor_lines(raw, add) -> None:

@@ -421,3 +421,50 @@ def _convention(opts: ReadOptions, raw: RawExport | None = None) -> Convention:
         )
     base = PRESETS[preset] if preset else PRESETS["vtk"]
     return Convention(base.order, opts.shear or base.shear, base.note)
+
+
+#: Names of material-id arrays (compared lower case, letters and digits only): deal.II
+#: ``material_id``, VTK ``MaterialIds``, SfePy ``mat_id``, gmsh ``gmsh:physical``, medit
+#: ``medit:ref``, DOLFINx/VTK ``CellEntityIds``, Exodus/ParaView ``ElementBlockIds`` and
+#: ``ObjectId``, the bundled sample's ``layer``.
+MATERIAL_ARRAY_NAMES = ("material_id", "materialids", "material", "materials", "mat_id", "matid", "layer",
+                        "gmsh:physical", "medit:ref", "cellentityids", "elementblockids", "blockid", "block_id",
+                        "objectid", "subdomain", "domain", "region")
+
+
+def _key(name: str) -> str:
+    return "".join(ch for ch in name.lower() if ch.isalnum())
+
+
+def find_material_array(raw: RawExport, cells=None) -> tuple[str, str, np.ndarray] | None:
+    """The material id of each cell: (array name, where it was found, ids of shape (n_cells,)) or None.
+
+    A cell array named like :data:`MATERIAL_ARRAY_NAMES` holding whole numbers; or a point array
+    of such a name that is constant over each cell's corners (deal.II's ``DataOut`` writes cell
+    data that way: one patch per cell, the cell's value at each of its copies of the nodes).
+    ``where`` is ``'cell data'`` or ``'point data constant per cell'``. The first time step is
+    used. ``cells`` defaults to ``raw.cells``.
+    """
+    cells = raw.cells if cells is None else cells
+    if cells is None:
+        return None
+    wanted = {_key(n) for n in MATERIAL_ARRAY_NAMES}
+    for loc in ("cell", "point"):
+        for arr in raw.arrays.values():
+            if arr.location != loc or _key(arr.name) not in wanted or arr.values.ndim != 2 or not arr.values.shape[0]:
+                continue
+            v = arr.values[0]
+            if not np.all(np.isfinite(v)) or not np.all(v == np.round(v)):
+                continue
+            if loc == "cell":
+                return arr.name, "cell data", v.astype(np.int64)
+            corners = v[cells.tetra]
+            if not np.all(corners == corners[:, :1]):
+                continue
+            per_cell = np.zeros(cells.n_cells)
+            per_cell[cells.parent] = corners[:, 0]
+            seen = np.zeros(cells.n_cells, bool)
+            seen[cells.parent] = True
+            if np.all(np.bincount(cells.parent, weights=(corners[:, 0] != per_cell[cells.parent]), minlength=cells.n_cells) == 0) and seen.all():
+                return arr.name, "point data constant per cell", per_cell.astype(np.int64)
+    return None

@@ -100,7 +100,7 @@ def _convert(value, f, exp, *, origin: _Origin, table: str, key: str):
         written = max((u for u in _QUANTITIES[q][1] if key.endswith("_" + u)), key=len)
         unit = f" in {written.replace('_per_', '/')}"
     c = _Given(value, unit, origin, table, key)
-    if kind in ("str", "choice", "bool", "int", "number", "path"):
+    if kind in ("str", "choice", "bool", "int", "number", "path", "side"):
         return _convert_scalar(c, kind, choices, exp)
     return _convert_array(c, f, kind, choices, exp)
 
@@ -125,6 +125,10 @@ def _convert_scalar(c: _Given, kind: str, choices: tuple, exp):
         if not _is_number(c.value):
             raise c.bad_type(f"a number{c.unit}")
         return _scale(c.finite(c.value), exp)
+    if kind == "side":
+        if c.value != "average" and (not isinstance(c.value, int) or isinstance(c.value, bool)):
+            raise c.bad_type("'average' or a material id (an integer)")
+        return c.value
     if kind == "path":
         if not isinstance(c.value, str) or not c.value:
             raise c.bad_type("a path (a non-empty string)")

@@ -262,7 +262,8 @@ def _cache_key(run: _Run, layout, exp_files, hashes) -> str:
     # each export file named: (the reader its name selects, content hash); the side files it makes the reader
     # open are checked by SEDCache.get against the entry's list
     readers = [(format_of(p, ex.format), hashes[p]) for p in exp_files]
-    return sampling_key(exports=readers, read_options=read_opts, receptors=rkey, method=scene.sampling.method)
+    return sampling_key(exports=readers, read_options=read_opts, receptors=rkey, method=scene.sampling.method,
+                        side=scene.sampling.side)
 
 
 def _receptor_sed(run: _Run, exp_files, hashes, *, cache_dir, use_cache: bool, progress: bool):
@@ -320,7 +321,8 @@ def _read_sample_store(run: _Run, layout, key: str, cache, cache_info: dict, *, 
     with run.steps("cache"):
         try:
             path = cache.put(key, sed, meta={"field": run.record["field"], "region_info": {
-                k: v for k, v in run.region_info.items() if k != "region"}}, files=records, base=_base(run.scene))
+                k: v for k, v in run.region_info.items() if k != "region"}, "interface": sed.interface}, files=records,
+                base=_base(run.scene))
             cache_info["written"] = str(path)
         except OSError as err:  # a read-only or full cache disk must not fail the run
             cache_info["write_error"] = str(err)
@@ -351,7 +353,8 @@ def _from_cache(run: _Run, entry, layout, key: str):
            f"content with the same read options and method (key {key[:12]}, {entry.path})")
     run.skipped["reading"] = run.skipped["sampling"] = why
     run.record["field"] = dict(entry.meta.get("field", {}), from_cache=True)
-    run.record["sampling"] = {"method": sed.method, "placement": sed.placement}
+    run.record["sampling"] = {"method": sed.method, "placement": sed.placement, "side": run.scene.sampling.side,
+                              "interface": entry.meta.get("interface")}
     return sed
 
 
@@ -385,11 +388,12 @@ def _read_and_sample(run: _Run, layout, *, progress: bool):
         cropped, crop_info = _crop(first, layout.positions, method)
         sampler = build_sampler(cropped, layout, method=method)
         sed = sample_steps(recorded(chain([first], steps)), layout, method=method,
-                           on_outside=scene.sampling.on_outside, sampler=sampler)
+                           on_outside=scene.sampling.on_outside, sampler=sampler, side=scene.sampling.side)
     run.record["field"] = dict(series_provenance(provenances).to_dict(), n_points=int(first.n_points),
                                n_cells=int(first.cells.n_cells) if first.cells is not None else 0,
                                n_times=int(sed.values.shape[0]))
-    run.record["sampling"] = {"method": sed.method, "placement": sed.placement}
+    run.record["sampling"] = {"method": sed.method, "placement": sed.placement, "side": scene.sampling.side,
+                              "interface": sed.interface}
     if crop_info:
         run.record["sampling"]["mesh_cropped_to_receptors"] = crop_info
     return sed

@@ -230,6 +230,7 @@ class SamplingSpec:
 
     method: str | None = _f("choice", "linear", choices=("linear", "nearest"))
     on_outside: str | None = _f("choice", "raise", choices=("raise", "warn", "nan"))
+    side: object = _f("side", "average", doc="receptors on a material interface: 'average' or a material id")
 
 
 @dataclass(frozen=True)

@@ -1,0 +1,215 @@
+"""Coincident points of a mesh export (discontinuous output) merged into nodes.
+
+deal.II's ``DataOut`` writes every cell as its own patch, DOLFINx writes DG fields per cell
+and FreeFEM's P1dc does the same: each mesh node is then 4-8 points at one place, one per
+cell around it, with different values. Sampling such a mesh takes one copy (the one of the
+cell the receptor is found in first), so the value at a receptor depends on an arbitrary
+choice. Here the copies are found (a KD-tree, tolerance relative to the mesh's shortest cell
+edge) and merged into one node whose value is the **volume-weighted mean of the copies**:
+each copy weighs the volume of the cells that use it, which is what :func:`afferent.sampling.node_average`
+does for cell data (a cell gives its whole volume to each of its corners). The merge, the
+number of copies and how far they disagree are recorded (:attr:`afferent.field.Provenance.coincident`).
+
+Used by :mod:`afferent.io._assemble` (reading) and :mod:`afferent.io._describe` (``afferent info``).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..field import Cells, NodeSides
+
+__all__ = ["COINCIDENT_RTOL", "COINCIDENT_WARN_RTOL", "coincident_labels", "merge_coincident"]
+
+#: Points closer than this fraction of the mesh's shortest cell edge are copies of one node.
+#: Coordinates written with 6 significant digits are off by up to 5e-6 of their magnitude; a
+#: cell edge is rarely below 1e-3 of the model's extent, so copies written in single precision
+#: (6e-8 relative) are found, and distinct nodes (one edge apart) never are.
+COINCIDENT_RTOL = 1e-6
+
+#: Copies of a node whose SED differs from their mean by more than this fraction of it (at the
+#: most loaded step, largest over the nodes) are reported with a warning: the merged value is
+#: then an average over cells that disagree (a material interface, a steep gradient on a coarse
+#: mesh), not a value any cell had. On the deal.II export of tests/data/dealii (Q1 hexahedra,
+#: two materials, 8 x 6 x 8 cells) the copies differ from their node's mean by a median 28 % and
+#: up to 1.06 x it: a coarse mesh warns, as it should (its receptor SED depends on the merge).
+COINCIDENT_WARN_RTOL = 0.25
+
+#: Nodes whose mean SED is below this fraction of the largest node mean are left out of the
+#: disagreement statistics (relative differences of near-zero values say nothing).
+SPREAD_FLOOR = 1e-3
+
+_EDGES = ((0, 1), (0, 2), (0, 3), (1, 2), (1, 3), (2, 3))
+
+
+def shortest_edge(xyz: np.ndarray, tetra: np.ndarray) -> float:
+    """Length of the shortest non-zero edge of the tetrahedra, in the unit of ``xyz`` (inf when none).
+
+    :func:`merge_coincident` passes each cell's first tetrahedron, which holds at least two of
+    the cell's own edges (hexahedra, wedges, pyramids split as in :mod:`afferent.io._meshio`).
+    """
+    if not tetra.size:
+        return float("inf")
+    best = np.inf
+    for a, b in _EDGES:
+        d = xyz[tetra[:, a]] - xyz[tetra[:, b]]
+        sq = np.einsum("ij,ij->i", d, d)
+        sq = sq[sq > 0]
+        if sq.size:
+            best = min(best, float(sq.min()))
+    return float(np.sqrt(best))
+
+
+def _any_in_one_bin(xyz: np.ndarray, tol: float) -> bool:
+    """Whether two points fall in one cube of side ``tol`` of a grid: a quick test before the KD-tree.
+
+    Copies of a node written identically always do; copies a round-off apart straddle a cube
+    face with a probability of about their distance over ``tol`` each, so an export with many
+    copies always has some in one cube. Most exports have none, and skip the KD-tree
+    (0.03 s instead of 0.25 s for the 89,739 nodes of sample_sed/block8).
+    """
+    q = np.floor((xyz - xyz.min(axis=0)) / tol)
+    order = np.lexsort(q.T)
+    q = q[order]
+    return bool(np.any(np.all(q[1:] == q[:-1], axis=1)))
+
+
+def coincident_labels(xyz: np.ndarray, tetra: np.ndarray, rtol: float = COINCIDENT_RTOL):
+    """Which points are copies of one node: (labels of shape (n_points,), n_nodes, tolerance) or None.
+
+    ``labels[p]`` is the node of point ``p``; nodes are numbered in the order of their first
+    copy. The tolerance (unit of ``xyz``) is ``rtol`` x the shortest cell edge, so the copies of
+    a node are all within it of one another and far from every other node: each point joins
+    the lowest-numbered point within the tolerance. None when no two points are that close.
+    """
+    tol = rtol * shortest_edge(xyz, tetra)
+    if not np.isfinite(tol) or xyz.shape[0] < 2 or not _any_in_one_bin(xyz, tol):
+        return None
+    from scipy.spatial import cKDTree
+
+    pairs = cKDTree(xyz).query_pairs(tol, output_type="ndarray")  # rows i < j
+    if not len(pairs):
+        return None
+    first = np.arange(xyz.shape[0])
+    np.minimum.at(first, pairs[:, 1], pairs[:, 0])
+    uniq, labels = np.unique(first, return_inverse=True)  # first copies are numbered in point order
+    return labels.ravel(), int(uniq.size), float(tol)
+
+
+def _point_cells(cells: Cells, xyz: np.ndarray):
+    """(point, cell, cell volume) for each point and each cell using it as a corner (once)."""
+    from .._mesh_geometry import cell_volumes
+
+    pairs = np.unique(np.column_stack([cells.tetra.reshape(-1), np.repeat(cells.parent, 4)]), axis=0)
+    return pairs[:, 0], pairs[:, 1], cell_volumes(cells, xyz)[pairs[:, 1]]
+
+
+def node_sides(sed: np.ndarray, labels: np.ndarray, cells: Cells, xyz: np.ndarray) -> NodeSides | None:
+    """Per node and material, the volume-weighted mean of the node's copies in cells of that material.
+
+    Kept only for nodes where several materials meet; None when there are none (or no
+    material ids). ``sed`` is point data of shape (n_times, n_points), any unit.
+    """
+    import scipy.sparse as sp
+
+    if cells.materials is None:
+        return None
+    point, cell, vol = _point_cells(cells, xyz)
+    mats, mat_of = np.unique(cells.materials[cell], return_inverse=True)
+    key = labels[point] * mats.size + mat_of.ravel()
+    uniq, col = np.unique(key, return_inverse=True)
+    node, mat = uniq // mats.size, uniq % mats.size
+    several = np.bincount(node, minlength=int(labels.max()) + 1)[node] > 1
+    if not several.any():
+        return None
+    m = sp.csr_matrix((np.where(vol > 0, vol, 1.0), (col.ravel(), point)), shape=(uniq.size, sed.shape[1]))
+    m = sp.diags(1.0 / np.asarray(m.sum(axis=1)).ravel()) @ m
+    per = np.asarray((m @ sed.T).T)
+    return NodeSides(node[several], mats[mat[several]], per[:, several])
+
+
+def _grouped_mean(sed: np.ndarray, group: np.ndarray, n_groups: int, w: np.ndarray) -> np.ndarray:
+    """Weighted mean of the points of each group, (n_times, n_groups); equal weights in a group weighing 0."""
+    import scipy.sparse as sp
+
+    alone = np.bincount(group, weights=w, minlength=n_groups) == 0  # copies no cell uses
+    w = np.where(alone[group], 1.0, w)
+    m = sp.csr_matrix((w, (group, np.arange(group.size))), shape=(n_groups, group.size))
+    m = sp.diags(1.0 / np.asarray(m.sum(axis=1)).ravel()) @ m
+    return np.asarray((m @ sed.T).T)
+
+
+def _copy_weights(cells: Cells, xyz: np.ndarray) -> np.ndarray:
+    """Weight of each point: the volume of the cells that use it as a corner (each cell once)."""
+    point, _, vol = _point_cells(cells, xyz)
+    return np.bincount(point, weights=vol, minlength=xyz.shape[0])
+
+
+def _disagreement(sed: np.ndarray, labels: np.ndarray, mean: np.ndarray, counts: np.ndarray) -> dict:
+    """How far copies differ from their node's mean, at the most loaded step (relative to the mean)."""
+    step = int(np.argmax(sed.sum(axis=1))) if sed.size else 0
+    dev = np.zeros(mean.shape[1])
+    np.maximum.at(dev, labels, np.abs(sed[step] - mean[step, labels]))
+    m = mean[step]
+    top = float(m.max(initial=0.0))
+    ok = (counts > 1) & (m > SPREAD_FLOOR * top) if top > 0 else np.zeros_like(counts, bool)
+    rel = dev[ok] / m[ok]
+    node = int(np.flatnonzero(ok)[np.argmax(rel)]) if rel.size else -1
+    return {"step": step, "nodes_compared": int(ok.sum()),
+            "median_relative": float(np.median(rel)) if rel.size else 0.0,
+            "max_relative": float(rel.max()) if rel.size else 0.0, "max_node": node}
+
+
+def merge_coincident(xyz: np.ndarray, sed: np.ndarray, location: str, cells: Cells, rtol: float = COINCIDENT_RTOL):
+    """Merge coincident points into nodes: (xyz, sed, cells, report) or the inputs and None when there are none.
+
+    Parameters
+    ----------
+    xyz : ndarray of shape (n_points, 3)
+        Coordinates (any length unit).
+    sed : ndarray of shape (n_times, n_values)
+        SED (any unit); point values are merged, cell values are kept.
+    location : {'point', 'cell'}
+    cells : Cells
+        The mesh; its tetrahedra are renumbered onto the nodes.
+
+    Returns
+    -------
+    xyz, sed, cells, report, sides
+        Node coordinates (those of each node's first copy), SED (point data: the volume-weighted
+        mean of the copies, see the module docstring), the renumbered cells, and ``report``
+        (dict): ``n_points`` (before), ``n_nodes``, ``n_copies_merged`` (points removed),
+        ``max_copies`` (copies of the most copied node), ``tolerance`` (unit of ``xyz``),
+        ``rule``, and for point data ``step``, ``nodes_compared``, ``median_relative``,
+        ``max_relative`` (copies' largest difference from their node's mean over that mean),
+        ``max_node`` and, with material ids, ``within_material`` (the same among the copies of
+        one material: the mesh's own discontinuity, apart from the interface's jump); ``sides`` (:class:`~afferent.field.NodeSides` or None): for point data
+        on cells with material ids, the mean of each material's copies where materials meet.
+    """
+    found = coincident_labels(xyz, cells.tetra[np.unique(cells.parent, return_index=True)[1]], rtol)
+    if found is None:
+        return xyz, sed, cells, None, None
+    labels, n_nodes, tol = found
+    n = xyz.shape[0]
+    counts = np.bincount(labels, minlength=n_nodes)
+    first = np.full(n_nodes, n, dtype=np.int64)
+    np.minimum.at(first, labels, np.arange(n))
+    merged = Cells(labels[cells.tetra], cells.parent, cells.n_cells, cells.cell_types, cells.materials)
+    report = {"n_points": int(n), "n_nodes": int(n_nodes), "n_copies_merged": int(n - n_nodes),
+              "max_copies": int(counts.max()), "tolerance": tol,
+              "rule": "volume-weighted mean of the copies (each copy weighs the volume of the cells using it)"}
+    if location == "point":
+        w = _copy_weights(cells, xyz)
+        mean = _grouped_mean(sed, labels, n_nodes, w)
+        report.update(_disagreement(sed, labels, mean, counts))
+        if cells.materials is not None:  # copies of one material: the mesh's own discontinuity, not the interface's
+            point, cell, _ = _point_cells(cells, xyz)
+            mat = np.zeros(n, dtype=np.int64)
+            mat[point] = cells.materials[cell]
+            groups, group = np.unique(labels * (int(mat.max()) + 1) + (mat - mat.min()), return_inverse=True)
+            group = group.ravel()
+            within = _disagreement(sed, group, _grouped_mean(sed, group, groups.size, w),
+                                   np.bincount(group, minlength=groups.size))
+            report["within_material"] = {k: within[k] for k in ("median_relative", "max_relative", "nodes_compared")}
+        return xyz[first], mean, merged, report, node_sides(sed, labels, cells, xyz)
+    return xyz[first], sed, merged, report, None
