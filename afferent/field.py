@@ -100,19 +100,27 @@ class Cells:
     ----------
     tetra : ndarray of shape (n_tetra, 4), int
         Point indices of the linear tetrahedra that tile the mesh (hexahedra, wedges and
-        pyramids are split; quadratic cells use their corner nodes).
+        pyramids are split; quadratic cells are split by their corner nodes): used to locate
+        points, and to interpolate in linear cells.
     parent : ndarray of shape (n_tetra,), int
         Index of the original FE cell each tetrahedron came from (into the cell-data arrays).
     n_cells : int
         Number of original volume cells.
     cell_types : tuple of str
         meshio names of the original volume cell blocks, in order.
+    nodes : tuple of ndarray
+        Full connectivity of each block in VTK/meshio node order, parallel to ``cell_types``
+        (the cells of block k follow those of blocks 0..k-1): the quadratic cells' own shape
+        functions use it (:mod:`afferent._shape_functions`). Empty when not known. A node
+        index of -1 marks a node left out for want of values: that cell is then interpolated
+        from its corners.
     """
 
     tetra: np.ndarray
     parent: np.ndarray
     n_cells: int
     cell_types: tuple[str, ...] = ()
+    nodes: tuple[np.ndarray, ...] = ()
 
     def __post_init__(self):
         object.__setattr__(self, "tetra", np.ascontiguousarray(self.tetra, dtype=np.int64))
@@ -126,6 +134,14 @@ class Cells:
             )
         self.tetra.setflags(write=False)
         self.parent.setflags(write=False)
+        nodes = tuple(np.array(n, dtype=np.int64) for n in self.nodes)
+        if nodes and (len(nodes) != len(self.cell_types) or sum(n.shape[0] for n in nodes) != self.n_cells):
+            raise ValueError(f"'nodes' must hold one connectivity array per cell type ({len(self.cell_types)}) and "
+                             f"n_cells = {self.n_cells} cells in all; got {len(nodes)} array(s) of "
+                             f"{sum(n.shape[0] for n in nodes)} cells instead.")
+        for n in nodes:
+            n.setflags(write=False)
+        object.__setattr__(self, "nodes", nodes)
 
 
 @dataclass(frozen=True)

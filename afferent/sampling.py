@@ -39,6 +39,7 @@ from ._mesh_geometry import (  # noqa: F401 (locate_in_tets, JOGGLE, NEAR_NODES_
     locate_in_tets,
     node_average,
 )
+from ._shape_functions import has_quadratic, with_shape_functions
 from ._validation import check_option
 from .exceptions import AfferentWarning, FieldCoverageError, SEDFormatError
 from .field import SEDField
@@ -159,6 +160,8 @@ class Sampler:
 PLACEMENTS = {
     ("point", "nearest"): "value of the nearest node",
     ("point", "linear"): "linear in the mesh's cells (split into tetrahedra)",
+    ("point", "quadratic"): "the cells' own shape functions: quadratic in quadratic cells (located by Newton on "
+                            "their isoparametric map), linear in linear cells (split into tetrahedra)",
     ("cell", "nearest"): "cell value of the containing cell",
     ("cell", "linear"): "cells averaged to nodes by cell volume, then linear",
     ("scattered", "nearest"): "value of the nearest point",
@@ -214,6 +217,10 @@ def build_sampler(field: SEDField, layout: ReceptorLayout, *, method: str = "lin
             )
             if field.location == "cell":
                 w = w @ node_average(field.cells, xyz, field.n_points)
+            elif has_quadratic(field.cells):
+                guess = np.where(outside, -1, field.cells.parent[np.maximum(tet, 0)])
+                w, outside, placement = with_shape_functions(w, outside, pos, xyz, field.cells, guess,
+                                                             PLACEMENTS[("point", "quadratic")])
         return Sampler(w.tocsr(), outside, method, placement)
     # Scattered points (a CSV table): no connectivity.
     if method == "nearest":

@@ -361,8 +361,8 @@ def test_a_valid_file_in_an_unsupported_layout_says_what_is_unsupported(tmp_path
         'NumberOfCells="0"><Points><DataArray type="Float64" NumberOfComponents="3" format="ascii">0 0 0</DataArray>'
         '</Points></Piece></UnstructuredGrid></VTKFile>\n')
     with pytest.raises(SEDFormatError, match=re.escape(
-            f"SED file {str(version)!r} is a .vtu file in a layout afferent cannot read (through meshio): "
-            "Unknown VTU file version '2.2'. Save it as a VTU UnstructuredGrid")):
+            f"SED file {str(version)!r} is a VTU of file version 2.2 (VTK >= 9 writes it, e.g. for meshes with VTK "
+            "Lagrange cells); meshio, afferent's VTU reader, reads versions 0.1 and 1.0 only. Save it as legacy VTK")):
         read_raw(version)
 
 

@@ -100,7 +100,7 @@ def _crop(field, positions, method: str):
     keep = shared == 0
     if keep.all():
         return field, None
-    cells = Cells(tet[keep], field.cells.parent[keep], field.cells.n_cells, field.cells.cell_types)
+    cells = Cells(tet[keep], field.cells.parent[keep], field.cells.n_cells, field.cells.cell_types, field.cells.nodes)
     cropped = SEDField(field.points, field.sed, field.times, field.location, cells, field.provenance)
     return cropped, {"tetra_total": int(tet.shape[0]), "tetra_searched": int(keep.sum())}
 
