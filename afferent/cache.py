@@ -59,7 +59,8 @@ __all__ = [
 
 #: Bumped whenever the entry layout, the meaning of a key or the sampling results change: old entries then miss.
 #: 2: cell data averaged to nodes by whole cell volumes ('linear' on cell data changed); placement recorded.
-CACHE_VERSION = 2
+#: 3: point data in quadratic cells interpolated with their own shape functions (was: between corners).
+CACHE_VERSION = 3
 
 _SUBDIR = "sed"
 _ARRAYS = ("values", "times", "positions", "ids", "longitudinal", "cross", "outside", "meta")
