@@ -100,17 +100,17 @@ def shape_functions(ctype: str, xi: np.ndarray, *, derivatives: bool = False):
     """
     exps, coef = _basis(ctype)
     xi = np.asarray(xi, float)
-    powers = xi[:, None, :] ** exps[None]  # (m, n_mono, 3)
-    n = np.prod(powers, axis=2) @ coef
+    powers = np.stack([np.ones_like(xi), xi, xi * xi], axis=2)  # (m, 3 axes, exponent 0..2)
+    per_axis = [powers[:, d, exps[:, d]] for d in range(3)]  # (m, n_monomials) each
+    n = (per_axis[0] * per_axis[1] * per_axis[2]) @ coef
     if not derivatives:
         return n
-    grads = np.empty((xi.shape[0], exps.shape[0], 3))
+    slopes = np.stack([np.zeros_like(xi), np.ones_like(xi), 2 * xi], axis=2)  # d/dxi of xi^e, e = 0..2
+    dn = np.empty(n.shape + (3,))
     for d in range(3):
-        e = exps[:, d]
-        dpow = np.where(e > 0, e * xi[:, None, d] ** np.maximum(e - 1, 0), 0.0)  # d/dxi_d of xi_d^e
-        others = np.prod(np.delete(powers, d, axis=2), axis=2)
-        grads[:, :, d] = dpow * others
-    return n, np.einsum("mkd,kn->mnd", grads, coef)
+        factors = [slopes[:, d, exps[:, d]] if k == d else per_axis[k] for k in range(3)]
+        dn[:, :, d] = (factors[0] * factors[1] * factors[2]) @ coef
+    return n, dn
 
 
 #: Centre of each reference cell: the Newton start.
@@ -137,8 +137,9 @@ def natural_coordinates(ctype: str, points: np.ndarray, nodes_xyz: np.ndarray):
         if not active.size:
             break
         n, dn = shape_functions(ctype, xi[active], derivatives=True)
-        x = np.einsum("mn,mnd->md", n, nodes_xyz[active])
-        jac = np.einsum("mnd,mne->mde", nodes_xyz[active], dn)  # dx_d / dxi_e
+        nodes = nodes_xyz[active]
+        x = np.matmul(n[:, None, :], nodes)[:, 0]
+        jac = np.matmul(nodes.transpose(0, 2, 1), dn)  # dx_d / dxi_e
         ok = np.abs(np.linalg.det(jac)) > 1e-300
         step = np.full((active.size, 3), np.nan)
         if ok.any():

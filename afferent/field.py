@@ -111,7 +111,7 @@ class Cells:
     nodes : tuple of ndarray
         Full connectivity of each block in VTK/meshio node order, parallel to ``cell_types``
         (the cells of block k follow those of blocks 0..k-1): the quadratic cells' own shape
-        functions use it (:mod:`afferent._shape_functions`). Empty when not known. A node
+        functions use it (``afferent/_shape_functions.py``). Empty when not known. A node
         index of -1 marks a node left out for want of values: that cell is then interpolated
         from its corners.
     """

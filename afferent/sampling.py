@@ -6,7 +6,8 @@
 
 ``'nearest'`` takes the value of the nearest mesh node (for cell data: of the cell holding
 the receptor). ``'linear'`` interpolates inside the mesh's own cells (split into linear
-tetrahedra), with barycentric weights computed once and reused for every time step; cell
+tetrahedra; quadratic cells with their own shape functions, ``afferent/_shape_functions.py``),
+with weights computed once and reused for every time step; cell
 data is first averaged to the nodes, each cell weighing its volume on each of its corners.
 A table of points without connectivity (CSV) is triangulated (scipy ``Delaunay``) around the
 receptors, in 3-D, or in the points' plane for a surface-only table.
@@ -389,7 +390,8 @@ def sample_sed(
         Receptor sites in m (from :func:`afferent.read_receptors`).
     method : {'linear', 'nearest'}, default='linear'
         ``'linear'``: barycentric interpolation in the mesh's cells (exact for a field linear
-        in space); cell data is first averaged to the nodes, weighted by cell volume (exact at
+        in space), with quadratic cells' own shape functions in quadratic cells (see
+        docs/fe-export.md, "Quadratic cells"); cell data is first averaged to the nodes, weighted by cell volume (exact at
         interior nodes of a regular grid for cell values linear in space); a table of points
         is triangulated (Delaunay, in its plane when the points are coplanar). ``'nearest'``:
         value of the nearest node, or of the containing cell for cell data. ``'nearest'`` is
