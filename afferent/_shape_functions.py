@@ -264,7 +264,9 @@ def quadratic_weights(points: np.ndarray, xyz: np.ndarray, cells, guess: np.ndar
     block = np.searchsorted(starts, guess, side="right") - 1
     found = np.full(points.shape[0], -1, np.int64)
     xi_all = np.full((points.shape[0], 3), np.nan)
-    retry = [np.flatnonzero(guess < 0)]
+    lo, hi = xyz.min(axis=0), xyz.max(axis=0)
+    in_box = np.all((points >= lo - 1e-9 * (hi - lo).max()) & (points <= hi + 1e-9 * (hi - lo).max()), axis=1)
+    retry = [np.flatnonzero((guess < 0) & in_box)]  # outside the nodes' box no cell can hold a point
     reasons: dict[str, int] = {}
     for k in quad:
         idx = np.flatnonzero((guess >= 0) & (block == k))
