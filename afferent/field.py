@@ -111,9 +111,9 @@ class Cells:
     nodes : tuple of ndarray
         Full connectivity of each block in VTK/meshio node order, parallel to ``cell_types``
         (the cells of block k follow those of blocks 0..k-1): the quadratic cells' own shape
-        functions use it (``afferent/_shape_functions.py``). Empty when not known. A node
-        index of -1 marks a node left out for want of values: that cell is then interpolated
-        from its corners.
+        functions use it (``afferent/_shape_functions.py``). Empty when not needed (a mesh of
+        linear cells) or not known. A node index of -1 marks a node left out for want of
+        values: that cell is then interpolated from its corners.
     """
 
     tetra: np.ndarray
@@ -134,7 +134,7 @@ class Cells:
             )
         self.tetra.setflags(write=False)
         self.parent.setflags(write=False)
-        nodes = tuple(np.array(n, dtype=np.int64) for n in self.nodes)
+        nodes = tuple(np.ascontiguousarray(n, dtype=np.int64) for n in self.nodes)
         if nodes and (len(nodes) != len(self.cell_types) or sum(n.shape[0] for n in nodes) != self.n_cells):
             raise ValueError(f"'nodes' must hold one connectivity array per cell type ({len(self.cell_types)}) and "
                              f"n_cells = {self.n_cells} cells in all; got {len(nodes)} array(s) of "

@@ -122,9 +122,10 @@ def _volume_blocks(cells) -> list[tuple[int, str, np.ndarray]]:
 def cells_from_meshio(cells) -> Cells | None:
     """Split meshio volume cell blocks into linear tetrahedra; None when the mesh has no volume cells.
 
-    Quadratic cells are split by their corner nodes (to locate points) and keep their full
-    connectivity in VTK/meshio node order (:attr:`Cells.nodes`), which 'linear' sampling
-    interpolates in with the cells' own shape functions. Surface and line blocks are ignored.
+    Quadratic cells are split by their corner nodes (to locate points); a mesh with quadratic
+    cells keeps every block's full connectivity in VTK/meshio node order (:attr:`Cells.nodes`),
+    which 'linear' sampling interpolates in with the cells' own shape functions. Surface and
+    line blocks are ignored.
     """
     blocks = _volume_blocks(cells)
     if not blocks:
@@ -136,8 +137,9 @@ def cells_from_meshio(cells) -> Cells | None:
         tets.append(conn[:, pattern].reshape(-1, 4))
         parents.append(np.repeat(np.arange(offset, offset + n), len(pattern)))
         offset += n
+    higher = any(ctype in _HIGHER for _, ctype, _ in blocks)  # linear meshes need no more than their tetrahedra
     return Cells(np.concatenate(tets), np.concatenate(parents), offset, tuple(b[1] for b in blocks),
-                 tuple(b[2] for b in blocks))
+                 tuple(b[2] for b in blocks) if higher else ())
 
 
 def _read_meshio(path: str):
