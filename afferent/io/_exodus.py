@@ -40,11 +40,12 @@ EXODUS_ELEMENTS = {
 #: Exodus II node order -> VTK/meshio's, for the types where they differ (the columns of VTK's order
 #: in Exodus's): Exodus numbers the vertical edges' mid-nodes before the top face's (HEX20, HEX27,
 #: WEDGE15, WEDGE18: seen in MOOSE's HEX20 file tests/data/exodus/elastic_patch_quadratic_out.e)
-#: and a HEX27's centre node before its face nodes (-z, +z, -y, +x, +y, -x; VTK: -x, +x, -y, +y,
-#: -z, +z, centre), per the Exodus II manual.
+#: and a HEX27's centre node before its face nodes (-z, +z, -x, +x, -y, +y; VTK: -x, +x, -y, +y,
+#: -z, +z, centre), per the Exodus II manual's table of higher-order nodes (as libMesh's Exodus
+#: reader maps them; no HEX27 file in the tests).
 EXODUS_TO_VTK = {
     "hexahedron20": np.r_[0:12, 16:20, 12:16],
-    "hexahedron27": np.r_[0:12, 16:20, 12:16, 26, 24, 23, 25, 21, 22, 20],
+    "hexahedron27": np.r_[0:12, 16:20, 12:16, 23, 24, 25, 26, 21, 22, 20],
     "wedge15": np.r_[0:9, 12:15, 9:12],
     "wedge18": np.r_[0:9, 12:15, 9:12, 15:18],
 }
