@@ -291,8 +291,13 @@ def test_quadratic_wedges_and_pyramids_load(name, monkeypatch):
     wedge = f.points[f.cells.nodes[0][0]]
     xi = np.random.default_rng(6).random((50, 3)) * [0.45, 0.45, 0.95]
     pos = shape_functions("wedge15", xi) @ wedge
-    got, s = _sample(f.points, f.cells, f.sed[0], pos)
-    assert np.abs(got - quadratic(pos)).max() < 1e-12
+    pyramid = f.points[f.cells.nodes[1][0, :5]]  # its corners: interpolated linearly between them
+    apex_side = pyramid[:4].mean(axis=0) * 0.6 + pyramid[4] * 0.4
+    got, s = _sample(f.points, f.cells, f.sed[0], np.vstack([pos, apex_side]))
+    assert np.abs(got[:-1] - quadratic(pos)).max() < 1e-12
+    corner_weights = s.weights[len(pos)].toarray().ravel()
+    assert set(np.flatnonzero(corner_weights)) <= set(f.cells.nodes[1][0, :5]) and np.isfinite(got[-1])
+    assert s.placement == PLACEMENTS[("point", "quadratic")]
 
 
 def test_a_lagrange_hexahedron_of_degree_2_is_a_27_node_hexahedron():
