@@ -355,14 +355,14 @@ def test_a_valid_file_in_an_unsupported_layout_says_what_is_unsupported(tmp_path
             f"SED file {str(poly)!r} holds a surface (PolyData), not the UnstructuredGrid (volume mesh) afferent reads from "
             "a .vtu; export the volume mesh, or the surface points as a CSV table.")):
         read_raw(poly)
-    version = tmp_path / "v22.vtu"
+    version = tmp_path / "v30.vtu"
     version.write_text(
-        '<?xml version="1.0"?>\n<VTKFile type="UnstructuredGrid" version="2.2"><UnstructuredGrid><Piece NumberOfPoints="1" '
+        '<?xml version="1.0"?>\n<VTKFile type="UnstructuredGrid" version="3.0"><UnstructuredGrid><Piece NumberOfPoints="1" '
         'NumberOfCells="0"><Points><DataArray type="Float64" NumberOfComponents="3" format="ascii">0 0 0</DataArray>'
         '</Points></Piece></UnstructuredGrid></VTKFile>\n')
     with pytest.raises(SEDFormatError, match=re.escape(
-            f"SED file {str(version)!r} is a VTU of file version 2.2 (VTK >= 9 writes it, e.g. for meshes with VTK "
-            "Lagrange cells); meshio, afferent's VTU reader, reads versions 0.1 and 1.0 only. Save it as legacy VTK")):
+            f"SED file {str(version)!r} is a VTU of file version 3.0; afferent reads VTU versions 0.1 to 2.x. Save it with "
+            "an older VTK or ParaView, or as legacy VTK (.vtk).")):
         read_raw(version)
 
 

@@ -300,8 +300,15 @@ def test_quadratic_wedges_and_pyramids_load(name, monkeypatch):
     assert s.placement == PLACEMENTS[("point", "quadratic")]
 
 
-def test_a_lagrange_hexahedron_of_degree_2_is_a_27_node_hexahedron():
-    f = read_sed(VTKDIR / "lagrange_hex27.vtk", length_unit="m", sed_unit="Pa")
+@pytest.mark.parametrize("name", ["lagrange_hex27.vtk", "lagrange_hex27.vtu"])
+def test_a_lagrange_hexahedron_of_degree_2_is_a_27_node_hexahedron(name, tmp_path, monkeypatch):
+    # the .vtu is VTK XML version 2.3, which meshio refuses: read from a temporary copy marked 1.0
+    monkeypatch.setenv("TMPDIR", str(tmp_path))
+    import tempfile
+
+    monkeypatch.setattr(tempfile, "tempdir", None)
+    f = read_sed(VTKDIR / name, length_unit="m", sed_unit="Pa")
+    assert list(tmp_path.iterdir()) == []  # the copy is gone
     assert f.cells.cell_types == ("hexahedron27",)
     pos = _inside(f.points, 100, margin=0.3)
     got, s = _sample(f.points, f.cells, f.sed[0], pos)
@@ -315,19 +322,16 @@ def test_lagrange_cells_afferent_cannot_interpolate_in_are_refused_not_triangula
             f"SED file {str(path)!r} holds 1 volume cell(s) of type 'VTK_LAGRANGE_HEXAHEDRON' (64 nodes), which "
             "afferent cannot interpolate in;")):
         read_sed(path, length_unit="m", sed_unit="Pa")
-    xml = VTKDIR / "lagrange_hex27.vtu"
-    with pytest.raises(SEDFormatError, match=re.escape(
-            f"SED file {str(xml)!r} is a VTU of file version 2.3 (VTK >= 9 writes it, e.g. for meshes with VTK "
-            "Lagrange cells); meshio, afferent's VTU reader, reads versions 0.1 and 1.0 only.")):
-        read_sed(xml, length_unit="m", sed_unit="Pa")
 
 
-def test_a_vtu_written_before_vtk_9_numbers_lagrange_hexahedra_as_vtk_reads_them(tmp_path):
+@pytest.mark.parametrize("version", ["1.0", "2.0", "2.1"])
+def test_a_vtu_written_before_vtk_9_numbers_lagrange_hexahedra_as_vtk_reads_them(version, tmp_path):
     # VTU file version < 2.1: VTK's reader swaps nodes 18 and 19 of a quadratic Lagrange hexahedron
     old = tmp_path / "old.vtu"
-    old.write_text((VTKDIR / "lagrange_hex27.vtu").read_text().replace('version="2.3"', 'version="1.0"', 1))
+    old.write_text((VTKDIR / "lagrange_hex27.vtu").read_text().replace('version="2.3"', f'version="{version}"', 1))
     raw = read_raw(old)
-    assert raw.cells.nodes[0][0].tolist() == list(range(18)) + [19, 18] + list(range(20, 27))
+    swapped = version < "2.1"
+    assert raw.cells.nodes[0][0].tolist() == list(range(18)) + ([19, 18] if swapped else [18, 19]) + list(range(20, 27))
     vtk = pytest.importorskip("vtk")
     reader = vtk.vtkXMLUnstructuredGridReader()
     reader.SetFileName(str(old))

@@ -76,7 +76,7 @@ def _old_lagrange_numbering(path: str) -> bool:
     """Whether a VTK file numbers Lagrange hexahedra as before VTK 9 (see :data:`_OLD_LAGRANGE_HEX`)."""
     ext = os.path.splitext(path)[1].lower()
     if ext == ".vtu":
-        return True  # meshio reads VTU versions 0.1 and 1.0 only (< 2.1)
+        return (_vtu_version(path) or (0, 0)) < (2, 1)
     if ext != ".vtk":
         return False
     with open(path, "rb") as fh:
@@ -154,13 +154,16 @@ def _read_meshio(path: str):
     reader = {".vtu": meshio.vtu.read, ".vtk": meshio.vtk.read, ".xdmf": meshio.xdmf.read, ".xmf": meshio.xdmf.read}.get(
         ext, meshio.read
     )
+    copy = None
     if ext == ".vtu":
         _check_vtk_xml_type(path)
+        if (_vtu_version(path) or (0, 0))[0] == 2:
+            copy = _as_vtu_version_1(path)
     _complete_meshio_dimensions()
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")  # meshio warns on skipped data; we report what we keep
-            return reader(path)
+            return reader(copy or path)
     except meshio.ReadError as err:
         if not str(err).strip() or not _well_formed(path, ext):
             raise SEDFormatError(
@@ -177,6 +180,9 @@ def _read_meshio(path: str):
             f"SED file {path!r} could not be read as {os.path.splitext(path)[1] or 'a mesh'} "
             f"(truncated or corrupt?): {kind}: {err}"
         ) from err
+    finally:
+        if copy is not None:
+            os.remove(copy)  # the temporary copy afferent wrote
 
 
 def _well_formed(path: str, ext: str) -> bool:
@@ -219,13 +225,43 @@ def _check_vtk_xml_type(path: str) -> None:
         raise SEDFormatError(
             f"SED file {path!r} holds {what}, not the UnstructuredGrid (volume mesh) afferent reads from a .vtu; {advice}."
         )
-    version = re.search(rb'<VTKFile[^>]*\bversion="([^"]+)"', head)
-    if version is not None and version.group(1).split(b".")[0] not in (b"0", b"1"):
+    version = _vtu_version(path)
+    if version is not None and version[0] > 2:
         raise SEDFormatError(
-            f"SED file {path!r} is a VTU of file version {version.group(1).decode('ascii', 'replace')} (VTK >= 9 writes "
-            "it, e.g. for meshes with VTK Lagrange cells); meshio, afferent's VTU reader, reads versions 0.1 and 1.0 "
-            "only. Save it as legacy VTK (.vtk, file version 5.1: ParaView File > Save Data > Legacy VTK), "
-            "which afferent reads with Lagrange cells of degree 1 and 2.")
+            f"SED file {path!r} is a VTU of file version {'.'.join(map(str, version))}; afferent reads VTU versions "
+            "0.1 to 2.x. Save it with an older VTK or ParaView, or as legacy VTK (.vtk).")
+
+
+def _vtu_version(path: str) -> tuple[int, int] | None:
+    """The VTKFile version attribute of a .vtu, as (major, minor); None when absent or unreadable."""
+    try:
+        with open(path, "rb") as fh:
+            head = fh.read(4096)
+    except OSError:
+        return None
+    m = re.search(rb'<VTKFile[^>]*\bversion="(\d+)\.(\d+)"', head)
+    return None if m is None else (int(m.group(1)), int(m.group(2)))
+
+
+def _as_vtu_version_1(path: str) -> str:
+    """A temporary copy of a VTU of version 2.x with its version attribute set to 1.0, for meshio.
+
+    meshio 5.3 reads VTU versions 0.1 and 1.0 only; VTK >= 9 writes 2.x (2.1: the VTK 9 numbering
+    of Lagrange hexahedra, 2.2 and later: the same layout for every cell afferent reads). The
+    appended data's offsets count from the start of the appended block, so the header may change
+    length. The caller deletes the copy.
+    """
+    import shutil
+    import tempfile
+
+    with open(path, "rb") as src:
+        head = src.read(4096)
+        head = re.sub(rb'(<VTKFile[^>]*\bversion=")\d+\.\d+(")', rb"\g<1>1.0\g<2>", head, count=1)
+        fd, tmp = tempfile.mkstemp(suffix=".vtu", prefix="afferent-vtu-")
+        with os.fdopen(fd, "wb") as dst:
+            dst.write(head)
+            shutil.copyfileobj(src, dst)
+    return tmp
 
 
 def _arrays_from_mesh(mesh, path: str, cells_obj: Cells | None) -> dict[str, RawArray]:

@@ -15,7 +15,8 @@ their natural coordinates.
   ``KeyError: 'wedge15'``.
 - ``lagrange_hex27.vtk``: one VTK_LAGRANGE_HEXAHEDRON of degree 2 (27 nodes), legacy 5.1
   (VTK >= 9 node numbering).
-- ``lagrange_hex27.vtu``: the same as VTK XML, which VTK writes as file version 2.3.
+- ``lagrange_hex27.vtu``: the same as VTK XML, which VTK writes as file version 2.3 (meshio reads
+  0.1 and 1.0 only).
 - ``lagrange_hex64.vtk``: one VTK_LAGRANGE_HEXAHEDRON of degree 3 (64 nodes), legacy 5.1.
 """
 
