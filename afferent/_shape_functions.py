@@ -381,3 +381,31 @@ def with_shape_functions(weights, outside: np.ndarray, points: np.ndarray, xyz: 
                           "other than VTK's? They are interpolated between the cell's corners.",
                           AfferentWarning, stacklevel=4)
     return out, outside, placement
+
+
+def clip_overshoot(values: np.ndarray, weights, field_values: np.ndarray) -> int:
+    """Set to 0, in place, the negative values that negative weights made from non-negative nodes.
+
+    Quadratic shape functions dip below 0 inside a cell (a corner's between its mid-edge nodes),
+    so SED interpolated between non-negative nodal values can come out negative near a steep
+    gradient (0.1-0.4 % of the values at 20,000 random points of the CalculiX test blocks
+    ``tests/data/calculix/block_c3d*.frd``, down to -0.022 x the largest SED). A row with a negative weight whose contributing field values are
+    all >= 0 at a step, and whose value is negative, gets 0 there; a field that is negative at a
+    node is left as it is. ``values`` (n_times, n_rows), ``weights`` csr (n_rows, n_values),
+    ``field_values`` (n_times, n_values). Returns how many values were set to 0.
+    """
+    if not weights.nnz or weights.data.min() >= 0:
+        return 0  # barycentric weights: nothing to clip (the linear path pays one min())
+    t, r = np.nonzero(values < 0)  # few: look only at them
+    if not t.size:
+        return 0
+    has_negative = np.zeros(weights.shape[0], bool)
+    has_negative[np.repeat(np.arange(weights.shape[0]), np.diff(weights.indptr))[weights.data < 0]] = True
+    t, r = t[has_negative[r]], r[has_negative[r]]
+    counts = weights.indptr[r + 1] - weights.indptr[r]
+    first = np.cumsum(counts) - counts
+    stored = np.repeat(weights.indptr[r] - first, counts) + np.arange(counts.sum())  # each pair's weights
+    lowest = np.minimum.reduceat(np.asarray(field_values, float)[np.repeat(t, counts), weights.indices[stored]], first)
+    clip = lowest >= 0
+    values[t[clip], r[clip]] = 0.0
+    return int(clip.sum())

@@ -40,7 +40,7 @@ from ._mesh_geometry import (  # noqa: F401 (locate_in_tets, JOGGLE, NEAR_NODES_
     locate_in_tets,
     node_average,
 )
-from ._shape_functions import has_quadratic, with_shape_functions
+from ._shape_functions import clip_overshoot, has_quadratic, with_shape_functions
 from ._validation import check_option
 from .exceptions import AfferentWarning, FieldCoverageError, SEDFormatError
 from .field import SEDField
@@ -148,8 +148,12 @@ class Sampler:
     domain: str = ""
 
     def apply(self, sed: np.ndarray) -> np.ndarray:
-        """(n_times, n_values) -> (n_times, n_receptors); NaN where outside."""
+        """(n_times, n_values) -> (n_times, n_receptors); NaN where outside.
+
+        Negative values that quadratic shape functions make between non-negative nodes are 0
+        (:func:`afferent._shape_functions.clip_overshoot`)."""
         out = np.asarray((self.weights @ np.asarray(sed, dtype=float).T).T)
+        clip_overshoot(out, self.weights, sed)
         out[:, self.outside] = np.nan
         return out
 
@@ -162,7 +166,8 @@ PLACEMENTS = {
     ("point", "nearest"): "value of the nearest node",
     ("point", "linear"): "linear in the mesh's cells (split into tetrahedra)",
     ("point", "quadratic"): "the cells' own shape functions: quadratic in quadratic cells (located by Newton on "
-                            "their isoparametric map), linear in linear cells (split into tetrahedra)",
+                            "their isoparametric map; values below 0 between non-negative nodes set to 0), linear "
+                            "in linear cells (split into tetrahedra)",
     ("cell", "nearest"): "cell value of the containing cell",
     ("cell", "linear"): "cells averaged to nodes by cell volume, then linear",
     ("scattered", "nearest"): "value of the nearest point",

@@ -351,3 +351,18 @@ def test_cropping_for_a_scene_keeps_the_quadratic_cells():
         warnings.simplefilter("error")
         got, s = _sample(cropped.points, cropped.cells, quadratic(cropped.points * 1e3), np.array([[3e-4, 2e-4, 1e-4]]))
     assert abs(got[0] - quadratic(np.array([[0.3, 0.2, 0.1]]))[0]) < 1e-12
+
+
+def test_quadratic_overshoot_below_zero_between_non_negative_nodes_is_zero():
+    # ccx's nodal ENER (negative artefacts set to 0 by read_sed): the shape functions dip below 0
+    f = read_sed(CCX / "block_c3d15.frd", length_unit="mm", sed_unit="MPa")
+    assert f.sed.min() >= 0
+    pos = _inside(f.points, 5000, margin=0.0)
+    _, s = _sample(f.points, f.cells, f.sed[-1], pos)
+    raw = np.asarray(s.weights @ f.sed.T).T
+    assert (raw < -1e-3 * f.sed.max()).sum() > 10  # what the weights alone give
+    values = s.apply(f.sed)
+    assert values.min() == 0 and np.array_equal(values[raw >= 0], raw[raw >= 0])
+    assert "values below 0 between non-negative nodes set to 0" in s.placement
+    signed = f.sed - 0.5 * f.sed.max()  # negative nodes: nothing is clipped
+    assert np.allclose(s.apply(signed), np.asarray(s.weights @ signed.T).T)
