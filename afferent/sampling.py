@@ -151,7 +151,7 @@ class Sampler:
         """(n_times, n_values) -> (n_times, n_receptors); NaN where outside.
 
         Negative values that quadratic shape functions make between non-negative nodes are 0
-        (:func:`afferent._shape_functions.clip_overshoot`)."""
+        (``clip_overshoot`` in ``afferent/_shape_functions.py``; docs/fe-export.md)."""
         out = np.asarray((self.weights @ np.asarray(sed, dtype=float).T).T)
         clip_overshoot(out, self.weights, sed)
         out[:, self.outside] = np.nan
