@@ -71,6 +71,7 @@ __all__ = [
 #: 2: cell data averaged to nodes by whole cell volumes ('linear' on cell data changed); placement recorded.
 #: 3: the key covers the named export files only; the entry lists (and get checks) every file the reader opened;
 #: coincident points merged into nodes (discontinuous output changed); the interface side in the key.
+#: point data in quadratic cells interpolated with their own shape functions (was: between corners).
 CACHE_VERSION = 3
 
 _SUBDIR = "sed"

@@ -111,7 +111,8 @@ class Cells:
     ----------
     tetra : ndarray of shape (n_tetra, 4), int
         Point indices of the linear tetrahedra that tile the mesh (hexahedra, wedges and
-        pyramids are split; quadratic cells use their corner nodes).
+        pyramids are split; quadratic cells are split by their corner nodes): used to locate
+        points, and to interpolate in linear cells.
     parent : ndarray of shape (n_tetra,), int
         Index of the original FE cell each tetrahedron came from (into the cell-data arrays).
     n_cells : int
@@ -122,6 +123,12 @@ class Cells:
         Material id of each original cell when the export has a material array
         (``Provenance.columns['material']`` names it), else None. Used to tell which materials
         meet at a receptor (see :ref:`fe-interfaces`).
+    nodes : tuple of ndarray
+        Full connectivity of each block in VTK/meshio node order, parallel to ``cell_types``
+        (the cells of block k follow those of blocks 0..k-1): the quadratic cells' own shape
+        functions use it (``afferent/_shape_functions.py``). Empty when not needed (a mesh of
+        linear cells) or not known. A node index of -1 marks a node left out for want of
+        values: that cell is then interpolated from its corners.
     """
 
     tetra: np.ndarray
@@ -129,6 +136,7 @@ class Cells:
     n_cells: int
     cell_types: tuple[str, ...] = ()
     materials: np.ndarray | None = None
+    nodes: tuple[np.ndarray, ...] = ()
 
     def __post_init__(self):
         object.__setattr__(self, "tetra", np.ascontiguousarray(self.tetra, dtype=np.int64))
@@ -142,6 +150,14 @@ class Cells:
             )
         self.tetra.setflags(write=False)
         self.parent.setflags(write=False)
+        nodes = tuple(np.ascontiguousarray(n, dtype=np.int64) for n in self.nodes)
+        if nodes and (len(nodes) != len(self.cell_types) or sum(n.shape[0] for n in nodes) != self.n_cells):
+            raise ValueError(f"'nodes' must hold one connectivity array per cell type ({len(self.cell_types)}) and "
+                             f"n_cells = {self.n_cells} cells in all; got {len(nodes)} array(s) of "
+                             f"{sum(n.shape[0] for n in nodes)} cells instead.")
+        for n in nodes:
+            n.setflags(write=False)
+        object.__setattr__(self, "nodes", nodes)
         if self.materials is not None:
             mat = np.ascontiguousarray(self.materials, dtype=np.int64)
             if mat.shape != (self.n_cells,):
@@ -149,6 +165,11 @@ class Cells:
                                  f"got shape {mat.shape} instead.")
             mat.setflags(write=False)
             object.__setattr__(self, "materials", mat)
+
+    def renumbered_nodes(self, new_index: np.ndarray) -> tuple[np.ndarray, ...]:
+        """:attr:`nodes` with each point index ``i`` replaced by ``new_index[i]`` (points merged or left out);
+        -1 (a node left out) stays -1."""
+        return tuple(np.where(n >= 0, new_index[np.maximum(n, 0)], -1) for n in self.nodes)
 
 
 @dataclass(frozen=True)

@@ -6,7 +6,8 @@
 
 ``'nearest'`` takes the value of the nearest mesh node (for cell data: of the cell holding
 the receptor). ``'linear'`` interpolates inside the mesh's own cells (split into linear
-tetrahedra), with barycentric weights computed once and reused for every time step; cell
+tetrahedra; quadratic cells with their own shape functions, ``afferent/_shape_functions.py``),
+with weights computed once and reused for every time step; cell
 data is first averaged to the nodes, each cell weighing its volume on each of its corners.
 A table of points without connectivity (CSV) is triangulated (scipy ``Delaunay``) around the
 receptors, in 3-D, or in the points' plane for a surface-only table.
@@ -17,6 +18,10 @@ How the values were placed is recorded with the result (:attr:`ReceptorSED.place
 
 The geometry (points in tetrahedra, cell volumes, cell-to-node averaging, triangulation of a
 point table) is in ``afferent/_mesh_geometry.py``.
+
+Size: just over 600 lines: the sampler's building (linear cells, quadratic cells, point tables),
+its application per step and the records of both stay together; the geometry, the shape
+functions and the material-interface reports are their own modules already.
 """
 
 from __future__ import annotations
@@ -39,6 +44,7 @@ from ._mesh_geometry import (  # noqa: F401 (locate_in_tets, JOGGLE, NEAR_NODES_
     locate_in_tets,
     node_average,
 )
+from ._shape_functions import clip_overshoot, has_quadratic, with_shape_functions
 from ._validation import check_option
 from .exceptions import AfferentWarning, FieldCoverageError, SEDFormatError
 from .field import SEDField
@@ -149,8 +155,12 @@ class Sampler:
     domain: str = ""
 
     def apply(self, sed: np.ndarray) -> np.ndarray:
-        """(n_times, n_values) -> (n_times, n_receptors); NaN where outside."""
+        """(n_times, n_values) -> (n_times, n_receptors); NaN where outside.
+
+        Negative values that quadratic shape functions make between non-negative nodes are 0
+        (``clip_overshoot`` in ``afferent/_shape_functions.py``; docs/fe-export.md)."""
         out = np.asarray((self.weights @ np.asarray(sed, dtype=float).T).T)
+        clip_overshoot(out, self.weights, sed)
         out[:, self.outside] = np.nan
         return out
 
@@ -162,6 +172,9 @@ class Sampler:
 PLACEMENTS = {
     ("point", "nearest"): "value of the nearest node",
     ("point", "linear"): "linear in the mesh's cells (split into tetrahedra)",
+    ("point", "quadratic"): "the cells' own shape functions: quadratic in quadratic cells (located by Newton on "
+                            "their isoparametric map; values below 0 between non-negative nodes set to 0), linear "
+                            "in linear cells (split into tetrahedra)",
     ("cell", "nearest"): "cell value of the containing cell",
     ("cell", "linear"): "cells averaged to nodes by cell volume, then linear",
     ("scattered", "nearest"): "value of the nearest point",
@@ -217,6 +230,10 @@ def build_sampler(field: SEDField, layout: ReceptorLayout, *, method: str = "lin
             )
             if field.location == "cell":
                 w = w @ node_average(field.cells, xyz, field.n_points)
+            elif has_quadratic(field.cells):
+                guess = np.where(outside, -1, field.cells.parent[np.maximum(tet, 0)])
+                w, outside, placement = with_shape_functions(w, outside, pos, xyz, field.cells, guess,
+                                                             PLACEMENTS[("point", "quadratic")])
         return Sampler(w.tocsr(), outside, method, placement)
     # Scattered points (a CSV table): no connectivity.
     if method == "nearest":
@@ -386,7 +403,8 @@ def sample_sed(
         Receptor sites in m (from :func:`afferent.read_receptors`).
     method : {'linear', 'nearest'}, default='linear'
         ``'linear'``: barycentric interpolation in the mesh's cells (exact for a field linear
-        in space); cell data is first averaged to the nodes, weighted by cell volume (exact at
+        in space), with quadratic cells' own shape functions in quadratic cells (see
+        docs/fe-export.md, "Quadratic cells"); cell data is first averaged to the nodes, weighted by cell volume (exact at
         interior nodes of a regular grid for cell values linear in space); a table of points
         is triangulated (Delaunay, in its plane when the points are coplanar). ``'nearest'``:
         value of the nearest node, or of the containing cell for cell data. ``'nearest'`` is

@@ -355,15 +355,15 @@ def test_a_valid_file_in_an_unsupported_layout_says_what_is_unsupported(tmp_path
             f"SED file {str(poly)!r} holds a surface (PolyData), not the UnstructuredGrid (volume mesh) afferent reads from "
             "a .vtu; export the volume mesh, or the surface points as a CSV table.")):
         read_raw(poly)
-    version = tmp_path / "v22.vtu"
+    version = tmp_path / "v30.vtu"
     version.write_text(
-        '<?xml version="1.0"?>\n<VTKFile type="UnstructuredGrid" version="2.2"><UnstructuredGrid><Piece NumberOfPoints="1" '
+        '<?xml version="1.0"?>\n<VTKFile type="UnstructuredGrid" version="3.0"><UnstructuredGrid><Piece NumberOfPoints="1" '
         'NumberOfCells="0"><Points><DataArray type="Float64" NumberOfComponents="3" format="ascii">0 0 0</DataArray>'
         '</Points></Piece></UnstructuredGrid></VTKFile>\n')
-    # meshio refuses this layout ("Unknown VTU file version '2.2'"); VTK's own reader reads it
-    # (without VTK the message names the extra: tests/test_io_vtk.py)
-    raw = read_raw(version)
-    assert raw.reader.startswith("VTK ") and raw.points.shape == (1, 3)
+    with pytest.raises(SEDFormatError, match=re.escape(
+            f"SED file {str(version)!r} is a VTU of file version 3.0; afferent reads VTU versions 0.1 to 2.x. Save it with "
+            "an older VTK or ParaView, or as legacy VTK (.vtk).")):
+        read_raw(version)
 
 
 def test_location_that_the_tensors_or_sed_do_not_have_is_named(tmp_path):

@@ -194,7 +194,8 @@ def merge_coincident(xyz: np.ndarray, sed: np.ndarray, location: str, cells: Cel
     counts = np.bincount(labels, minlength=n_nodes)
     first = np.full(n_nodes, n, dtype=np.int64)
     np.minimum.at(first, labels, np.arange(n))
-    merged = Cells(labels[cells.tetra], cells.parent, cells.n_cells, cells.cell_types, cells.materials)
+    merged = Cells(labels[cells.tetra], cells.parent, cells.n_cells, cells.cell_types, materials=cells.materials,
+                   nodes=cells.renumbered_nodes(labels))
     report = {"n_points": int(n), "n_nodes": int(n_nodes), "n_copies_merged": int(n - n_nodes),
               "max_copies": int(counts.max()), "tolerance": tol,
               "rule": "volume-weighted mean of the copies (each copy weighs the volume of the cells using it)"}

@@ -37,6 +37,19 @@ EXODUS_ELEMENTS = {
 }
 
 
+#: Exodus II node order -> VTK/meshio's, for the types where they differ (the columns of VTK's order
+#: in Exodus's): Exodus numbers the vertical edges' mid-nodes before the top face's (HEX20, HEX27,
+#: WEDGE15, WEDGE18: seen in MOOSE's HEX20 file tests/data/exodus/elastic_patch_quadratic_out.e)
+#: and a HEX27's centre node before its face nodes (-z, +z, -x, +x, -y, +y; VTK: -x, +x, -y, +y,
+#: -z, +z, centre), per the Exodus II manual's table of higher-order nodes (as libMesh's Exodus
+#: reader maps them; no HEX27 file in the tests).
+EXODUS_TO_VTK = {
+    "hexahedron20": np.r_[0:12, 16:20, 12:16],
+    "hexahedron27": np.r_[0:12, 16:20, 12:16, 23, 24, 25, 26, 21, 22, 20],
+    "wedge15": np.r_[0:9, 12:15, 9:12],
+    "wedge18": np.r_[0:9, 12:15, 9:12, 15:18],
+}
+
 #: Volume element families (the leading letters of elem_type) -> meshio type by node count.
 _FAMILIES = {
     "HEX": {8: "hexahedron", 20: "hexahedron20", 27: "hexahedron27"},
@@ -180,7 +193,7 @@ def _volume_blocks(nc, path: str, n_nodes: int):
         if conn.size and (conn.min() < 0 or conn.max() >= n_nodes):
             raise SEDFormatError(f"SED file {path!r}: element block {j} refers to node {int(conn.max()) + 1}, but "
                                  f"the file has {n_nodes} nodes.")
-        blocks.append(_Block(ctype, conn))
+        blocks.append(_Block(ctype, conn[:, EXODUS_TO_VTK[ctype]] if ctype in EXODUS_TO_VTK else conn))
         volume.append((j, conn.shape[0]))
     return (cells_from_meshio(blocks) if blocks else None), volume, skipped
 

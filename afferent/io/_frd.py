@@ -40,6 +40,11 @@ FRD_ELEMENTS = {
     6: ("tetra10", 10), 7: ("triangle", 3), 8: ("triangle6", 6), 9: ("quad", 4), 10: ("quad8", 8),
     11: ("line", 2), 12: ("line3", 3),
 }
+#: The .frd numbers the mid-edge nodes of its 20-node bricks and 15-node wedges (types 4 and 5)
+#: vertical edges first, then the top face's edges (seen in ccx 2.20's own .frd: the element
+#: block lists an input C3D15's nodes 1-9, 13-15, 10-12), while the input deck, VTK and meshio
+#: put the top face's before the vertical ones: the columns of VTK's order in the .frd's.
+FRD_TO_VTK = {"hexahedron20": np.r_[0:12, 16:20, 12:16], "wedge15": np.r_[0:9, 12:15, 9:12]}
 _HEADER = re.compile(rb"^\s*(\d+)([A-Z])")
 
 
@@ -317,7 +322,8 @@ def read_frd(path: str, *, progress: bool = False) -> RawExport:
         def __init__(self, ctype, conn):
             self.type, self.data = ctype, np.asarray(conn, dtype=np.int64)
 
-    cells = cells_from_meshio([_Block(t, c) for t, c in blocks.items()]) if blocks else None
+    cells = cells_from_meshio([_Block(t, np.asarray(c)[:, FRD_TO_VTK[t]] if t in FRD_TO_VTK else c)
+                               for t, c in blocks.items()]) if blocks else None
 
     # results: group the blocks by output time, in file order
     order = np.argsort(node_ids, kind="stable")

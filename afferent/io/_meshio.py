@@ -3,6 +3,10 @@
 Each reader returns a :class:`~afferent.io._raw.RawExport` in the file's units. For a time
 series the mesh (points and cells) is decoded once; later steps decode only their data
 arrays (a VTU series is checked to share the first step's points).
+
+Size: just over 600 lines: meshio's cell blocks (linear, quadratic and Lagrange) and its VTU
+version limits are handled next to the readers that meet them; the VTK-library path is
+:mod:`afferent.io._vtk`.
 """
 
 from __future__ import annotations
@@ -36,6 +40,80 @@ _HIGHER = {
 }
 
 
+#: VTK Lagrange cells of degree 1 and 2 (meshio name, node count) -> the meshio type with the same
+#: nodes in the same order: VTK >= 9 numbers a quadratic Lagrange cell as its quadratic cell
+#: (vtkLagrange*.PointIndexFromIJK, checked in tests/test_quadratic.py). Higher degrees are refused.
+_LAGRANGE = {
+    ("VTK_LAGRANGE_TETRAHEDRON", 4): "tetra", ("VTK_LAGRANGE_TETRAHEDRON", 10): "tetra10",
+    ("VTK_LAGRANGE_HEXAHEDRON", 8): "hexahedron", ("VTK_LAGRANGE_HEXAHEDRON", 27): "hexahedron27",
+    ("VTK_LAGRANGE_WEDGE", 6): "wedge", ("VTK_LAGRANGE_WEDGE", 18): "wedge18",
+}
+#: VTK files written before VTK 9 (VTU file version < 2.1, legacy file version < 5.1) number the
+#: mid-edge nodes on the vertical edges (x=0, y=1) and (x=1, y=1) of a quadratic Lagrange hexahedron
+#: the other way round; VTK's own readers swap them back (nodes 18 and 19), as does afferent.
+_OLD_LAGRANGE_HEX = np.r_[0:18, 19, 18, 20:27]
+#: Topological dimension of the cell types meshio 5.3 can read from VTK files but leaves out of its
+#: own table (``meshio._mesh.topological_dimension``): without them reading a file holding one
+#: fails with ``KeyError: 'wedge15'``.
+_MESHIO_MISSING_DIMENSIONS = {
+    "wedge15": 3, "pyramid13": 3, "hexahedron24": 3, "wedge12": 3, "penta_prism": 3, "hexa_prism": 3,
+    "polyhedron": 3, "quad6": 2, "triangle7": 2, "pixel": 2, "empty": 0, "VTK_BEZIER_CURVE": 1,
+    "VTK_BEZIER_TRIANGLE": 2, "VTK_BEZIER_QUADRILATERAL": 2, "VTK_BEZIER_TETRAHEDRON": 3,
+    "VTK_BEZIER_HEXAHEDRON": 3, "VTK_BEZIER_WEDGE": 3, "VTK_BEZIER_PYRAMID": 3,
+}
+
+
+def _complete_meshio_dimensions() -> None:
+    """Add the missing entries of :data:`_MESHIO_MISSING_DIMENSIONS` to meshio's table (only missing ones)."""
+    from meshio._mesh import topological_dimension
+
+    for name, dim in _MESHIO_MISSING_DIMENSIONS.items():
+        topological_dimension.setdefault(name, dim)
+
+
+class _Block:  # what cells_from_meshio reads: .type and .data
+    def __init__(self, ctype, data):
+        self.type, self.data = ctype, data
+
+
+def _old_lagrange_numbering(path: str) -> bool:
+    """Whether a VTK file numbers Lagrange hexahedra as before VTK 9 (see :data:`_OLD_LAGRANGE_HEX`)."""
+    ext = os.path.splitext(path)[1].lower()
+    if ext == ".vtu":
+        return (_vtu_version(path) or (0, 0)) < (2, 1)
+    if ext != ".vtk":
+        return False
+    with open(path, "rb") as fh:
+        m = re.match(rb"#\s*vtk DataFile Version (\d+)\.(\d+)", fh.readline())
+    return m is not None and (int(m.group(1)), int(m.group(2))) < (5, 1)
+
+
+def volume_type_blocks(cells, path: str) -> list:
+    """meshio cell blocks with VTK Lagrange cells of degree <= 2 renamed to the equivalent meshio type.
+
+    Raises SEDFormatError naming the file and the cell type for a volume cell type afferent cannot
+    interpolate in (Lagrange cells of degree 3 and more, Bezier cells, polyhedra): such a mesh is
+    never treated as scattered points.
+    """
+    from meshio._mesh import topological_dimension
+
+    out = []
+    for block in cells:
+        data = np.asarray(block.data)
+        ctype = _LAGRANGE.get((block.type, data.shape[1] if data.ndim == 2 else 0), block.type)
+        if _HIGHER.get(ctype, ctype) not in _TETS and topological_dimension.get(ctype, 3) == 3:
+            n = data.shape[1] if data.ndim == 2 else "a varying number of"
+            raise SEDFormatError(
+                f"SED file {path!r} holds {len(data)} volume cell(s) of type {ctype!r} ({n} nodes), which afferent "
+                "cannot interpolate in; it reads tetrahedra, hexahedra, wedges and pyramids, linear or quadratic "
+                "(tetra10, hexahedron20/27, wedge15/18, pyramid13), and VTK Lagrange cells of degree 1 or 2. "
+                "Convert the mesh to quadratic cells (ParaView: Tessellate; or export VTK_QUADRATIC_* cells).")
+        if block.type == "VTK_LAGRANGE_HEXAHEDRON" and ctype == "hexahedron27" and _old_lagrange_numbering(path):
+            data = data[:, _OLD_LAGRANGE_HEX]
+        out.append(block if ctype == block.type else _Block(ctype, data))
+    return out
+
+
 def _volume_blocks(cells) -> list[tuple[int, str, np.ndarray]]:
     out = []
     for k, block in enumerate(cells):
@@ -48,8 +126,10 @@ def _volume_blocks(cells) -> list[tuple[int, str, np.ndarray]]:
 def cells_from_meshio(cells) -> Cells | None:
     """Split meshio volume cell blocks into linear tetrahedra; None when the mesh has no volume cells.
 
-    Quadratic cells use their corner nodes (the field is then interpolated linearly between
-    corners). Surface and line blocks are ignored.
+    Quadratic cells are split by their corner nodes (to locate points); a mesh with quadratic
+    cells keeps every block's full connectivity in VTK/meshio node order (:attr:`Cells.nodes`),
+    which 'linear' sampling interpolates in with the cells' own shape functions. Surface and
+    line blocks are ignored.
     """
     blocks = _volume_blocks(cells)
     if not blocks:
@@ -61,7 +141,9 @@ def cells_from_meshio(cells) -> Cells | None:
         tets.append(conn[:, pattern].reshape(-1, 4))
         parents.append(np.repeat(np.arange(offset, offset + n), len(pattern)))
         offset += n
-    return Cells(np.concatenate(tets), np.concatenate(parents), offset, tuple(b[1] for b in blocks))
+    higher = any(ctype in _HIGHER for _, ctype, _ in blocks)  # linear meshes need no more than their tetrahedra
+    return Cells(np.concatenate(tets), np.concatenate(parents), offset, tuple(b[1] for b in blocks),
+                 nodes=tuple(b[2] for b in blocks) if higher else ())
 
 
 def _read_meshio(path: str, opened: list | None = None):
@@ -80,12 +162,16 @@ def _read_meshio(path: str, opened: list | None = None):
         return read_single_grid(p, [] if opened is None else opened)
 
     reader = {".vtu": meshio.vtu.read, ".vtk": meshio.vtk.read, ".xdmf": xdmf, ".xmf": xdmf}.get(ext, meshio.read)
+    copy = None
     if ext == ".vtu":
         _check_vtk_xml_type(path)
+        if (_vtu_version(path) or (0, 0))[0] == 2:
+            copy = _as_vtu_version_1(path)
+    _complete_meshio_dimensions()
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")  # meshio warns on skipped data; we report what we keep
-            return reader(path)
+            return reader(copy or path)
     except SEDFormatError:
         raise
     except meshio.ReadError as err:
@@ -104,6 +190,9 @@ def _read_meshio(path: str, opened: list | None = None):
             f"SED file {path!r} could not be read as {os.path.splitext(path)[1] or 'a mesh'} "
             f"(truncated or corrupt?): {kind}: {err}"
         ) from err
+    finally:
+        if copy is not None:
+            os.remove(copy)  # the temporary copy afferent wrote
 
 
 def _well_formed(path: str, ext: str) -> bool:
@@ -146,6 +235,43 @@ def _check_vtk_xml_type(path: str) -> None:
         raise SEDFormatError(
             f"SED file {path!r} holds {what}, not the UnstructuredGrid (volume mesh) afferent reads from a .vtu; {advice}."
         )
+    version = _vtu_version(path)
+    if version is not None and version[0] > 2:
+        raise SEDFormatError(
+            f"SED file {path!r} is a VTU of file version {'.'.join(map(str, version))}; afferent reads VTU versions "
+            "0.1 to 2.x. Save it with an older VTK or ParaView, or as legacy VTK (.vtk).")
+
+
+def _vtu_version(path: str) -> tuple[int, int] | None:
+    """The VTKFile version attribute of a .vtu, as (major, minor); None when absent or unreadable."""
+    try:
+        with open(path, "rb") as fh:
+            head = fh.read(4096)
+    except OSError:
+        return None
+    m = re.search(rb'<VTKFile[^>]*\bversion="(\d+)\.(\d+)"', head)
+    return None if m is None else (int(m.group(1)), int(m.group(2)))
+
+
+def _as_vtu_version_1(path: str) -> str:
+    """A temporary copy of a VTU of version 2.x with its version attribute set to 1.0, for meshio.
+
+    meshio 5.3 reads VTU versions 0.1 and 1.0 only; VTK >= 9 writes 2.x (2.1: the VTK 9 numbering
+    of Lagrange hexahedra, 2.2 and later: the same layout for every cell afferent reads). The
+    appended data's offsets count from the start of the appended block, so the header may change
+    length. The caller deletes the copy.
+    """
+    import shutil
+    import tempfile
+
+    with open(path, "rb") as src:
+        head = src.read(4096)
+        head = re.sub(rb'(<VTKFile[^>]*\bversion=")\d+\.\d+(")', rb"\g<1>1.0\g<2>", head, count=1)
+        fd, tmp = tempfile.mkstemp(suffix=".vtu", prefix="afferent-vtu-")
+        with os.fdopen(fd, "wb") as dst:
+            dst.write(head)
+            shutil.copyfileobj(src, dst)
+    return tmp
 
 
 def _arrays_from_mesh(mesh, path: str, cells_obj: Cells | None) -> dict[str, RawArray]:
@@ -220,6 +346,7 @@ def raw_from_mesh(mesh, path: str, fmt: str, components: dict, notes: list, *, r
     ``components`` maps array names to their component names (``XX YY ZZ XY YZ ZX``); ``files`` is
     every file read for it (:attr:`RawExport.files`).
     """
+    mesh.cells = volume_type_blocks(mesh.cells, path)
     cells_obj = cells_from_meshio(mesh.cells)
     points = np.asarray(mesh.points, dtype=float)
     if points.ndim != 2 or points.shape[0] == 0:

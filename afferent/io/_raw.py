@@ -245,7 +245,8 @@ def drop_valueless_nodes(raw: RawExport) -> RawExport:
               for k, a in raw.arrays.items()}
     cells = raw.cells
     if cells is not None:
-        cells = Cells(remap[cells.tetra], cells.parent, cells.n_cells, cells.cell_types)
+        cells = Cells(remap[cells.tetra], cells.parent, cells.n_cells, cells.cell_types, materials=cells.materials,
+                      nodes=cells.renumbered_nodes(remap))  # -1: a mid-side node left out (that cell: corners only)
     note = f"{n - keep.size} node(s) without results and outside every volume cell's corners left out."
     return RawExport(files=raw.files, format=raw.format, points=raw.points[keep], arrays=arrays, times=raw.times,
                      cells=cells, length_unit=raw.length_unit, time_unit=raw.time_unit, notes=raw.notes + (note,),

@@ -100,7 +100,8 @@ def _crop(field, positions, method: str):
     keep = shared == 0
     if keep.all():
         return field, None
-    cells = Cells(tet[keep], field.cells.parent[keep], field.cells.n_cells, field.cells.cell_types, field.cells.materials)
+    cells = Cells(tet[keep], field.cells.parent[keep], field.cells.n_cells, field.cells.cell_types,
+                  materials=field.cells.materials, nodes=field.cells.nodes)
     cropped = SEDField(field.points, field.sed, field.times, field.location, cells, field.provenance, field.sides)
     return cropped, {"tetra_total": int(tet.shape[0]), "tetra_searched": int(keep.sum())}
 

@@ -9,9 +9,9 @@ z up), bottom face z = 0 fixed, the nodes of a 1 x 1 mm patch at the centre of t
 pushed down by 0.1 mm in three linear *STATIC steps (1/3, 2/3 and 3/3 of the depth, step times
 1, 2, 3), linear elastic
 E = 0.1 MPa, nu = 0.45 (dermis-like). Every step writes U (nodes) and S, E, ENER
-(extrapolated to and averaged at the nodes) to the .frd. Three meshes: C3D8 (linear hexahedra),
-C3D20R (quadratic, reduced integration) and C3D10 (quadratic tetrahedra, the hexahedra split
-into 6). The C3D8 run also prints S, E, ENER at the integration points to the .dat (*EL PRINT);
+(extrapolated to and averaged at the nodes) to the .frd. Four meshes: C3D8 (linear hexahedra),
+C3D20R (quadratic, reduced integration), C3D10 (quadratic tetrahedra, the hexahedra split
+into 6) and C3D15 (quadratic wedges, the hexahedra split into 2). The C3D8 run also prints S, E, ENER at the integration points to the .dat (*EL PRINT);
 ``block_c3d8_binary`` is the same C3D8 model written with *NODE OUTPUT / *ELEMENT OUTPUT, which
 make ccx write the .frd records in binary; ``block_c3d8.frd.gz`` is the ASCII .frd gzipped;
 ``block_c3d8_print.dat`` (and its gzip) is the C3D8 model printing S, E, ENER (*EL PRINT) and U
@@ -75,6 +75,25 @@ def _hex20(n_xy, n_z, ids):
     return els
 
 
+def _wedge15(n_xy, n_z, ids):
+    """Each hexahedron split into 2 wedges by the diagonal (0,0)-(1,1) of its bottom face.
+
+    C3D15 node order (the input deck's): corners 1-3 (bottom) and 4-6 (top), mid-edges 7-9 of the
+    bottom triangle (1-2, 2-3, 3-1), 10-12 of the top one, 13-15 of the vertical edges.
+    """
+    els = []
+    for iz in range(n_z):
+        for iy in range(n_xy):
+            for ix in range(n_xy):
+                a, b, c = 2 * ix, 2 * iy, 2 * iz
+                n = lambda dx, dy, dz: ids[(a + dx, b + dy, c + dz)]  # noqa: E731
+                for tri in (((0, 0), (2, 0), (2, 2)), ((0, 0), (2, 2), (0, 2))):
+                    mid = [((tri[i][0] + tri[j][0]) // 2, (tri[i][1] + tri[j][1]) // 2) for i, j in ((0, 1), (1, 2), (2, 0))]
+                    els.append([n(*p, 0) for p in tri] + [n(*p, 2) for p in tri] + [n(*p, 0) for p in mid]
+                               + [n(*p, 2) for p in mid] + [n(*p, 1) for p in tri])
+    return els
+
+
 def _tet10(n_xy, n_z, ids, nodes):
     """Each hexahedron split into 6 tetrahedra around its 0-6 diagonal; mid-edge nodes added."""
     els = []
@@ -108,12 +127,14 @@ def _lines(values, per_line=8):
 
 def write_inp(path: Path, kind: str, n_xy: int = 4, n_z: int = 2, el_print: bool = False, binary: bool = False,
               node_print: bool = False) -> None:
-    quadratic = kind in ("C3D20R", "C3D10")
-    nodes, ids, k = _grid(n_xy, n_z, quadratic and kind == "C3D20R")
+    quadratic = kind in ("C3D20R", "C3D10", "C3D15")
+    nodes, ids, k = _grid(n_xy, n_z, quadratic and kind in ("C3D20R", "C3D15"))
     if kind == "C3D8":
         els = _hex8(n_xy, n_z, ids)
     elif kind == "C3D20R":
         els = _hex20(n_xy, n_z, ids)
+    elif kind == "C3D15":
+        els = _wedge15(n_xy, n_z, ids)
     else:
         nodes, els = _tet10(n_xy, n_z, ids, nodes)
     used = sorted({n for e in els for n in e})
@@ -163,7 +184,9 @@ def main() -> None:
     run("block_c3d20r")
     write_inp(HERE / "block_c3d10.inp", "C3D10", n_xy=2, n_z=1)
     run("block_c3d10")
-    for job in ("block_c3d20r", "block_c3d10"):
+    write_inp(HERE / "block_c3d15.inp", "C3D15", n_xy=2, n_z=1)
+    run("block_c3d15")
+    for job in ("block_c3d20r", "block_c3d10", "block_c3d15"):
         (HERE / f"{job}.dat").unlink(missing_ok=True)  # empty: no *EL PRINT
     (HERE / "block_c3d8.frd.gz").write_bytes(gzip.compress((HERE / "block_c3d8.frd").read_bytes(), mtime=0))
     # *EL PRINT (S, E, ENER at the integration points) and *NODE PRINT (U) blocks in one .dat, and its gzip;
