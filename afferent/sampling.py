@@ -256,7 +256,8 @@ def _scattered_linear(field: SEDField, layout: ReceptorLayout) -> Sampler:
 
     n, n_r = field.n_points, layout.n_receptors
     centre = field.points.mean(axis=0)
-    axes = np.linalg.svd(field.points - centre, full_matrices=False)[2] if n >= 2 else np.eye(3)
+    scale = float(np.max(np.abs(field.points - centre))) if n else 0.0  # SVD of unit-size numbers: no overflow at 1e160 m
+    axes = np.linalg.svd((field.points - centre) / (scale or 1.0), full_matrices=False)[2] if n >= 2 else np.eye(3)
     widths = np.ptp((field.points - centre) @ axes.T, axis=0) if n else np.zeros(3)  # along the principal axes, m
     extent = float(widths[0])
     if n < 3 or widths[1] <= PLANE_RTOL * extent:
@@ -266,13 +267,15 @@ def _scattered_linear(field: SEDField, layout: ReceptorLayout) -> Sampler:
         )
     # normalised coordinates (extent 1) along the principal axes: conditioning for Qhull
     xyz = (field.points - centre) @ axes.T / extent
-    pos = (layout.positions - centre) @ axes.T / extent
+    with np.errstate(over="ignore", invalid="ignore"):  # a receptor 1e305 m away: inf, outside the hull
+        pos = (layout.positions - centre) @ axes.T / extent
     rows = np.zeros((n_r, 4), dtype=np.int64)
     weights = np.zeros((n_r, 4))
     found = np.zeros(n_r, dtype=bool)
     if widths[2] <= PLANE_RTOL * extent:
         # A surface-only table: triangulate in the plane; receptors off the plane are outside.
         on_plane = np.flatnonzero(np.abs(pos[:, 2]) <= PLANE_RTOL)
+        on_plane = on_plane[_inside_hull(pos[on_plane, :2], ConvexHull(xyz[:, :2]).equations, BARY_TOL)]
         tri = _triangulate(xyz[:, :2])
         simplex, w = _find(tri, pos[on_plane, :2])
         hit = simplex >= 0

@@ -34,6 +34,12 @@ CASES = [
                             'but len(point_data["SED"]) = 7'),
     ("different_meshes.pvd", "SED file 'step_b.vtu' is not on the same mesh as 'step_a.vtu'"),
     ("corrupt_heavy.xdmf", "SED file {f!r}: the heavy-data file 'corrupt_heavy.h5' could not be opened (truncated or corrupt?)"),
+    ("negative_connectivity.vtu", "SED file {f!r}: 'cells' refer to point -2; point indices must be >= 0 (a corrupt "
+                                  "connectivity array?)."),
+    ("cell_array_long.vtu", "SED file {f!r}: cell array 'E' must have one value per cell (NumberOfCells = 1); got 2 instead."),
+    ("complex_heavy.xdmf", "SED file {f!r}: dataset '/sed' of attribute 'SED' at t = 0 in 'complex_heavy.h5' holds complex "
+                           "values (complex128); afferent reads real numbers (write the real part)."),
+    ("nan_timestep.pvd", "SED file {f!r}: DataSet 1 timestep must be a finite number; got 'nan' instead."),
 ]
 
 
@@ -89,3 +95,11 @@ def test_the_shapes_real_exports_take_read_like_the_plain_table(capsys, corpus, 
                      "-o", "shaped.csv")
     assert code == 0, err
     pd.testing.assert_frame_equal(pd.read_csv("shaped.csv"), pd.read_csv("plain.csv"))
+
+
+def test_an_all_zero_sed_field_warns(capsys, corpus):
+    code, err = _cli(capsys, "sample", "all_zero.csv", "--receptors", "receptors_ok.csv", "--length-unit", "mm",
+                     "--sed-unit", "MPa", "-o", "out.csv")
+    assert code == 0, err
+    assert ("afferent: warning: SED file 'all_zero.csv' (MPa declared): every SED value is 0 J/m^3 (8 values): the wrong "
+            "column, or the undeformed state exported? The currents and spikes computed from it are zero.") in err, err

@@ -7,6 +7,7 @@ arrays (a VTU series is checked to share the first step's points).
 
 from __future__ import annotations
 
+import math
 import os
 import re
 import warnings
@@ -184,6 +185,8 @@ def read_mesh_file(path: str) -> RawExport:
     if cells_obj is None:
         notes.append("No volume cells in the file: the points are treated as scattered samples.")
     arrays = _arrays_from_mesh(mesh, path, cells_obj)
+    if path.lower().endswith(".vtu") and any(a.location == "cell" for a in arrays.values()):
+        _check_cell_data_lengths(path)
     if path.lower().endswith(".vtu"):  # meshio drops the arrays' ComponentName attributes: keep them
         names = _vtu_component_names(path)
         arrays = {k: (RawArray(a.name, a.values, a.location, a.unit, names[a.name])
@@ -197,6 +200,22 @@ def read_mesh_file(path: str) -> RawExport:
 
 _DATA_ARRAY = re.compile(rb"<DataArray\b[^>]*>")
 _ATTR = re.compile(rb'(\w+)="([^"]*)"')
+
+
+def _check_cell_data_lengths(path: str) -> None:
+    """Refuse a VTU whose CellData arrays hold more or fewer values than its cells.
+
+    meshio splits cell data among the cell blocks by the blocks' sizes, so a value too many
+    (or too few) would be dropped (or misplaced) without a word: the arrays are decoded once
+    more, as the file has them, and counted.
+    """
+    reader = _VtuDataReader(path, parts=("CellData",))
+    for name, values in reader.cell_data.items():
+        if np.asarray(values).shape[0] != reader.n_cells:
+            raise SEDFormatError(
+                f"SED file {path!r}: cell array {name!r} must have one value per cell (NumberOfCells = "
+                f"{reader.n_cells}); got {np.asarray(values).shape[0]} instead."
+            )
 
 
 def _vtu_component_names(path: str) -> dict[str, tuple[str, ...]]:
@@ -220,10 +239,10 @@ class _VtuDataReader:
 
     meshio re-reads points and connectivity for every file of a series; for step 2..N of a
     series we parse the XML and decode only Points (to check the mesh is the same) and the
-    PointData / CellData arrays.
+    PointData / CellData arrays (those of ``parts``).
     """
 
-    def __init__(self, path: str):
+    def __init__(self, path: str, parts=("Points", "PointData", "CellData")):
         from meshio.vtu import _vtu
 
         self.path = path
@@ -245,7 +264,7 @@ class _VtuDataReader:
             self.n_cells = int(piece.attrib["NumberOfCells"])
             self.points = None
             self.point_data, self.cell_data = {}, {}
-            for child in piece:
+            for child in (c for c in piece if c.tag in parts):
                 if child.tag == "Points":
                     self.points = reader.read_data(child[0]).reshape(self.n_points, -1)
                 elif child.tag == "PointData":
@@ -358,9 +377,11 @@ def pvd_entries(path: str) -> tuple[list[str], list[float]]:
             raise SEDFormatError(f"SED file {path!r}: DataSet {k} has no 'file' attribute.")
         try:
             t = float(ds.attrib.get("timestep", k))
+            if not math.isfinite(t):
+                raise ValueError("not finite")
         except ValueError as err:
             raise SEDFormatError(
-                f"SED file {path!r}: DataSet {k} timestep must be a number; got {ds.attrib['timestep']!r} instead."
+                f"SED file {path!r}: DataSet {k} timestep must be a finite number; got {ds.attrib['timestep']!r} instead."
             ) from err
         try:
             part = int(ds.attrib.get("part", 0))
