@@ -14,7 +14,7 @@ import warnings
 
 import numpy as np
 import pytest
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
@@ -96,6 +96,9 @@ def test_a_point_table_at_any_scale_samples_the_same(scale):
 @given(sed=arrays(float, st.tuples(st.integers(1, 3), st.integers(1, 4)), elements=EXTREME),
        gamma=st.sampled_from([0.0, 1e-300, 4.6e-3, 1.0, 1e12, 1e300]), lam=EXTREME,
        pos=arrays(float, (4, 3), elements=EXTREME))
+@example(sed=np.array([[-1e300, 1e300]]), gamma=1e12, lam=0.0, pos=np.zeros((4, 3)))
+@example(sed=np.array([[1.7e308, -1e307]]), gamma=0.0, lam=0.0, pos=np.zeros((4, 3)))  # 0 x inf range
+@example(sed=np.zeros((1, 2)), gamma=1.0, lam=0.0, pos=np.full((4, 3), 8.98846567e307))
 def test_transduce_and_synthesize_at_the_extremes_leak_no_numpy_warning(sed, gamma, lam, pos):
     """Before: gamma 1e12 over SED +-1e300 leaked 'overflow encountered in scalar multiply' from the
     modulation diagnostic, and receptors near 1e308 m gave sections at inf m (a ValueError)."""

@@ -185,7 +185,7 @@ def read_receptors(path, *, length_unit: str, tol: float = SECTION_TOLERANCE_M) 
         CSV file; comma, semicolon, tab or whitespace separated; ``#`` comment lines allowed.
         Column names are case-insensitive: ``x, y, z`` (required), a receptor id (optional:
         ``id``, ``receptor_id``, ``Receptor ID``, ``receptor``, ``name``, ``label``, ``site``,
-        ... the first found), ``longitudinal`` / ``cross`` (optional integer section labels).
+        ... the first found), ``longitudinal`` / ``cross`` (optional whole-number section labels, 0 to 999,999).
         Any other column is reported with an :class:`~afferent.exceptions.AfferentWarning`.
     length_unit : str
         Unit of x, y, z: ``'m'``, ``'mm'`` or ``'um'``. Required: never guessed.
@@ -201,7 +201,8 @@ def read_receptors(path, *, length_unit: str, tol: float = SECTION_TOLERANCE_M) 
     FileNotFoundError
         If ``path`` does not exist.
     SEDFormatError
-        If the file is empty, lacks x/y/z, or holds non-numeric or non-finite coordinates.
+        If the file is empty, lacks x/y/z, holds non-numeric or non-finite coordinates, or
+        section labels that are not whole numbers from 0 to 999,999.
     """
 
     from .._tables import numeric_columns, read_table
