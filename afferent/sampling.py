@@ -256,8 +256,7 @@ def _scattered_linear(field: SEDField, layout: ReceptorLayout) -> Sampler:
 
     n, n_r = field.n_points, layout.n_receptors
     centre = field.points.mean(axis=0)
-    scale = float(np.max(np.abs(field.points - centre))) if n else 0.0  # SVD of unit-size numbers: no overflow at 1e160 m
-    axes = np.linalg.svd((field.points - centre) / (scale or 1.0), full_matrices=False)[2] if n >= 2 else np.eye(3)
+    axes = np.linalg.svd(field.points - centre, full_matrices=False)[2] if n >= 2 else np.eye(3)
     widths = np.ptp((field.points - centre) @ axes.T, axis=0) if n else np.zeros(3)  # along the principal axes, m
     extent = float(widths[0])
     if n < 3 or widths[1] <= PLANE_RTOL * extent:

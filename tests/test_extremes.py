@@ -82,6 +82,13 @@ def test_every_node_of_the_field_including_the_hull_corners_samples_its_own_valu
     np.testing.assert_allclose(out.values[0], field.sed[0], rtol=1e-6)
 
 
+def test_every_point_of_a_surface_table_including_its_corners_samples_its_own_value():
+    pts = np.array([[x, y, 0.0] for y in (0.0, 0.5, 1.0) for x in (0.0, 0.5, 1.0)]) * 1e-3
+    field = SEDField(pts, np.arange(1.0, 10.0)[None], np.array([0.0]))
+    out = sample_sed(field, ReceptorLayout(pts.copy()), method="linear")
+    np.testing.assert_allclose(out.values[0], field.sed[0], rtol=1e-6)
+
+
 @pytest.mark.parametrize("scale", [1e-9, 1.0, 1e150])
 def test_a_point_table_at_any_scale_samples_the_same(scale):
     pts = _cube_field(False).points / 1e-3 * scale

@@ -7,6 +7,8 @@ arrays (a VTU series is checked to share the first step's points).
 
 from __future__ import annotations
 
+import contextlib
+import io
 import math
 import os
 import re
@@ -15,7 +17,7 @@ from xml.etree import ElementTree as ET
 
 import numpy as np
 
-from ..exceptions import SEDFormatError
+from ..exceptions import AfferentWarning, SEDFormatError
 from ..field import Cells
 from dataclasses import replace
 
@@ -79,10 +81,11 @@ def _read_meshio(path: str):
     )
     if ext == ".vtu":
         _check_vtk_xml_type(path)
+    said = io.StringIO()
     try:
-        with warnings.catch_warnings():
+        with warnings.catch_warnings(), contextlib.redirect_stderr(said):
             warnings.simplefilter("ignore")  # meshio warns on skipped data; we report what we keep
-            return reader(path)
+            mesh = reader(path)
     except meshio.ReadError as err:
         if not str(err).strip() or not _well_formed(path, ext):
             raise SEDFormatError(
@@ -99,6 +102,9 @@ def _read_meshio(path: str):
             f"SED file {path!r} could not be read as {os.path.splitext(path)[1] or 'a mesh'} "
             f"(truncated or corrupt?): {kind}: {err}"
         ) from err
+    if said.getvalue().strip():  # meshio prints what it skips (a corrupt array) to stderr: one line of ours instead
+        warnings.warn(f"SED file {path!r}: meshio: {' '.join(said.getvalue().split())}", AfferentWarning, stacklevel=3)
+    return mesh
 
 
 def _well_formed(path: str, ext: str) -> bool:
@@ -227,9 +233,10 @@ def _vtu_component_names(path: str) -> dict[str, tuple[str, ...]]:
     out = {}
     for tag in _DATA_ARRAY.findall(text if end < 0 else text[:end]):
         attrs = {k.decode(): v.decode("utf-8", "replace") for k, v in _ATTR.findall(tag)}
-        comps = [attrs[f"ComponentName{i}"] for i in range(int(attrs.get("NumberOfComponents", "1") or 1))
-                 if f"ComponentName{i}" in attrs]
-        if "Name" in attrs and comps and len(comps) == int(attrs.get("NumberOfComponents", "0") or 0):
+        # the names the tag carries, not range(NumberOfComponents): a corrupt count (9999999999) is no loop
+        named = {k[len("ComponentName"):]: v for k, v in attrs.items() if k.startswith("ComponentName")}
+        comps = [named[str(i)] for i in range(len(named)) if str(i) in named]
+        if "Name" in attrs and comps and str(len(comps)) == attrs.get("NumberOfComponents", "").strip():
             out[attrs["Name"]] = tuple(comps)
     return out
 

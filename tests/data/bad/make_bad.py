@@ -68,6 +68,10 @@ def main():
     (HERE / "length_mismatch.vtu").write_text(ascii_vtu(pts, "0 1 3 2 4 5 7 6", sed[:7]))
     (HERE / "negative_connectivity.vtu").write_text(ascii_vtu(pts, "0 1 3 2 4 5 7 -2", sed))
     (HERE / "cell_array_long.vtu").write_text(ascii_vtu(pts, "0 1 3 2 4 5 7 6", sed, {"E": [1.0, 2.0]}))
+    # a corrupt component count on a second point array (meshio skips the array; afferent looped 1e10 times)
+    (HERE / "huge_component_count.vtu").write_text(ascii_vtu(pts, "0 1 3 2 4 5 7 6", sed).replace(
+        "</PointData>", '<DataArray type="Float64" Name="E" NumberOfComponents="9999999999" ComponentName0="XX" '
+        f'format="ascii">{" ".join(["0"] * 48)}</DataArray></PointData>'))
     meshio.write(HERE / "step_a.vtu", mesh)
     meshio.write(HERE / "step_b.vtu", meshio.Mesh(pts[:7] * 2, [("tetra", np.array([[0, 1, 2, 4]]))], point_data={"SED": sed[:7]}))
     (HERE / "different_meshes.pvd").write_text(
