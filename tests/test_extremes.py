@@ -224,3 +224,20 @@ def test_a_sweep_file_nested_too_deeply_is_an_error_of_the_file(tmp_path):
     path.write_text("[sweep]\nx = " + "[" * 3000 + "]" * 3000 + "\n")
     with pytest.raises(SceneError, match="^Sweep file .* nests arrays or inline tables too deeply to be read"):
         load_sweep(path)
+
+
+def test_a_negative_node_in_an_xdmf_topology_is_named_as_it_is(tmp_path):
+    """Before: the message named the largest index (7), not the negative one."""
+    xyz = " ".join(f"{v:g}" for p in range(8) for v in ((p & 1), (p >> 1) & 1, (p >> 2) & 1))
+    path = tmp_path / "neg.xdmf"
+    path.write_text(
+        '<?xml version="1.0"?>\n<Xdmf Version="3.0"><Domain>\n<Grid Name="mesh" GridType="Uniform">'
+        '<Topology TopologyType="Hexahedron" NumberOfElements="1" NodesPerElement="8"><DataItem Dimensions="1 8" '
+        f'Format="XML">0 1 3 2 4 5 7 -1</DataItem></Topology><Geometry GeometryType="XYZ"><DataItem Dimensions="8 3" '
+        f'Format="XML">{xyz}</DataItem></Geometry></Grid>\n<Grid Name="f" GridType="Collection" '
+        'CollectionType="Temporal"><Grid Name="f" GridType="Uniform"><xi:include xmlns:xi="http://www.w3.org/2001/XInclude" '
+        'xpointer="xpointer(/Xdmf/Domain/Grid[1]/*)"/><Time Value="0"/><Attribute Name="SED" Center="Node">'
+        '<DataItem Dimensions="8 1" Format="XML">1 2 3 4 5 6 7 8</DataItem></Attribute></Grid></Grid>\n</Domain></Xdmf>\n')
+    with pytest.raises(SEDFormatError, match=r"the topology refers to point -1, but the geometry has 8 points "
+                                             r"\(numbered from 0\)\.$"):
+        read_sed(path, length_unit="mm", sed_unit="Pa")
