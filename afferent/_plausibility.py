@@ -49,7 +49,8 @@ def extent(x) -> float:
     x = x[np.isfinite(x).all(axis=1)]
     if x.shape[0] == 0:
         return 0.0
-    rng = float(np.max(x.max(axis=0) - x.min(axis=0)))
+    with np.errstate(over="ignore"):  # points at -1e307 and 1.7e308: the range is inf, and says so
+        rng = float(np.max(x.max(axis=0) - x.min(axis=0)))
     return rng if rng > 0 else float(np.max(np.abs(x)))
 
 

@@ -53,6 +53,8 @@ def _cube_field(cells: bool) -> SEDField:
 # ---------------------------------------------------------------------------- sampling
 @settings(QUICK, max_examples=30)
 @given(far=arrays(float, (2, 3), elements=EXTREME), cells=st.booleans(), method=st.sampled_from(["linear", "nearest"]))
+@example(far=np.array([[1.7e308, -1e307, -1e307], [-1e307, -1e307, -1e307]]), cells=False, method="linear")
+@example(far=np.array([[1e160, 0.0, 0.0], [1.8e305, 1.8e305, 1.8e305]]), cells=True, method="linear")
 def test_receptors_anywhere_are_inside_with_a_value_or_outside_never_a_crash(far, cells, method):
     """Before: a receptor 1e160 m away made scipy's KD-tree return its 'no neighbour' index (n)
     and the tetrahedron lookup failed with IndexError."""
