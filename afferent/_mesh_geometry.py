@@ -63,7 +63,8 @@ def locate_in_tets(points: np.ndarray, xyz: np.ndarray, tetra: np.ndarray, *, k:
         # tetrahedra); the points not found there go through the full search below.
         _, near = cKDTree(xyz).query(points, k=min(8, xyz.shape[0]))
         touched = np.zeros(xyz.shape[0], bool)
-        touched[np.asarray(near).ravel()] = True
+        near = np.asarray(near).ravel()
+        touched[near[near < xyz.shape[0]]] = True  # scipy's index n_points: no neighbour (distance overflowed)
         subset = np.flatnonzero(touched[tetra].any(axis=1))
         sub_index, sub_bary = _locate(points, xyz, tetra[subset], k)
         found = sub_index >= 0
@@ -99,9 +100,13 @@ def _locate(points: np.ndarray, xyz: np.ndarray, tetra: np.ndarray, k: int):
         _, cand = tree.query(points[todo], k=kk)
         cand = cand.reshape(len(todo), kk)
         for j in range(kk):
-            c = cand[:, j]
-            b = _barycentric(points[todo], xyz[tetra[c]])
-            inside = np.all(b >= -BARY_TOL, axis=1)
+            # scipy marks a neighbour it could not place (distance overflowing to inf: points
+            # 1e160 m away) with the index n_tetra: no candidate
+            valid = cand[:, j] < tetra.shape[0]
+            c = np.where(valid, cand[:, j], 0)
+            with np.errstate(over="ignore", invalid="ignore"):
+                b = _barycentric(points[todo], xyz[tetra[c]])
+            inside = valid & np.all(b >= -BARY_TOL, axis=1)
             tet_index[todo[inside]] = c[inside]
             bary[todo[inside]] = b[inside]
             todo = todo[~inside]
@@ -186,7 +191,9 @@ def _find(tri, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Simplex of ``tri`` holding each point of ``x`` (-1 where none) and its barycentric weights.
 
     ``find_simplex`` walks from the simplex it found last, so the points are visited in a
-    spatial order (rows of a coarse grid); the weights come from ``tri.transform``, in the
+    spatial order (rows of a coarse grid); the walk stops at the hull, so points it misses
+    (those exactly on the hull, such as a corner node) are searched again over every simplex:
+    callers pass only points inside the hull. The weights come from ``tri.transform``, in the
     order of ``tri.simplices``.
     """
     simplex = np.full(len(x), -1, dtype=np.int64)
@@ -198,6 +205,9 @@ def _find(tri, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     cell = np.floor((x - x.min(axis=0)) / np.where(span > 0, span, 1.0) * bins)
     order = np.lexsort(cell.T[::-1])
     simplex[order] = tri.find_simplex(x[order], tol=BARY_TOL)
+    miss = np.flatnonzero(simplex < 0)
+    if miss.size:  # the directed walk gives up on points exactly on the hull (a corner node): search them all
+        simplex[miss] = tri.find_simplex(x[miss], tol=BARY_TOL, bruteforce=True)
     hit = np.flatnonzero(simplex >= 0)
     t = tri.transform[simplex[hit]]
     b = np.einsum("mij,mj->mi", t[:, :tri.ndim], x[hit] - t[:, tri.ndim])
@@ -212,6 +222,7 @@ def _inside_hull(points: np.ndarray, equations: np.ndarray, tol: float) -> np.nd
     inside = np.empty(points.shape[0], dtype=bool)
     step = max(1, 4_000_000 // max(1, equations.shape[0]))  # bounded memory: (step, n_facets) at a time
     for a in range(0, points.shape[0], step):
-        d = points[a:a + step] @ equations[:, :-1].T + equations[:, -1]
+        with np.errstate(over="ignore", invalid="ignore"):  # receptors at +-inf (beyond 1e305 m): NaN/inf, not inside
+            d = points[a:a + step] @ equations[:, :-1].T + equations[:, -1]
         inside[a:a + step] = np.all(d <= tol, axis=1)
     return inside

@@ -49,7 +49,8 @@ def extent(x) -> float:
     x = x[np.isfinite(x).all(axis=1)]
     if x.shape[0] == 0:
         return 0.0
-    rng = float(np.max(x.max(axis=0) - x.min(axis=0)))
+    with np.errstate(over="ignore"):  # points at -1e307 and 1.7e308: the range is inf, and says so
+        rng = float(np.max(x.max(axis=0) - x.min(axis=0)))
     return rng if rng > 0 else float(np.max(np.abs(x)))
 
 
@@ -64,8 +65,17 @@ def sed_warning(sed_pa, *, what: str, unit_hint: str) -> str | None:
         What the values are, e.g. ``"SED file 'a.vtu' (SED column 'ENER', declared MPa)"``.
     unit_hint : str
         The option that sets the unit, e.g. ``"sed_unit"``.
+
+    A field whose every value is 0 J/m^3 (the wrong column, or the undeformed state exported)
+    is also reported: everything downstream of it would be zero.
     """
     level = robust_level(sed_pa)
+    if level == 0.0:
+        v = np.asarray(sed_pa, dtype=float)
+        if v.size and np.all(v == 0):
+            return (f"{what}: every SED value is 0 J/m^3 ({v.size} values): the wrong column, or the undeformed state "
+                    "exported? The currents and spikes computed from it are zero.")
+        return None
     lo, hi = SED_BAND_PA
     side = _outside(level, SED_BAND_PA, ("below", "above"))
     if side is None:

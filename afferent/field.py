@@ -275,6 +275,11 @@ class SEDField:
                 f"'cells' refer to point {int(self.cells.tetra.max())} but the field has only "
                 f"{points.shape[0]} points."
             )
+        if self.cells is not None and self.cells.tetra.size and self.cells.tetra.min() < 0:
+            raise ValueError(
+                f"'cells' refer to point {int(self.cells.tetra.min())}; point indices must be >= 0 "
+                "(a corrupt connectivity array?)."
+            )
         for name, arr in (("points", points), ("sed", sed), ("times", times)):
             arr.setflags(write=False)
             object.__setattr__(self, name, arr)

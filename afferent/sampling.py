@@ -286,13 +286,15 @@ def _scattered_linear(field: SEDField, layout: ReceptorLayout) -> Sampler:
         )
     # normalised coordinates (extent 1) along the principal axes: conditioning for Qhull
     xyz = (field.points - centre) @ axes.T / extent
-    pos = (layout.positions - centre) @ axes.T / extent
+    with np.errstate(over="ignore", invalid="ignore"):  # a receptor 1e305 m away: inf, outside the hull
+        pos = (layout.positions - centre) @ axes.T / extent
     rows = np.zeros((n_r, 4), dtype=np.int64)
     weights = np.zeros((n_r, 4))
     found = np.zeros(n_r, dtype=bool)
     if widths[2] <= PLANE_RTOL * extent:
         # A surface-only table: triangulate in the plane; receptors off the plane are outside.
         on_plane = np.flatnonzero(np.abs(pos[:, 2]) <= PLANE_RTOL)
+        on_plane = on_plane[_inside_hull(pos[on_plane, :2], ConvexHull(xyz[:, :2]).equations, BARY_TOL)]
         tri = _triangulate(xyz[:, :2])
         simplex, w = _find(tri, pos[on_plane, :2])
         hit = simplex >= 0

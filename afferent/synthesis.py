@@ -34,6 +34,7 @@ from scipy import sparse
 from ._validation import check_option, check_rng
 from ._validation import plain as _plain
 from .exceptions import AfferentWarning, SEDFormatError
+from .receptors._layout import label_means
 from .transduction import _check_values_times
 
 __all__ = ["Branching", "AfferentCurrent", "synthesize"]
@@ -137,7 +138,7 @@ class Branching:
     def _from_labels(cls, layout, labels, *, kind: str, axis: str, prefix: str) -> "Branching":
         pos_all = layout.positions[:, _AXIS_INDEX[axis]]
         uniq, inverse = np.unique(np.asarray(labels), return_inverse=True)
-        centres = np.bincount(inverse, weights=pos_all) / np.bincount(inverse)
+        centres = label_means(inverse, pos_all)
         order = np.argsort(centres, kind="stable")
         rank = np.empty_like(order)
         rank[order] = np.arange(order.size)
@@ -287,7 +288,7 @@ class Branching:
             first_seen.setdefault(a, k)
         cols_idx = np.array([index[r] for r in rec.tolist()], dtype=np.int64)
         pos_all = layout.positions[:, _AXIS_INDEX[axis]]
-        centres = np.bincount(rows, weights=pos_all[cols_idx]) / np.bincount(rows)
+        centres = label_means(rows, pos_all[cols_idx])
         # Order by position; ties keep the map's order of first appearance.
         order = np.lexsort((np.array([first_seen[n] for n in names]), centres))
         rank = np.empty_like(order)

@@ -509,7 +509,9 @@ def _modulation(rel: np.ndarray, sed: np.ndarray, params: SigmoidParams) -> tupl
     ptp = r.max(axis=1) - r.min(axis=1)
     with np.errstate(invalid="ignore", divide="ignore"):
         mod = np.where(mean > 0, ptp / np.where(mean > 0, mean, 1.0), 0.0)
-    return float(mod.max()), float(params.gamma * np.max(x.max(axis=1) - x.min(axis=1)))
+    with np.errstate(over="ignore"):  # SED +-1e300 or gamma 1e12: the range (or its product) is inf, and says so
+        spread = np.max(x.max(axis=1) - x.min(axis=1))
+        return float(mod.max()), 0.0 if params.gamma == 0.0 else float(params.gamma * spread)  # gamma 0: flat, not 0 x inf
 
 
 def _report_from_relative(rel: np.ndarray, params: SigmoidParams, *, low: float, high: float, sed=None) -> SaturationReport:

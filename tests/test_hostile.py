@@ -5,7 +5,9 @@ output; the shapes real exports take (gzip, decimal commas, BOM + CRLF, a long p
 
 from __future__ import annotations
 
+import os
 import shutil
+from pathlib import Path
 
 import pandas as pd
 import pytest
@@ -15,6 +17,7 @@ from afferent.cli import main
 from conftest import DATA_DIR
 
 BAD = DATA_DIR / "bad"
+ROOT = Path(__file__).resolve().parents[1]
 CASES = [
     ("empty.vtu", "SED file {f!r} is empty."),
     ("header_only.csv", "SED file {f!r} has a header but no data rows"),
@@ -34,6 +37,12 @@ CASES = [
                             'but len(point_data["SED"]) = 7'),
     ("different_meshes.pvd", "SED file 'step_b.vtu' is not on the same mesh as 'step_a.vtu'"),
     ("corrupt_heavy.xdmf", "SED file {f!r}: the heavy-data file 'corrupt_heavy.h5' could not be opened (truncated or corrupt?)"),
+    ("negative_connectivity.vtu", "SED file {f!r}: 'cells' refer to point -2; point indices must be >= 0 (a corrupt "
+                                  "connectivity array?)."),
+    ("cell_array_long.vtu", "SED file {f!r}: cell array 'E' must have one value per cell (NumberOfCells = 1); got 2 instead."),
+    ("complex_heavy.xdmf", "SED file {f!r}: dataset '/sed' of attribute 'SED' at t = 0 in 'complex_heavy.h5' holds complex "
+                           "values (complex128); afferent reads real numbers (write the real part)."),
+    ("nan_timestep.pvd", "SED file {f!r}: DataSet 1 timestep must be a finite number; got 'nan' instead."),
 ]
 
 
@@ -89,3 +98,28 @@ def test_the_shapes_real_exports_take_read_like_the_plain_table(capsys, corpus, 
                      "-o", "shaped.csv")
     assert code == 0, err
     pd.testing.assert_frame_equal(pd.read_csv("shaped.csv"), pd.read_csv("plain.csv"))
+
+
+def test_an_all_zero_sed_field_warns(capsys, corpus):
+    code, err = _cli(capsys, "sample", "all_zero.csv", "--receptors", "receptors_ok.csv", "--length-unit", "mm",
+                     "--sed-unit", "MPa", "-o", "out.csv")
+    assert code == 0, err
+    assert ("afferent: warning: SED file 'all_zero.csv' (MPa declared): every SED value is 0 J/m^3 (8 values): the wrong "
+            "column, or the undeformed state exported? The currents and spikes computed from it are zero.") in err, err
+
+
+def test_a_corrupt_component_count_is_skipped_in_seconds_with_one_warning_line(corpus):
+    """Before: NumberOfComponents="9999999999" made afferent loop 1e10 times over component names
+    (a hang), and meshio's own two-line 'Warning: VTU file corrupt' went to stderr as it was."""
+    import subprocess
+    import sys
+
+    proc = subprocess.run([sys.executable, "-m", "afferent", "sample", "huge_component_count.vtu", "--receptors",
+                           "receptors_ok.csv", "--length-unit", "mm", "--sed-unit", "MPa", "-o", "out.csv"],
+                          capture_output=True, text=True, timeout=120, cwd=corpus,
+                          env={**os.environ, "PYTHONPATH": str(ROOT)})
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stderr.startswith("afferent: warning: SED file 'huge_component_count.vtu': meshio: Warning: VTU file "
+                                  "corrupt. The size of the data array 'E' is 48 which doesn't fit the number of "
+                                  "components 9999999999. Skipping.\nwrote out.csv: "), proc.stderr
+    assert proc.stderr.count("\n") == 2

@@ -14,7 +14,6 @@ import json
 import math
 import os
 import re
-import tomllib
 from dataclasses import dataclass, field
 
 from .._validation import suggest
@@ -82,14 +81,10 @@ class SweepSpec:
 
 # --------------------------------------------------------------------------- reading
 def _read_toml(path: str, what: str):
-    from ..scene.parse import read_toml_text
+    from ..scene.parse import loads_toml, read_toml_text
 
     text = read_toml_text(path, what)
-    try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as err:
-        raise SceneError(f"{what} {path!r} is not valid TOML: {err}.", path=path) from err
-    return data, key_lines(text)
+    return loads_toml(text, f"{what} {path!r}", path), key_lines(text)
 
 
 def _where(path: str, lines: dict, *keys) -> str:

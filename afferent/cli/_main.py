@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import dis
 import os
 import re
 import sys
@@ -133,6 +134,8 @@ def _main(argv: list[str] | None) -> int:
         return 2
     except (AfferentError, FileNotFoundError, FileExistsError, ValueError, TypeError, PermissionError,
             IsADirectoryError, NotADirectoryError) as err:
+        if not raised_on_purpose(err):  # numpy's "cannot reshape ..." on a case nobody checked: a bug
+            return _internal_error(err)
         msg = " ".join(str(err).split())  # one line
         if not getattr(err, "key", None) and type(err).__name__ not in ("SceneError", "SceneTypeError"):
             msg = speak_cli(msg, flags)  # in the command's own words; a scene's errors name its TOML keys
@@ -145,10 +148,7 @@ def _main(argv: list[str] | None) -> int:
         if _environment_message(err):  # unless it is the environment (a full or read-only disk, ...): exit 2
             print(f"afferent: error: {_environment_message(err)}", file=sys.stderr)
             return 2
-        print(f"afferent: internal error (please report): {type(err).__name__}: {err}", file=sys.stderr)
-        if os.environ.get("AFFERENT_DEBUG"):
-            traceback.print_exc()
-        return 1
+        return _internal_error(err)
 
 
 def _environment_message(err: BaseException) -> str | None:
@@ -156,3 +156,36 @@ def _environment_message(err: BaseException) -> str | None:
     from .._output import describe_os_error
 
     return describe_os_error(err) if isinstance(err, OSError) else None
+
+
+def _internal_error(err: BaseException) -> int:
+    print(f"afferent: internal error (please report): {type(err).__name__}: {err}", file=sys.stderr)
+    if os.environ.get("AFFERENT_DEBUG"):
+        traceback.print_exc()
+    return 1
+
+
+_PACKAGE = os.path.dirname(os.path.dirname(os.path.abspath(__file__))) + os.sep
+
+
+def raised_on_purpose(err: BaseException) -> bool:
+    """Whether ``err`` is one of afferent's own errors: bad input, exit code 2.
+
+    An :class:`~afferent.exceptions.AfferentError`, a missing or unreadable file
+    (``FileNotFoundError``, ``PermissionError``, ...), or a ``ValueError`` / ``TypeError`` that a
+    ``raise`` statement in afferent's own code raised (the argument checks of
+    ``afferent._validation`` and the modules' own sentences). The same types raised from inside
+    numpy, pandas, scipy or a built-in call (``float('x')``, ``a.reshape(...)``) carry the
+    library's words, not afferent's: a case afferent does not check, so a bug (exit code 1).
+    """
+    if isinstance(err, AfferentError) or not isinstance(err, (ValueError, TypeError)):
+        return True
+    tb = err.__traceback__
+    if tb is None:
+        return False
+    while tb.tb_next is not None:  # the innermost frame: where the exception was raised
+        tb = tb.tb_next
+    code = tb.tb_frame.f_code
+    if not os.path.abspath(code.co_filename).startswith(_PACKAGE):
+        return False
+    return dis.opname[code.co_code[tb.tb_lasti]] == "RAISE_VARARGS"

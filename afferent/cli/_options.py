@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 
 from ..io import FORMATS
@@ -97,11 +98,22 @@ def add_receptor_options(parser: argparse.ArgumentParser, *, required: bool = Tr
                         "(cell array --material-array, ids --upper/--lower); 'y=H' = a ridge/papilla grid at height H "
                         "(export length unit) over the export's x-z extent")
     g.add_argument("--receptor-unit", metavar="U", help="length unit of R.csv (default: the export's length unit)")
-    g.add_argument("--pitch-x-mm", type=float, default=0.44, help="grid pitch across the ridges, mm (default 0.44)")
-    g.add_argument("--pitch-z-mm", type=float, default=0.22, help="grid pitch along the ridges, mm (default 0.22)")
+    g.add_argument("--pitch-x-mm", type=positive_number, default=0.44, help="grid pitch across the ridges, mm (default 0.44)")
+    g.add_argument("--pitch-z-mm", type=positive_number, default=0.22, help="grid pitch along the ridges, mm (default 0.22)")
     g.add_argument("--material-array", default="layer", help="cell array of material/layer ids for --grid tips (default 'layer')")
     g.add_argument("--upper", type=int, default=1, help="material id above the interface (epidermis; default 1)")
     g.add_argument("--lower", type=int, default=2, help="material id below the interface (dermis; default 2)")
+
+
+def positive_number(text: str) -> float:
+    """argparse type: a finite number > 0 (``nan``, ``inf``, 0 and negatives refused with the text as given)."""
+    try:
+        value = float(text)
+    except ValueError:
+        value = float("nan")
+    if not (math.isfinite(value) and value > 0):
+        raise argparse.ArgumentTypeError(f"must be a finite number > 0; got {text!r} instead")
+    return value
 
 
 def layout_from_args(args: argparse.Namespace, field):

@@ -280,6 +280,10 @@ def _times(raw: RawExport, opts: ReadOptions, n_times: int, rec: _Record) -> np.
         if n_times > 1:
             rec.notes.append("The export states no step times; steps are numbered 0, 1, ... (step numbers, not "
                              "seconds; pass times= to set them).")
+    if not np.all(np.isfinite(times)):
+        k = int(np.flatnonzero(~np.isfinite(times))[0])
+        whose = "'times'" if opts.times is not None else f"SED file {_where(raw)!r}: the step times it states"
+        raise SEDFormatError(f"{whose} must be finite numbers; got {float(times[k])!r} at step {k} instead.")
     rec.units.update(time=tu, time_source=tsrc)
     rec.factors["time"] = tf
     times = times * tf

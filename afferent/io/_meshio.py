@@ -11,6 +11,9 @@ version limits are handled next to the readers that meet them; the VTK-library p
 
 from __future__ import annotations
 
+import contextlib
+import io
+import math
 import os
 import re
 import warnings
@@ -18,7 +21,7 @@ from xml.etree import ElementTree as ET
 
 import numpy as np
 
-from ..exceptions import SEDFormatError
+from ..exceptions import AfferentWarning, SEDFormatError
 from ..field import Cells
 from dataclasses import replace
 
@@ -168,10 +171,11 @@ def _read_meshio(path: str, opened: list | None = None):
         if (_vtu_version(path) or (0, 0))[0] == 2:
             copy = _as_vtu_version_1(path)
     _complete_meshio_dimensions()
+    said = io.StringIO()
     try:
-        with warnings.catch_warnings():
+        with warnings.catch_warnings(), contextlib.redirect_stderr(said):
             warnings.simplefilter("ignore")  # meshio warns on skipped data; we report what we keep
-            return reader(copy or path)
+            mesh = reader(copy or path)
     except SEDFormatError:
         raise
     except meshio.ReadError as err:
@@ -193,6 +197,9 @@ def _read_meshio(path: str, opened: list | None = None):
     finally:
         if copy is not None:
             os.remove(copy)  # the temporary copy afferent wrote
+    if said.getvalue().strip():  # meshio prints what it skips (a corrupt array) to stderr: one line of ours instead
+        warnings.warn(f"SED file {path!r}: meshio: {' '.join(said.getvalue().split())}", AfferentWarning, stacklevel=3)
+    return mesh
 
 
 def _well_formed(path: str, ext: str) -> bool:
@@ -357,6 +364,8 @@ def raw_from_mesh(mesh, path: str, fmt: str, components: dict, notes: list, *, r
     if cells_obj is None:
         notes.append("No volume cells in the file: the points are treated as scattered samples.")
     arrays = _arrays_from_mesh(mesh, path, cells_obj)
+    if path.lower().endswith(".vtu") and reader.startswith("meshio") and any(a.location == "cell" for a in arrays.values()):
+        _check_cell_data_lengths(path)
     arrays = {k: (RawArray(a.name, a.values, a.location, a.unit, components[a.name])
                   if a.name in components and a.values.ndim == 3 and a.values.shape[2] == len(components[a.name]) else a)
               for k, a in arrays.items()}
@@ -368,6 +377,22 @@ _DATA_ARRAY = re.compile(rb"<DataArray\b[^>]*>")
 _ATTR = re.compile(rb'(\w+)="([^"]*)"')
 
 
+def _check_cell_data_lengths(path: str) -> None:
+    """Refuse a VTU whose CellData arrays hold more or fewer values than its cells.
+
+    meshio splits cell data among the cell blocks by the blocks' sizes, so a value too many
+    (or too few) would be dropped (or misplaced) without a word: the arrays are decoded once
+    more, as the file has them, and counted.
+    """
+    reader = _VtuDataReader(path, parts=("CellData",))
+    for name, values in reader.cell_data.items():
+        if np.asarray(values).shape[0] != reader.n_cells:
+            raise SEDFormatError(
+                f"SED file {path!r}: cell array {name!r} must have one value per cell (NumberOfCells = "
+                f"{reader.n_cells}); got {np.asarray(values).shape[0]} instead."
+            )
+
+
 def _vtu_component_names(path: str) -> dict[str, tuple[str, ...]]:
     """``{array name: (ComponentName0, ...)}`` from a VTU's DataArray tags (ccx2paraview writes
     ``XX YY ZZ XY YZ ZX`` for S and E); arrays without names are left out."""
@@ -377,9 +402,10 @@ def _vtu_component_names(path: str) -> dict[str, tuple[str, ...]]:
     out = {}
     for tag in _DATA_ARRAY.findall(text if end < 0 else text[:end]):
         attrs = {k.decode(): v.decode("utf-8", "replace") for k, v in _ATTR.findall(tag)}
-        comps = [attrs[f"ComponentName{i}"] for i in range(int(attrs.get("NumberOfComponents", "1") or 1))
-                 if f"ComponentName{i}" in attrs]
-        if "Name" in attrs and comps and len(comps) == int(attrs.get("NumberOfComponents", "0") or 0):
+        # the names the tag carries, not range(NumberOfComponents): a corrupt count (9999999999) is no loop
+        named = {k[len("ComponentName"):]: v for k, v in attrs.items() if k.startswith("ComponentName")}
+        comps = [named[str(i)] for i in range(len(named)) if str(i) in named]
+        if "Name" in attrs and comps and str(len(comps)) == attrs.get("NumberOfComponents", "").strip():
             out[attrs["Name"]] = tuple(comps)
     return out
 
@@ -389,10 +415,10 @@ class _VtuDataReader:
 
     meshio re-reads points and connectivity for every file of a series; for step 2..N of a
     series we parse the XML and decode only Points (to check the mesh is the same) and the
-    PointData / CellData arrays.
+    PointData / CellData arrays (those of ``parts``).
     """
 
-    def __init__(self, path: str):
+    def __init__(self, path: str, parts=("Points", "PointData", "CellData")):
         from meshio.vtu import _vtu
 
         self.path = path
@@ -414,7 +440,7 @@ class _VtuDataReader:
             self.n_cells = int(piece.attrib["NumberOfCells"])
             self.points = None
             self.point_data, self.cell_data = {}, {}
-            for child in piece:
+            for child in (c for c in piece if c.tag in parts):
                 if child.tag == "Points":
                     self.points = reader.read_data(child[0]).reshape(self.n_points, -1)
                 elif child.tag == "PointData":
@@ -553,9 +579,11 @@ def _pvd_xml_entries(path: str) -> list[tuple[float | None, int, str]]:
             raise SEDFormatError(f"SED file {path!r}: DataSet {k} has no 'file' attribute.")
         try:
             t = float(ds.attrib["timestep"]) if "timestep" in ds.attrib else None
+            if t is not None and not math.isfinite(t):
+                raise ValueError("not finite")
         except ValueError as err:
             raise SEDFormatError(
-                f"SED file {path!r}: DataSet {k} timestep must be a number; got {ds.attrib['timestep']!r} instead."
+                f"SED file {path!r}: DataSet {k} timestep must be a finite number; got {ds.attrib['timestep']!r} instead."
             ) from err
         try:
             part = int(ds.attrib.get("part", 0))

@@ -118,10 +118,15 @@ class _Heavy:
 
         self._note(*(h5path if f == h5.filename else f for f in h5_files(h5, dataset)))
         try:
-            return np.asarray(h5[dataset][()])
+            data = np.asarray(h5[dataset][()])
         except OSError as err:
             raise SEDFormatError(f"SED file {self.path!r}: dataset {dataset!r} of {what} in {h5path!r} could not "
                                  f"be read (truncated?): {err}") from err
+        if data.dtype.kind not in "biuf":  # complex (a PETSc complex build), text, compound: not one real per value
+            kind = "complex" if data.dtype.kind == "c" else "non-numeric"
+            raise SEDFormatError(f"SED file {self.path!r}: dataset {dataset!r} of {what} in {h5path!r} holds "
+                                 f"{kind} values ({data.dtype}); afferent reads real numbers (write the real part).")
+        return data
 
     def _binary(self, item: ET.Element, text: str, what: str, count: int) -> np.ndarray:
         """A raw binary file (XDMF ``Format="Binary"``): relative to the XDMF file's folder, as XDMF defines it;
@@ -279,8 +284,9 @@ def _mesh_cells(heavy, mesh: ET.Element, n_points: int, path: str, notes: list):
     for b in blocks:
         data = np.asarray(b.data)
         if data.size and (data.min() < 0 or data.max() >= n_points):
-            raise SEDFormatError(f"SED file {path!r}: the topology refers to point {int(data.max())}, but the "
-                                 f"geometry has {n_points} points.")
+            bad = int(data.min()) if data.min() < 0 else int(data.max())
+            raise SEDFormatError(f"SED file {path!r}: the topology refers to point {bad}, but the geometry has "
+                                 f"{n_points} points (numbered from 0).")
     cells = cells_from_meshio(blocks)
     if cells is None:
         notes.append(f"topology {ttype!r} has no volume cells: the points are treated as scattered samples.")

@@ -168,7 +168,8 @@ def grid_layout(
     if n_x * n_z > _MAX_GRID_RECEPTORS:
         raise ValueError(
             f"'x_range' and 'z_range' must span at most {_MAX_GRID_RECEPTORS:,} grid points; got "
-            f"{x_range!r} x {z_range!r} m with pitches {pitch_x!r} x {pitch_z!r} m, about {n_x * n_z:.3g} points, "
+            f"({float(xlo)!r}, {float(xhi)!r}) x ({float(zlo)!r}, {float(zhi)!r}) m with pitches {float(pitch_x)!r} x "
+            f"{float(pitch_z)!r} m, about {n_x * n_z:.3g} points, "
             "instead. Ranges and pitches are in m: pass 4e-3, not 4, for 4 mm."
         )
     xs = _axis_lines("x", xlo, xhi, pitch_x, x0)

@@ -22,6 +22,11 @@ from ..units import length_factor
 SECTION_TOLERANCE_M = 20e-6
 
 
+#: Largest section label: labels index arrays of ``max label + 1`` entries
+#: (:meth:`ReceptorLayout.section_positions`), and no fingertip has a million ridges.
+MAX_SECTION_LABEL = 999_999
+
+
 def group_coordinates(values, tol: float = SECTION_TOLERANCE_M) -> tuple[np.ndarray, np.ndarray]:
     """Group 1-D coordinates that lie within ``tol`` of their neighbours (single linkage).
 
@@ -50,12 +55,24 @@ def group_coordinates(values, tol: float = SECTION_TOLERANCE_M) -> tuple[np.ndar
     if values.size == 0:
         return np.zeros(0, dtype=np.int64), np.zeros(0)
     order = np.argsort(values, kind="stable")
-    gaps = np.diff(values[order]) > tol
+    with np.errstate(over="ignore"):  # a gap between -1e308 and 1e308 is inf: still a gap
+        gaps = np.diff(values[order]) > tol
     sorted_labels = np.concatenate([[0], np.cumsum(gaps)])
     labels = np.empty_like(sorted_labels)
     labels[order] = sorted_labels
-    centres = np.bincount(labels, weights=values) / np.bincount(labels)
-    return labels.astype(np.int64), centres
+    return labels.astype(np.int64), label_means(labels, values)
+
+
+def label_means(labels, values, minlength: int = 0) -> np.ndarray:
+    """Mean of ``values`` per integer label ``0..max`` (NaN for a label no value carries).
+
+    Each value is divided by its label's count before summing, so means of coordinates near
+    the float maximum (1e308 m) do not overflow to inf. Units: those of ``values``.
+    """
+    labels = np.asarray(labels, dtype=np.int64)
+    counts = np.bincount(labels, minlength=minlength)
+    sums = np.bincount(labels, weights=np.asarray(values, dtype=float) / counts[labels], minlength=minlength)
+    return np.where(counts > 0, sums, np.nan)
 
 
 @dataclass(frozen=True)
@@ -110,6 +127,10 @@ class ReceptorLayout:
                     raise ValueError(
                         f"'{name}' must be integer section labels of shape ({n},); got {lab.dtype} of shape {lab.shape} instead."
                     )
+                if lab.size and (lab.min() < 0 or lab.max() > MAX_SECTION_LABEL):
+                    k = int(np.flatnonzero((lab < 0) | (lab > MAX_SECTION_LABEL))[0])
+                    raise ValueError(f"'{name}' section labels must lie from 0 to {MAX_SECTION_LABEL:,}; got "
+                                     f"{int(lab[k])} for receptor {k} instead.")
             sections[name] = lab.astype(np.int64)
         for name, arr in (("positions", pos), ("ids", ids), *sections.items()):
             arr.setflags(write=False)
@@ -129,10 +150,7 @@ class ReceptorLayout:
         labels = self.longitudinal if kind == "longitudinal" else self.cross
         axis = 0 if kind == "longitudinal" else 2
         n = int(labels.max()) + 1 if labels.size else 0
-        counts = np.bincount(labels, minlength=n)
-        sums = np.bincount(labels, weights=self.positions[:, axis], minlength=n)
-        with np.errstate(invalid="ignore"):
-            return np.where(counts > 0, sums / np.maximum(counts, 1), np.nan)
+        return label_means(labels, self.positions[:, axis], n)
 
     def subset(self, mask) -> "ReceptorLayout":
         """The layout restricted to ``mask`` (bool array or indices); section labels are kept."""
@@ -167,7 +185,7 @@ def read_receptors(path, *, length_unit: str, tol: float = SECTION_TOLERANCE_M) 
         CSV file; comma, semicolon, tab or whitespace separated; ``#`` comment lines allowed.
         Column names are case-insensitive: ``x, y, z`` (required), a receptor id (optional:
         ``id``, ``receptor_id``, ``Receptor ID``, ``receptor``, ``name``, ``label``, ``site``,
-        ... the first found), ``longitudinal`` / ``cross`` (optional integer section labels).
+        ... the first found), ``longitudinal`` / ``cross`` (optional whole-number section labels, 0 to 999,999).
         Any other column is reported with an :class:`~afferent.exceptions.AfferentWarning`.
     length_unit : str
         Unit of x, y, z: ``'m'``, ``'mm'`` or ``'um'``. Required: never guessed.
@@ -183,7 +201,8 @@ def read_receptors(path, *, length_unit: str, tol: float = SECTION_TOLERANCE_M) 
     FileNotFoundError
         If ``path`` does not exist.
     SEDFormatError
-        If the file is empty, lacks x/y/z, or holds non-numeric or non-finite coordinates.
+        If the file is empty, lacks x/y/z, holds non-numeric or non-finite coordinates, or
+        section labels that are not whole numbers from 0 to 999,999.
     """
 
     from .._tables import numeric_columns, read_table
@@ -211,11 +230,12 @@ def read_receptors(path, *, length_unit: str, tol: float = SECTION_TOLERANCE_M) 
         col = next((cols[c] for c in aliases if c in cols), None)
         if col is not None:
             labels = numeric_columns(df, [col], what="Receptor file", path=path)[:, 0]
-            if not np.all(labels == np.round(labels)):
-                k = int(np.flatnonzero(labels != np.round(labels))[0])
+            bad = (labels != np.round(labels)) | (labels < 0) | (labels > MAX_SECTION_LABEL)
+            if bad.any():
+                k = int(np.flatnonzero(bad)[0])
                 raise SEDFormatError(
-                    f"Receptor file {path!r}: column {str(col)!r} must hold whole-number section labels; got "
-                    f"{labels[k]!r} on data row {k + 1} instead."
+                    f"Receptor file {path!r}: column {str(col)!r} must hold whole-number section labels from 0 to "
+                    f"{MAX_SECTION_LABEL:,}; got {float(labels[k])!r} on data row {k + 1} instead."
                 )
             sections[name] = labels.astype(np.int64)
             used.add(col)

@@ -116,8 +116,7 @@ def _receptors(scene: Scene, o, err, ex):
         raise err("receptors", "length_unit", "[receptors] 'length_unit' applies to a receptor file; a grid takes "
                   "lengths with their unit in the key (y_mm, pitch_x_mm).")
     if rec.grid is not None:
-        rec = replace(rec, pitch_x_m=rec.pitch_x_m or _GRID_DEFAULTS["pitch_x_m"],
-                      pitch_z_m=rec.pitch_z_m or _GRID_DEFAULTS["pitch_z_m"])
+        rec = replace(rec, **{k: _GRID_DEFAULTS[k] for k in ("pitch_x_m", "pitch_z_m") if getattr(rec, k) is None})
     if rec.grid == "tips":
         rec = replace(rec, **{k: v for k, v in _GRID_DEFAULTS.items() if getattr(rec, k) is None})
     for name in ("pitch_x_m", "pitch_z_m"):

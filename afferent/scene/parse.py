@@ -252,18 +252,31 @@ def read_toml_text(path: str, what: str) -> str:
     with open(path, "rb") as f:
         raw = f.read()
     try:
-        return raw.decode("utf-8")
+        return raw.decode("utf-8-sig")  # a byte-order mark (Windows editors write one) is not part of the text
     except UnicodeDecodeError as err:
         raise SceneError(f"{what} {path!r} must be UTF-8 text (TOML); it is not: {err}.", path=path) from err
 
 
+def loads_toml(text: str, where: str, path=None) -> dict:
+    """The tables of TOML text (scene or sweep), or a :class:`SceneError` starting with ``where``.
+
+    A leading byte-order mark is dropped; nesting too deep for the parser (arrays or inline
+    tables nested hundreds of levels, which :mod:`tomllib` meets with a ``RecursionError``) is
+    an error of the file, not of afferent.
+    """
+    try:
+        return tomllib.loads(text.removeprefix("\ufeff"))
+    except tomllib.TOMLDecodeError as err:
+        raise SceneError(f"{where} is not valid TOML: {err}.", path=path) from err
+    except RecursionError:
+        raise SceneError(f"{where} nests arrays or inline tables too deeply to be read; a scene needs at most "
+                         "a list of lists.", path=path) from None
+
+
 def parse_scene(text: str, *, base_dir=None, source=None) -> Scene:
     """Parse a scene from TOML text (relative paths against ``base_dir``); see :func:`load_scene`."""
-    try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as err:
-        where = f"Scene file {os.fspath(source)!r}" if source else "Scene"
-        raise SceneError(f"{where} is not valid TOML: {err}.", path=source) from err
+    where = f"Scene file {os.fspath(source)!r}" if source else "Scene"
+    data = loads_toml(text, where, source)
     return scene_from_dict(data, base_dir=base_dir, source=source, _lines=key_lines(text))
 
 

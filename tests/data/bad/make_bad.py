@@ -21,6 +21,20 @@ def cube():
     return pts, np.array([[0, 1, 3, 2, 4, 5, 7, 6]])
 
 
+def ascii_vtu(pts, connectivity: str, sed, cell_data=None) -> str:
+    """One hexahedron as a hand-written ASCII VTU: ``connectivity`` as written, point array SED, cell arrays."""
+    coords = " ".join(f"{v:g}" for v in pts.ravel())
+    cells = "".join(f'<DataArray type="Float64" Name="{name}" format="ascii">{" ".join(map(str, values))}</DataArray>'
+                    for name, values in (cell_data or {}).items())
+    return ('<?xml version="1.0"?>\n<VTKFile type="UnstructuredGrid" version="0.1" byte_order="LittleEndian"><UnstructuredGrid>'
+            '<Piece NumberOfPoints="8" NumberOfCells="1"><Points><DataArray type="Float64" NumberOfComponents="3" '
+            f'format="ascii">{coords}</DataArray></Points><Cells><DataArray type="Int64" Name="connectivity" format="ascii">'
+            f'{connectivity}</DataArray><DataArray type="Int64" Name="offsets" format="ascii">8</DataArray>'
+            '<DataArray type="UInt8" Name="types" format="ascii">12</DataArray></Cells><PointData>'
+            f'<DataArray type="Float64" Name="SED" format="ascii">{" ".join(map(str, sed))}</DataArray></PointData>'
+            + (f"<CellData>{cells}</CellData>" if cells else "") + '</Piece></UnstructuredGrid></VTKFile>\n')
+
+
 def main():
     pts, hexa = cube()
     sed = np.linspace(1e-4, 2e-4, 8)
@@ -49,16 +63,15 @@ def main():
     (HERE / "unknown_unit.csv").write_text("x,y,z,SED (furlong-poundals)\n" + rows + "\n")
     (HERE / "element_energy.csv").write_text("x,y,z,ELSE\n" + rows + "\n")
     mesh = meshio.Mesh(pts, [("hexahedron", hexa)], point_data={"SED": sed})
-    # a point array with 7 values for 8 points (hand-written ASCII VTU)
-    coords = " ".join(f"{v:g}" for v in pts.ravel())
-    (HERE / "length_mismatch.vtu").write_text(
-        '<?xml version="1.0"?>\n<VTKFile type="UnstructuredGrid" version="0.1" byte_order="LittleEndian"><UnstructuredGrid>'
-        '<Piece NumberOfPoints="8" NumberOfCells="1"><Points><DataArray type="Float64" NumberOfComponents="3" '
-        f'format="ascii">{coords}</DataArray></Points><Cells><DataArray type="Int64" Name="connectivity" format="ascii">'
-        '0 1 3 2 4 5 7 6</DataArray><DataArray type="Int64" Name="offsets" format="ascii">8</DataArray>'
-        '<DataArray type="UInt8" Name="types" format="ascii">12</DataArray></Cells><PointData>'
-        f'<DataArray type="Float64" Name="SED" format="ascii">{" ".join(map(str, sed[:7]))}</DataArray></PointData>'
-        '</Piece></UnstructuredGrid></VTKFile>\n')
+    # hand-written ASCII VTUs: a point array with 7 values for 8 points; a negative node index in the
+    # connectivity; a cell array with 2 values for 1 cell (meshio keeps the first, silently)
+    (HERE / "length_mismatch.vtu").write_text(ascii_vtu(pts, "0 1 3 2 4 5 7 6", sed[:7]))
+    (HERE / "negative_connectivity.vtu").write_text(ascii_vtu(pts, "0 1 3 2 4 5 7 -2", sed))
+    (HERE / "cell_array_long.vtu").write_text(ascii_vtu(pts, "0 1 3 2 4 5 7 6", sed, {"E": [1.0, 2.0]}))
+    # a corrupt component count on a second point array (meshio skips the array; afferent looped 1e10 times)
+    (HERE / "huge_component_count.vtu").write_text(ascii_vtu(pts, "0 1 3 2 4 5 7 6", sed).replace(
+        "</PointData>", '<DataArray type="Float64" Name="E" NumberOfComponents="9999999999" ComponentName0="XX" '
+        f'format="ascii">{" ".join(["0"] * 48)}</DataArray></PointData>'))
     meshio.write(HERE / "step_a.vtu", mesh)
     meshio.write(HERE / "step_b.vtu", meshio.Mesh(pts[:7] * 2, [("tetra", np.array([[0, 1, 2, 4]]))], point_data={"SED": sed[:7]}))
     (HERE / "different_meshes.pvd").write_text(
@@ -84,6 +97,22 @@ def main():
         '<xi:include xmlns:xi="http://www.w3.org/2001/XInclude" xpointer="xpointer(/Xdmf/Domain/Grid[1]/*)"/>'
         '<Time Value="0"/><Attribute Name="SED" Center="Node"><DataItem Dimensions="8 1" Format="XML">'
         + " ".join(map(str, sed)) + '</DataItem></Attribute></Grid></Grid>\n</Domain></Xdmf>\n')
+    # an XDMF whose SED dataset is complex (what a PETSc complex build of DOLFINx would store)
+    with h5py.File(HERE / "complex_heavy.h5", "w") as h5:
+        h5["sed"] = sed.astype(complex) + 1j
+    (HERE / "complex_heavy.xdmf").write_text(
+        '<?xml version="1.0"?>\n<Xdmf Version="3.0"><Domain>\n<Grid Name="mesh" GridType="Uniform">'
+        '<Topology TopologyType="Hexahedron" NumberOfElements="1" NodesPerElement="8"><DataItem Dimensions="1 8" '
+        'Format="XML">0 1 3 2 4 5 7 6</DataItem></Topology><Geometry GeometryType="XYZ"><DataItem Dimensions="8 3" '
+        f'Format="XML">{" ".join(f"{v:g}" for v in pts.ravel())}</DataItem></Geometry></Grid>\n'
+        '<Grid Name="f" GridType="Collection" CollectionType="Temporal"><Grid Name="f" GridType="Uniform">'
+        '<xi:include xmlns:xi="http://www.w3.org/2001/XInclude" xpointer="xpointer(/Xdmf/Domain/Grid[1]/*)"/>'
+        '<Time Value="0"/><Attribute Name="SED" Center="Node"><DataItem Dimensions="8 1" Format="HDF">'
+        'complex_heavy.h5:/sed</DataItem></Attribute></Grid></Grid>\n</Domain></Xdmf>\n')
+    (HERE / "nan_timestep.pvd").write_text(
+        '<?xml version="1.0"?>\n<VTKFile type="Collection" version="0.1"><Collection>\n'
+        '<DataSet timestep="0" file="step_a.vtu"/>\n<DataSet timestep="nan" file="step_a.vtu"/>\n</Collection></VTKFile>\n')
+    (HERE / "all_zero.csv").write_text("x,y,z,SED\n" + "\n".join(f"{x},{y},{z},0" for x, y, z in pts) + "\n")
     # shapes real exports take, which must read: gzip, decimal commas, BOM, CRLF, a long preamble
     (HERE / "good_gzip.csv.gz").write_bytes(gzip.compress(("x,y,z,SED\n" + rows + "\n").encode(), mtime=0))
     (HERE / "good_decimal_comma.csv").write_text("x;y;z;SED\n" + "\n".join(

@@ -1,0 +1,94 @@
+"""Errors that are not bugs, bugs that look like errors (issue 26, item 9, second half).
+
+Exit code 2 and one line of afferent's own words for bad input; a ValueError or TypeError that
+numpy, pandas or a built-in raised on a case afferent does not check is a bug: exit code 1,
+"internal error (please report)", never the library's raw text passed off as a diagnosis.
+"""
+
+from __future__ import annotations
+
+import types
+
+import numpy as np
+import pytest
+
+from afferent.cli import main
+from afferent.cli._main import COMMANDS, raised_on_purpose
+from afferent.units import length_factor
+
+from conftest import DATA_DIR
+
+
+def _command(run):
+    """A subcommand module as COMMANDS takes them (add_args, run), for the dispatch alone."""
+    module = types.ModuleType("afferent_test_command", "A command that fails (tests only).")
+    module.add_args = lambda parser: None
+    module.run = run
+    return module
+
+
+def _raise_from_numpy(args):
+    np.zeros(3).reshape(2, 2)
+
+
+def _raise_from_a_builtin(args):
+    float("n/a")
+
+
+def _raise_from_numpy_types(args):
+    np.add(np.array(["a"]), 1)
+
+
+@pytest.mark.parametrize("run, text", [
+    (_raise_from_numpy, "ValueError: cannot reshape array of size 3 into shape (2,2)"),
+    (_raise_from_a_builtin, "ValueError: could not convert string to float: 'n/a'"),
+    (_raise_from_numpy_types, "UFuncTypeError: ufunc 'add' did not contain a loop with signature matching types"),
+])
+def test_a_bare_library_error_is_an_internal_error_exit_1(capsys, monkeypatch, run, text):
+    """Before: exit 2 and 'afferent: error: cannot reshape array ...', as if the input were to blame."""
+    monkeypatch.setitem(COMMANDS, "info", _command(run))
+    code = main(["info"])
+    err = capsys.readouterr().err
+    assert code == 1 and err.startswith(f"afferent: internal error (please report): {text}"), err
+    assert err.count("\n") == 1
+
+
+def test_the_packages_own_sentences_stay_exit_2(capsys, monkeypatch):
+    monkeypatch.setitem(COMMANDS, "info", _command(lambda args: length_factor("furlong")))
+    assert main(["info"]) == 2
+    assert capsys.readouterr().err.startswith("afferent: error: 'length_unit' must be a length unit")
+
+
+def test_raised_on_purpose_tells_afferents_raise_from_a_library_call():
+    with pytest.raises(ValueError) as own:
+        length_factor("furlong")
+    with pytest.raises(ValueError) as numpys:
+        np.zeros(3).reshape(2, 2)
+    with pytest.raises(ValueError) as wrapped:  # afferent's sentence around a library error: on purpose
+        try:
+            float("x")
+        except ValueError as err:
+            raise ValueError("'x' must be a number") from err
+    assert raised_on_purpose(own.value) and not raised_on_purpose(numpys.value)
+    assert not raised_on_purpose(wrapped.value)  # raised here, in the tests, not in afferent
+    assert raised_on_purpose(FileNotFoundError(2, "No such file", "a.csv"))
+
+
+# ------------------------------------------------------------- item 10 through the CLI
+def test_a_scene_nested_too_deeply_is_exit_2_not_an_internal_error(tmp_path, capsys):
+    path = tmp_path / "deep.toml"
+    path.write_text("a = " + "[" * 3000 + "]" * 3000 + "\n")
+    assert main(["run", str(path), "-o", str(tmp_path / "out")]) == 2
+    assert capsys.readouterr().err == (f"afferent: error: Scene file {str(path)!r} nests arrays or inline tables too "
+                                       "deeply to be read; a scene needs at most a list of lists.\n")
+
+
+@pytest.mark.parametrize("value", ["0", "-1", "nan", "inf"])
+def test_a_grid_pitch_must_be_a_finite_number_above_0(tmp_path, capsys, value):
+    """Before: 0 became the default 0.44 mm in 'afferent run'; nan a message about 'x_range'."""
+    for command in ("sample", "run"):
+        code = main([command, str(DATA_DIR / "bad" / "ok.csv"), "--grid", "y=0.5", "--pitch-x-mm", value,
+                     "--length-unit", "mm", "--sed-unit", "MPa", "-o", str(tmp_path / "out")])
+        assert code == 2
+        assert capsys.readouterr().err == (f"afferent: error: afferent {command}: argument --pitch-x-mm: must be a "
+                                           f"finite number > 0; got {value!r} instead\n")
