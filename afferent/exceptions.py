@@ -9,7 +9,8 @@ pattern), so ``except ValueError`` keeps working::
     ├── UnitError(AfferentError, ValueError)            a unit missing, unknown or inconsistent
     ├── FieldCoverageError(AfferentError, ValueError)   receptors outside the FE field
     ├── OutputExistsError(AfferentError, FileExistsError)  refusing to overwrite results
-    └── CalibrationError(AfferentError, RuntimeError)   a calibration that cannot proceed
+    ├── CalibrationError(AfferentError, RuntimeError)   a calibration that cannot proceed
+    └── WorkerLostError(AfferentError, RuntimeError)    a sweep's worker process died (killed)
 
 Only :func:`afferent.cli.main` turns these into exit codes; the library never exits or prints.
 """
@@ -23,6 +24,7 @@ __all__ = [
     "FieldCoverageError",
     "OutputExistsError",
     "CalibrationError",
+    "WorkerLostError",
     "AfferentWarning",
 ]
 
@@ -50,6 +52,10 @@ class OutputExistsError(AfferentError, FileExistsError):
 
 class CalibrationError(AfferentError, RuntimeError):
     """A calibration cannot proceed (singular design, degenerate objective)."""
+
+
+class WorkerLostError(AfferentError, RuntimeError):
+    """A worker process of a sweep died (killed by a signal, or out of memory); the tasks done are kept."""
 
 
 class AfferentWarning(UserWarning):
