@@ -325,3 +325,39 @@ def test_a_killed_worker_is_named_with_its_signal(tmp_path):
     assert code == 2 and not alive, err
     assert err.startswith("afferent: error: a sweep worker died (signal 9, SIGKILL) while running tasks"), err
     assert "run the same sweep again to resume" in err and "__main__" not in err
+
+
+# --------------------------------------------------------- the task count (issue 26, item 7)
+def test_a_huge_sweep_is_counted_and_refused_before_anything_is_built(tmp_path, capsys):
+    """2 x 10^10 parameter sets were built in memory (MemoryError at 3.8 GB, exit 1)."""
+    import time
+
+    src = write_sweep(tmp_path, '"transduction.gamma_per_pa" = {start = 1e-3, stop = 1e-2, num = 100000}\n'
+                                '"spikes.gain_ms" = {start = 100, stop = 300, num = 200000}\n')
+    t = time.process_time()
+    assert main(["sweep", str(src), "-o", str(tmp_path / "out")]) == 2
+    assert time.process_time() - t < 2.0
+    err = capsys.readouterr().err
+    assert err.startswith(f"afferent: error: Sweep file {str(src)!r} makes 20,000,000,000 tasks (scene files x "
+                          "parameter sets); a sweep builds at most 100,000"), err
+    assert "--max-tasks 20000000000" in err and not (tmp_path / "out").exists()
+    one = write_sweep(tmp_path, '"spikes.gain_ms" = {start = 100, stop = 300, num = 10000000000}\n', name="one.toml")
+    with pytest.raises(SceneError, match="makes 10,000,000,000 tasks"):  # a range of 10^10 values: not allocated
+        load_sweep(one)
+
+
+def test_max_tasks_sets_the_limit_and_parameter_sets_are_made_one_at_a_time(tmp_path):
+    import types
+
+    from afferent._sweep import spec
+
+    src = write_sweep(tmp_path, SMALL)
+    with pytest.raises(SceneError, match=r"makes 4 tasks .*at most 3 .*max_tasks=4 \(afferent sweep --max-tasks 4\)"):
+        load_sweep(src, max_tasks=3)
+    assert len(load_sweep(src, max_tasks=4).tasks) == 4
+    with pytest.raises(ValueError, match="'max_tasks' must be a positive integer; got 0 instead"):
+        load_sweep(src, max_tasks=0)
+    params = {"a.b": ([1, 2], None), "c.d": (spec._Range(1.0, 4.0, 4, "log"), None)}
+    sets = spec._combinations(params, "product")
+    assert isinstance(sets, types.GeneratorType) and spec._n_combinations(params, "product") == 8
+    assert [s["c.d"] for s in sets][:4] == [float(v) for v in np.geomspace(1.0, 4.0, 4)]

@@ -417,7 +417,7 @@ def _run_cluster(groups, sink, *, scheduler, cache_dir, use_cache, batch_size, s
 # ------------------------------------------------------------------------------- API
 def sweep(sources, output, *, scheduler=None, overwrite: bool = False, cache_dir=None, use_cache: bool = True,
           batch_size: int | None = None, shared_disk: bool | None = None, progress: bool = False,
-          record_extra: dict | None = None) -> SweepResult:
+          record_extra: dict | None = None, max_tasks: int | None = None) -> SweepResult:
     """Run a sweep: every scene x parameter set, each export read and sampled once; one tidy table.
 
     Parameters
@@ -449,6 +449,9 @@ def sweep(sources, output, *, scheduler=None, overwrite: bool = False, cache_dir
         A tqdm bar over tasks (locally), Dask's progress bar on a cluster.
     record_extra : dict, optional
         More entries for ``sweep.json`` (the command line).
+    max_tasks : int, optional
+        Most tasks the sweep may have (default 100,000):
+        counted before any task is built; more is refused (:func:`load_sweep`).
 
     Returns
     -------
@@ -482,7 +485,7 @@ def sweep(sources, output, *, scheduler=None, overwrite: bool = False, cache_dir
                            "it under 'if __name__ == \"__main__\":' (or pass scheduler='threads' or 'serial').")
     t0 = time.perf_counter()
     started = datetime.now(timezone.utc).isoformat(timespec="seconds")
-    spec = load_sweep(sources)
+    spec = load_sweep(sources, max_tasks=max_tasks)
     output = os.path.abspath(os.fspath(output))
     done = _prepare(output, spec, overwrite)
     todo = [t for t in spec.tasks if t.id not in done]
