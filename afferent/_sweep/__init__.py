@@ -262,7 +262,7 @@ def _run_local(groups, sink, *, kind, cache_dir, use_cache, batch_size, info) ->
     from concurrent.futures.process import BrokenProcessPool
 
     try:
-        with _Collect(), _sigterm_ends(workers):
+        with _Collect(), _sigterm_ends(workers) if kind == "processes" else contextlib.nullcontext():
             results = get(dsk, keys, num_workers=n)
     except BrokenProcessPool as err:
         raise _worker_death(workers, sink) from err
