@@ -729,6 +729,8 @@ def test_long_lines_and_cells_are_read_in_linear_time_with_short_messages(tmp_pa
         assert len(msg) < 400 + len(path), msg
     digits = json.loads(proc.stdout)[paths[0]][1]
     assert re.search(r"must hold numbers; got '1{80}'\.\.\. \(20,000 characters\) at line 2", digits), digits
+    names = json.loads(proc.stdout)[paths[3]][1]
+    assert "got more than 10,000 names ('a', 'a', 'a', 'a', 'a', 'a', 'a', 'a', ...) instead." in names, names
 
 
 @pytest.mark.parametrize("pattern, text", [

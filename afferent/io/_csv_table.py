@@ -195,10 +195,11 @@ def _raise_header_count(path, line_no, ncols, text, delim, first_data):
         got = [t for _, _, t in _spans(text, _WS_TOKEN, True, limit=_MANY_NAMES)]
     else:
         got = _delimited_names(text, delim, limit=_MANY_NAMES)
-    n = f"more than {_MANY_NAMES:,}" if len(got) > _MANY_NAMES else len(got)
+    many = len(got) > _MANY_NAMES
+    n, listed = (f"more than {_MANY_NAMES:,}", _join_names(got[:8]) + ", ...") if many else (len(got), _join_names(got))
     raise SEDFormatError(
         f"The header row (line {line_no}) of SED file {path!r} must name each of the {ncols} columns "
-        f"of the first data row (line {first_data + 1}); got {n} names ({_join_names(got)}) instead."
+        f"of the first data row (line {first_data + 1}); got {n} names ({listed}) instead."
     )
 
 
