@@ -10,7 +10,8 @@ pattern), so ``except ValueError`` keeps working::
     ├── FieldCoverageError(AfferentError, ValueError)   receptors outside the FE field
     ├── OutputExistsError(AfferentError, FileExistsError)  refusing to overwrite results
     ├── OutputWriteError(AfferentError, OSError)         the disk refuses (full, read-only, ...)
-    └── CalibrationError(AfferentError, RuntimeError)   a calibration that cannot proceed
+    ├── CalibrationError(AfferentError, RuntimeError)   a calibration that cannot proceed
+    └── WorkerLostError(AfferentError, RuntimeError)    a sweep's worker process died (killed)
 
 Only :func:`afferent.cli.main` turns these into exit codes; the library never exits or prints.
 """
@@ -25,6 +26,7 @@ __all__ = [
     "OutputExistsError",
     "OutputWriteError",
     "CalibrationError",
+    "WorkerLostError",
     "AfferentWarning",
 ]
 
@@ -64,6 +66,10 @@ class OutputWriteError(AfferentError, OSError):
 
 class CalibrationError(AfferentError, RuntimeError):
     """A calibration cannot proceed (singular design, degenerate objective)."""
+
+
+class WorkerLostError(AfferentError, RuntimeError):
+    """A worker process of a sweep died (killed by a signal, or out of memory); the tasks done are kept."""
 
 
 class AfferentWarning(UserWarning):

@@ -8,6 +8,10 @@ and its subclasses, which the CLI turns into one line and exit 2). Anything else
 KeyError, a bare ValueError from numpy or pandas, a hang - is a finding: the fuzzer stops and
 writes the input as ``crash-<hash>``.
 
+The 'rst' target (ANSYS MAPDL results, the ``ansys`` extra) reads each input in a child
+process (about a second each; a native crash of ansys-mapdl-reader must come back as an
+error naming the signal); its seeds are the reader's shipped result file and cuts of it.
+
 Run (the seed corpus is built from the test files on first use)::
 
     .venv/bin/pip install atheris
@@ -42,6 +46,7 @@ TARGETS: list[tuple[str, str]] = [
     ("receptors", ".csv"), ("observed", ".csv"), ("waveform", ".csv"), ("scene", ".toml"), ("sed_table", ".csv"),
     ("exodus", ".e"),  # appended: existing findings keep their target (their first byte is below 15)
     ("med", ".med"),
+    ("rst", ".rst"),  # ANSYS MAPDL results (the 'ansys' extra); read in a child process, ~1 s an input
 ]
 
 
@@ -62,6 +67,11 @@ def _read(target: str, path: str) -> None:
         load_scene(path)
     elif target == "sed_table":
         read_receptor_sed(path)
+    elif target == "rst":
+        from afferent.io import FORMATS
+
+        if "rst" in FORMATS:  # S and EPEL: the exact SED, so that the tensors are read and checked too
+            afferent.read_sed(path, length_unit="mm", stress_unit="MPa", sed_from="exact", preset="ansys")
     else:
         from afferent.io import FORMATS
 
@@ -104,6 +114,20 @@ def _record(findings: str, data: bytes, err: Exception) -> None:
         (out / f"{kind}.txt").write_text(f"target: {target}\n" + "".join(traceback.format_exception(err)))
 
 
+def _rst_seeds() -> list[tuple[str, bytes]]:
+    """Seeds of the 'rst' target: the MAPDL result file ansys-mapdl-reader ships (917 kB, the only
+    real one at hand; too large for fuzz/seeds), its headers alone, its first 64 kB, and the file
+    with the word that made the reader's compiled code segfault (tests/test_io_rst.py)."""
+    try:
+        from ansys.mapdl.reader import examples
+    except ImportError:
+        return []
+    data = Path(examples.rstfile).read_bytes()
+    crash = bytearray(data)
+    crash[4 * 77476:4 * 77477] = (2**31 - 1).to_bytes(4, "little")
+    return [("file.rst", data), ("head.rst", data[:4096]), ("cut.rst", data[:65536]), ("crash.rst", bytes(crash))]
+
+
 def _seed_corpus(corpus: Path) -> None:
     """Prefix each test file with the byte that selects its target."""
     corpus.mkdir(parents=True, exist_ok=True)
@@ -127,6 +151,8 @@ def _seed_corpus(corpus: Path) -> None:
         for f in sorted(folder.rglob("*")):
             if f.is_file() and f.name.endswith(suffixes[target]) and f.stat().st_size < 200_000:
                 (corpus / f"{target}-{f.name}").write_bytes(bytes([names.index(target)]) + f.read_bytes())
+    for name, data in _rst_seeds():
+        (corpus / f"rst-{name}").write_bytes(bytes([names.index("rst")]) + data)
 
 
 def main() -> None:
@@ -148,6 +174,7 @@ def main() -> None:
     _seed_corpus(corpus)
     with atheris.instrument_imports(include=["afferent"]):
         import afferent  # noqa: F401
+        import afferent.io._ansys  # noqa: F401
         import afferent.io._assemble  # noqa: F401
         import afferent.io._csv  # noqa: F401
         import afferent.io._exodus  # noqa: F401

@@ -97,3 +97,36 @@ def test_a_modal_analysis_is_not_read_as_time_steps():
     raw = read_raw(RST)
     np.testing.assert_array_equal(raw.times, np.arange(6.0))
     assert any("the result sets are not steps in time: a modal (frequencies, Hz) analysis" in n for n in raw.notes)
+
+
+def _damaged(tmp_path, **words) -> str:
+    """The reader's shipped file with some 4-byte words replaced (word index -> value)."""
+    data = np.fromfile(RST, "<i4")
+    for index, value in words.items():
+        data[int(index[1:])] = value
+    path = tmp_path / "damaged.rst"
+    data.tofile(path)
+    return str(path)
+
+
+def test_a_file_that_crashes_the_readers_compiled_code_is_an_error_naming_the_signal(tmp_path):
+    """One word of the element data set to 2**31 - 1 made ansys-mapdl-reader segfault, ending this
+    process (found by corrupting the shipped file at random); the file is now read in a child process."""
+    bad = _damaged(tmp_path, w77476=2**31 - 1)
+    with pytest.raises(SEDFormatError, match=re.escape(
+            f"SED file {bad!r} could not be read as an ANSYS MAPDL result file: ansys-mapdl-reader's compiled code "
+            "crashed on it (signal 11, SIGSEGV")):
+        read_raw(bad)
+    assert main(["info", bad]) == 2  # and the command line says it in one line
+
+
+@pytest.mark.parametrize("words, what", [
+    ({"w115": 10**7}, "ptrDSI (word 10000000) points outside the file"),
+    ({"w116": 5}, "ptrTIM (word 5) points at a record of 20180321 words that does not fit in the file"),
+    ({"w192": 320}, "ptrNOD (word 192) points at a record of 320 words that does not end with its length"),
+])
+def test_records_the_header_points_at_are_checked_before_the_reader_sees_the_file(tmp_path, words, what):
+    bad = _damaged(tmp_path, **words)
+    with pytest.raises(SEDFormatError, match=re.escape(f"SED file {bad!r} is corrupt or truncated: its result "
+                                                       f"header's {what} (917504 bytes).")):
+        read_raw(bad)

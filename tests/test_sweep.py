@@ -282,3 +282,99 @@ def test_readme_sweep_example_runs_on_the_sample(tmp_path, monkeypatch, capsys):
     # golden: the README's numbers, from this example run with the exact LIF engine (deterministic)
     assert (n.loc[2e-3, 100.0], n.loc[1e-2, 300.0]) == (80, 273)
     assert "80 ... 273 spikes per task" in section
+
+
+# ------------------------------------------------------------- killed sweeps (issue 26, item 8)
+def _start_sweep_and_wait_for_workers(tmp_path):
+    """A real `afferent sweep` on the 'processes' engine, once two workers run; (process, its descendants)."""
+    import subprocess
+    import time
+
+    psutil = pytest.importorskip("psutil")
+    src = write_sweep(tmp_path, '"transduction.gamma_per_pa" = {start = 1e-3, stop = 1e-2, num = 40}\n'
+                                '"spikes.gain_ms" = {start = 100, stop = 300, num = 10}\n')
+    proc = subprocess.Popen([sys.executable, "-m", "afferent", "sweep", str(src), "-o", str(tmp_path / "out"),
+                             "--scheduler", "processes", "--no-cache", "-q"], stderr=subprocess.PIPE, text=True,
+                            cwd=ROOT)
+    parent, t0 = psutil.Process(proc.pid), time.monotonic()
+    while time.monotonic() - t0 < 180:
+        kids = parent.children(recursive=True)
+        workers = [k for k in kids if "resource_tracker" not in " ".join(k.cmdline())]
+        if len(workers) >= 2 or proc.poll() is not None:
+            break
+        time.sleep(0.1)
+    assert proc.poll() is None and len(workers) >= 2, proc.stderr.read() if proc.poll() is not None else kids
+    return proc, kids, workers
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("how", ["SIGTERM", "SIGKILL"])
+def test_a_killed_sweep_leaves_no_process_behind(tmp_path, how):
+    """Killing `afferent sweep` left its workers and the resource tracker running for good (~100 MB each)."""
+    import signal
+
+    import psutil
+
+    proc, kids, _ = _start_sweep_and_wait_for_workers(tmp_path)
+    proc.send_signal(getattr(signal, how))
+    code = proc.wait(30)
+    _, alive = psutil.wait_procs(kids, timeout=10)
+    for p in alive:  # do not leave them to the next test
+        p.kill()
+    assert not alive, [p.pid for p in alive]
+    assert code == (143 if how == "SIGTERM" else -signal.SIGKILL)  # SIGTERM: the handler ends the workers, exits
+
+
+@pytest.mark.slow
+def test_a_killed_worker_is_named_with_its_signal(tmp_path):
+    """A worker killed mid-sweep was reported as a script missing `if __name__ == '__main__'`."""
+    import signal
+
+    import psutil
+
+    proc, kids, workers = _start_sweep_and_wait_for_workers(tmp_path)
+    workers[0].send_signal(signal.SIGKILL)
+    code = proc.wait(60)
+    _, alive = psutil.wait_procs(kids, timeout=10)
+    for p in alive:
+        p.kill()
+    err = proc.stderr.read()
+    assert code == 2 and not alive, err
+    assert err.startswith("afferent: error: a sweep worker died (signal 9, SIGKILL) while running tasks"), err
+    assert "run the same sweep again to resume" in err and "__main__" not in err
+
+
+# --------------------------------------------------------- the task count (issue 26, item 7)
+def test_a_huge_sweep_is_counted_and_refused_before_anything_is_built(tmp_path, capsys):
+    """2 x 10^10 parameter sets were built in memory (MemoryError at 3.8 GB, exit 1)."""
+    import time
+
+    src = write_sweep(tmp_path, '"transduction.gamma_per_pa" = {start = 1e-3, stop = 1e-2, num = 100000}\n'
+                                '"spikes.gain_ms" = {start = 100, stop = 300, num = 200000}\n')
+    t = time.process_time()
+    assert main(["sweep", str(src), "-o", str(tmp_path / "out")]) == 2
+    assert time.process_time() - t < 2.0
+    err = capsys.readouterr().err
+    assert err.startswith(f"afferent: error: Sweep file {str(src)!r} makes 20,000,000,000 tasks (scene files x "
+                          "parameter sets); a sweep builds at most 100,000"), err
+    assert "--max-tasks 20000000000" in err and not (tmp_path / "out").exists()
+    one = write_sweep(tmp_path, '"spikes.gain_ms" = {start = 100, stop = 300, num = 10000000000}\n', name="one.toml")
+    with pytest.raises(SceneError, match="makes 10,000,000,000 tasks"):  # a range of 10^10 values: not allocated
+        load_sweep(one)
+
+
+def test_max_tasks_sets_the_limit_and_parameter_sets_are_made_one_at_a_time(tmp_path):
+    import types
+
+    from afferent._sweep import spec
+
+    src = write_sweep(tmp_path, SMALL)
+    with pytest.raises(SceneError, match=r"makes 4 tasks .*at most 3 .*max_tasks=4 \(afferent sweep --max-tasks 4\)"):
+        load_sweep(src, max_tasks=3)
+    assert len(load_sweep(src, max_tasks=4).tasks) == 4
+    with pytest.raises(ValueError, match="'max_tasks' must be a positive integer; got 0 instead"):
+        load_sweep(src, max_tasks=0)
+    params = {"a.b": ([1, 2], None), "c.d": (spec._Range(1.0, 4.0, 4, "log"), None)}
+    sets = spec._combinations(params, "product")
+    assert isinstance(sets, types.GeneratorType) and spec._n_combinations(params, "product") == 8
+    assert [s["c.d"] for s in sets][:4] == [float(v) for v in np.geomspace(1.0, 4.0, 4)]

@@ -62,6 +62,7 @@ import threading
 import time
 from dataclasses import dataclass, field
 
+from ._local import run_local
 from .spec import SweepSpec, Task, load_sweep
 from .table import COLUMNS, read_table
 
@@ -267,50 +268,6 @@ def _run_serial(groups, sink, *, cache_dir, use_cache, batch_size, info) -> None
             sink(engine.run_batch(sampled, b))
 
 
-def _run_local(groups, sink, *, kind, cache_dir, use_cache, batch_size, info) -> None:
-    from functools import partial
-
-    from dask.callbacks import Callback
-
-    from . import engine
-
-    n = os.cpu_count() or 1
-    dsk, keys, members = {}, [], {}
-    for gi, tasks in enumerate(groups.values()):
-        skey = f"sample-{gi}"
-        dsk[skey] = (partial(engine.sample, tasks[0].scene, cache_dir, use_cache),)
-        for bi, b in enumerate(engine.batches(tasks, n, batch_size)):
-            k = f"batch-{gi}-{bi}"
-            dsk[k] = (partial(engine.run_batch, tasks=b), skey)
-            keys.append(k)
-            members[k] = b
-
-    class _Collect(Callback):
-        def _posttask(self, key, result, dsk, state, worker_id):
-            if key in members:
-                sink(result)
-
-    if kind == "processes":
-        from dask.multiprocessing import get
-    else:
-        from dask.threaded import get
-    info.update(kind=f"dask-{kind}", workers=n, batches=len(keys), sampling_tasks=len(groups),
-                cache_shared=True, cache_why="local scheduler: every worker is on this machine and shares its disk")
-    from concurrent.futures.process import BrokenProcessPool
-
-    try:
-        with _Collect():
-            results = get(dsk, keys, num_workers=n)
-    except BrokenProcessPool as err:
-        main = getattr(sys.modules.get("__main__"), "__file__", None)
-        raise RuntimeError(
-            "The 'processes' scheduler's worker processes died before running a task. They start by importing "
-            f"the calling script{f' ({main!r})' if main else ''}: call afferent.sweep(...) under "
-            "'if __name__ == \"__main__\":' there, or pass scheduler='threads' or 'serial'.") from err
-    for k, recs in zip(keys, results):  # anything a callback missed
-        sink(recs)
-
-
 def _shared_disk(client, groups, cache_dir) -> tuple[bool, str]:
     """Whether every worker sees the export files and the cache folder as this process does."""
     import secrets
@@ -410,7 +367,7 @@ def _run_cluster(groups, sink, *, scheduler, cache_dir, use_cache, batch_size, s
 # ------------------------------------------------------------------------------- API
 def sweep(sources, output, *, scheduler=None, overwrite: bool = False, cache_dir=None, use_cache: bool = True,
           batch_size: int | None = None, shared_disk: bool | None = None, progress: bool = False,
-          record_extra: dict | None = None) -> SweepResult:
+          record_extra: dict | None = None, max_tasks: int | None = None) -> SweepResult:
     """Run a sweep: every scene x parameter set, each export read and sampled once; one tidy table.
 
     Parameters
@@ -443,6 +400,9 @@ def sweep(sources, output, *, scheduler=None, overwrite: bool = False, cache_dir
         A tqdm bar over tasks (locally), Dask's progress bar on a cluster.
     record_extra : dict, optional
         More entries for ``sweep.json`` (the command line).
+    max_tasks : int, optional
+        Most tasks the sweep may have (default 100,000):
+        counted before any task is built; more is refused (:func:`load_sweep`).
 
     Returns
     -------
@@ -477,7 +437,7 @@ def sweep(sources, output, *, scheduler=None, overwrite: bool = False, cache_dir
                            "it under 'if __name__ == \"__main__\":' (or pass scheduler='threads' or 'serial').")
     t0 = time.perf_counter()
     started = datetime.now(timezone.utc).isoformat(timespec="seconds")
-    spec = load_sweep(sources)
+    spec = load_sweep(sources, max_tasks=max_tasks)
     output = os.path.abspath(os.fspath(output))
     inputs = _inputs(spec)
     done = _prepare(output, spec, overwrite, inputs)
@@ -535,7 +495,7 @@ def _execute(spec: SweepSpec, where: str, done: dict, *, scheduler, cache_dir, u
         elif kind == "serial":
             _run_serial(groups, sink, cache_dir=cache_dir, use_cache=use_cache, batch_size=batch_size, info=info)
         elif kind in _LOCAL:
-            _run_local(groups, sink, kind=kind, cache_dir=cache_dir, use_cache=use_cache, batch_size=batch_size,
+            run_local(groups, sink, kind=kind, cache_dir=cache_dir, use_cache=use_cache, batch_size=batch_size,
                        info=info)
         else:
             _run_cluster(groups, sink, scheduler=kind, cache_dir=cache_dir, use_cache=use_cache, batch_size=batch_size,

@@ -37,6 +37,8 @@ def add_args(parser: argparse.ArgumentParser) -> None:
                         help="'processes' (default), 'threads', 'serial', or a Dask scheduler address (tcp://HOST:PORT)")
     parser.add_argument("--batch-size", type=int, metavar="N",
                         help="tasks per Dask task (default: about four batches per worker thread)")
+    parser.add_argument("--max-tasks", type=int, metavar="N",
+                        help="most tasks the sweep may have (default 100,000; counted before any is built)")
     parser.add_argument("--no-cache", action="store_true",
                         help="neither read nor write the sampled-SED cache ($AFFERENT_CACHE_DIR or ~/.cache/afferent)")
     add_output_options(parser, what="output folder (table, tasks/, sweep.json); an existing one of the same sweep is resumed")
@@ -52,7 +54,7 @@ def run(args: argparse.Namespace) -> int:
     command = None if argv is None else "afferent " + shlex.join(argv)
     res = sweep(args.sources, args.output, scheduler=args.scheduler, overwrite=args.overwrite,
                 use_cache=not args.no_cache, batch_size=args.batch_size, progress=show_progress(args),
-                record_extra={"command": command})
+                record_extra={"command": command}, max_tasks=args.max_tasks)
     if not args.quiet:
         eng = res.record.get("engine", {})
         print(f"afferent sweep: wrote {args.output}: {res.table_path.rsplit('/', 1)[-1]} ({len(res.table)} rows), "

@@ -8,6 +8,11 @@ stress = C : EPEL holds with G gamma, not 2G eps), each averaged at the nodes by
 post-processing as the reader returns it. MAPDL has no units: the user declares them. The
 implied preset is 'ansys'.
 
+The reader's compiled code can crash the interpreter on a damaged file (SIGSEGV, 'double free
+or corruption', ``std::bad_alloc``): the headers and the records they point at are checked
+first, then the file is read in a child Python process, whose death by a signal is reported as
+an error naming the file and the signal.
+
 Result sets are steps in time when their time values increase; a modal or harmonic analysis
 (whose "time" values are frequencies, possibly repeated) is read with steps numbered by set,
 as the note says.
@@ -58,10 +63,44 @@ def _check_header(path: str) -> None:
     if size < used:
         raise SEDFormatError(f"SED file {path!r} is truncated: its header says the file uses {used} bytes; it has "
                              f"{size} bytes.")
+    _check_records(path, words, size)
+
+
+#: Result header items (from word 105) that point at a record: ptrDSI, ptrTIM, ptrLSP, ptrELM, ptrNOD, ptrGEO.
+_POINTERS = {10: "ptrDSI", 11: "ptrTIM", 12: "ptrLSP", 13: "ptrELM", 14: "ptrNOD", 15: "ptrGEO"}
+
+
+def _check_records(path: str, words: np.ndarray, size: int) -> None:
+    """Each record the result header points at lies inside the file, as a Fortran record does: its
+    length ``n`` (4-byte words), a flag word, ``n`` words, then ``n`` again (verified on the
+    reader's shipped file). The 32-bit pointers address files up to 8 GiB; larger ones are left
+    to the reader."""
+    n_words = size // 4
+    if n_words >= 2**31:
+        return
+    data = np.memmap(path, dtype="<i4", mode="r", shape=(n_words,))
+    if data[0] != 100:  # a big-endian file (its header was byte-swapped to be read)
+        data = np.memmap(path, dtype=">i4", mode="r", shape=(n_words,))
+    for item, name in _POINTERS.items():
+        ptr = int(words[105 + item])
+        if ptr == 0:
+            continue
+        n = int(data[ptr]) if 0 < ptr < n_words else None
+        if n is None or not 0 <= n <= n_words - ptr - 3 or int(data[ptr + 2 + n]) != n:
+            what = ("points outside the file" if n is None else f"points at a record of {n} words that "
+                    + ("does not fit in the file" if not 0 <= n <= n_words - ptr - 3 else "does not end with its length"))
+            raise SEDFormatError(f"SED file {path!r} is corrupt or truncated: its result header's {name} (word {ptr}) "
+                                 f"{what} ({size} bytes).")
 
 
 def read_rst(path: str, *, progress: bool = False) -> RawExport:
     """Read an ANSYS MAPDL ``.rst`` result file.
+
+    The file's headers and the records its pointers name are checked first; then
+    ansys-mapdl-reader reads it in a child Python process, so that a crash of its compiled
+    code on a corrupt file (SIGSEGV, 'double free or corruption', ``std::bad_alloc``) ends the
+    child, and is reported as an error naming the file and the signal, instead of ending
+    this process.
 
     Parameters
     ----------
@@ -80,56 +119,21 @@ def read_rst(path: str, *, progress: bool = False) -> RawExport:
     Raises
     ------
     SEDFormatError
-        The optional reader is not installed, or the file is not a readable MAPDL result file.
+        The optional reader is not installed, or the file is not a readable MAPDL result file
+        (damaged headers or records, or the reader failed or crashed on it).
     """
-    from .._progress import progress_bar
     from ._meshio import cells_from_meshio
 
     if not os.path.isfile(path):
         raise FileNotFoundError(f"SED file {path!r} not found.")
     _check_header(path)
-    try:
-        from ansys.mapdl.reader import read_binary
-    except ImportError as err:
+    if not _reader_installed():
         raise SEDFormatError(
             f"SED file {path!r} is an ANSYS .rst result file; reading it needs the optional extra: "
             "pip install 'afferent-skin[ansys]' (ansys-mapdl-reader)."
-        ) from err
-    try:
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            rst = read_binary(path)
-            grid = rst.grid
-            node_numbers = np.asarray(grid.point_data["ansys_node_num"], dtype=np.int64)
-            points = np.asarray(grid.points, dtype=float)
-            blocks = []
-            for vtk_type, conn in grid.cells_dict.items():
-                ctype = _VTK_VOLUME.get(int(vtk_type))
-                if ctype is not None:
-                    k = {"tetra": 4, "hexahedron": 8, "wedge": 6, "pyramid": 5}.get(ctype, conn.shape[1])
-                    base = {"tetra10": "tetra", "hexahedron20": "hexahedron"}.get(ctype, ctype)
-                    blocks.append((base, np.asarray(conn)[:, :{"tetra": 4, "hexahedron": 8}.get(base, k)]))
-            order = np.argsort(node_numbers)
-            sets = range(rst.nsets)
-            stacks = {"U": [], "S": [], "EPEL": []}
-            for k in progress_bar(sets, enabled=progress, desc="reading rst", unit="set"):
-                for key, getter, ncomp in (("U", rst.nodal_displacement, 3), ("S", rst.nodal_stress, 6),
-                                           ("EPEL", rst.nodal_elastic_strain, 6)):
-                    nnum, values = getter(k)
-                    values = np.asarray(values, dtype=float)[:, :ncomp]
-                    full = np.full((points.shape[0], ncomp), np.nan)
-                    pos = np.searchsorted(node_numbers[order], np.asarray(nnum))
-                    full[order[pos]] = values
-                    stacks[key].append(full)
-            times = np.asarray(rst.time_values, dtype=float)
-            kan = int(getattr(rst, "_resultheader", {}).get("kan", 0))
-    except SEDFormatError:
-        raise
-    except Exception as err:
-        raise SEDFormatError(
-            f"SED file {path!r} could not be read as an ANSYS MAPDL result file (ansys-mapdl-reader): "
-            f"{type(err).__name__}: {err}"
-        ) from err
+        )
+    got = _read_in_child(path, progress)
+    points, blocks, stacks, times, kan = got["points"], got["blocks"], got["stacks"], got["times"], got["kan"]
 
     class _Block:
         def __init__(self, ctype, data):
@@ -150,3 +154,101 @@ def read_rst(path: str, *, progress: bool = False) -> RawExport:
     raw = RawExport(files=(path,), format="rst", points=points, arrays=arrays, times=times, cells=cells,
                     notes=tuple(notes), preset="ansys")
     return drop_valueless_nodes(raw)
+
+
+def _reader_installed() -> bool:
+    import importlib.util
+
+    try:
+        return importlib.util.find_spec("ansys.mapdl.reader") is not None
+    except (ImportError, ValueError):  # a parent package missing, or the module set to None (tests)
+        return False
+
+
+def _read_arrays(path: str, progress: bool) -> dict:
+    """What ansys-mapdl-reader reads of ``path`` (runs in the child process of :func:`_read_in_child`)."""
+    from ansys.mapdl.reader import read_binary
+
+    from .._progress import progress_bar
+
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            rst = read_binary(path)
+            grid = rst.grid
+            node_numbers = np.asarray(grid.point_data["ansys_node_num"], dtype=np.int64)
+            points = np.asarray(grid.points, dtype=float)
+            blocks = []
+            for vtk_type, conn in grid.cells_dict.items():
+                ctype = _VTK_VOLUME.get(int(vtk_type))
+                if ctype is not None:
+                    k = {"tetra": 4, "hexahedron": 8, "wedge": 6, "pyramid": 5}.get(ctype, conn.shape[1])
+                    base = {"tetra10": "tetra", "hexahedron20": "hexahedron"}.get(ctype, ctype)
+                    blocks.append((base, np.asarray(conn)[:, :{"tetra": 4, "hexahedron": 8}.get(base, k)]))
+            order = np.argsort(node_numbers)
+            stacks = {"U": [], "S": [], "EPEL": []}
+            for k in progress_bar(range(rst.nsets), enabled=progress, desc="reading rst", unit="set"):
+                for key, getter, ncomp in (("U", rst.nodal_displacement, 3), ("S", rst.nodal_stress, 6),
+                                           ("EPEL", rst.nodal_elastic_strain, 6)):
+                    nnum, values = getter(k)
+                    values = np.asarray(values, dtype=float)[:, :ncomp]
+                    full = np.full((points.shape[0], ncomp), np.nan)
+                    pos = np.searchsorted(node_numbers[order], np.asarray(nnum))
+                    full[order[pos]] = values
+                    stacks[key].append(full)
+            times = np.asarray(rst.time_values, dtype=float)
+            kan = int(getattr(rst, "_resultheader", {}).get("kan", 0))
+    except Exception as err:
+        raise SEDFormatError(
+            f"SED file {path!r} could not be read as an ANSYS MAPDL result file (ansys-mapdl-reader): "
+            f"{type(err).__name__}: {err}"
+        ) from err
+    return {"points": points, "blocks": blocks, "stacks": stacks, "times": times, "kan": kan}
+
+
+_CHILD = """
+import os, pickle, sys
+out = os.fdopen(os.dup(1), "wb")
+os.dup2(2, 1)  # whatever the libraries print goes to stderr, not into the pickle
+from afferent.io._ansys import _read_arrays
+try:
+    result = ("ok", _read_arrays(sys.argv[1], sys.argv[2] == "1"))
+except Exception as err:
+    result = ("error", err)
+pickle.dump(result, out, protocol=pickle.HIGHEST_PROTOCOL)
+out.close()
+"""
+
+
+def _read_in_child(path: str, progress: bool) -> dict:
+    """:func:`_read_arrays` in a child Python process; its death by a signal becomes an :class:`SEDFormatError`.
+
+    The child is a fresh interpreter (``sys.executable -c``, this package first on its path): it
+    imports neither the calling script nor anything else of this process. Cost: its start-up
+    (importing numpy and ansys-mapdl-reader), about a second.
+    """
+    import pickle
+    import signal
+    import subprocess
+    import sys
+
+    package_root = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join([package_root, *filter(None, [os.environ.get("PYTHONPATH")])]))
+    proc = subprocess.run([sys.executable, "-c", _CHILD, os.path.abspath(path), "1" if progress else "0"],
+                          stdout=subprocess.PIPE, stderr=None if progress else subprocess.PIPE, env=env)
+    if proc.returncode == 0:
+        status, value = pickle.loads(proc.stdout)
+        if status == "error":
+            raise value
+        return value
+    said = (proc.stderr or b"").decode("utf-8", "replace").strip().splitlines()
+    said = f"; it said {said[-1][:200]!r}" if said else ""
+    if proc.returncode < 0:
+        sig = -proc.returncode
+        name = signal.Signals(sig).name if sig in signal.Signals._value2member_map_ else "unknown signal"
+        raise SEDFormatError(
+            f"SED file {path!r} could not be read as an ANSYS MAPDL result file: ansys-mapdl-reader's compiled code "
+            f"crashed on it (signal {sig}, {name}{said}); the file is corrupt or truncated, or not a result file "
+            "this reader knows.")
+    raise SEDFormatError(f"SED file {path!r} could not be read as an ANSYS MAPDL result file: the process reading it "
+                         f"with ansys-mapdl-reader exited with code {proc.returncode}{said}.")

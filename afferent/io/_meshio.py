@@ -374,7 +374,7 @@ def raw_from_mesh(mesh, path: str, fmt: str, components: dict, notes: list, *, r
 
 
 _DATA_ARRAY = re.compile(rb"<DataArray\b[^>]*>")
-_ATTR = re.compile(rb'(\w+)="([^"]*)"')
+_ATTR = re.compile(rb'\b(\w+)="([^"]*)"')  # \b: linear on a long run of letters
 
 
 def _check_cell_data_lengths(path: str) -> None:

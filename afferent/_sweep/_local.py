@@ -1,0 +1,112 @@
+"""Sweeps on this machine's Dask schedulers (threads, processes): the task graph, the workers' lives.
+
+The worker processes die with the sweep (``engine.worker_init``); SIGTERM ends them at once
+(:func:`_sigterm_ends`); a worker killed on its own is named with its signal (:func:`_worker_death`).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import multiprocessing
+import os
+import sys
+import threading
+
+__all__ = ["run_local"]
+
+
+def run_local(groups, sink, *, kind, cache_dir, use_cache, batch_size, info) -> None:
+    from functools import partial
+
+    from dask.callbacks import Callback
+
+    from . import engine
+
+    n = os.cpu_count() or 1
+    dsk, keys, members = {}, [], {}
+    for gi, tasks in enumerate(groups.values()):
+        skey = f"sample-{gi}"
+        dsk[skey] = (partial(engine.sample, tasks[0].scene, cache_dir, use_cache),)
+        for bi, b in enumerate(engine.batches(tasks, n, batch_size)):
+            k = f"batch-{gi}-{bi}"
+            dsk[k] = (partial(engine.run_batch, tasks=b), skey)
+            keys.append(k)
+            members[k] = b
+
+    workers: dict = {}  # pid -> multiprocessing process: the 'processes' workers seen running
+
+    class _Collect(Callback):
+        def _pretask(self, key, dsk, state):
+            if kind == "processes":
+                workers.update((p.pid, p) for p in multiprocessing.active_children())
+
+        def _posttask(self, key, result, dsk, state, worker_id):
+            if key in members:
+                sink(result)
+
+    if kind == "processes":
+        from dask.multiprocessing import get
+
+        get = partial(get, initializer=partial(engine.worker_init, os.getpid()))  # workers die with this process
+    else:
+        from dask.threaded import get
+    info.update(kind=f"dask-{kind}", workers=n, batches=len(keys), sampling_tasks=len(groups),
+                cache_shared=True, cache_why="local scheduler: every worker is on this machine and shares its disk")
+    from concurrent.futures.process import BrokenProcessPool
+
+    try:
+        with _Collect(), _sigterm_ends(workers) if kind == "processes" else contextlib.nullcontext():
+            results = get(dsk, keys, num_workers=n)
+    except BrokenProcessPool as err:
+        raise _worker_death(workers, sink) from err
+    for k, recs in zip(keys, results):  # anything a callback missed
+        sink(recs)
+
+
+@contextlib.contextmanager
+def _sigterm_ends(workers: dict):
+    """While local workers run (called in the main thread): SIGTERM kills them, then exits (code 143).
+
+    The workers also die with this process by themselves (:func:`engine.worker_init`); this lets
+    the ``finally`` clauses run (the records written so far are kept) and the exit come at once.
+    """
+    import signal
+
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def on_sigterm(signum, frame):
+        for p in list(workers.values()):
+            if p.exitcode is None:
+                p.kill()
+        raise SystemExit(128 + signum)
+
+    previous = signal.signal(signal.SIGTERM, on_sigterm)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+
+
+def _worker_death(workers: dict, sink) -> Exception:
+    """The error for a broken process pool: a worker killed while running tasks (its signal), or workers
+    that could not start (an unguarded calling script)."""
+    import signal
+
+    from ..exceptions import WorkerLostError
+
+    codes = [p.exitcode for p in workers.values() if p.exitcode]
+    killed = [-c for c in codes if c < 0]
+    if killed:  # the pool ends the other workers with SIGTERM: the odd one out is the cause
+        sig = next((s for s in killed if s != signal.SIGTERM), killed[0])
+        name = signal.Signals(sig).name if sig in signal.Signals._value2member_map_ else "?"
+        return WorkerLostError(
+            f"a sweep worker died (signal {sig}, {name}) while running tasks (killed, or out of memory?); "
+            f"{len(sink.seen)} task(s) finished and are kept in {sink.output!r}: run the same sweep again to resume.")
+    main = getattr(sys.modules.get("__main__"), "__file__", None)
+    return RuntimeError(
+        "The 'processes' scheduler's worker processes died before running a task"
+        + (f" (exit codes {sorted(set(codes))})" if codes else "") + ". They start by importing "
+        f"the calling script{f' ({main!r})' if main else ''}: call afferent.sweep(...) under "
+        "'if __name__ == \"__main__\":' there, or pass scheduler='threads' or 'serial'.")
