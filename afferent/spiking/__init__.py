@@ -139,7 +139,7 @@ from ._exact import _pieces, _run_exact_numba, _run_exact_numpy
 from ._grid import _peak_current, _plan, _run_brian2, _run_numba, _run_numpy, _silent
 from ._group import _numba_available
 from ._params import _MAX_DRIVE_V, LIFParams, _refractory_steps, grid_isi_bounds
-from ._trains import SpikeTrains, split_trains
+from ._trains import SpikeTrains, spread_counts
 
 __all__ = [
     "LIFParams",
@@ -184,10 +184,11 @@ INPUT_HOLDS = ("previous", "linear")
 # --------------------------------------------------------------------------------------------
 
 
-def _check_drive(values: np.ndarray, params: LIFParams) -> None:
-    if not values.size:
+def _check_drive(extremes: tuple, params: LIFParams) -> None:
+    """``extremes``: (smallest, largest) current of each afferent, A."""
+    if not extremes[0].size:
         return
-    peak = max(float(values.max()), -float(values.min()))  # no |values| temporary
+    peak = max(float(extremes[1].max()), -float(extremes[0].min()))
     if not peak * params.r_m < _MAX_DRIVE_V:
         worst = peak * params.r_m
         raise ValueError(
@@ -232,10 +233,12 @@ def _simulate_exact(current, params: LIFParams, *, dt, engine: str, duration, ti
     n_aff = values.shape[1]
     if backend is None:
         backend = "numba" if _numba_repays(pc.starts.size, n_aff) else "numpy"
-    _check_drive(values, params)
+    _check_drive(pc.extremes, params)
     n_pieces = pc.starts.size
     if hold == "linear" and n_pieces:  # the drive reaches the next sample's value at the piece's end
         peak = values[: int(pc.nxt[-1]) + 1].max(axis=0) if n_aff else np.zeros(0)
+    elif n_pieces == values.shape[0]:
+        peak = pc.extremes[1]
     else:
         peak = values[:n_pieces].max(axis=0) if n_aff else np.zeros(0)
     # The exact engine fires only where the drive exceeds theta: no rounding margin needed.
@@ -259,9 +262,9 @@ def _simulate_exact(current, params: LIFParams, *, dt, engine: str, duration, ti
         times_s, counts = _run_exact_numba(pc, cols, params, peak[cols])
     else:
         times_s, counts = _run_exact_numpy(pc, cols, params)
-    trains = split_trains(times_s, counts, cols, n_aff)
     return SpikeTrains(
-        spike_times=trains,
+        t=times_s,
+        counts=spread_counts(counts, cols, n_aff),
         afferent_ids=pc.afferent_ids,
         duration=pc.t_stop - pc.t_start,
         dt=0.0,
@@ -376,7 +379,7 @@ def simulate_lif(current, params: LIFParams, *, dt: float | None = None, engine:
     values = plan.values
     n_aff = values.shape[1]
 
-    _check_drive(values, params)
+    _check_drive(plan.extremes, params)
 
     if engine == "fast":
         backend = "numba" if _numba_available() else "numpy"
@@ -416,10 +419,9 @@ def simulate_lif(current, params: LIFParams, *, dt: float | None = None, engine:
     times_s = steps * plan.dt
     if plan.t_start:
         times_s += plan.t_start
-    trains = split_trains(times_s, counts, cols, n_aff)
-
     return SpikeTrains(
-        spike_times=trains,
+        t=times_s,
+        counts=spread_counts(counts, cols, n_aff),
         afferent_ids=plan.afferent_ids,
         duration=plan.n_steps * plan.dt,
         dt=plan.dt,

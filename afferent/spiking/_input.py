@@ -25,7 +25,8 @@ def _as_current(current, times):
 
 
 def _read_input(current, times):
-    """Validated (values (n_times, n_afferents) float64, times (n_times,) or None, afferent ids)."""
+    """Validated (values (n_times, n_afferents) float64, times (n_times,) or None, afferent ids,
+    (smallest, largest) value of each afferent in A: one pass each, reused by the engines)."""
     values, times, ids = _as_current(current, times)
     try:
         arr = np.asarray(values, dtype=np.float64)
@@ -39,7 +40,8 @@ def _read_input(current, times):
     if arr.shape[0] == 0:
         raise ValueError(f"'current' must have at least one time step; got shape {arr.shape} instead.")
     # max/min propagate NaN and inf: a cheap, temporary-free test before locating any culprit
-    if arr.size and not (np.isfinite(arr.max()) and np.isfinite(arr.min())):
+    extremes = (arr.min(axis=0), arr.max(axis=0))
+    if arr.size and not (np.isfinite(extremes[0]).all() and np.isfinite(extremes[1]).all()):
         bad = ~np.isfinite(arr)
         first = tuple(int(i) for i in np.argwhere(bad)[0])
         kind = "NaN" if np.isnan(arr[first]) else "infinite"
@@ -74,5 +76,5 @@ def _read_input(current, times):
                 f"'afferent_ids' of the current must have shape (n_afferents,) = ({arr.shape[1]},); "
                 f"got shape {ids.shape} instead."
             )
-    return arr, t, ids
+    return arr, t, ids, extremes
 
