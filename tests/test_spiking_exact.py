@@ -601,3 +601,24 @@ def test_spikes_are_flat_arrays_with_per_afferent_views():
                                          r"spike times 3; got shape \(2,\) summing to 2 instead\."):
         spiking.SpikeTrains(t=[0.1, 0.2, 0.3], counts=[1, 1], afferent_ids=[0, 1], duration=1.0, dt=0.0,
                             engine="exact", backend="numpy", silent_skipped=[], params=ODD)
+
+
+@pytest.mark.slow
+def test_the_compiled_exact_kernel_is_cached_on_disk_for_the_next_process(tmp_path):
+    """numba compiles the exact kernel once; a fresh process loads it from the cache (issue 23:
+    the first run of a process must not pay the compile, 3-8 s on the development machine)."""
+    import os
+    import subprocess
+    import sys
+
+    pytest.importorskip("numba")
+    code = (
+        "import numpy as np; from afferent.spiking import simulate_lif, LIF_PRESETS; from afferent.spiking import _exact\n"
+        "simulate_lif(np.full((3, 2), 1e-4), LIF_PRESETS['ra'], dt=1e-3, engine='exact-numba')\n"
+        "s = _exact._numba_exact().stats; print(len(s.cache_hits), len(s.cache_misses))"
+    )
+    env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path))
+    runs = [subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True).stdout.split()
+            for _ in range(2)]
+    assert runs == [["0", "1"], ["1", "0"]]  # compiled and saved, then loaded
+    assert any(name.endswith(".nbi") for _, _, files in os.walk(tmp_path) for name in files)

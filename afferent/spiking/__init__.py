@@ -30,12 +30,16 @@ Three engines:
     (V - v_thresh is convex or concave in time, so it has a single upward crossing in a
     bracket that ends at the piece's end or at the maximum of V) and found by Newton's method
     started on the side from which it converges monotonically. The cost is one pass over the
-    samples plus a log per spike: numba (the afferents split in blocks over one thread per
-    core, with identical results) when it is installed and the run repays its import (numba
-    already imported, or the numpy loop estimated above :data:`NUMBA_FROM_S`: importing numba
-    and loading the compiled loop costs 0.4-1 s, more than a small scene's whole simulation),
-    else numpy (``'exact-numba'`` / ``'exact-numpy'`` force a back end; the two agree to
-    ~1e-13 s; the result's ``backend`` says which ran).
+    samples plus at most a log per spike (a steady drive firing again and again from
+    ``v_reset`` reuses the last one): numba, a dependency, its kernel compiled once and cached
+    on disk (one afferent at a time, the afferents split in blocks over one thread per core,
+    with identical results) when the run repays its load (numba already imported, or the
+    numpy loop estimated above :data:`NUMBA_FROM_S`: importing numba and loading the cached
+    kernel costs 0.4-1 s, more than a small scene's whole simulation), else numpy
+    (``'exact-numba'`` / ``'exact-numpy'`` force a back end; the two agree to ~1e-13 s; the
+    result's ``backend`` says which ran). The spikes come back flat, as brian2's
+    ``SpikeMonitor`` gives them (``SpikeTrains.t``, ``SpikeTrains.i``), with
+    per-afferent views on demand.
 ``'fast'``
     Exact exponential integration per step of a clock grid ``dt``, vectorised over afferents
     with a loop over time steps: numba when it is installed (``pip install

@@ -32,10 +32,10 @@ def _readonly(a: np.ndarray) -> np.ndarray:
 class SpikeTrains:
     """Spike times of a population of afferents, from :func:`simulate_lif`.
 
-    The spikes are stored flat, as brian2's ``SpikeMonitor`` stores them: :attr:`t`, every
-    spike time in s, and :attr:`i`, the afferent (0-based position) of each spike; here grouped
-    by afferent, each afferent's spikes in time order. :attr:`spike_times` gives one array per
-    afferent, as views into :attr:`t` made on first use (:meth:`train` gives one).
+    The spikes are stored flat, as brian2's ``SpikeMonitor`` stores them: ``t``, every
+    spike time in s, and ``i``, the afferent (0-based position) of each spike; here grouped
+    by afferent, each afferent's spikes in time order. ``spike_times`` gives one array per
+    afferent, as views into ``t`` made on first use (``train`` gives one).
 
     Parameters
     ----------
@@ -75,7 +75,7 @@ class SpikeTrains:
     Notes
     -----
     Arrays are read-only; the object compares by identity (``eq=False``).
-    :meth:`from_trains` builds one from one array of spike times per afferent.
+    ``from_trains`` builds one from one array of spike times per afferent.
     """
 
     t: np.ndarray
@@ -119,17 +119,17 @@ class SpikeTrains:
 
     @property
     def i(self) -> np.ndarray:
-        """Afferent (0-based position) of each spike of :attr:`t`, ndarray of int64."""
+        """Afferent (0-based position) of each spike of ``t``, ndarray of int64."""
         return np.repeat(np.arange(self.n_afferents), self.counts)
 
     def train(self, k: int) -> np.ndarray:
-        """Spike times in s of the afferent at position ``k`` (a read-only view into :attr:`t`)."""
+        """Spike times in s of the afferent at position ``k`` (a read-only view into ``t``)."""
         lo, hi = self._offsets[k], self._offsets[k + 1]
         return self.t[lo:hi]
 
     @cached_property
     def spike_times(self) -> tuple:
-        """One sorted array of spike times in s per afferent (read-only views into :attr:`t`)."""
+        """One sorted array of spike times in s per afferent (read-only views into ``t``)."""
         return tuple(np.split(self.t, self._offsets[1:-1]))
 
     @property
