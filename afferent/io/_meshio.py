@@ -212,11 +212,13 @@ _ATTR = re.compile(rb'(\w+)="([^"]*)"')
 def _vtu_component_names(path: str) -> dict[str, tuple[str, ...]]:
     """``{array name: (ComponentName0, ...)}`` from a VTU's DataArray tags (ccx2paraview writes
     ``XX YY ZZ XY YZ ZX`` for S and E); arrays without names are left out."""
-    with open(path, "rb") as fh:
-        text = fh.read()
+    import mmap
+
+    with open(path, "rb") as fh, mmap.mmap(fh.fileno(), 0, access=mmap.ACCESS_READ) as mm:
+        if mm.find(b"ComponentName") < 0:  # most files: one scan of the mapped file, no copy, no tag parsed
+            return {}
+        text = mm[:]
     first = text.find(b"ComponentName")
-    if first < 0:  # most files: one scan, no tag parsed
-        return {}
     end = text.find(b"<AppendedData", first)
     end = len(text) if end < 0 else end
     out = {}
