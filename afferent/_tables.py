@@ -32,7 +32,7 @@ def _plain_table(path: str):
     header and as many cells on every row, no quotes, distinct non-empty names, data rows), else
     None: :func:`read_table` then reads it with pandas, which handles (and words) the rest."""
     try:
-        with open(path, encoding="utf-8") as f:
+        with open(path, encoding="utf-8-sig") as f:  # a byte-order mark is dropped, as pandas does
             text = f.read()
     except (UnicodeDecodeError, OSError):
         return None

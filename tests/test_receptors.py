@@ -474,6 +474,8 @@ def test_a_plain_receptor_csv_is_read_without_pandas(tmp_path):
     (tmp_path / "bad.csv").write_text("x,y,z\n1,2,3\n4,n/a,6\n")
     with pytest.raises(SEDFormatError, match=r"column 'y' must hold finite numbers; got 'n/a' on data row 2 instead\."):
         read_receptors(tmp_path / "bad.csv", length_unit="mm")
+    (tmp_path / "bom.csv").write_bytes(b"\xef\xbb\xbfx,y,z\n1,2,3\n")  # a byte-order mark (Excel) is not a name
+    assert read_receptors(tmp_path / "bom.csv", length_unit="m").positions.tolist() == [[1.0, 2.0, 3.0]]
     (tmp_path / "quoted.csv").write_text('x,y,z\n"1",2,3\n')  # not plain: pandas reads it
     assert _tables._plain_table(str(tmp_path / "quoted.csv")) is None
     assert read_receptors(tmp_path / "quoted.csv", length_unit="m").positions.tolist() == [[1.0, 2.0, 3.0]]
