@@ -203,8 +203,9 @@ def _check_drive(extremes: tuple, params: LIFParams) -> None:
 #: The exact engine's ``'exact'`` (``'auto'``) back end is numba only when the numpy loop is
 #: estimated to take longer than this (s), or numba is already imported: a fresh ``import
 #: numba`` plus loading the cached compiled loop costs 0.4-1 s on the development machine,
-#: while the numpy loop costs about 10 us per input sample plus 25 ns per sample and afferent
-#: (measured: 23,000 samples x 3 afferents 0.22 s, 1,000 x 12,500 0.28 s).
+#: while the numpy loop costs about 10 us per input sample plus 50 ns per sample and afferent
+#: (measured: 23,000 samples x 3 afferents 0.22 s; 1,001 x 12,500 ramp-and-hold, 3.7 M spikes,
+#: 0.63-0.65 s CPU against 0.17 s on numba plus 0.54 s to import it and load its kernel).
 NUMBA_FROM_S = 0.5
 
 
@@ -216,7 +217,7 @@ def _numba_repays(n_pieces: int, n_afferents: int) -> bool:
     if "numba" in sys.modules:
         return _numba_available()
     # find_spec, not an import: importing is the cost being avoided
-    return n_pieces * (1e-5 + 2.5e-8 * n_afferents) > NUMBA_FROM_S and importlib.util.find_spec("numba") is not None
+    return n_pieces * (1e-5 + 5e-8 * n_afferents) > NUMBA_FROM_S and importlib.util.find_spec("numba") is not None
 
 
 def _simulate_exact(current, params: LIFParams, *, dt, engine: str, duration, times, hold: str) -> SpikeTrains:
