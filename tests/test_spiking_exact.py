@@ -17,7 +17,7 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 
 from afferent import spiking
@@ -518,6 +518,9 @@ def test_property_no_spike_below_rheobase(fraction, u_frac, preset, engine):
     hold=st.sampled_from(["previous", "linear"]),
     preset=st.sampled_from(["ra", "sa1", "odd"]),
 )
+# numpy and numba 3.6e-12 s apart (found by hypothesis; the same before issue 23's kernel): a drive
+# just above threshold turns the back ends' 1-ulp differences in u into picoseconds
+@example(seed=65629, low=-10.408105282836404, high=0.0, hold="previous", preset="sa1")
 def test_property_intervals_at_least_t_ref_and_rate_bounded(seed, low, high, hold, preset):
     """Random sample times and currents over 14 decades (10 % negative): spike times increasing, in the
     window, separated by >= t_ref + T(v_reset) at the peak drive (>= t_ref), so the rate <= 1 / t_ref;
@@ -546,7 +549,7 @@ def test_property_intervals_at_least_t_ref_and_rate_bounded(seed, low, high, hol
         other = simulate_lif(cur, p, engine="exact-numba", times=times, input_hold=hold)
         for a, b in zip(trains.spike_times, other.spike_times):
             assert a.size == b.size
-            np.testing.assert_allclose(a, b, rtol=0, atol=1e-12)
+            np.testing.assert_allclose(a, b, rtol=0, atol=1e-11)
 
 
 # ---------------------------------------------------------------------------------------------

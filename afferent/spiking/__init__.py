@@ -36,8 +36,8 @@ Three engines:
     with identical results) when the run repays its load (numba already imported, or the
     numpy loop estimated above :data:`NUMBA_FROM_S`: importing numba and loading the cached
     kernel costs 0.4-1 s, more than a small scene's whole simulation), else numpy
-    (``'exact-numba'`` / ``'exact-numpy'`` force a back end; the two agree to ~1e-13 s; the
-    result's ``backend`` says which ran). The spikes come back flat, as brian2's
+    (``'exact-numba'`` / ``'exact-numpy'`` force a back end; the two agree to ~1e-13 s, to a
+    few ps where the drive is barely above threshold; the result's ``backend`` says which ran). The spikes come back flat, as brian2's
     ``SpikeMonitor`` gives them (``SpikeTrains.t``, ``SpikeTrains.i``), with
     per-afferent views on demand.
 ``'fast'``
