@@ -7,10 +7,54 @@ import os
 
 from .exceptions import SEDFormatError
 
-__all__ = ["read_table", "numeric_columns"]
+__all__ = ["read_table", "numeric_columns", "TextTable"]
 
 
-def read_table(path, *, what: str, expected: str, as_text: bool = False):
+class TextTable:
+    """A small CSV read as text cells without pandas (whose import costs more than reading a
+    few hundred rows): ``columns`` (names as written), ``len()`` rows, ``table[name]`` a list of
+    the column's cells as written (leading spaces dropped)."""
+
+    def __init__(self, columns: list, rows: list):
+        self.columns = columns
+        self._rows = rows
+
+    def __len__(self) -> int:
+        return len(self._rows)
+
+    def __getitem__(self, name) -> list:
+        k = self.columns.index(name)
+        return [row[k] for row in self._rows]
+
+
+def _plain_table(path: str):
+    """The file as a :class:`TextTable` when it is plainly a table (UTF-8, one of ``,;\\t`` in the
+    header and as many cells on every row, no quotes, distinct non-empty names, data rows), else
+    None: :func:`read_table` then reads it with pandas, which handles (and words) the rest."""
+    try:
+        with open(path, encoding="utf-8-sig") as f:  # a byte-order mark is dropped, as pandas does
+            text = f.read()
+    except (UnicodeDecodeError, OSError):
+        return None
+    if '"' in text or "'" in text or "\r" in text:
+        return None
+    lines = [line.split("#", 1)[0] for line in text.split("\n")]
+    lines = [line for line in lines if line.strip()]
+    if len(lines) < 2 or any(not line[:1].strip() for line in lines):  # blank or indented: pandas decides
+        return None
+    seps = [s for s in ",;\t" if s in lines[0]]
+    if len(seps) != 1:
+        return None
+    rows = [[cell.lstrip(" ") for cell in line.split(seps[0])] for line in lines]
+    names = rows[0]
+    if any(len(r) != len(names) for r in rows) or any(not n.strip() for n in names):
+        return None
+    if len({n.strip().lower() for n in names}) != len(names):
+        return None
+    return TextTable(names, rows[1:])
+
+
+def read_table(path, *, what: str, expected: str, as_text: bool = False, frame: bool = True):
     """Read a small CSV (comma, semicolon, tab or whitespace; ``#`` comments) into a DataFrame.
 
     Parameters
@@ -22,10 +66,13 @@ def read_table(path, *, what: str, expected: str, as_text: bool = False):
         The columns expected, for the message about an empty file, e.g. ``'x, y, z'``.
     as_text : bool, default=False
         Keep every cell as text (so that a later error can quote a cell as written).
+    frame : bool, default=True
+        With ``as_text``, False allows a :class:`TextTable` instead of a DataFrame when the file
+        is plainly a table (read without importing pandas); :func:`numeric_columns` takes both.
 
     Returns
     -------
-    df : pandas.DataFrame
+    df : pandas.DataFrame (or TextTable: see ``frame``)
     columns : dict
         Lower-cased, stripped column name -> column name as written.
 
@@ -37,14 +84,17 @@ def read_table(path, *, what: str, expected: str, as_text: bool = False):
         ``"<what> '<path>' is empty; expected columns <expected>."`` or
         ``"<what> '<path>' could not be parsed as CSV: <reason>"``.
     """
+    path = os.fspath(path)
+    if not os.path.isfile(path):
+        raise FileNotFoundError(f"{what} {path!r} not found.")
+    table = None if frame or not as_text else _plain_table(path)
+    if table is not None:
+        return table, {str(c).strip().lower(): c for c in table.columns}
     import csv
     import re
 
     import pandas as pd
 
-    path = os.fspath(path)
-    if not os.path.isfile(path):
-        raise FileNotFoundError(f"{what} {path!r} not found.")
     kwargs = dict(dtype=str, keep_default_na=False) if as_text else {}
     try:
         df = pd.read_csv(path, sep=None, engine="python", comment="#", skipinitialspace=True, **kwargs)
@@ -71,14 +121,18 @@ def numeric_columns(df, columns, *, what: str, path):
         ``"<what> '<path>': column 'c' must hold finite numbers; got '<cell as written>' on data row N instead."``
     """
     import numpy as np
-    import pandas as pd
 
     columns = list(columns)
-    data = df[columns].apply(pd.to_numeric, errors="coerce").to_numpy(float)
+    if isinstance(df, TextTable):
+        data = np.array([[_number(cell) for cell in df[c]] for c in columns], dtype=float).T.reshape(len(df), -1)
+    else:
+        import pandas as pd
+
+        data = df[columns].apply(pd.to_numeric, errors="coerce").to_numpy(float)
     bad = ~np.isfinite(data)
     if bad.any():
         row, col = (int(i) for i in np.argwhere(bad)[0])
-        cell = df.iloc[row][columns[col]]
+        cell = df[columns[col]][row] if isinstance(df, TextTable) else df.iloc[row][columns[col]]
         cell = cell.item() if hasattr(cell, "item") else cell
         cell = cell.strip() if isinstance(cell, str) else cell
         raise SEDFormatError(
@@ -86,3 +140,11 @@ def numeric_columns(df, columns, *, what: str, path):
             f"got {cell!r} on data row {row + 1} instead."
         )
     return data
+
+
+def _number(cell: str) -> float:
+    """A cell as a float as pandas.to_numeric reads it, NaN when it is not a plain number."""
+    try:
+        return float(cell) if "_" not in cell else float("nan")
+    except ValueError:
+        return float("nan")

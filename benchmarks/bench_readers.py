@@ -7,6 +7,10 @@ Exodus, SfePy, and the MAPDL file ansys-mapdl-reader ships), ``afferent.io.read_
 (first call, including the reader's imports, then the best of 5). With ``ccx`` on the PATH a
 C3D8 version of tests/data/calculix's model with N x N x N/2 elements is solved and its .frd
 read (the default N = 40 gives 35,301 nodes and a 34 MB file).
+
+``--vs-meshio FILE.vtu``: instead, ``afferent.read_sed`` against meshio's bare read of the same
+VTU (``meshio.vtu.read``), in turn 9 times each after a warm-up: CPU-time medians and the
+median of the pairwise ratios.
 """
 
 from __future__ import annotations
@@ -48,10 +52,36 @@ def _once(path) -> float:
     return time.perf_counter() - t
 
 
+def vs_meshio(path: str) -> None:
+    """read_sed against meshio's bare read of the same file, interleaved, CPU time."""
+    import meshio
+    import numpy as np
+
+    import afferent
+
+    print(f"$ python benchmarks/bench_readers.py --vs-meshio {path}")
+    pairs = []
+    for k in range(10):
+        t = time.process_time()
+        meshio.vtu.read(path)
+        m = time.process_time() - t
+        t = time.process_time()
+        field = afferent.read_sed(path, length_unit="mm", sed_unit="MPa")
+        a = time.process_time() - t
+        if k:  # the first pair warms up
+            pairs.append((m, a))
+    m, a = np.median(pairs, axis=0)
+    print(f"{os.path.basename(path)} ({os.path.getsize(path) / 1e6:.1f} MB, {field.n_points:,} nodes): meshio {m:.3f} s, "
+          f"read_sed {a:.3f} s CPU (medians of 9); read_sed / meshio {np.median([p[1] / p[0] for p in pairs]):.2f}")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--frd-elements", type=int, default=40, help="elements across the block for the large .frd")
+    parser.add_argument("--vs-meshio", metavar="VTU", help="read_sed against meshio's bare read of this file")
     args = parser.parse_args()
+    if args.vs_meshio:
+        return vs_meshio(args.vs_meshio)
     print(f"$ python benchmarks/bench_readers.py --frd-elements {args.frd_elements}")
     files = [ROOT / f for f in FILES]
     try:

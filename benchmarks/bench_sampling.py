@@ -9,6 +9,11 @@ inside the block (seeded). For each method we time building the weights (once) a
 them to every time step (``apply_s``: all steps), and report the error against the analytic value
 over every step: the measurement of ``afferent report`` (:func:`afferent.report.measure_sampling`),
 here on a larger mesh.
+
+``--scattered N``: instead, linear sampling on the bundled COMSOL point table (22,099 points,
+no connectivity: a Delaunay tetrahedralisation locates the receptors), N receptors drawn
+anywhere in its bounding box (and 10 % beyond in every direction), 5 seeds: CPU time of
+building the sampler (median and max) and how many receptors fell outside.
 """
 
 from __future__ import annotations
@@ -35,12 +40,39 @@ def analytic(p_mm):
     return 100.0 * (1 + 0.5 * np.sin(2 * np.pi * x / 0.88) * np.cos(2 * np.pi * z / 0.88)) * np.exp(y / 3.1)
 
 
+def scattered(n_receptors: int) -> None:
+    """CPU time of linear sampling on the bundled COMSOL table, receptors anywhere."""
+    import warnings
+
+    from afferent.sampling import build_sampler
+
+    path = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "sample_sed", "block4",
+                        "indent_0p88mm_comsol.csv")
+    field = afferent.read_sed(path, length_unit="mm", sed_unit="Pa")
+    lo, hi = field.points.min(axis=0), field.points.max(axis=0)
+    print(f"# command: python benchmarks/bench_sampling.py --scattered {n_receptors}")
+    print(f"# {os.path.basename(path)}: {field.n_points:,} points; {n_receptors} receptors uniform in the box +-10 %")
+    cpus = []
+    for seed in range(5):
+        pos = np.random.default_rng(seed).uniform(lo - 0.1 * (hi - lo), hi + 0.1 * (hi - lo), (n_receptors, 3))
+        t = time.process_time()
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            s = build_sampler(field, ReceptorLayout(pos), method="linear")
+        cpus.append(time.process_time() - t)
+        print(f"seed {seed}: build_sampler {cpus[-1]:.3f} s CPU, {int(s.outside.sum())} outside")
+    print(f"median {np.median(cpus):.3f} s, max {max(cpus):.3f} s CPU")
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser()
+    ap.add_argument("--scattered", type=int, metavar="N", help="linear sampling of the COMSOL table, N receptors")
     ap.add_argument("--points", type=int, default=270_000, help="approximate number of mesh nodes")
     ap.add_argument("--receptors", type=int, nargs="+", default=[150, 10_000])
     ap.add_argument("--steps", type=int, default=6, help="time steps in the VTU series")
     args = ap.parse_args(argv)
+    if args.scattered:
+        return scattered(args.scattered)
 
     nx, ny, nz = block_dims(args.points)
     points, hexes = hex_block(nx, ny, nz, size=(4.0, 3.1, 4.0))

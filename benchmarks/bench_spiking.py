@@ -13,7 +13,8 @@ over 0-20 ms. Engines: the exact one (event-driven, no time step; held and linea
 and the numpy fallback) and the grid ones at dt = 0.1 ms (fast with numba and numpy, brian2).
 Each runs in a fresh subprocess (so brian2's imports do not weigh on the others) and reports:
 
-* wall time of ``simulate_lif`` (best of ``--repeat``; brian2 once), after one warm-up call
+* wall time of ``simulate_lif`` (best of ``--repeat``; brian2 once) and its CPU time (user +
+  system of every thread, median of the repeats: what a shared machine cannot inflate), after one warm-up call
   that loads numba's compiled loop (timed apart: compile, or load from the on-disk cache);
 * peak memory allocated during the call, by tracemalloc (numpy buffers, including the spike
   buffers, which are allocated in Python) - the 100 MB input is allocated before and not
@@ -78,11 +79,12 @@ def measure_one(label: str, quick: bool, repeat: int) -> dict:
     traced_peak = tracemalloc.get_traced_memory()[1]
     tracemalloc.stop()
     rss_after = maxrss_mb()
-    best = np.inf
+    best, cpus = np.inf, []
     for _ in range(1 if engine == "brian2" else repeat):
-        t0 = time.perf_counter()
+        t0, c0 = time.perf_counter(), time.process_time()
         res = run()
         best = min(best, time.perf_counter() - t0)
+        cpus.append(time.process_time() - c0)
     digest = hashlib.sha256()
     for train in res.spike_times:
         digest.update(np.asarray(train).tobytes() + b"|")
@@ -90,6 +92,7 @@ def measure_one(label: str, quick: bool, repeat: int) -> dict:
         "engine": label,
         "backend": res.backend,
         "wall_s": best,
+        "cpu_s": float(np.median(cpus)),
         "warmup_s": warmup,
         "traced_peak_mb": traced_peak / 1e6,
         "rss_before_mb": rss_before,
@@ -138,12 +141,12 @@ def main(argv=None) -> int:
         out = subprocess.run(cmd, capture_output=True, text=True, check=True).stdout.strip().splitlines()[-1]
         rows.append(json.loads(out))
     print(
-        f"\n{'engine':<19} {'wall s':>7} {'warm-up s':>9} {'traced peak MB':>14} {'RSS before MB':>13} "
+        f"\n{'engine':<19} {'wall s':>7} {'cpu s':>6} {'warm-up s':>9} {'traced peak MB':>14} {'RSS before MB':>13} "
         f"{'RSS after MB':>12} {'spikes':>9} {'skipped':>7}  spikes sha256"
     )
     for r in rows:
         print(
-            f"{r['engine']:<19} {r['wall_s']:7.3f} {r['warmup_s']:9.2f} {r['traced_peak_mb']:14.1f} "
+            f"{r['engine']:<19} {r['wall_s']:7.3f} {r['cpu_s']:6.3f} {r['warmup_s']:9.2f} {r['traced_peak_mb']:14.1f} "
             f"{r['rss_before_mb']:13.0f} {r['rss_after_mb']:12.0f} {r['spikes']:9d} {r['skipped']:7d}  {r['sha256']}"
         )
     grid = [r for r in rows if not r["engine"].startswith("exact")]

@@ -437,3 +437,45 @@ def test_columns_afferent_does_not_use_are_named(tmp_path):
             "such as 'id' or 'receptor_id', 'longitudinal' and 'cross'); receptor ids from 'receptor_id'.")):
         layout = read_receptors(path, length_unit="mm")
     assert list(layout.ids) == ["m7", "m9"]
+
+
+def test_a_plain_receptor_csv_is_read_without_pandas(tmp_path):
+    """Issue 23: importing pandas costs more than reading 119 rows. A plain table is read by
+    _tables.TextTable (same layout, ids, sections and messages as through pandas, which still
+    reads everything else); the bundled sample is read in a fresh process without importing it."""
+    import subprocess
+    import sys
+
+    from afferent import _tables
+    from afferent.receptors import read_receptors
+
+    code = ("import sys; from afferent.receptors import read_receptors; "
+            "l = read_receptors(sys.argv[1], length_unit='mm'); print(l.n_receptors, 'pandas' in sys.modules)")
+    sample = Path(__file__).resolve().parents[1] / "sample_sed" / "block4" / "receptors.csv"
+    out = subprocess.run([sys.executable, "-c", code, str(sample)], capture_output=True, text=True, check=True).stdout
+    assert out.split() == ["119", "False"]
+    files = {
+        "comma.csv": "# sites\nid, x, y, z, longitudinal\na1, 1.0, 2.0, 0.5, 3\nb2,1.5,2.0,0.5,4 # tip\n",
+        "semicolon.csv": "Receptor ID;X;Y;Z\nr 1;1;2;3\nr 2;4;5;6\n",
+        "tab.csv": "x\ty\tz\tcross\n1e-1\t2\t3\t7\n4\t5\t6\t8\n",
+    }
+    for name, text in files.items():
+        path = tmp_path / name
+        path.write_text(text)
+        table, _ = _tables.read_table(path, what="Receptor file", expected="x, y, z", as_text=True, frame=False)
+        assert isinstance(table, _tables.TextTable), name
+        frame, _ = _tables.read_table(path, what="Receptor file", expected="x, y, z", as_text=True)
+        assert [str(c) for c in frame.columns] == table.columns and len(frame) == len(table)
+        for c in table.columns:
+            assert frame[c].tolist() == table[c], (name, c)
+        assert read_receptors(path, length_unit="mm").n_receptors == 2
+    fast = read_receptors(tmp_path / "comma.csv", length_unit="mm")
+    assert fast.ids.tolist() == ["a1", "b2"] and fast.longitudinal.tolist() == [3, 4]
+    (tmp_path / "bad.csv").write_text("x,y,z\n1,2,3\n4,n/a,6\n")
+    with pytest.raises(SEDFormatError, match=r"column 'y' must hold finite numbers; got 'n/a' on data row 2 instead\."):
+        read_receptors(tmp_path / "bad.csv", length_unit="mm")
+    (tmp_path / "bom.csv").write_bytes(b"\xef\xbb\xbfx,y,z\n1,2,3\n")  # a byte-order mark (Excel) is not a name
+    assert read_receptors(tmp_path / "bom.csv", length_unit="m").positions.tolist() == [[1.0, 2.0, 3.0]]
+    (tmp_path / "quoted.csv").write_text('x,y,z\n"1",2,3\n')  # not plain: pandas reads it
+    assert _tables._plain_table(str(tmp_path / "quoted.csv")) is None
+    assert read_receptors(tmp_path / "quoted.csv", length_unit="m").positions.tolist() == [[1.0, 2.0, 3.0]]

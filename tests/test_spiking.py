@@ -568,7 +568,7 @@ def test_rate_table_splits_the_window_by_stimulus_phase():
     w = ramp_and_hold(0.5e-3, 5e-3, 0.2, dt=1e-3, post=0.1)
     assert [p[0] for p in w.phases()] == ["loading", "hold", "unloading", "off"]
     np.testing.assert_allclose([p[1:] for p in w.phases()], [[0, 0.1], [0.1, 0.3], [0.3, 0.4], [0.4, 0.5]], atol=1e-9)
-    trains = SpikeTrains(spike_times=(np.array([0.010, 0.0125, 0.015, 0.0175, 0.31, 0.32]), np.array([0.2])),
+    trains = SpikeTrains.from_trains((np.array([0.010, 0.0125, 0.015, 0.0175, 0.31, 0.32]), np.array([0.2])),
                          afferent_ids=np.array(["a", "b"]), duration=0.5, dt=1e-4, engine="fast", backend="numpy",
                          silent_skipped=np.array([], dtype=int), params=LIFParams.from_preset("ra"))
     df = rate_table(trains, w, positions=np.array([1e-3, 2e-3]))

@@ -141,12 +141,16 @@ def cells_from_meshio(cells) -> Cells | None:
     for _, ctype, conn in blocks:
         pattern = np.asarray(_TETS[_HIGHER.get(ctype, ctype)])
         n = conn.shape[0]
-        tets.append(conn[:, pattern].reshape(-1, 4))
+        # take along axis 1 of the flat pattern: C-ordered, so the reshape is a view (conn[:, pattern]
+        # is laid out otherwise and the reshape copied it: 23 -> 8 ms for 108k hexahedra)
+        tets.append(np.take(conn, pattern.ravel(), axis=1).reshape(-1, 4))
         parents.append(np.repeat(np.arange(offset, offset + n), len(pattern)))
         offset += n
     higher = any(ctype in _HIGHER for _, ctype, _ in blocks)  # linear meshes need no more than their tetrahedra
-    return Cells(np.concatenate(tets), np.concatenate(parents), offset, tuple(b[1] for b in blocks),
-                 nodes=tuple(b[2] for b in blocks) if higher else ())
+    nodes = tuple(b[2] for b in blocks) if higher else ()
+    if len(tets) == 1:  # one block: no copy
+        return Cells(tets[0], parents[0], offset, (blocks[0][1],), nodes=nodes)
+    return Cells(np.concatenate(tets), np.concatenate(parents), offset, tuple(b[1] for b in blocks), nodes=nodes)
 
 
 def _read_meshio(path: str, opened: list | None = None):
@@ -373,7 +377,6 @@ def raw_from_mesh(mesh, path: str, fmt: str, components: dict, notes: list, *, r
                      reader=reader)
 
 
-_DATA_ARRAY = re.compile(rb"<DataArray\b[^>]*>")
 _ATTR = re.compile(rb'\b(\w+)="([^"]*)"')  # \b: linear on a long run of letters
 
 
@@ -396,11 +399,27 @@ def _check_cell_data_lengths(path: str) -> None:
 def _vtu_component_names(path: str) -> dict[str, tuple[str, ...]]:
     """``{array name: (ComponentName0, ...)}`` from a VTU's DataArray tags (ccx2paraview writes
     ``XX YY ZZ XY YZ ZX`` for S and E); arrays without names are left out."""
-    with open(path, "rb") as fh:
-        text = fh.read()
-    end = text.find(b"<AppendedData")
+    import mmap
+
+    with open(path, "rb") as fh, mmap.mmap(fh.fileno(), 0, access=mmap.ACCESS_READ) as mm:
+        if mm.find(b"ComponentName") < 0:  # most files: one scan of the mapped file, no copy, no tag parsed
+            return {}
+        text = mm[:]
+    first = text.find(b"ComponentName")
+    end = text.find(b"<AppendedData", first)
+    end = len(text) if end < 0 else end
     out = {}
-    for tag in _DATA_ARRAY.findall(text if end < 0 else text[:end]):
+    # the tags found by bytes.find, which skips the inline data many times faster than a regex
+    # (10 MB VTU: 8 -> 2 ms)
+    tags, i = [], text.rfind(b"<DataArray", 0, first)
+    while i >= 0:
+        j = text.find(b">", i, end)
+        if j < 0:
+            break
+        if not text[i + 10:i + 11].isalnum():  # <DataArray, not a longer name
+            tags.append(text[i:j + 1])
+        i = text.find(b"<DataArray", j, end)
+    for tag in tags:
         attrs = {k.decode(): v.decode("utf-8", "replace") for k, v in _ATTR.findall(tag)}
         # the names the tag carries, not range(NumberOfComponents): a corrupt count (9999999999) is no loop
         named = {k[len("ComponentName"):]: v for k, v in attrs.items() if k.startswith("ComponentName")}

@@ -210,7 +210,8 @@ def read_receptors(path, *, length_unit: str, tol: float = SECTION_TOLERANCE_M) 
     path = os.fspath(path)
     factor = length_factor(length_unit)
     # as text, so that an error quotes a cell as written ('n/a', '')
-    df, cols = read_table(path, what="Receptor file", expected="x, y, z (optional id, longitudinal, cross)", as_text=True)
+    df, cols = read_table(path, what="Receptor file", expected="x, y, z (optional id, longitudinal, cross)", as_text=True,
+                          frame=False)
     missing = [c for c in ("x", "y", "z") if c not in cols]
     if missing:
         found = ", ".join(repr(str(c)) for c in df.columns) or "none"
@@ -223,7 +224,7 @@ def read_receptors(path, *, length_unit: str, tol: float = SECTION_TOLERANCE_M) 
     xyz = numeric_columns(df, [cols["x"], cols["y"], cols["z"]], what="Receptor file", path=path)
     by_canonical = {canonical(c): df_col for c, df_col in cols.items()}
     id_col = next((by_canonical[c] for c in _ID_COLUMNS if c in by_canonical), None)  # first in the order above
-    ids = df[id_col].astype(str).str.strip().to_numpy() if id_col is not None else None
+    ids = np.array([str(c).strip() for c in df[id_col]], dtype=object) if id_col is not None else None
     sections = {}
     used = {cols["x"], cols["y"], cols["z"], id_col}
     for name, aliases in _SECTION_COLUMNS.items():

@@ -30,12 +30,16 @@ Three engines:
     (V - v_thresh is convex or concave in time, so it has a single upward crossing in a
     bracket that ends at the piece's end or at the maximum of V) and found by Newton's method
     started on the side from which it converges monotonically. The cost is one pass over the
-    samples plus a log per spike: numba (the afferents split in blocks over one thread per
-    core, with identical results) when it is installed and the run repays its import (numba
-    already imported, or the numpy loop estimated above :data:`NUMBA_FROM_S`: importing numba
-    and loading the compiled loop costs 0.4-1 s, more than a small scene's whole simulation),
-    else numpy (``'exact-numba'`` / ``'exact-numpy'`` force a back end; the two agree to
-    ~1e-13 s; the result's ``backend`` says which ran).
+    samples plus at most a log per spike (a steady drive firing again and again from
+    ``v_reset`` reuses the last one): numba, a dependency, its kernel compiled once and cached
+    on disk (one afferent at a time, the afferents split in blocks over one thread per core,
+    with identical results) when the run repays its load (numba already imported, or the
+    numpy loop estimated above :data:`NUMBA_FROM_S`: importing numba and loading the cached
+    kernel costs 0.4-1 s, more than a small scene's whole simulation), else numpy
+    (``'exact-numba'`` / ``'exact-numpy'`` force a back end; the two agree to ~1e-13 s, to a
+    few ps where the drive is barely above threshold; the result's ``backend`` says which ran). The spikes come back flat, as brian2's
+    ``SpikeMonitor`` gives them (``SpikeTrains.t``, ``SpikeTrains.i``), with
+    per-afferent views on demand.
 ``'fast'``
     Exact exponential integration per step of a clock grid ``dt``, vectorised over afferents
     with a loop over time steps: numba when it is installed (``pip install
@@ -139,7 +143,7 @@ from ._exact import _pieces, _run_exact_numba, _run_exact_numpy
 from ._grid import _peak_current, _plan, _run_brian2, _run_numba, _run_numpy, _silent
 from ._group import _numba_available
 from ._params import _MAX_DRIVE_V, LIFParams, _refractory_steps, grid_isi_bounds
-from ._trains import SpikeTrains, split_trains
+from ._trains import SpikeTrains, spread_counts
 
 __all__ = [
     "LIFParams",
@@ -184,10 +188,11 @@ INPUT_HOLDS = ("previous", "linear")
 # --------------------------------------------------------------------------------------------
 
 
-def _check_drive(values: np.ndarray, params: LIFParams) -> None:
-    if not values.size:
+def _check_drive(extremes: tuple, params: LIFParams) -> None:
+    """``extremes``: (smallest, largest) current of each afferent, A."""
+    if not extremes[0].size:
         return
-    peak = max(float(values.max()), -float(values.min()))  # no |values| temporary
+    peak = max(float(extremes[1].max()), -float(extremes[0].min()))
     if not peak * params.r_m < _MAX_DRIVE_V:
         worst = peak * params.r_m
         raise ValueError(
@@ -198,8 +203,9 @@ def _check_drive(values: np.ndarray, params: LIFParams) -> None:
 #: The exact engine's ``'exact'`` (``'auto'``) back end is numba only when the numpy loop is
 #: estimated to take longer than this (s), or numba is already imported: a fresh ``import
 #: numba`` plus loading the cached compiled loop costs 0.4-1 s on the development machine,
-#: while the numpy loop costs about 10 us per input sample plus 25 ns per sample and afferent
-#: (measured: 23,000 samples x 3 afferents 0.22 s, 1,000 x 12,500 0.28 s).
+#: while the numpy loop costs about 10 us per input sample plus 50 ns per sample and afferent
+#: (measured: 23,000 samples x 3 afferents 0.22 s; 1,001 x 12,500 ramp-and-hold, 3.7 M spikes,
+#: 0.63-0.65 s CPU against 0.17 s on numba plus 0.54 s to import it and load its kernel).
 NUMBA_FROM_S = 0.5
 
 
@@ -211,7 +217,7 @@ def _numba_repays(n_pieces: int, n_afferents: int) -> bool:
     if "numba" in sys.modules:
         return _numba_available()
     # find_spec, not an import: importing is the cost being avoided
-    return n_pieces * (1e-5 + 2.5e-8 * n_afferents) > NUMBA_FROM_S and importlib.util.find_spec("numba") is not None
+    return n_pieces * (1e-5 + 5e-8 * n_afferents) > NUMBA_FROM_S and importlib.util.find_spec("numba") is not None
 
 
 def _simulate_exact(current, params: LIFParams, *, dt, engine: str, duration, times, hold: str) -> SpikeTrains:
@@ -232,10 +238,12 @@ def _simulate_exact(current, params: LIFParams, *, dt, engine: str, duration, ti
     n_aff = values.shape[1]
     if backend is None:
         backend = "numba" if _numba_repays(pc.starts.size, n_aff) else "numpy"
-    _check_drive(values, params)
+    _check_drive(pc.extremes, params)
     n_pieces = pc.starts.size
     if hold == "linear" and n_pieces:  # the drive reaches the next sample's value at the piece's end
         peak = values[: int(pc.nxt[-1]) + 1].max(axis=0) if n_aff else np.zeros(0)
+    elif n_pieces == values.shape[0]:
+        peak = pc.extremes[1]
     else:
         peak = values[:n_pieces].max(axis=0) if n_aff else np.zeros(0)
     # The exact engine fires only where the drive exceeds theta: no rounding margin needed.
@@ -259,9 +267,9 @@ def _simulate_exact(current, params: LIFParams, *, dt, engine: str, duration, ti
         times_s, counts = _run_exact_numba(pc, cols, params, peak[cols])
     else:
         times_s, counts = _run_exact_numpy(pc, cols, params)
-    trains = split_trains(times_s, counts, cols, n_aff)
     return SpikeTrains(
-        spike_times=trains,
+        t=times_s,
+        counts=spread_counts(counts, cols, n_aff),
         afferent_ids=pc.afferent_ids,
         duration=pc.t_stop - pc.t_start,
         dt=0.0,
@@ -376,7 +384,7 @@ def simulate_lif(current, params: LIFParams, *, dt: float | None = None, engine:
     values = plan.values
     n_aff = values.shape[1]
 
-    _check_drive(values, params)
+    _check_drive(plan.extremes, params)
 
     if engine == "fast":
         backend = "numba" if _numba_available() else "numpy"
@@ -416,10 +424,9 @@ def simulate_lif(current, params: LIFParams, *, dt: float | None = None, engine:
     times_s = steps * plan.dt
     if plan.t_start:
         times_s += plan.t_start
-    trains = split_trains(times_s, counts, cols, n_aff)
-
     return SpikeTrains(
-        spike_times=trains,
+        t=times_s,
+        counts=spread_counts(counts, cols, n_aff),
         afferent_ids=plan.afferent_ids,
         duration=plan.n_steps * plan.dt,
         dt=plan.dt,

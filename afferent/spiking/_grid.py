@@ -27,11 +27,12 @@ class _Plan:
     ratio: int | None  # input samples are every `ratio` steps from step 0 (brian2 can use them as is)
     afferent_ids: np.ndarray
     notes: list
+    extremes: tuple  # (smallest, largest) current of each afferent over all samples, A
 
 
 
 def _plan(current, dt, duration, times) -> _Plan:
-    arr, t, ids = _read_input(current, times)
+    arr, t, ids, extremes = _read_input(current, times)
     n_times = arr.shape[0]
     dt = check_positive("dt", dt, unit="s")
     notes: list[str] = []
@@ -72,12 +73,14 @@ def _plan(current, dt, duration, times) -> _Plan:
     if unused:
         notes.append(f"{unused} input sample(s) fall within one step of the next and are never used; reduce dt.")
 
-    return _Plan(arr, idx.astype(np.int64), n_steps, dt, t_start, ratio, ids, notes)
+    return _Plan(arr, idx.astype(np.int64), n_steps, dt, t_start, ratio, ids, notes, extremes)
 
 
 def _peak_current(plan: _Plan) -> np.ndarray:
     """Largest current of each afferent over the input samples the simulation uses, in A."""
     lo, hi = int(plan.idx[0]), int(plan.idx[-1])
+    if lo == 0 and hi == plan.values.shape[0] - 1:
+        return plan.extremes[1]
     return plan.values[lo : hi + 1].max(axis=0)
 
 

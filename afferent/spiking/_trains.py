@@ -3,23 +3,20 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import cached_property
 
 import numpy as np
 
 from .._validation import check_positive
 from ._params import LIFParams
 
-def split_trains(times_s: np.ndarray, counts: np.ndarray, cols: np.ndarray, n_afferents: int) -> tuple:
-    """Per-afferent spike-time arrays from the engines' flat output.
-
-    ``times_s`` holds the spikes of the simulated afferents ``cols`` one after the other,
-    ``counts[j]`` of them for ``cols[j]``; afferents not in ``cols`` (silent) get an empty array.
-    """
-    ends = np.cumsum(counts).tolist()
-    trains = [np.empty(0)] * n_afferents
-    for c, lo, hi in zip(cols.tolist(), [0, *ends[:-1]], ends):
-        trains[c] = times_s[lo:hi]
-    return tuple(trains)
+def spread_counts(counts: np.ndarray, cols: np.ndarray, n_afferents: int) -> np.ndarray:
+    """Spike count per afferent from the engines' flat output: ``counts[j]`` spikes for afferent
+    ``cols[j]`` (``cols`` increasing), none for the afferents not in ``cols`` (silent). The flat
+    spike times, grouped by simulated afferent, are then grouped by afferent as they stand."""
+    out = np.zeros(n_afferents, np.int64)
+    out[cols] = counts
+    return out
 
 
 def _readonly(a: np.ndarray) -> np.ndarray:
@@ -35,13 +32,20 @@ def _readonly(a: np.ndarray) -> np.ndarray:
 class SpikeTrains:
     """Spike times of a population of afferents, from :func:`simulate_lif`.
 
+    The spikes are stored flat, as brian2's ``SpikeMonitor`` stores them: ``t``, every
+    spike time in s, and ``i``, the afferent (0-based position) of each spike; here grouped
+    by afferent, each afferent's spikes in time order. ``spike_times`` gives one array per
+    afferent, as views into ``t`` made on first use (``train`` gives one).
+
     Parameters
     ----------
-    spike_times : tuple of ndarray
-        One sorted array of spike times in s per afferent (``n_afferents`` arrays). Exact
-        engine: the threshold crossing times, in ``[t_start, t_start + duration)``. Grid
-        engines: ``t_start + k dt`` for whole steps ``k``, a spike stamped at the start of the
-        step in which V crossed threshold.
+    t : ndarray of shape (n_spikes,)
+        Spike times in s: afferent 0's, then afferent 1's, ..., each sorted. Exact engine: the
+        threshold crossing times, in ``[t_start, t_start + duration)``. Grid engines:
+        ``t_start + k dt`` for whole steps ``k``, a spike stamped at the start of the step in
+        which V crossed threshold.
+    counts : ndarray of int, shape (n_afferents,)
+        Number of spikes of each afferent (they sum to ``t.size``).
     afferent_ids : ndarray of shape (n_afferents,)
         Identifier of each afferent (the current's ``afferent_ids`` if it has them, else
         ``0 .. n_afferents - 1``).
@@ -71,9 +75,11 @@ class SpikeTrains:
     Notes
     -----
     Arrays are read-only; the object compares by identity (``eq=False``).
+    ``from_trains`` builds one from one array of spike times per afferent.
     """
 
-    spike_times: tuple
+    t: np.ndarray
+    counts: np.ndarray
     afferent_ids: np.ndarray
     duration: float
     dt: float
@@ -85,25 +91,56 @@ class SpikeTrains:
     notes: tuple = field(default_factory=tuple)
 
     def __post_init__(self):
-        trains = tuple(_readonly(np.asarray(t, dtype=np.float64)) for t in self.spike_times)
-        object.__setattr__(self, "spike_times", trains)
+        object.__setattr__(self, "t", _readonly(np.asarray(self.t, dtype=np.float64)))
+        object.__setattr__(self, "counts", _readonly(np.asarray(self.counts, dtype=np.int64)))
         object.__setattr__(self, "afferent_ids", _readonly(np.asarray(self.afferent_ids)))
         object.__setattr__(self, "silent_skipped", _readonly(np.asarray(self.silent_skipped, dtype=np.int64)))
-        if self.afferent_ids.shape != (len(trains),):
+        if self.t.ndim != 1 or self.counts.ndim != 1 or int(self.counts.sum()) != self.t.size:
             raise ValueError(
-                f"'afferent_ids' must be an array of shape (n_afferents,) = ({len(trains)},); "
+                f"'counts' must be one spike count per afferent summing to the number of spike times "
+                f"{self.t.size}; got shape {self.counts.shape} summing to {int(self.counts.sum())} instead."
+            )
+        if self.afferent_ids.shape != self.counts.shape:
+            raise ValueError(
+                f"'afferent_ids' must be an array of shape (n_afferents,) = ({self.counts.size},); "
                 f"got shape {self.afferent_ids.shape} instead."
             )
+
+    @classmethod
+    def from_trains(cls, spike_times, **fields) -> "SpikeTrains":
+        """From one sorted array of spike times in s per afferent; ``fields`` as the constructor's."""
+        trains = [np.asarray(x, dtype=np.float64).ravel() for x in spike_times]
+        t = np.concatenate(trains) if trains else np.empty(0)
+        return cls(t=t, counts=np.array([x.size for x in trains], dtype=np.int64), **fields)
+
+    @cached_property
+    def _offsets(self) -> np.ndarray:
+        return np.concatenate([[0], np.cumsum(self.counts)])
+
+    @property
+    def i(self) -> np.ndarray:
+        """Afferent (0-based position) of each spike of ``t``, ndarray of int64."""
+        return np.repeat(np.arange(self.n_afferents), self.counts)
+
+    def train(self, k: int) -> np.ndarray:
+        """Spike times in s of the afferent at position ``k`` (a read-only view into ``t``)."""
+        lo, hi = self._offsets[k], self._offsets[k + 1]
+        return self.t[lo:hi]
+
+    @cached_property
+    def spike_times(self) -> tuple:
+        """One sorted array of spike times in s per afferent (read-only views into ``t``)."""
+        return tuple(np.split(self.t, self._offsets[1:-1]))
 
     @property
     def n_afferents(self) -> int:
         """Number of afferents (simulated or skipped)."""
-        return len(self.spike_times)
+        return self.counts.size
 
     @property
     def n_spikes(self) -> np.ndarray:
         """Spike count per afferent, ndarray of shape (n_afferents,)."""
-        return np.array([t.size for t in self.spike_times], dtype=np.int64)
+        return self.counts.copy()
 
     @property
     def simulated(self) -> np.ndarray:
@@ -120,16 +157,25 @@ class SpikeTrains:
         """Mean rate of each afferent over [t0, t1) in s, in Hz (NaN for an empty interval)."""
         if not t1 > t0:
             return np.full(self.n_afferents, np.nan)
-        return np.array([np.count_nonzero((t >= t0) & (t < t1)) for t in self.spike_times], dtype=float) / (t1 - t0)
+        inside = (self.t >= t0) & (self.t < t1)
+        return np.bincount(self.i[inside], minlength=self.n_afferents).astype(float) / (t1 - t0)
 
     def peak_rate(self) -> np.ndarray:
         """Peak instantaneous rate of each afferent, 1 / (shortest inter-spike interval), in Hz;
         0 below two spikes. Bursts at a ramp's onset show here, not in the window mean."""
-        return np.array([1.0 / np.diff(t).min() if t.size >= 2 else 0.0 for t in self.spike_times])
+        i = self.i
+        isi = np.diff(self.t)
+        isi[i[1:] != i[:-1]] = np.inf  # from one afferent's last spike to the next one's first
+        shortest = np.full(self.n_afferents, np.inf)
+        np.minimum.at(shortest, i[1:], isi)
+        return np.where(self.counts >= 2, 1.0 / shortest, 0.0)
 
     def first_spike_latency(self) -> np.ndarray:
         """Time from ``t_start`` to each afferent's first spike in s; NaN if it never fired."""
-        return np.array([t[0] - self.t_start if t.size else np.nan for t in self.spike_times])
+        first = np.full(self.n_afferents, np.nan)
+        fired = self.counts > 0
+        first[fired] = self.t[self._offsets[:-1][fired]] - self.t_start
+        return first
 
     def isi(self) -> tuple:
         """Inter-spike intervals in s: one array of length ``n_spikes - 1`` per afferent."""
@@ -153,8 +199,7 @@ class SpikeTrains:
         bin_width = check_positive("bin_width", bin_width, unit="s")
         n_bins = max(int(np.ceil(self.duration / bin_width - 1e-9)), 1)
         edges = self.t_start + np.minimum(np.arange(n_bins + 1) * bin_width, self.duration)
-        allspikes = np.concatenate(self.spike_times) if self.n_afferents else np.empty(0)
-        counts, _ = np.histogram(allspikes, bins=edges)
+        counts, _ = np.histogram(self.t, bins=edges)
         denom = max(self.n_afferents, 1) * np.diff(edges)
         return counts / denom, edges
 
@@ -166,7 +211,7 @@ class SpikeTrains:
         return pd.DataFrame(
             {
                 "afferent": np.repeat(self.afferent_ids, counts),
-                "spike_time_s": np.concatenate(self.spike_times) if self.n_afferents else np.empty(0),
+                "spike_time_s": self.t,
             }
         )
 
