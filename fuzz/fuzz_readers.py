@@ -90,6 +90,8 @@ def _long_lines(data: bytes) -> bytes:
 
 def prepare(data: bytes, folder: str) -> tuple[str, str]:
     """Write one fuzz input into ``folder`` with the side files its target needs; returns (target, path read)."""
+    for name in os.listdir(folder):  # nothing left from the input before: each input sees only its own side files
+        os.remove(os.path.join(folder, name))
     target, suffix = TARGETS[data[0] % len(TARGETS)]
     body = _long_lines(data[1:]) if target == "csv-long" else data[1:]
     name = "heavy" if target == "xdmf-heavy" else "input"
