@@ -678,3 +678,88 @@ def test_round_trip(table):
     got = np.stack([raw.arrays[n].values[0] for n in names], axis=1)
     np.testing.assert_array_equal(got, values)  # exact: repr precision must round-trip
     assert raw.times is None
+
+
+# --------------------------------------------------------------------------------------
+# Long lines and cells: linear time, short messages (issue 26, item 6)
+# --------------------------------------------------------------------------------------
+
+_TIMED_READ = """
+import json, sys, time
+from afferent.io import read_raw
+out = {}
+for path in sys.argv[1:]:
+    t = time.process_time()
+    try:
+        read_raw(path)
+        msg = ""
+    except Exception as err:
+        msg = f"{type(err).__name__}: {err}"
+    out[path] = (time.process_time() - t, msg)
+print(json.dumps(out))
+"""
+
+
+def test_long_lines_and_cells_are_read_in_linear_time_with_short_messages(tmp_path):
+    """A first data row starting with 20,000 digits took 227 s (regex backtracking), 10 MB lines
+    hung the sniffing; each is now refused in well under 2 s of CPU, quoting at most 80 characters."""
+    import json
+    import subprocess
+    import sys
+
+    rows = "0,1,0,2\n0,0,1,3\n1,1,1,4\n"
+    n = 10_000_000
+    cases = {
+        "digits.csv": "x,y,z,sed\n" + "1" * 20_000 + ",0,0,1\n" + rows,
+        "digits_semicolon.csv": "x;y;z;sed\n" + "1" * 20_000 + "x;0;0;1\n" + rows.replace(",", ";"),
+        "ones.csv": "x,y,z,sed\n" + "1" * n + "\n" + rows,
+        "many_names.csv": "a," * (n // 2) + "\n" + rows,
+        "many_words.csv": "x,y,z,sed\n" + "a " * (n // 2) + "\n" + rows,
+        "many_numbers.csv": "x,y,z,sed\n" + "1," * (n // 2) + "\n" + rows,
+    }
+    paths = []
+    for name, text in cases.items():
+        (tmp_path / name).write_text(text)
+        paths.append(str(tmp_path / name))
+    proc = subprocess.run([sys.executable, "-c", _TIMED_READ, *paths], capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 0, proc.stderr
+    for path, (cpu, msg) in json.loads(proc.stdout).items():
+        assert msg.startswith("SEDFormatError: ") and repr(path) in msg, msg
+        assert cpu < 2.0, (path, cpu)
+        assert len(msg) < 400 + len(path), msg
+    digits = json.loads(proc.stdout)[paths[0]][1]
+    assert re.search(r"must hold numbers; got '1{80}'\.\.\. \(20,000 characters\) at line 2", digits), digits
+
+
+@pytest.mark.parametrize("pattern, text", [
+    ("_NUMBER", "1" * 20_000 + "x"), ("_NUMBERISH", "1" * 20_000 + ",x"),
+    ("_META", "a" + " " * 20_000 + "b"), ("_FEBIO_KEY", "*a" + " " * 20_000 + "b"),
+    ("_FEBIO_KEY", "*Data = a" + " " * 20_000 + "b"), ("_CCX_TITLE", "a" + " " * 20_000 + "b"),
+    ("_SUFFIX", "a @ t=" + " " * 20_000 + "x y"),
+])
+def test_the_line_patterns_fail_in_linear_time(pattern, text):
+    import time
+
+    from afferent.io import _csv_lines
+
+    t = time.process_time()
+    _csv_lines.__dict__[pattern].match(text)
+    assert time.process_time() - t < 0.2  # quadratic backtracking took 1..4 s on these
+
+
+def test_the_linear_patterns_read_what_the_old_ones_read():
+    from afferent.io._columns import split_unit
+    from afferent.io._csv_lines import _CCX_TITLE, _FEBIO_KEY, _META, _SUFFIX
+
+    assert split_unit("solid.Ws (J/m^3)") == ("solid.Ws", "J/m^3")
+    assert split_unit("a [b] (c)") == ("a [b]", "c") and split_unit("a ((mm)") == ("a", "(mm")
+    assert split_unit("(mm)") == ("(mm)", None) and split_unit("sed (J/(m^3))") == ("sed (J/(m^3))", None)
+    assert split_unit("\t" + "(" * 20_000)[1] is None
+    m = _META.match("Length unit : mm")
+    assert (m["key"].strip(), m["val"].strip()) == ("Length unit", "mm")
+    assert _META.match("Key\t,v")["val"] == "v" and _META.match("Key\t\tv")["val"] == "v"
+    assert _FEBIO_KEY.match("*Data\t= sed;sx")["val"] == "sed;sx"
+    m = _CCX_TITLE.match("stresses (elem, integ.pnt.,sxx) for set EALL and time  0.1E+01")
+    assert (m["what"].strip(), m["set"], m["time"]) == ("stresses", "EALL", "0.1E+01")
+    m = _SUFFIX.match("SENER @Loc 1 @ t=0.02")
+    assert (m["base"].rstrip(), m["var"], m["val"]) == ("SENER @Loc 1", "t", "0.02")

@@ -23,7 +23,6 @@ __all__ = [
 ]
 
 _STRIP = re.compile(r"[\s._:\-/\[\]()]+")
-_UNIT = re.compile(r"^(?P<name>.*?)\s*[\(\[](?P<unit>[^\)\]]*)[\)\]]\s*$")
 
 
 def canonical(name: str) -> str:
@@ -34,9 +33,12 @@ def canonical(name: str) -> str:
 def split_unit(header: str) -> tuple[str, str | None]:
     """Split ``'solid.Ws (J/m^3)'`` into ``('solid.Ws', 'J/m^3')``; no unit gives ``(header, None)``."""
     header = str(header).strip()
-    m = _UNIT.match(header)
-    if m and m.group("name"):
-        return m.group("name").strip(), m.group("unit").strip()
+    if header.endswith((")", "]")):  # the unit: from the first bracket after the last closing one (linear time)
+        body = header[:-1]
+        last = max(body.rfind(")"), body.rfind("]"))
+        opening = [i for i in (body.find("(", last + 1), body.find("[", last + 1)) if i >= 0]
+        if opening and min(opening) > 0:
+            return body[:min(opening)].strip(), body[min(opening) + 1:].strip()
     return header, None
 
 

@@ -88,7 +88,7 @@ def _time_suffix(header: str) -> tuple[str, float | None]:
     m = _SUFFIX.match(header)
     if m and canonical(m.group("var")) in TIME_ALIASES:
         try:
-            return m.group("base"), float(m.group("val"))
+            return m.group("base").rstrip(), float(m.group("val"))
         except ValueError:
             pass
     return header, None

@@ -30,14 +30,14 @@ def _febio_records(lines: list[str], notes: list[str]) -> list[dict]:
         if m and not s.startswith("**"):
             key = m.group("key").strip().lower()
             if key == "step":
-                cur = {"step": m.group("val"), "line": i + 1, "time": None, "data": None, "rows": []}
+                cur = {"step": m.group("val").strip(), "line": i + 1, "time": None, "data": None, "rows": []}
                 records.append(cur)
             elif cur is None:
                 n_pre += 1
             elif key == "time":
-                cur["time"] = (m.group("val"), i + 1)
+                cur["time"] = (m.group("val").strip(), i + 1)
             elif key == "data":
-                cur["data"] = (m.group("val"), i + 1)
+                cur["data"] = (m.group("val").strip(), i + 1)
             continue
         if cur is None or _is_comment(s) or s.startswith("*"):
             n_pre += cur is None

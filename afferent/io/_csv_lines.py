@@ -6,8 +6,8 @@ Used by :mod:`afferent.io._csv` (the reader) and its layout modules; see there f
 from __future__ import annotations
 
 import codecs
+import csv
 import gzip
-import io
 import os
 import re
 import zlib
@@ -31,31 +31,40 @@ _SEP_ALIASES = {" ": "whitespace", r"\s+": "whitespace", "tab": "\t", "\\t": "\t
 _SEP_NAMES = {",": "comma ','", ";": "semicolon ';'", "\t": "tab", "whitespace": "runs of whitespace"}
 _SNIFF_ORDER = ("\t", ";", ",", "whitespace")  # tie-break order when several delimiters fit
 _SNIFF_LINES = 200
+#: A line is classed (data row or text, under each delimiter) on its first 64 KiB only, so that
+#: sniffing costs a bounded time per line however long the line (a 10 MB line: milliseconds).
+_CLASSIFY_CHARS = 65_536
+#: Error messages quote at most this many characters of a cell, name or line.
+_QUOTE_CHARS = 80
+#: Header names listed (and counted exactly) in an error message, at most.
+_MANY_NAMES = 10_000
 
 _FOOTER = re.compile(r"^\s*(?:minimum|maximum|total|at\s+node|at\s+element)\b", re.IGNORECASE)
 _RULE_CHARS = re.compile(r"^[\s\-=+|]+$")
+# The number patterns have no two ways to match the same digits (``\d+(?:\.\d*)?``, never
+# ``\d+\.?\d*``): a cell of 20,000 digits followed by a letter fails in linear time, not quadratic.
 _NUMBER = re.compile(
-    r"^[+-]?(?:(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?|nan|inf|infinity)$", re.IGNORECASE
+    r"^[+-]?(?:(?:\d+(?:\.\d*)?|\.\d+)(?:[eE][+-]?\d+)?|nan|inf|infinity)$", re.IGNORECASE
 )
 #: Cells that look like numbers pandas cannot read: Fortran ``D`` exponents, decimal
 #: commas, CalculiX numbers that lost their ``E`` (``1.234-100``).
-_NUMBERISH = re.compile(r"^[+-]?(?:\d+[.,]?\d*|[.,]\d+)(?:[eEdD]?[+-]\d+|[dD]\d+)?$")
+_NUMBERISH = re.compile(r"^[+-]?(?:\d+(?:[.,]\d*)?|[.,]\d+)(?:[eEdD]?[+-]\d+|[dD]\d+)?$")
 _DECIMAL_COMMA = re.compile(r"^[+-]?\d+,\d+(?:[eE][+-]?\d+)?$")
 #: Cells read as missing values (NaN), on top of empty cells.
 _NA_VALUES = ["", "nan", "NaN", "NAN", "-nan", "-NaN", "+nan", "+NaN", "NA", "N/A", "n/a", "null", "NULL"]
 _NA_SET = frozenset(v.lower() for v in _NA_VALUES)
 #: COMSOL-style per-step column suffix: ``solid.Ws (J/m^3) @ t=0.02``.
-_SUFFIX = re.compile(r"^(?P<base>.*?)\s*@\s*(?P<var>[A-Za-z_][\w.]*)\s*=\s*(?P<val>\S+)\s*$")
+_SUFFIX = re.compile(r"^(?P<base>.*)@\s*(?P<var>[A-Za-z_][\w.]*)\s*=\s*(?P<val>\S+)\s*$")
 #: Abaqus position qualifier in report column titles: ``SENER @Loc 1``.
 _LOC = re.compile(r"@\s*Loc\s*\d+", re.IGNORECASE)
 #: ``% Key,value`` (COMSOL .csv) or ``% Key: value`` (COMSOL .txt) metadata lines.
-_META = re.compile(r"^(?P<key>[A-Za-z][^,;:\t=]*?)\s*[,;:\t=]\s*(?P<val>.*?)\s*$")
+_META = re.compile(r"^(?P<key>[A-Za-z][^,;:\t=]*)(?:\t\s*)?[,;:\t=](?P<val>.*)$")
 #: FEBio logfile record keys: ``*Step  = 3``, ``*Time  = 0.3``, ``*Data  = sed;sx``.
-_FEBIO_KEY = re.compile(r"^\s*\*\s*(?P<key>[A-Za-z][A-Za-z ]*?)\s*=\s*(?P<val>.*?)\s*$")
+_FEBIO_KEY = re.compile(r"^\s*\*\s*(?P<key>[A-Za-z][A-Za-z ]*)(?:\t\s*)?=\s*(?P<val>.*)$")
 _FEBIO_START = re.compile(r"^[ \t]*\*[ \t]*Step[ \t]*=", re.IGNORECASE | re.MULTILINE)
 #: CalculiX .dat block title: `` stresses (elem, integ.pnt.,sxx,...) for set EALL and time  0.1E+01``.
 _CCX_TITLE = re.compile(
-    r"^\s*(?P<what>[A-Za-z][A-Za-z0-9 .'/-]*?)\s*\((?P<cols>[^()]*)\)\s*for\s+set\s+(?P<set>\S+)"
+    r"^\s*(?P<what>[A-Za-z][A-Za-z0-9 .'/-]*)(?:\t\s*)?\((?P<cols>[^()]*)\)\s*for\s+set\s+(?P<set>\S+)"
     r"\s+and\s+time\s+(?P<time>\S+)\s*$",
     re.IGNORECASE,
 )
@@ -98,6 +107,33 @@ def _split(line: str, delim: str) -> list[str]:
     return [f.strip().strip("\"'").strip() for f in line.split(delim)]
 
 
+def _head_fields(line: str, delim: str) -> list[str]:
+    """The fields of the first :data:`_CLASSIFY_CHARS` characters of ``line`` (a field cut there is left out,
+    unless it is the only one)."""
+    if len(line) <= _CLASSIFY_CHARS:
+        return _split(line, delim)
+    fields = _split(line[:_CLASSIFY_CHARS], delim)
+    return fields[:-1] or fields
+
+
+def _count_fields(line: str, delim: str) -> int:
+    """``len(_split(line, delim))``, counted by str methods (a 10 MB line: milliseconds)."""
+    return len(line.split()) if delim == "whitespace" else line.count(delim) + 1
+
+
+def _is_data_line(line: str, delim: str) -> bool:
+    """Whether ``line`` is a data row under ``delim`` (:func:`_is_data` of its first fields)."""
+    return _is_data(_head_fields(line, delim))
+
+
+def _quote(text) -> str:
+    """``repr`` of ``text``, cut to :data:`_QUOTE_CHARS` characters plus '...' and its length when longer."""
+    text = str(text)
+    if len(text) <= _QUOTE_CHARS:
+        return repr(text)
+    return f"{text[:_QUOTE_CHARS]!r}... ({len(text):,} characters)"
+
+
 def _is_data(fields: list[str]) -> bool:
     """A data row: more than half of its non-empty fields are numbers.
 
@@ -117,9 +153,9 @@ def _plural(n: int, word: str) -> str:
 
 
 def _join_names(names) -> str:
-    names = [repr(n) for n in names]
-    if len(names) > 8:
-        names = names[:8] + [f"... ({len(names) - 8} more)"]
+    names = list(names)
+    more = len(names) - 8
+    names = [_quote(n) for n in names[:8]] + ([f"... ({more} more)"] if more > 0 else [])
     return ", ".join(names)
 
 
@@ -177,9 +213,12 @@ def _binary_fraction(head: bytes) -> float:
 # --------------------------------------------------------------------------------------
 
 
-def _spans(line: str, pattern: re.Pattern, merge_units: bool) -> list[tuple[int, int, str]]:
+def _spans(line: str, pattern: re.Pattern, merge_units: bool, limit: int | None = None) -> list[tuple[int, int, str]]:
+    """(start, end, text) of the tokens of ``line``; stops once it holds more than ``limit`` tokens."""
     out: list[tuple[int, int, str]] = []
     for m in pattern.finditer(line):
+        if limit is not None and len(out) > limit:
+            break
         tok = m.group(0)
         if merge_units and out and _UNIT_ONLY.match(tok):
             s, _, prev = out[-1]
@@ -196,21 +235,20 @@ def _whitespace_names(line: str, ncols: int) -> list[tuple[int, int, str]] | Non
     two or more spaces / tabs (names that contain single spaces, ``X Location (mm)``).
     """
     for pattern, merge in ((_WS_TOKEN, True), (_WIDE_TOKEN, False)):
-        spans = _spans(line, pattern, merge)
+        spans = _spans(line, pattern, merge, limit=ncols)
         if len(spans) == ncols:
             return spans
     return None
 
 
-def _delimited_names(text: str, delim: str) -> list[str]:
+def _delimited_names(text: str, delim: str, limit: int | None = None) -> list[str]:
+    """The names of a delimited header line (quotes as CSV has them); the first ``limit + 1`` only with ``limit``."""
     try:
-        row = pd.read_csv(
-            io.StringIO(text), sep=delim, header=None, dtype=object, na_filter=False,
-            skipinitialspace=True, engine="c",
-        )
-        names = ["" if v is None else str(v) for v in row.iloc[0].tolist()]
-    except (pd.errors.ParserError, pd.errors.EmptyDataError, IndexError):
+        names = next(csv.reader([text], delimiter=delim, skipinitialspace=True, strict=True), None) or text.split(delim)
+    except csv.Error:  # a quote left open: split as written
         names = text.split(delim)
+    if limit is not None:
+        names = names[:limit + 1]
     return [n.strip().strip("\"'").strip() for n in names]
 
 

@@ -41,7 +41,11 @@ from ._csv_lines import (
     _delimited_names,
     _is_body,
     _is_comment,
-    _is_data,
+    _count_fields,
+    _head_fields,
+    _is_data_line,
+    _MANY_NAMES,
+    _quote,
     _is_rule,
     _join_names,
     _plural,
@@ -89,7 +93,7 @@ def _sniff(lines: list[str], idx: list[int]) -> str | None:
     """The delimiter under which most of the lines ``idx`` are data rows (None if none is)."""
     best, best_score = None, (0, 0)
     for prio, delim in enumerate(_SNIFF_ORDER):
-        hits = sum(_is_data(_split(lines[i], delim)) for i in idx)
+        hits = sum(_is_data_line(lines[i], delim) for i in idx)
         score = (hits, -prio)
         if hits and score > best_score:
             best, best_score = delim, score
@@ -100,7 +104,7 @@ def _decimal_comma_delimiter(lines: list[str], idx: list[int]) -> str | None:
     """The delimiter (';', tab or whitespace) of rows like ``0,1;0,5`` (decimal commas), else None."""
     for i in idx:
         for delim in (";", "\t", "whitespace"):
-            fields = [f for f in _split(lines[i], delim) if f]
+            fields = [f for f in _head_fields(lines[i], delim) if f]
             if (len(fields) >= 2 and all(_NUMBER.match(f) or _DECIMAL_COMMA.match(f) for f in fields)
                     and any(_DECIMAL_COMMA.match(f) for f in fields)):
                 return delim
@@ -146,11 +150,11 @@ def _find_header(path: str, lines: list[str], lo: int, m: int, delim: str, ncols
             k = j - 1
             while k >= lo and not lines[k].strip():
                 k -= 1
-            if k >= lo and _is_body(lines[k].strip()) and not _is_data(_split(lines[k], delim)):
+            if k >= lo and _is_body(lines[k].strip()) and not _is_data_line(lines[k], delim):
                 return _header_from_lines(path, lines, k, delim, ncols, first_data, lo, rule=True)
             j -= 1
             continue
-        if _is_data(_split(lines[j], delim)):
+        if _is_data_line(lines[j], delim):
             first_data = j
             j -= 1
             continue
@@ -176,19 +180,25 @@ def _names_for(text: str, delim: str, ncols: int, lines: list[str], first_data: 
     if delim == "whitespace":
         spans = _whitespace_names(text, ncols)
         return None if spans is None else [t for _, _, t in spans]
+    if '"' not in text and abs(_count_fields(text, delim) - ncols) > 1:
+        return None  # without quotes each delimiter parts two names: too many or too few (cheap on a long line)
     names = _delimited_names(text, delim)
     if len(names) == ncols + 1 and names[-1] == "":
         names = names[:-1]  # trailing delimiter on the header row only
-    elif len(names) + 1 == ncols and _split(lines[first_data], delim)[-1] == "":
+    elif len(names) + 1 == ncols and _split(lines[first_data].rsplit(delim, 1)[-1], delim) == [""]:
         names = names + [""]  # trailing delimiter on the data rows only
     return names if len(names) == ncols else None
 
 
 def _raise_header_count(path, line_no, ncols, text, delim, first_data):
-    got = [t for _, _, t in _spans(text, _WS_TOKEN, True)] if delim == "whitespace" else _delimited_names(text, delim)
+    if delim == "whitespace":
+        got = [t for _, _, t in _spans(text, _WS_TOKEN, True, limit=_MANY_NAMES)]
+    else:
+        got = _delimited_names(text, delim, limit=_MANY_NAMES)
+    n = f"more than {_MANY_NAMES:,}" if len(got) > _MANY_NAMES else len(got)
     raise SEDFormatError(
         f"The header row (line {line_no}) of SED file {path!r} must name each of the {ncols} columns "
-        f"of the first data row (line {first_data + 1}); got {len(got)} names ({_join_names(got)}) instead."
+        f"of the first data row (line {first_data + 1}); got {n} names ({_join_names(got)}) instead."
     )
 
 
@@ -201,7 +211,7 @@ def _header_from_lines(path, lines, k, delim, ncols, first_data, lo, *, rule: bo
         j = k - 1
         while j >= lo and not lines[j].strip():
             j -= 1
-        if j >= lo and _is_body(lines[j].strip()) and not _is_data(_split(lines[j], delim)):
+        if j >= lo and _is_body(lines[j].strip()) and not _is_data_line(lines[j], delim):
             upper = lines[j] if delim == "whitespace" else lines[j].strip()
             names = _names_for(upper, delim, ncols, lines, first_data)
             if names is not None:
@@ -211,7 +221,7 @@ def _header_from_lines(path, lines, k, delim, ncols, first_data, lo, *, rule: bo
     partial = single is None or any(not _LOC.sub("", t).strip() for _, _, t in single)
     if (rule or partial) and delim == "whitespace" and ncols >= 2 and k - 1 >= lo:
         upper = lines[k - 1]
-        if _is_body(upper.strip()) and not _is_data(_split(upper, delim)):
+        if _is_body(upper.strip()) and not _is_data_line(upper, delim):
             names = _align_two_lines(upper, lines[k], ncols)
             if names is not None:
                 return _Header(names, k + 1, text, first_data, n_lines=2)
@@ -226,9 +236,9 @@ def _units_row(line: str, delim: str, ncols: int) -> list[str | None] | None:
 
     Every field must be a unit :func:`afferent.units.parse_unit` knows, or empty / ``-``.
     """
-    fields = line.split() if delim == "whitespace" else _split(line, delim)
-    if len(fields) != ncols:
+    if _count_fields(line, delim) != ncols:
         return None
+    fields = line.split() if delim == "whitespace" else _split(line, delim)
     out: list[str | None] = []
     for f in fields:
         t = f.strip()
@@ -281,12 +291,12 @@ def _parse_table(path: str, lines: list[str], sep: str | None, notes: list[str])
             _raise_no_data(path, lines, list(_body_lines(lines)))
         notes.append(f"detected delimiter: {_SEP_NAMES[delim]}")
 
-    data_idx = list(islice((i for i in _body_lines(lines) if _is_data(_split(lines[i], delim))), _SNIFF_LINES))
+    data_idx = list(islice((i for i in _body_lines(lines) if _is_data_line(lines[i], delim)), _SNIFF_LINES))
     if not data_idx:
         _raise_no_data(path, lines, list(_body_lines(lines)))
-    counts = Counter(len(_split(lines[i], delim)) for i in data_idx)
+    counts = Counter(_count_fields(lines[i], delim) for i in data_idx)
     ncols = counts.most_common(1)[0][0]
-    m = next(i for i in data_idx if len(_split(lines[i], delim)) == ncols)
+    m = next(i for i in data_idx if _count_fields(lines[i], delim) == ncols)
 
     header = _find_header(path, lines, 0, m, delim, ncols)
     n_pre = sum(1 for line in lines[: header.line - header.n_lines] if line.strip())
@@ -372,8 +382,7 @@ def _collect_rows(path, lines, header: _Header, delim, ncols):
                 tally["footer"] += 1
                 after, lo = [], j + 1
             elif _is_body(s):
-                fields = _split(lines[j], delim)
-                if _is_data(fields) and len(fields) == ncols:
+                if _is_data_line(lines[j], delim) and _count_fields(lines[j], delim) == ncols:
                     next_m = j
                     break
                 after.append(j)
@@ -484,11 +493,11 @@ def _read_rows(path, rows, row_lines, delim, names, header_line, notes):
             r = int(bad_rows[0])
             cell = str(raw[r]).strip()
             if n_valid == 0 and name and not _NUMBERISH.match(cell):
-                notes.append(f"dropped column {name!r}: it holds text, not numbers (e.g. {cell!r})")
+                notes.append(f"dropped column {_quote(name)}: it holds text, not numbers (e.g. {_quote(cell)})")
                 continue
             label = name or f"#{k + 1}"
             raise SEDFormatError(
-                f"Column {label!r} of SED file {path!r} must hold numbers; got {cell!r} "
+                f"Column {_quote(label)} of SED file {path!r} must hold numbers; got {_quote(cell)} "
                 f"at line {row_lines[r]} instead."
             )
         if not name:

@@ -196,7 +196,7 @@ def read_mesh_file(path: str) -> RawExport:
 
 
 _DATA_ARRAY = re.compile(rb"<DataArray\b[^>]*>")
-_ATTR = re.compile(rb'(\w+)="([^"]*)"')
+_ATTR = re.compile(rb'\b(\w+)="([^"]*)"')  # \b: linear on a long run of letters
 
 
 def _vtu_component_names(path: str) -> dict[str, tuple[str, ...]]:
