@@ -47,7 +47,15 @@ TARGETS: list[tuple[str, str]] = [
     ("exodus", ".e"),  # appended: existing findings keep their target (their first byte is below 15)
     ("med", ".med"),
     ("rst", ".rst"),  # ANSYS MAPDL results (the 'ansys' extra); read in a child process, ~1 s an input
+    # XDMF with its HDF5 heavy data (the collection reader): the fuzzed XDMF beside a valid heavy.h5, and
+    # a valid collection XDMF beside the fuzzed heavy.h5
+    ("xdmf-text", ".xdmf"), ("xdmf-heavy", ".h5"),
+    # long lines: the input's first line repeated 2**(byte % 24) times (up to LONG_LINE_BYTES)
+    ("csv-long", ".csv"),
 ]
+
+#: the longest input the csv-long target builds (bytes): a 10 MB line is what a user's broken export can hold
+LONG_LINE_BYTES = 10_000_000
 
 
 def _read(target: str, path: str) -> None:
@@ -72,6 +80,8 @@ def _read(target: str, path: str) -> None:
 
         if "rst" in FORMATS:  # S and EPEL: the exact SED, so that the tensors are read and checked too
             afferent.read_sed(path, length_unit="mm", stress_unit="MPa", sed_from="exact", preset="ansys")
+    elif target == "xdmf-heavy":
+        afferent.read_sed(os.path.join(os.path.dirname(path), "collection.xdmf"), length_unit="mm", sed_unit="MPa")
     else:
         from afferent.io import FORMATS
 
@@ -80,18 +90,41 @@ def _read(target: str, path: str) -> None:
         afferent.read_sed(path, length_unit="mm", sed_unit="MPa")
 
 
+def _long_lines(data: bytes) -> bytes:
+    """The csv-long input: the first line of ``data[1:]`` repeated ``2 ** (data[0] % 24)`` times, then the rest."""
+    if not data:
+        return data
+    first, sep, rest = data[1:].partition(b"\n")
+    times = min(2 ** (data[0] % 24), LONG_LINE_BYTES // max(len(first), 1))
+    return first * max(times, 1) + sep + rest
+
+
+def prepare(data: bytes, folder: str) -> tuple[str, str]:
+    """Write one fuzz input into ``folder`` with the side files its target needs; returns (target, path read)."""
+    for name in os.listdir(folder):  # nothing left from the input before: each input sees only its own side files
+        os.remove(os.path.join(folder, name))
+    target, suffix = TARGETS[data[0] % len(TARGETS)]
+    body = _long_lines(data[1:]) if target == "csv-long" else data[1:]
+    name = "heavy" if target == "xdmf-heavy" else "input"
+    path = os.path.join(folder, name + suffix)
+    with open(path, "wb") as fh:
+        fh.write(body)
+    if target == "pvd":  # a collection needs its steps beside it: one valid step file
+        shutil.copy(HERE / "seeds" / "step.vtu", os.path.join(folder, "step.vtu"))
+    if target == "xdmf-text":  # the XDMF's heavy data: a valid HDF5 file of DOLFINx's layout
+        shutil.copy(HERE / "seeds" / "heavy.h5", os.path.join(folder, "heavy.h5"))
+    if target == "xdmf-heavy":  # the fuzzed HDF5 read through a valid temporal collection
+        shutil.copy(HERE / "seeds" / "collection.xdmf", os.path.join(folder, "collection.xdmf"))
+    return target, path
+
+
 def run_one(data: bytes, folder: str) -> None:
     """Read one fuzz input; raise on anything but a documented error."""
     from afferent.exceptions import AfferentError
 
     if len(data) < 2:
         return
-    target, suffix = TARGETS[data[0] % len(TARGETS)]
-    path = os.path.join(folder, "input" + suffix)
-    with open(path, "wb") as fh:
-        fh.write(data[1:])
-    if target == "pvd":  # a collection needs its steps beside it: one valid step file
-        shutil.copy(HERE / "seeds" / "step.vtu", os.path.join(folder, "step.vtu"))
+    target, path = prepare(data, folder)
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
@@ -140,11 +173,13 @@ def _seed_corpus(corpus: Path) -> None:
         "xdmf": HERE / "seeds", "scene": ROOT / "sample_sed/scenes", "receptors": HERE / "seeds",
         "observed": ROOT / "sample_sed/observed", "waveform": HERE / "seeds", "sed_table": HERE / "seeds",
         "frd": ROOT / "tests/data/calculix", "exodus": ROOT / "tests/data/exodus", "med": ROOT / "tests/data/med",
+        "xdmf-text": HERE / "seeds", "xdmf-heavy": HERE / "seeds", "csv-long": HERE / "seeds",
     }
     suffixes = {"csv": (".csv",), "txt": (".txt",), "dat": (".dat",), "rpt": (".rpt",), "vtu": (".vtu",),
                 "vtk": (".vtk",), "pvd": (".pvd",), "xdmf": (".xdmf",), "scene": (".toml",), "receptors": ("receptors.csv",),
                 "observed": (".csv",), "waveform": ("waveform.csv",), "sed_table": ("sed_table.csv",), "frd": (".frd",),
-                "exodus": (".e", ".ex2", ".g"), "med": (".med", ".rmed")}
+                "exodus": (".e", ".ex2", ".g"), "med": (".med", ".rmed"), "xdmf-text": ("collection.xdmf",),
+                "xdmf-heavy": ("heavy.h5",), "csv-long": ("long_row.csv",)}
     for target, folder in picks.items():
         if not folder.is_dir():
             continue
@@ -182,6 +217,7 @@ def main() -> None:
         import afferent.io._med  # noqa: F401
         import afferent.io._meshio  # noqa: F401
         import afferent.io._xdmf  # noqa: F401
+        import afferent.io._csv_lines  # noqa: F401
         import afferent.profiles  # noqa: F401
         import afferent.receptors  # noqa: F401
         import afferent.sampling  # noqa: F401

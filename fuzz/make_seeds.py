@@ -1,11 +1,13 @@
 """Write the small seed files of the fuzz corpus (fuzz/seeds/), each a valid input of its kind."""
 
+import shutil
 from pathlib import Path
 
 import meshio
 import numpy as np
 
 HERE = Path(__file__).resolve().parent / "seeds"
+DOLFINX = Path(__file__).resolve().parent.parent / "tests" / "data" / "dolfinx"
 
 
 def main():
@@ -28,6 +30,11 @@ def main():
     (HERE / "waveform.csv").write_text("time,depth\n0,0\n0.1,0.5\n0.2,0.5\n0.3,0\n")
     (HERE / "sed_table.csv").write_text(
         "receptor,x_m,y_m,z_m,time_s,sed_pa\nr0,2e-4,5e-4,3e-4,0,120.5\nr1,6e-4,5e-4,3e-4,0,80.25\n")
+    # DOLFINx 0.5.2's temporal collections with their HDF5 heavy data, renamed to heavy.h5 (xdmf-* targets)
+    shutil.copy(DOLFINX / "block.h5", HERE / "heavy.h5")
+    (HERE / "collection.xdmf").write_text((DOLFINX / "block.xdmf").read_text().replace("block.h5:", "heavy.h5:"))
+    # csv-long: the first byte is the repeat exponent (2**14 here: a 180 kB first row), then a one-row CSV
+    (HERE / "long_row.csv").write_bytes(bytes([14]) + b"1234567890,\nx,y,z,sed\n0,0,0,1\n")
 
 
 if __name__ == "__main__":

@@ -29,15 +29,10 @@ def _harness():
 @pytest.mark.parametrize("finding", FINDINGS, ids=[f.stem for f in FINDINGS])
 def test_fuzz_finding_ends_in_a_documented_error_naming_the_file(finding, tmp_path):
     harness = _harness()
-    data = finding.read_bytes()
-    target, suffix = harness.TARGETS[data[0] % len(harness.TARGETS)]
-    path = tmp_path / ("input" + suffix)
-    path.write_bytes(data[1:])
-    if target == "pvd":
-        (tmp_path / "step.vtu").write_bytes((ROOT / "fuzz" / "seeds" / "step.vtu").read_bytes())
+    target, path = harness.prepare(finding.read_bytes(), str(tmp_path))
     with pytest.raises(AfferentError) as info:
-        harness._read(target, str(path))
-    assert str(path) in str(info.value), (target, str(info.value))
+        harness._read(target, path)
+    assert path in str(info.value), (target, str(info.value))
 
 
 def test_the_findings_are_there():

@@ -43,6 +43,15 @@ def _parse(path: str) -> ET.Element:
         raise SEDFormatError(f"SED file {path!r} is not valid XDMF (XML): {err}") from err
 
 
+def _counts(text: str | None, what: str, path: str) -> tuple[int, ...]:
+    """The whole numbers of an XDMF attribute (``Dimensions="32 8"``, ``NumberOfElements="32"``)."""
+    words = (text or "").split()
+    if not all(w.isdigit() for w in words):
+        shown = text if len(text) <= 40 else text[:40] + "..."
+        raise SEDFormatError(f"SED file {path!r}: {what} must be whole numbers separated by spaces; got {shown!r} instead.")
+    return tuple(int(w) for w in words)
+
+
 def has_collections(path: str) -> bool:
     """Whether an XDMF file holds grid collections (a time series) rather than a single grid."""
     root = _parse(path)
@@ -66,7 +75,7 @@ class _Heavy:
 
     def read(self, item: ET.Element, what: str) -> np.ndarray:
         fmt = item.get("Format", "XML").upper()
-        dims = tuple(int(d) for d in (item.get("Dimensions") or "").split()) or None
+        dims = _counts(item.get("Dimensions"), f"the Dimensions of {what}", self.path) or None
         text = (item.text or "").strip()
         if fmt == "HDF":
             data = self._hdf(text, what)
@@ -277,8 +286,7 @@ def _mesh_cells(heavy, mesh: ET.Element, n_points: int, path: str, notes: list):
             raise SEDFormatError(f"SED file {path!r}: the mixed topology of grid {mesh.get('Name')!r} could not be "
                                  f"decoded: {type(err).__name__}: {err}") from err
     elif ttype.lower() in names:
-        blocks = [SimpleNamespace(type=names[ttype.lower()],
-                                  data=conn.reshape(int(topo.get("NumberOfElements", conn.shape[0])), -1))]
+        blocks = [SimpleNamespace(type=names[ttype.lower()], data=_uniform_cells(conn, names[ttype.lower()], topo, path))]
     else:
         raise SEDFormatError(f"SED file {path!r}: TopologyType {ttype!r} is not an XDMF topology afferent knows.")
     for b in blocks:
@@ -291,6 +299,19 @@ def _mesh_cells(heavy, mesh: ET.Element, n_points: int, path: str, notes: list):
     if cells is None:
         notes.append(f"topology {ttype!r} has no volume cells: the points are treated as scattered samples.")
     return cells
+
+
+def _uniform_cells(conn: np.ndarray, ctype: str, topo: ET.Element, path: str) -> np.ndarray:
+    """A uniform topology's connectivity as (n_cells, nodes per cell), checked against its cell type."""
+    from meshio._common import num_nodes_per_cell
+
+    counts = _counts(topo.get("NumberOfElements"), "the topology's NumberOfElements", path)
+    n_cells = counts[0] if len(counts) == 1 else conn.shape[0]
+    per_cell = num_nodes_per_cell.get(ctype)
+    if per_cell is None or n_cells * per_cell != conn.size:
+        raise SEDFormatError(f"SED file {path!r}: a {ctype!r} topology of {n_cells} cells must hold {n_cells} x "
+                             f"{per_cell} node numbers; got {conn.size} instead.")
+    return conn.reshape(n_cells, per_cell)
 
 
 def _step_attributes(heavy, grids: list, t: float, n_points: int, cells, first_names, path: str, bar) -> dict:
