@@ -126,6 +126,18 @@ def _is_data_line(line: str, delim: str) -> bool:
     return _is_data(_head_fields(line, delim))
 
 
+#: What every cell :data:`_NUMBER` matches holds: a digit, or the letters of nan / inf.
+_NUMBER_SIGN = re.compile(r"\d|nan|inf", re.IGNORECASE)
+
+
+def _is_data_line_any(line: str) -> bool:
+    """Whether ``line`` is a data row under some delimiter of :data:`_SNIFF_ORDER`; a line of text
+    without a digit (or nan / inf) is told in one scan of its first :data:`_CLASSIFY_CHARS` characters."""
+    if not _NUMBER_SIGN.search(line, 0, _CLASSIFY_CHARS):
+        return False
+    return any(_is_data_line(line, d) for d in _SNIFF_ORDER)
+
+
 def _quote(text) -> str:
     """``repr`` of ``text``, cut to :data:`_QUOTE_CHARS` characters plus '...' and its length when longer."""
     text = str(text)

@@ -44,6 +44,7 @@ from ._csv_lines import (
     _count_fields,
     _head_fields,
     _is_data_line,
+    _is_data_line_any,
     _MANY_NAMES,
     _quote,
     _is_rule,
@@ -286,10 +287,14 @@ def _parse_table(path: str, lines: list[str], sep: str | None, notes: list[str])
         delim = comma_delim
     if delim is None:
         delim = _sniff(lines, body)
-        if delim is None and len(body) == _SNIFF_LINES:  # a very long preamble
-            delim = _sniff(lines, list(_body_lines(lines)))
+        every = None
+        if delim is None and len(body) == _SNIFF_LINES:  # a very long preamble: sniff from its first row of numbers
+            every = list(_body_lines(lines))
+            first = next((k for k, i in enumerate(every) if _is_data_line_any(lines[i])), None)
+            if first is not None:
+                delim = _sniff(lines, every[first:first + _SNIFF_LINES])
         if delim is None:
-            _raise_no_data(path, lines, list(_body_lines(lines)))
+            _raise_no_data(path, lines, every if every is not None else list(_body_lines(lines)))
         notes.append(f"detected delimiter: {_SEP_NAMES[delim]}")
 
     data_idx = list(islice((i for i in _body_lines(lines) if _is_data_line(lines[i], delim)), _SNIFF_LINES))
