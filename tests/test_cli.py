@@ -206,7 +206,7 @@ def test_outputs_honour_the_umask(capsys, tmp_path, box_vtu, receptors_csv, umas
                            "--sed-unit", "MPa", "--params", "start", "-o", folder)
         assert code == 0, err
         assert folder.stat().st_mode & 0o777 == dir_mode
-        for name in ("receptors.csv", "run.json", "receptors.vtu", "sed_map.png"):
+        for name in ("currents.nc", "run.json", "receptors.vtu", "sed_map.png"):
             assert (folder / name).stat().st_mode & 0o777 == file_mode, name
     finally:
         os.umask(old)

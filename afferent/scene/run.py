@@ -154,7 +154,8 @@ def run_scene(scene: Scene, *, overwrite: bool = False, cache_dir=None, progress
         files: list[str] = []
         with atomic_dir(outdir, overwrite=overwrite, inputs=scene.input_files) as tmp:
             with run.steps("writing"):
-                files = write_outputs(tmp, want=want, plots="plots" in want, **run.out)
+                files = write_outputs(tmp, want=want, plots="plots" in want, results_format=scene.outputs.format,
+                                      **run.out)
             full = build_record(scene, run.planned, run.skipped, run.steps.seconds, run.record, run.inputs, caught,
                                 files, started, t_run, record_extra)
             write_json(os.path.join(tmp, "run.json"), full)
