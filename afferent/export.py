@@ -489,7 +489,7 @@ def write_spikes_nwb(path: str, spikes, afferent) -> None:
     Parameters
     ----------
     path : str
-        The file to write (inside a folder :func:`afferent._output.atomic_dir` is creating).
+        The file to write (inside a folder ``afferent._output.atomic_dir`` is creating).
     spikes : SpikeTrains
         From :func:`afferent.spiking.simulate_lif`.
     afferent : AfferentCurrent

@@ -313,5 +313,8 @@ def run(args: argparse.Namespace) -> int:
             scene = replace(scene, outputs=replace(scene.outputs, format=args.results_format))
         return run_scene_cli(scene, output=args.output, overwrite=args.overwrite, quiet=args.quiet,
                              use_cache=not args.no_cache, command=command)
+    from ._main import _WORDS, speak_cli
+
     return run_scene_cli(scene_from_args(args), overwrite=args.overwrite, quiet=args.quiet,
-                         use_cache=not args.no_cache, command=command)
+                         use_cache=not args.no_cache, command=command,
+                         speak=lambda m: speak_cli(m, _WORDS["flags"], _WORDS["choices"]))

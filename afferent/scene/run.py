@@ -516,7 +516,7 @@ def _spike(run: _Run) -> None:
 
 # --------------------------------------------------------------------------------- CLI
 def run_scene_cli(path, *, output=None, overwrite: bool = False, quiet: bool = False, cache_dir=None,
-                  use_cache: bool = True, command: str | None = None) -> int:
+                  use_cache: bool = True, command: str | None = None, speak=None) -> int:
     """``afferent run``: load (or take) a scene, run it, summarise on stderr; returns the exit code (0).
 
     Parameters
@@ -534,6 +534,8 @@ def run_scene_cli(path, *, output=None, overwrite: bool = False, quiet: bool = F
     use_cache : bool, default=True
     command : str, optional
         The command line recorded in run.json; default ``afferent run PATH [-o OUT] [--overwrite]``.
+    speak : callable, optional
+        Rewrites a warning in the command's words (``afferent.cli._main.speak_cli``).
 
     Raises
     ------
@@ -558,5 +560,6 @@ def run_scene_cli(path, *, output=None, overwrite: bool = False, quiet: bool = F
     for line in summary_lines(result):
         print(line, file=sys.stderr)
     for msg in dict.fromkeys(str(w.message) for w in caught if not issubclass(w.category, _QUIET_CATEGORIES)):
-        print(f"afferent: warning: {' '.join(msg.split())}", file=sys.stderr)
+        msg = " ".join(msg.split())
+        print(f"afferent: warning: {speak(msg) if speak else msg}", file=sys.stderr)
     return 0
