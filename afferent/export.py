@@ -31,9 +31,11 @@ installed (the ``nwb`` extra) and the output ``nwb``, ``spikes.nwb`` (:func:`wri
 
 Why NetCDF-4 for the time courses (README "Outputs"): measured on 595 receptors x 2301 steps
 (sample_sed/block8, a 2.3 s ramp), the long ``receptors.csv`` took 44 s to write and 141 MB;
-NetCDF-4 (xarray + h5netcdf, zlib level 1) 0.46 s and 2.0 MB; Zarr 1.3 s, 1.5 MB in 46 files.
-One NetCDF-4 file is read by xarray, MATLAB ``ncread``, R (ncdf4, RNetCDF), ParaView's NetCDF
-reader and any HDF5 tool; Zarr needs a Zarr library, which MATLAB and R do not ship.
+NetCDF-4 through xarray + h5netcdf 0.46 s and 2.0 MB (zlib level 1) or 1.0 s and 22 MB (none);
+Zarr 1.3 s, 1.5 MB in 46 files. Written directly with h5netcdf, uncompressed: 0.085 s, 22 MB.
+One NetCDF-4 file is read by xarray, MATLAB ``ncread``, R (ncdf4, RNetCDF) and any HDF5 tool
+(VTK's ``vtkNetCDFReader``, ParaView's, lists its arrays); Zarr needs a Zarr library, which
+MATLAB and R do not ship.
 """
 
 from __future__ import annotations
@@ -325,8 +327,13 @@ RESULTS_NC = "currents.nc"
 
 def _write_netcdf(path: str, variables: dict, attrs: dict) -> None:
     """``variables`` (name -> (dims, values, attrs)) as a NetCDF-4 file through h5netcdf (xarray not imported:
-    0.4 s less per run); numbers zlib level 1 with the shuffle filter (standard HDF5 filters every netCDF-4
-    reader has), strings variable-length."""
+    0.4 s less per run); numbers uncompressed (float64), strings variable-length.
+
+    Uncompressed because writing must stay within 10 % of a run (README "Outputs"): on 595
+    receptors x 2301 steps, zlib level 1 with the shuffle filter gave 1.8 MB instead of 22 MB but
+    took the write from 0.085 s to 0.15 s, 13 % of that 1.1 s run; ``nccopy -d 1 -s`` compresses a
+    file afterwards.
+    """
     import h5netcdf
     import h5py
 
@@ -338,8 +345,7 @@ def _write_netcdf(path: str, variables: dict, attrs: dict) -> None:
             if values.dtype.kind in "UO":
                 v = f.create_variable(name, dims, h5py.string_dtype(), data=values.astype(object))
             else:
-                v = f.create_variable(name, dims, values.dtype, data=values, compression="gzip", compression_opts=1,
-                                      shuffle=True)
+                v = f.create_variable(name, dims, values.dtype, data=values)
             v.attrs.update(var_attrs)
             aux = [c for c in _COORDS if c in variables and c not in dims and set(variables[c][0]) <= set(dims)]
             if name not in _COORDS and aux:  # CF: the auxiliary coordinates (positions, section ids) of a variable
