@@ -13,7 +13,7 @@ import pytest
 
 from afferent.cli import main
 
-from conftest import linear_sed
+from conftest import SAMPLE_DIR, linear_sed
 
 
 @pytest.fixture
@@ -259,3 +259,19 @@ def test_cli_messages_offer_only_remedies_the_command_accepts_in_its_own_flags()
     said = speak_cli(status, *cal)
     assert "--refine N (halve the increments up to N times) or --method rsm2 may go further." in said
     assert "pass --shear tensor." in speak_cli("... Check the preset or pass shear='tensor'.", *run)
+
+
+@pytest.mark.skipif(not (SAMPLE_DIR / "block4" / "indent_0p88mm_tensors.vtu").is_file(), reason="sample not generated")
+@pytest.mark.parametrize("command", ["sample", "run"])
+def test_warnings_printed_by_the_cli_name_its_flags_not_python_keywords(capsys, tmp_path, command):
+    """Issue 22: a reader's warning said "pass shear='engineering'" on the command line."""
+    block = SAMPLE_DIR / "block4"
+    out = tmp_path / ("sed.csv" if command == "sample" else "run")
+    argv = [command, str(block / "indent_0p88mm_tensors.vtu"), "--receptors", str(block / "receptors.csv"),
+            "--length-unit", "mm", "--stress-unit", "MPa", "--sed-from", "exact", "--preset", "vtk", "-o", str(out)]
+    if command == "run":
+        argv += ["--params", "start", "--no-plots", "--no-cache"]
+    assert main(argv) == 0
+    err = capsys.readouterr().err
+    assert "the file's shear strain looks engineering. Check the preset or pass --shear engineering." in err
+    assert "shear='" not in err
