@@ -40,7 +40,8 @@ from ._mesh_geometry import (  # noqa: F401 (locate_in_tets, JOGGLE, NEAR_NODES_
     node_average,
 )
 from ._validation import check_option
-from .exceptions import AfferentWarning, FieldCoverageError, SEDFormatError, UnitError
+from ._plausibility import refuse_collapse
+from .exceptions import AfferentWarning, FieldCoverageError, SEDFormatError
 from .field import SEDField
 from .receptors import ReceptorLayout
 
@@ -341,30 +342,6 @@ def _unit_mismatch(layout: ReceptorLayout, field: SEDField) -> str:
             "receptor positions (mm vs m is a factor 1e3).")
 
 
-#: at most this many field values (one quadratic hexahedron's 27 nodes) feeding every receptor: they collapsed
-COLLAPSE_VALUES = 27
-
-
-def _refuse_collapse(sampler: Sampler, layout: ReceptorLayout, units: str) -> None:
-    """Refuse receptors that, declared in a length unit apart from the field's, all fall in one cell or on one point.
-
-    Every receptor would get (nearly) the same SED: a number wrong for all of them, not a
-    warning's worth. Called only when :func:`_unit_mismatch` found the extents orders apart.
-    """
-    inside = ~np.asarray(sampler.outside, dtype=bool)
-    n = int(inside.sum())
-    if n < 2:
-        return
-    used = np.unique(sampler.weights[np.flatnonzero(inside)].tocsr().indices)
-    if used.size > COLLAPSE_VALUES:
-        return
-    of = f" of receptor file {layout.source!r}" if layout.source else ""
-    raise UnitError(
-        f"All {n} receptors{of} inside the field fall in one cell or on one point ({used.size} field value(s) feed "
-        f"them all): each would get the same SED. {units} Declare the receptors' unit (--receptor-unit, [receptors] "
-        "length_unit) and the export's (--length-unit, [export] length_unit).")
-
-
 def report_outside(layout: ReceptorLayout, outside, on_outside: str, *, where: str, hint: str, stacklevel: int = 2):
     """Raise or warn about receptors outside the SED field, per ``on_outside`` ('raise', 'warn', 'nan').
 
@@ -437,8 +414,8 @@ def sample_sed(
     if sampler is None:
         sampler = build_sampler(field, layout, method=method)
     units = _unit_mismatch(layout, field)
-    if units:
-        _refuse_collapse(sampler, layout, units)
+    if units:  # and every receptor falls in one cell or on one point: refused
+        refuse_collapse(sampler.weights, sampler.outside, layout.source, units)
     if units and not sampler.outside.any():
         warnings.warn(units, AfferentWarning, stacklevel=2)
     if sampler.outside.any():
