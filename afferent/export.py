@@ -437,6 +437,11 @@ def load_results(folder):
     ------
     FileNotFoundError
         ``folder`` is not a folder, or holds no ``run.json``.
+
+    Notes
+    -----
+    The ``tables`` and ``run`` attributes are Python objects, not netCDF attributes: remove
+    them before writing the Dataset back (``ds.attrs.pop('tables'); ds.attrs.pop('run')``).
     """
     import pandas as pd
     import xarray as xr
