@@ -41,6 +41,7 @@ _LAZY = {
     "simulate_lif": "afferent.spiking",
     "LIFParams": "afferent.spiking",
     "sweep": "afferent._sweep",
+    "load_results": "afferent.export",
 }
 
 __all__ = sorted(_LAZY) + ["__version__"]

@@ -8,8 +8,8 @@ One guard, :func:`check_writable`, runs before any work and again at the final r
 - a folder output is created whole (:func:`atomic_dir`) with :data:`MARKER` inside, the list of the
   files afferent wrote there; ``overwrite`` replaces an existing folder only if it is empty, or
   carries that list and holds nothing else (a folder written before the list existed is recognised
-  by its afferent ``run.json`` / ``sweep.json``, and only its CSV, PNG, VTU, JSON, Parquet and
-  Markdown files count as afferent's); a file output replaces only a file that is not an input;
+  by its afferent ``run.json`` / ``sweep.json``, and only its CSV, PNG, VTU, JSON, Parquet,
+  Markdown, NetCDF and NWB files count as afferent's); a file output replaces only a file that is not an input;
 - the final rename never replaces what appeared meanwhile (Linux ``renameat2(RENAME_NOREPLACE)``,
   elsewhere a hard link for files and ``mkdir`` for folders); a replacement swaps old and new in one
   step (``RENAME_EXCHANGE``) and only then deletes the old one;
@@ -44,7 +44,8 @@ _ENVIRONMENT = {getattr(errno, name): reason for name, reason in (
     ("ENAMETOOLONG", "the name is too long"), ("ELOOP", "too many levels of symbolic links"),
 ) if hasattr(errno, name)}  # EDQUOT: not on Windows
 #: in a folder written before MARKER existed, the kinds of file afferent writes (a notes.txt there is not its)
-_LEGACY = tuple(f"*.{ext}" for ext in ("csv", "png", "vtu", "json", "jsonl", "parquet", "md"))
+_LEGACY = tuple(f"*.{ext}" for ext in ("csv", "png", "vtu", "json", "jsonl", "parquet", "md", "nc",
+                                               "nwb"))
 _TEMPORARIES = (".*.part", "*/.*.part")  # afferent's own temporary names, left by a killed run
 _WRITING = tuple(getattr(errno, n) for n in ("ENOSPC", "EDQUOT", "EROFS", "EFBIG") if hasattr(errno, n))  # only writing
 

@@ -14,7 +14,8 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["SED_BAND_PA", "SPAN_BAND_M", "robust_level", "extent", "sed_warning", "span_warning", "scale_ratio"]
+__all__ = ["SED_BAND_PA", "SPAN_BAND_M", "robust_level", "extent", "sed_warning", "span_warning", "scale_ratio",
+           "refuse_collapse", "COLLAPSE_VALUES"]
 
 #: Robust SED level (99th percentile of the nonzero |SED|) of skin under touch, in J/m^3 = Pa.
 #: The study's peak is ~190 Pa; the bundled sample's tip medians 51-688 Pa and peaks up to 4.4 kPa;
@@ -115,3 +116,45 @@ def scale_ratio(a, b) -> float:
     """
     ea, eb = extent(a), extent(b)
     return ea / eb if ea > 0 and eb > 0 else float("nan")
+
+
+#: at most this many field values (one quadratic hexahedron's 27 nodes) feeding every receptor: they collapsed
+COLLAPSE_VALUES = 27
+
+
+def refuse_collapse(weights, outside, source, units: str) -> None:
+    """Refuse receptors that, declared in a length unit apart from the field's, all fall in one cell or on one point.
+
+    Every receptor would get (nearly) the same SED: a number wrong for all of them, not a
+    warning's worth. Called by :func:`afferent.sampling.sample_sed` only when the receptors'
+    extent is orders from the field's (``units``: that sentence).
+
+    Parameters
+    ----------
+    weights : scipy.sparse matrix of shape (n_receptors, n_values)
+        Sampling weights (field values -> receptors).
+    outside : ndarray of bool, shape (n_receptors,)
+        Receptors outside the field (not counted).
+    source : str or None
+        The receptor file, for the message.
+    units : str
+        The sentence saying how far apart the extents are.
+
+    Raises
+    ------
+    UnitError
+        Two or more receptors inside the field, all fed by at most :data:`COLLAPSE_VALUES` values.
+    """
+    from .exceptions import UnitError
+
+    inside = np.flatnonzero(~np.asarray(outside, dtype=bool))
+    if inside.size < 2:
+        return
+    used = np.unique(weights[inside].tocsr().indices)
+    if used.size > COLLAPSE_VALUES:
+        return
+    of = f" of receptor file {source!r}" if source else ""
+    raise UnitError(
+        f"All {inside.size} receptors{of} inside the field fall in one cell or on one point ({used.size} field "
+        f"value(s) feed them all): each would get the same SED. {units} Declare the receptors' unit (--receptor-unit, "
+        "[receptors] length_unit) and the export's (--length-unit, [export] length_unit).")

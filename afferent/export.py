@@ -1,5 +1,7 @@
-"""The one writer of results: CSV tables (pandas), PNG figures, a VTU of the receptor sites
-(ParaView) and ``run.json``; all into a folder that appears whole or not at all.
+"""The one writer of results: a NetCDF-4 array file of the time courses, CSV tables (pandas), PNG
+figures, a VTU of the receptor sites (ParaView), ``run.json``, and optionally an NWB file of the
+spike trains; all into a folder that appears whole or not at all. :func:`load_results` reads a
+folder back.
 
 :func:`write_outputs` writes the tables and figures a run asks for (every ``afferent run``,
 through :func:`afferent.scene.run_scene`); :func:`write_pipeline_outputs` writes those of a
@@ -13,7 +15,10 @@ output   tables                                             figures
 ======== ================================================== ===========================================
 sed_map  ``sed_map.csv`` (receptor, x_m, y_m, z_m,          ``sed_map.png`` (study fig. 5-5)
          longitudinal, cross, time_s, sed_pa)
-currents ``receptors.csv`` (+ current_a), ``afferents.csv``
+currents ``currents.nc`` (NetCDF-4: sed_pa, current_a
+         over (time, receptor); afferent_current_a over
+         (time, afferent)); with ``results_format='csv'``
+         ``receptors.csv`` and ``afferents.csv`` (long)
 profiles ``profiles.csv`` (afferent, position_m, time_s,    ``profiles_x.png``, ``profiles_z.png``
          current_a at the profile step)                     (figs. 5-6, 5-7)
 fit      ``fit.csv``, ``profile_fit.csv``                   ``fit.png``
@@ -21,7 +26,16 @@ spikes   ``spikes.csv``, ``spike_summary.csv``              ``raster.png``, ``ra
 vtu      ``receptors.vtu`` (sed_pa [, current_a], sections)
 ======== ================================================== ===========================================
 
-With a stimulus waveform, ``waveform.csv`` (and ``waveform.png``) too.
+With a stimulus waveform, ``waveform.csv`` (and ``waveform.png``) too; with spikes and pynwb
+installed (the ``nwb`` extra) and the output ``nwb``, ``spikes.nwb`` (:func:`write_spikes_nwb`).
+
+Why NetCDF-4 for the time courses (README "Outputs"): measured on 595 receptors x 2301 steps
+(sample_sed/block8, a 2.3 s ramp), the long ``receptors.csv`` took 44 s to write and 141 MB;
+NetCDF-4 through xarray + h5netcdf 0.46 s and 2.0 MB (zlib level 1) or 1.0 s and 22 MB (none);
+Zarr 1.3 s, 1.5 MB in 46 files. Written directly with h5netcdf, uncompressed: 0.085 s, 22 MB.
+One NetCDF-4 file is read by xarray, MATLAB ``ncread``, R (ncdf4, RNetCDF) and any HDF5 tool
+(VTK's ``vtkNetCDFReader``, ParaView's, lists its arrays); Zarr needs a Zarr library, which
+MATLAB and R do not ship.
 """
 
 from __future__ import annotations
@@ -38,7 +52,11 @@ import numpy as np
 from ._output import atomic_dir
 
 __all__ = ["write_outputs", "write_pipeline_outputs", "write_json", "file_sha256", "versions", "jsonable",
-           "receptors_table", "write_receptor_vtu", "step_title", "profile_step_record"]
+           "receptors_table", "write_receptor_vtu", "step_title", "profile_step_record", "results_dataset",
+           "load_results", "RESULTS_FORMATS", "write_spikes_nwb"]
+
+#: how the time courses are written: one NetCDF-4 array file, or long CSV tables
+RESULTS_FORMATS = ("netcdf", "csv")
 
 
 def file_sha256(path: str, chunk: int = 1 << 20) -> str:
@@ -53,7 +71,8 @@ def file_sha256(path: str, chunk: int = 1 << 20) -> str:
 def versions() -> dict:
     """Versions of Python, afferent and its dependencies, for the run record."""
     out = {"python": platform.python_version(), "platform": platform.platform()}
-    for dist in ("afferent-skin", "numpy", "scipy", "pandas", "scikit-learn", "meshio", "matplotlib", "brian2", "pydoe"):
+    for dist in ("afferent-skin", "numpy", "scipy", "pandas", "scikit-learn", "meshio", "matplotlib", "brian2", "pydoe",
+                 "xarray", "h5netcdf", "h5py"):
         try:
             out[dist] = metadata.version(dist)
         except metadata.PackageNotFoundError:
@@ -138,7 +157,8 @@ def step_title(what: str, times, index: int, n_steps: int) -> str:
     return f"{what}\nstep {int(index) % n_steps} of {n_steps}{t} (peak)"
 
 
-def write_pipeline_outputs(result, outdir: str, *, record: dict, overwrite: bool = False, plots: bool = True) -> list[str]:
+def write_pipeline_outputs(result, outdir: str, *, record: dict, overwrite: bool = False, plots: bool = True,
+                           results_format: str = "csv") -> list[str]:
     """Write the outputs of a :class:`~afferent.pipeline.PipelineResult` into ``outdir`` (atomically, as a whole).
 
     The outputs ``currents``, ``profiles``, ``sed_map`` and ``vtu``, ``fit`` when a fit was
@@ -158,6 +178,9 @@ def write_pipeline_outputs(result, outdir: str, *, record: dict, overwrite: bool
         Replace an existing folder.
     plots : bool, default=True
         Also draw the figures.
+    results_format : {'csv', 'netcdf'}, default='csv'
+        The time courses as long CSV tables (what ``afferent demo`` writes) or ``currents.nc``
+        (what ``afferent run`` writes).
 
     Returns
     -------
@@ -170,7 +193,7 @@ def write_pipeline_outputs(result, outdir: str, *, record: dict, overwrite: bool
         written = write_outputs(tmp, want=want, plots=plots, sed_static=result.sed, sed=result.sed,
                                 current=result.current, branching=result.branching, afferent=result.afferent,
                                 fit=result.fit, waveform=result.waveform, spikes=result.spikes,
-                                profile_index=result.profile_index)
+                                profile_index=result.profile_index, results_format=results_format)
         written.append("run.json")
         write_json(os.path.join(tmp, "run.json"), _pipeline_record(result, record, written))
     return written
@@ -216,7 +239,7 @@ def write_json(path: str, data: dict) -> None:
 
 def write_outputs(folder: str, *, want, plots: bool, sed_static, sed, current=None, branching=None, afferent=None,
                   fit=None, waveform=None, spikes=None, drive=None, saturation=None,
-                  profile_index: int = -1) -> list[str]:
+                  profile_index: int = -1, results_format: str = "netcdf") -> list[str]:
     """Write the tables and figures of ``want`` into ``folder``; returns the file names written.
 
     Parameters
@@ -237,6 +260,9 @@ def write_outputs(folder: str, *, want, plots: bool, sed_static, sed, current=No
     profile_index : int
         Time step of the profiles, the fit and the VTU's currents (the step of the largest
         total afferent current).
+    results_format : {'netcdf', 'csv'}, default='netcdf'
+        The time courses of ``currents``: ``currents.nc`` (:func:`results_dataset`) or the long
+        tables ``receptors.csv`` and ``afferents.csv``.
     """
     written: list[str] = []
 
@@ -247,8 +273,7 @@ def write_outputs(folder: str, *, want, plots: bool, sed_static, sed, current=No
     if "sed_map" in want:
         sed_static.to_dataframe(sections=True).to_csv(path("sed_map.csv"), index=False)
     if "currents" in want:
-        receptors_table(SimpleNamespace(sed=sed, current=current)).to_csv(path("receptors.csv"), index=False)
-        afferent.to_dataframe()[["afferent", "position_m", "time_s", "current_a"]].to_csv(path("afferents.csv"), index=False)
+        _write_currents(path, sed, current, afferent, results_format)
     if "profiles" in want:
         import pandas as pd
 
@@ -268,6 +293,8 @@ def write_outputs(folder: str, *, want, plots: bool, sed_static, sed, current=No
         summary = spikes.summary().reset_index()
         summary.insert(1, "position_m", afferent.positions)
         summary.to_csv(path("spike_summary.csv"), index=False)
+    if "nwb" in want and spikes is not None:
+        write_spikes_nwb(path("spikes.nwb"), spikes, afferent)
     if "vtu" in want:
         if current is not None:
             write_receptor_vtu(path("receptors.vtu"), sed, current=current, time_index=profile_index)
@@ -280,6 +307,234 @@ def write_outputs(folder: str, *, want, plots: bool, sed_static, sed, current=No
         _figures(path, want, sed_static=sed_static, sed=sed, current=current, branching=branching, afferent=afferent,
                  fit=fit, waveform=waveform, spikes=spikes, profile_index=profile_index)
     return written
+
+
+def _write_currents(path, sed, current, afferent, results_format: str) -> None:
+    """The time courses of receptors and afferents: ``currents.nc``, or ``receptors.csv`` + ``afferents.csv``."""
+    if results_format not in RESULTS_FORMATS:
+        raise ValueError(f"results_format must be one of {', '.join(map(repr, RESULTS_FORMATS))}; "
+                         f"got {results_format!r}.")
+    if results_format == "csv":
+        receptors_table(SimpleNamespace(sed=sed, current=current)).to_csv(path("receptors.csv"), index=False)
+        afferent.to_dataframe()[["afferent", "position_m", "time_s", "current_a"]].to_csv(path("afferents.csv"), index=False)
+        return
+    _write_netcdf(path(RESULTS_NC), *_results_variables(sed, current, afferent))
+
+
+#: the array file of the time courses (output ``currents``)
+RESULTS_NC = "currents.nc"
+
+
+def _write_netcdf(path: str, variables: dict, attrs: dict) -> None:
+    """``variables`` (name -> (dims, values, attrs)) as a NetCDF-4 file through h5netcdf (xarray not imported:
+    0.4 s less per run); numbers uncompressed (float64), strings variable-length.
+
+    Uncompressed because writing must stay within 10 % of a run (README "Outputs"): on 595
+    receptors x 2301 steps, zlib level 1 with the shuffle filter gave 1.8 MB instead of 22 MB but
+    took the write from 0.085 s to 0.15 s, 13 % of that 1.1 s run; ``nccopy -d 1 -s`` compresses a
+    file afterwards.
+    """
+    import h5netcdf
+    import h5py
+
+    with h5netcdf.File(path, "w") as f:
+        f.dimensions = {d: len(values) for name, (dims, values, _) in variables.items() for d in dims[:1]
+                        if dims == (name,)}
+        for name, (dims, values, var_attrs) in variables.items():
+            values = np.asarray(values)
+            if values.dtype.kind in "UO":
+                v = f.create_variable(name, dims, h5py.string_dtype(), data=values.astype(object))
+            else:
+                v = f.create_variable(name, dims, values.dtype, data=values)
+            v.attrs.update(var_attrs)
+            aux = [c for c in _COORDS if c in variables and c not in dims and set(variables[c][0]) <= set(dims)]
+            if name not in _COORDS and aux:  # CF: the auxiliary coordinates (positions, section ids) of a variable
+                v.attrs["coordinates"] = " ".join(aux)
+        f.attrs.update(attrs)
+
+
+def _results_variables(sed, current=None, afferent=None) -> tuple[dict, dict]:
+    """What ``currents.nc`` holds (:func:`results_dataset`): name -> (dims, values, CF attributes), and the global
+    attributes; the dimension coordinates (``time``, ``receptor``, ``afferent``) are variables of their own name."""
+    from . import __version__
+
+    layout = sed.layout
+    pos = np.asarray(layout.positions, dtype=float)
+    tr = ("time", "receptor")
+    out = {"time": (("time",), np.asarray(sed.times, dtype=float), {"units": "s", "long_name": "time"}),
+           "receptor": (("receptor",), np.asarray(layout.ids).astype(str), {"long_name": "receptor id"})}
+    for k, name in enumerate(("x_m", "y_m", "z_m")):
+        out[name] = (("receptor",), pos[:, k], {"units": "m", "long_name": f"receptor {name[0]} coordinate"})
+    for name in ("longitudinal", "cross"):
+        out[name] = (("receptor",), np.asarray(getattr(layout, name)).astype(np.int32),
+                     {"long_name": f"{name} section index of the receptor"})
+    out["sed_pa"] = (tr, np.asarray(sed.values, dtype=float),
+                     {"units": "J m-3", "long_name": "strain-energy density at the receptor (J/m^3 = Pa)"})
+    if current is not None:
+        out["current_a"] = (tr, np.asarray(current.values, dtype=float), {"units": "A", "long_name": "receptor current"})
+    if afferent is not None:
+        out["afferent"] = (("afferent",), np.asarray(afferent.afferent_ids).astype(str), {"long_name": "afferent id"})
+        out["position_m"] = (("afferent",), np.asarray(afferent.positions, dtype=float),
+                             {"units": "m", "long_name": f"afferent position along {afferent.axis}"})
+        out["afferent_current_a"] = (("time", "afferent"), np.asarray(afferent.values, dtype=float),
+                                     {"units": "A", "long_name": "afferent current (sum of its receptors' currents)"})
+    attrs = {"Conventions": "CF-1.10", "title": "afferent: time courses at the receptors and afferents",
+             "source": f"afferent-skin {__version__}",
+             "comment": "README.md 'Outputs'; run.json beside this file records the run"}
+    return out, attrs
+
+
+_COORDS = ("time", "receptor", "x_m", "y_m", "z_m", "longitudinal", "cross", "afferent", "position_m")
+
+
+def results_dataset(sed, current=None, afferent=None):
+    """The time courses of a run as an :class:`xarray.Dataset` (what ``currents.nc`` holds).
+
+    Dimensions ``time``, ``receptor`` and ``afferent``; CF attributes ``units`` and
+    ``long_name`` on every variable.
+
+    Parameters
+    ----------
+    sed : ReceptorSED
+        SED at the receptors over the run's times (J/m^3 = Pa).
+    current : ReceptorCurrent, optional
+        Receptor currents (A) at the same times.
+    afferent : AfferentCurrent, optional
+        Afferent currents (A) at the same times.
+
+    Returns
+    -------
+    xarray.Dataset
+        Variables ``sed_pa`` (time, receptor) in J m-3, ``current_a`` (time, receptor) in A,
+        ``afferent_current_a`` (time, afferent) in A; coordinates ``time`` (s), ``receptor``
+        (ids), ``x_m``, ``y_m``, ``z_m`` (m), ``longitudinal``, ``cross`` (section ids),
+        ``afferent`` (ids) and ``position_m`` (m, along the afferents' axis).
+    """
+    import xarray as xr
+
+    variables, attrs = _results_variables(sed, current, afferent)
+    coords = {k: v for k, v in variables.items() if k in _COORDS}
+    return xr.Dataset({k: v for k, v in variables.items() if k not in _COORDS}, coords=coords, attrs=attrs)
+
+
+def load_results(folder):
+    """A run's output folder read back: the time courses as an :class:`xarray.Dataset`, the tables as pandas.
+
+    Parameters
+    ----------
+    folder : str or path-like
+        An output folder of ``afferent run`` (or of :func:`afferent.scene.run_scene`).
+
+    Returns
+    -------
+    xarray.Dataset
+        ``currents.nc`` (:func:`results_dataset`) when present, else the same built from the
+        long ``receptors.csv`` / ``afferents.csv`` of ``results_format='csv'`` (an empty Dataset
+        when the run wrote neither). ``attrs['tables']`` maps each CSV table's name (e.g.
+        ``'spikes'``) to a :class:`pandas.DataFrame`; ``attrs['run']`` is ``run.json``.
+
+    Raises
+    ------
+    FileNotFoundError
+        ``folder`` is not a folder, or holds no ``run.json``.
+
+    Notes
+    -----
+    The ``tables`` and ``run`` attributes are Python objects, not netCDF attributes: remove
+    them before writing the Dataset back (``ds.attrs.pop('tables'); ds.attrs.pop('run')``).
+    """
+    import pandas as pd
+    import xarray as xr
+
+    folder = os.fspath(folder)
+    record = os.path.join(folder, "run.json")
+    if not os.path.isfile(record):
+        raise FileNotFoundError(f"{folder!r} is not an afferent output folder: it holds no run.json.")
+    nc = os.path.join(folder, RESULTS_NC)
+    if os.path.isfile(nc):
+        with xr.open_dataset(nc, engine="h5netcdf") as f:
+            ds = f.load()
+    else:
+        ds = _dataset_from_csv(folder)
+    tables = {}
+    for name in sorted(os.listdir(folder)):
+        if name.endswith(".csv") and name not in ("receptors.csv", "afferents.csv"):
+            tables[name[:-4]] = pd.read_csv(os.path.join(folder, name))
+    with open(record, encoding="utf-8") as f:
+        ds.attrs["run"] = json.load(f)
+    ds.attrs["tables"] = tables
+    return ds
+
+
+def _dataset_from_csv(folder: str):
+    """The Dataset of :func:`results_dataset` from the long CSV tables of ``results_format='csv'``."""
+    import pandas as pd
+    import xarray as xr
+
+    rec, aff = os.path.join(folder, "receptors.csv"), os.path.join(folder, "afferents.csv")
+    if not os.path.isfile(rec):
+        return xr.Dataset()
+    df = pd.read_csv(rec, dtype={"receptor": str})
+    ds = df.set_index(["time_s", "receptor"])[["sed_pa", "current_a"]].to_xarray().rename(time_s="time")
+    first = df.drop_duplicates("receptor").set_index("receptor")
+    ds = ds.assign_coords({c: ("receptor", first.loc[ds.receptor.values, c].to_numpy())
+                           for c in ("x_m", "y_m", "z_m", "longitudinal", "cross")})
+    if os.path.isfile(aff):
+        da = pd.read_csv(aff, dtype={"afferent": str})
+        a = da.set_index(["time_s", "afferent"])["current_a"].to_xarray().rename(time_s="time")
+        ds["afferent_current_a"] = a.reindex(time=ds.time)
+        pos = da.drop_duplicates("afferent").set_index("afferent")["position_m"]
+        ds = ds.assign_coords(position_m=("afferent", pos.loc[ds.afferent.values].to_numpy()))
+    return ds
+
+
+def write_spikes_nwb(path: str, spikes, afferent) -> None:
+    """Spike trains as an NWB file (pynwb): one row of the Units table per afferent.
+
+    Columns beside ``spike_times`` (s) and ``obs_intervals`` (the simulated span, s):
+    ``afferent`` (id), ``position_m`` (m, along ``position_axis``), the LIF parameters
+    ``tau_m_s``, ``r_m_ohm``, ``v_rest_v``, ``v_thresh_v``, ``v_reset_v``, ``t_ref_s`` (SI), and
+    ``skipped_silent`` (not simulated: provably silent). The engine and time step are in the
+    file's ``notes``. Readable by pynwb, pynapple, Neo (Elephant) and NWB Widgets.
+
+    Parameters
+    ----------
+    path : str
+        The file to write (inside a folder ``afferent._output.atomic_dir`` is creating).
+    spikes : SpikeTrains
+        From :func:`afferent.spiking.simulate_lif`.
+    afferent : AfferentCurrent
+        The afferents simulated (positions in m).
+    """
+    from datetime import datetime, timezone
+    from uuid import uuid4
+
+    from pynwb import NWBHDF5IO, NWBFile
+
+    from . import __version__
+
+    lif = spikes.params
+    cols = {"afferent": "afferent id", "position_m": f"afferent position along {afferent.axis}, m",
+            "tau_m_s": "membrane time constant, s", "r_m_ohm": "membrane resistance, ohm",
+            "v_rest_v": "resting potential, V", "v_thresh_v": "threshold, V", "v_reset_v": "reset potential, V",
+            "t_ref_s": "refractory period, s", "skipped_silent": "not simulated: provably silent (run.json spikes)"}
+    nwb = NWBFile(session_description="afferent: simulated tactile afferent spike trains (RA-I LIF)",
+                  identifier=str(uuid4()), session_start_time=datetime.now(timezone.utc),
+                  source_script=f"afferent-skin {__version__}", source_script_file_name="afferent",
+                  notes=f"engine {spikes.engine} ({getattr(spikes, 'backend', '')}), dt {spikes.dt:g} s (0: exact, no "
+                        f"grid), duration {spikes.duration:g} s from t = {getattr(spikes, 't_start', 0.0):g} s")
+    for name, doc in cols.items():
+        nwb.add_unit_column(name=name, description=doc)
+    t0 = float(getattr(spikes, "t_start", 0.0))
+    silent = set(np.asarray(spikes.silent_skipped, dtype=int).tolist())
+    for i, times in enumerate(spikes.spike_times):
+        nwb.add_unit(spike_times=np.asarray(times, dtype=float), obs_intervals=[[t0, t0 + float(spikes.duration)]],
+                     afferent=str(spikes.afferent_ids[i]), position_m=float(afferent.positions[i]),
+                     tau_m_s=float(lif.tau_m), r_m_ohm=float(lif.r_m), v_rest_v=float(lif.v_rest),
+                     v_thresh_v=float(lif.v_thresh), v_reset_v=float(lif.v_reset), t_ref_s=float(lif.t_ref),
+                     skipped_silent=i in silent)
+    with NWBHDF5IO(path, "w") as io:
+        io.write(nwb)
 
 
 def _figures(path, want, *, sed_static, sed, current, branching, afferent, fit, waveform, spikes, profile_index):

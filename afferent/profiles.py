@@ -382,7 +382,7 @@ def _source(obs) -> str:
     return f" of {obs.source!r}" if getattr(obs, "source", None) else ""
 
 
-def observed_on(positions, observed, *, on_outside: str = "raise") -> np.ndarray:
+def observed_on(positions, observed, *, on_outside: str = "raise", _remedy: str = "on_outside='nan'") -> np.ndarray:
     """Interpolate an observed profile onto afferent positions.
 
     Linear interpolation between neighbouring observed points (:func:`numpy.interp`); no
@@ -432,7 +432,7 @@ def observed_on(positions, observed, *, on_outside: str = "raise") -> np.ndarray
         raise ValueError(
             f"{int(outside.sum())} of {pos.size} positions lie outside the observed range "
             f"[{lo:.6g}, {hi:.6g}] m (first: position {k} at {pos[k]:.6g} m); the observation is not "
-            "extrapolated. Pass on_outside='nan' (observed_on) or on_outside='drop' (compare_profiles) to skip them."
+            f"extrapolated. Pass {_remedy} to skip them."
             + units
         )
     if units:
@@ -587,7 +587,8 @@ def compare_profiles(predicted, observed, *, normalise: str = "both", time_index
                 "'positions' (m) are needed to interpolate the observed profile onto a plain-array prediction; "
                 "got positions=None."
             )
-        obs = observed_on(pos, observed, on_outside="raise" if on_outside == "raise" else "nan")
+        obs = observed_on(pos, observed, on_outside="raise" if on_outside == "raise" else "nan",
+                          _remedy="on_outside='drop'")  # compare_profiles' own keyword (calibrate --on-outside drop)
         keep = np.isfinite(obs)
         dropped = int((~keep).sum())
         pred, obs, pos = pred[keep], obs[keep], pos[keep]

@@ -46,6 +46,7 @@ from ._mesh_geometry import (  # noqa: F401 (locate_in_tets, JOGGLE, NEAR_NODES_
 )
 from ._shape_functions import clip_overshoot, has_quadratic, with_shape_functions
 from ._validation import check_option
+from ._plausibility import refuse_collapse
 from .exceptions import AfferentWarning, FieldCoverageError, SEDFormatError
 from .field import SEDField
 from .receptors import ReceptorLayout
@@ -453,6 +454,8 @@ def _sample_field(field: SEDField, layout: ReceptorLayout, *, method: str, on_ou
     if sampler is None:
         sampler = build_sampler(field, layout, method=method)
     units = _unit_mismatch(layout, field)
+    if units:  # and every receptor falls in one cell or on one point: refused
+        refuse_collapse(sampler.weights, sampler.outside, layout.source, units)
     if units and not sampler.outside.any():
         warnings.warn(units, AfferentWarning, stacklevel=2)
     if sampler.outside.any():

@@ -77,7 +77,7 @@ nitpicky = True
 # The build is offline (no intersphinx inventories), so references to other projects' objects
 # cannot resolve; they are rendered as code.
 nitpick_ignore_regex = [
-    (r"py:.*", r"(numpy|scipy|sklearn|brian2|pandas|meshio|matplotlib|tomllib|pydoe|json)(\..*)?"),
+    (r"py:.*", r"(numpy|scipy|sklearn|brian2|pandas|meshio|matplotlib|tomllib|pydoe|json|xarray|pynwb|h5netcdf)(\..*)?"),
 ]
 # Docstrings that point at private modules or at constants outside their module's __all__,
 # which the API reference does not document (to be made public or reworded in the package).

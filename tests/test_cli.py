@@ -13,7 +13,7 @@ import pytest
 
 from afferent.cli import main
 
-from conftest import linear_sed
+from conftest import SAMPLE_DIR, linear_sed
 
 
 @pytest.fixture
@@ -206,7 +206,7 @@ def test_outputs_honour_the_umask(capsys, tmp_path, box_vtu, receptors_csv, umas
                            "--sed-unit", "MPa", "--params", "start", "-o", folder)
         assert code == 0, err
         assert folder.stat().st_mode & 0o777 == dir_mode
-        for name in ("receptors.csv", "run.json", "receptors.vtu", "sed_map.png"):
+        for name in ("currents.nc", "run.json", "receptors.vtu", "sed_map.png"):
             assert (folder / name).stat().st_mode & 0o777 == file_mode, name
     finally:
         os.umask(old)
@@ -225,3 +225,53 @@ def test_run_options_mirror_the_library_constants_and_parse_only_the_chosen_comm
             "print(sorted(m for m in ('pandas', 'scipy', 'afferent.cli._calibrate', 'afferent.sampling') if m in sys.modules))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.strip()
     assert out == "[]"
+
+
+def test_cli_messages_offer_only_remedies_the_command_accepts_in_its_own_flags():
+    """Issue 22: 'calibrate' refused the offered --on-outside nan, 'run' --on-outside drop; warnings and the
+    calibration status spelt Python keywords (refine=N, method='rsm2', shear='tensor')."""
+    from afferent.cli._main import _choices_of, _flags_of, build_parser, speak_cli
+    from afferent.profiles import compare_profiles, observed_on
+
+    def words(command):
+        argv = [command, "x"]
+        parser = build_parser(argv)
+        return _flags_of(parser, argv), _choices_of(parser, argv)
+
+    obs = ([1e-3, 2e-3], [0.0, 1.0])
+    with pytest.raises(ValueError) as direct:
+        observed_on([0.5e-3, 1.5e-3], obs)
+    with pytest.raises(ValueError) as compared:
+        compare_profiles(np.array([1.0, 2.0]), obs, positions=np.array([0.5e-3, 1.5e-3]))
+    assert str(direct.value).endswith("Pass on_outside='nan' to skip them.")
+    assert str(compared.value).endswith("Pass on_outside='drop' to skip them.")
+    cal, run = words("calibrate"), words("run")
+    assert speak_cli(str(compared.value), *cal).endswith("the observation is not extrapolated. Pass --on-outside drop "
+                                                         "to skip them.")
+    # run's --on-outside (receptors outside the mesh) takes raise, warn, nan: no 'drop' offered there
+    said = speak_cli(str(compared.value), *run)
+    assert said.endswith("the observation is not extrapolated.") and "on-outside" not in said and "on_outside" not in said
+    # the calibration's status and a reader's warning, printed by calibrate / run, in their flags
+    from afferent.calibration.rsm import _converged_message
+
+    status = _converged_message(3, 1e-9, 1e-6, 1.0, 0.05, 0, stall_note=True)
+    assert "refine=N" in status and "method='rsm2'" in status
+    said = speak_cli(status, *cal)
+    assert "--refine N (halve the increments up to N times) or --method rsm2 may go further." in said
+    assert "pass --shear tensor." in speak_cli("... Check the preset or pass shear='tensor'.", *run)
+
+
+@pytest.mark.skipif(not (SAMPLE_DIR / "block4" / "indent_0p88mm_tensors.vtu").is_file(), reason="sample not generated")
+@pytest.mark.parametrize("command", ["sample", "run"])
+def test_warnings_printed_by_the_cli_name_its_flags_not_python_keywords(capsys, tmp_path, command):
+    """Issue 22: a reader's warning said "pass shear='engineering'" on the command line."""
+    block = SAMPLE_DIR / "block4"
+    out = tmp_path / ("sed.csv" if command == "sample" else "run")
+    argv = [command, str(block / "indent_0p88mm_tensors.vtu"), "--receptors", str(block / "receptors.csv"),
+            "--length-unit", "mm", "--stress-unit", "MPa", "--sed-from", "exact", "--preset", "vtk", "-o", str(out)]
+    if command == "run":
+        argv += ["--params", "start", "--no-plots", "--no-cache"]
+    assert main(argv) == 0
+    err = capsys.readouterr().err
+    assert "the file's shear strain looks engineering. Check the preset or pass --shear engineering." in err
+    assert "shear='" not in err

@@ -23,7 +23,7 @@ from conftest import SAMPLE_DIR
 EXPORT = SAMPLE_DIR / "block4" / "indent_0p88mm.vtu"
 RECEPTORS = SAMPLE_DIR / "block4" / "receptors.csv"
 pytestmark = pytest.mark.skipif(not EXPORT.is_file(), reason="bundled sample not generated")
-EXPECTED = {"receptors.csv", "afferents.csv", "receptors.vtu", "run.json", "sed_map.png", "profiles_x.png",
+EXPECTED = {"currents.nc", "receptors.vtu", "run.json", "sed_map.png", "profiles_x.png",
             "profiles_z.png"}
 
 

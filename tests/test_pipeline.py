@@ -94,7 +94,7 @@ def test_run_cli_writes_every_output(capsys, tmp_path, bump):
     pd.DataFrame({"position": pos, "response": np.exp(-((pos - 2) ** 2))}).to_csv(obs, index=False)
     out = tmp_path / "out"
     argv = ["run", str(vtu), "--receptors", str(receptors), "--length-unit", "mm", "--sed-unit", "MPa",
-            "--params", "start", "--observed", str(obs), "-o", str(out)]
+            "--params", "start", "--observed", str(obs), "--results-format", "csv", "-o", str(out)]
     assert main(argv) == 2 and not out.exists()  # the observed positions' unit is never guessed
     assert capsys.readouterr().err == ("afferent: error: --observed needs --observed-unit, the length unit of the observed "
                                        "positions (e.g. mm); afferent never guesses a unit.\n")
@@ -359,8 +359,8 @@ want = ["currents", "profiles", "sed_map", "vtu", "spikes", "plots"]
     assert main(["run", str(scene), "-o", str(toml_out), "--no-cache"]) == 0, capsys.readouterr().err
     names = sorted(p.name for p in cli_out.iterdir())
     assert names == sorted(p.name for p in toml_out.iterdir())
-    tables = [n for n in names if n.endswith((".csv", ".vtu"))]
-    assert {"receptors.csv", "afferents.csv", "profiles.csv", "sed_map.csv", "receptors.vtu"} <= set(tables)
+    tables = [n for n in names if n.endswith((".csv", ".vtu", ".nc"))]
+    assert {"currents.nc", "profiles.csv", "sed_map.csv", "receptors.vtu"} <= set(tables)
     assert ("spikes.csv" in tables) == (case == "ramp_spikes") and ("fit.csv" in tables) == (case == "fit")
     for name in tables:
         assert (cli_out / name).read_bytes() == (toml_out / name).read_bytes(), name

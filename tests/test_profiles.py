@@ -152,8 +152,7 @@ def test_observed_on_outside_range():
     obs = ([1e-3, 2e-3], [0.0, 1.0])
     msg = (
         "2 of 3 positions lie outside the observed range [0.001, 0.002] m (first: position 0 at 0.0005 m); "
-        "the observation is not extrapolated. Pass on_outside='nan' (observed_on) or on_outside='drop' "
-        "(compare_profiles) to skip them."
+        "the observation is not extrapolated. Pass on_outside='nan' to skip them."
     )
     with pytest.raises(ValueError, match=re.escape(msg)):
         observed_on([0.5e-3, 1.5e-3, 2.5e-3], obs)

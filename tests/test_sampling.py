@@ -12,7 +12,7 @@ import pytest
 
 from afferent import read_receptors, read_sed, sample_sed
 from afferent.cli import main
-from afferent.exceptions import AfferentWarning, FieldCoverageError
+from afferent.exceptions import AfferentWarning, FieldCoverageError, UnitError
 from afferent.field import Provenance, SEDField
 from afferent.receptors import ReceptorLayout
 from afferent.sampling import build_sampler, node_average
@@ -382,10 +382,10 @@ def test_receptors_declared_in_another_unit_are_named_as_such(tmp_path, field):
             f"The receptors of receptor file {str(path)!r} span 263 x the field's extent: check the length unit declared "
             "for the receptor positions (mm vs m is a factor 1e3).")):
         sample_sed(field, far)
-    # written in um, declared mm: 1000x too close together, all inside one corner of the field: warned
+    # written in um, declared mm: 1000x too close together, all in one cell of the field: refused (issue 22)
     path.write_text("x,y,z\n0.2,0.3,0.4\n0.6,0.5,0.9\n")
     near = ReceptorLayout(read_receptors(path, length_unit="mm").positions * 1e-3, source=str(path))
-    with pytest.warns(AfferentWarning, match=re.escape("span 0.000263 x the field's extent")):
+    with pytest.raises(UnitError, match=re.escape("span 0.000263 x the field's extent")):
         sample_sed(field, near)
 
 

@@ -127,6 +127,23 @@ def test_without_dask_the_sweep_runs_serially_with_a_note(tmp_path, monkeypatch,
         sweep(src, tmp_path / "cluster", scheduler="tcp://127.0.0.1:1")
 
 
+def test_the_table_is_parquet_with_pyarrow_and_csv_without_the_same_values(tmp_path, monkeypatch):
+    pytest.importorskip("pyarrow")
+    src = write_sweep(tmp_path, '"transduction.gamma_per_pa" = [2e-3, 1e-2]\n')
+    pq = sweep(src, tmp_path / "pq", scheduler="serial")
+    assert (tmp_path / "pq" / "table.parquet").is_file() and not (tmp_path / "pq" / "table.csv").exists()
+    back = read_table(tmp_path / "pq" / "table.parquet")
+    pd.testing.assert_frame_equal(back, pq.table)
+    marker = json.loads((tmp_path / "pq" / ".afferent-output.json").read_text())
+    assert "table.parquet" in marker["files"] + marker["patterns"]  # afferent's: a later overwrite may replace it
+    monkeypatch.setitem(sys.modules, "pyarrow", None)  # import pyarrow -> ImportError
+    csv = sweep(src, tmp_path / "csv", scheduler="serial")
+    assert (tmp_path / "csv" / "table.csv").is_file() and not (tmp_path / "csv" / "table.parquet").exists()
+    monkeypatch.undo()  # pandas itself reads CSV strings through pyarrow once it was imported
+    pd.testing.assert_frame_equal(read_table(tmp_path / "csv" / "table.csv"), back, check_dtype=False)
+    assert csv.table.shape == back.shape
+
+
 # --------------------------------------------------------------------- resume, failures
 def test_resume_skips_done_tasks_and_another_sweep_is_refused(tmp_path):
     src = write_sweep(tmp_path, SMALL)
@@ -276,7 +293,7 @@ def test_readme_sweep_example_runs_on_the_sample(tmp_path, monkeypatch, capsys):
     argv[argv.index("-o") + 1] = str(tmp_path / "sweep_gamma")
     assert main(argv) == 0
     assert "tasks: 12 (12 run, 0 done before, 0 failed)" in capsys.readouterr().err
-    table = read_table(tmp_path / "sweep_gamma" / "table.csv")
+    table = read_table(next((tmp_path / "sweep_gamma").glob("table.*")))
     assert len(table) == 36  # 12 tasks x 3 afferents in the region, as the README says
     n = table.pivot_table(index="transduction.gamma_per_pa", columns="spikes.gain_ms", values="n_spikes", aggfunc="sum")
     # golden: the README's numbers, from this example run with the exact LIF engine (deterministic)

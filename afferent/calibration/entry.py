@@ -288,6 +288,7 @@ def calibrate(
     seed = 0 if rng is None else rng
     gen = check_rng(seed)
     branching = make_branching(synthesis, layout, rng=seed if not isinstance(seed, np.random.Generator) else gen)
+    _check_spans(branching.positions, observed)
 
     from .._progress import progress_bar
 
@@ -298,3 +299,24 @@ def calibrate(
         else:
             out = rsm(obj, start, inc, tol, max_iter, max_steps, method, design, refine)
     return finish(out, obj, method, _synthesis_label(synthesis), normalise, start)
+
+
+def _check_spans(positions, observed) -> None:
+    """Refuse observed positions whose span is orders of magnitude from the afferents' (m), either way.
+
+    Observed positions in mm declared as m (or the reverse) put the afferents in a sliver of
+    the profile (or the profile in a sliver of the afferents): the fit "converges" to nonsense.
+    """
+    from .._plausibility import extent, scale_ratio
+    from ..exceptions import UnitError
+    from ..profiles import UNIT_MISMATCH_RATIO
+
+    ratio = scale_ratio(positions, observed.positions)
+    if np.isfinite(ratio) and not (1 / UNIT_MISMATCH_RATIO <= ratio <= UNIT_MISMATCH_RATIO):
+        src = getattr(observed, "source", None)
+        of = f" of {src!r}" if src else ""
+        raise UnitError(
+            f"The afferent positions span {extent(positions):.3g} m, the observed positions{of} "
+            f"{extent(observed.positions):.3g} m ({ratio:.3g} x): the unit declared for the observed positions is "
+            "probably wrong (mm vs m is a factor 1e3). Declare the unit they are written in (--observed-unit; "
+            "read_observed's length_unit in Python).")

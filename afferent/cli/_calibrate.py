@@ -230,8 +230,15 @@ def run(args: argparse.Namespace) -> int:
                 if m != primary:
                     line += f" | {m}: ssd {ref.ssd:.4g} in {_cost(ref)}"
             print(line, file=sys.stderr)
-            print(f"  {r.message}", file=sys.stderr)
+            print(f"  {_say(r.message)}", file=sys.stderr)
         for msg in dict.fromkeys(caught):
-            print(f"afferent: warning: {' '.join(msg.split())}", file=sys.stderr)
+            print(f"afferent: warning: {_say(msg)}", file=sys.stderr)
         print(f"wrote {args.output}", file=sys.stderr)
     return 0
+
+
+def _say(msg: str) -> str:
+    """A status or warning on one line, the library's keywords (refine=N, method='rsm2') as this command's flags."""
+    from ._main import _WORDS, speak_cli
+
+    return speak_cli(" ".join(msg.split()), _WORDS["flags"], _WORDS["choices"])

@@ -67,6 +67,16 @@ def build_parser(argv: list[str] | None = None) -> argparse.ArgumentParser:
     return parser
 
 
+def _choices_of(parser: argparse.ArgumentParser, argv: list[str] | None) -> dict[str, tuple]:
+    """The accepted values of the subcommand's options that have choices: ``{'on_outside': ('raise', ...)}``."""
+    sub = next((a for a in parser._actions if isinstance(a, argparse._SubParsersAction)), None)
+    words = sys.argv[1:] if argv is None else argv
+    command = next((w for w in words if sub is not None and w in sub.choices), None)
+    if command is None:
+        return {}
+    return {a.dest: tuple(map(str, a.choices)) for a in sub.choices[command]._actions if a.choices and a.option_strings}
+
+
 def _flags_of(parser: argparse.ArgumentParser, argv: list[str] | None) -> dict[str, str]:
     """The subcommand's options by keyword: ``{'length_unit': '--length-unit', ...}``."""
     sub = next((a for a in parser._actions if isinstance(a, argparse._SubParsersAction)), None)
@@ -87,13 +97,18 @@ def _flags_of(parser: argparse.ArgumentParser, argv: list[str] | None) -> dict[s
     return flags
 
 
-def speak_cli(message: str, flags: dict[str, str]) -> str:
+def speak_cli(message: str, flags: dict[str, str], choices: dict[str, tuple] | None = None) -> str:
     """Rewrite the library's Python keywords as the command's flags.
 
     ``pass length_unit=`` -> ``pass --length-unit``; ``on_outside='nan'`` -> ``--on-outside nan``;
     ``'sed_unit' is ...`` -> ``--sed-unit is ...``. Only the subcommand's own options are
-    rewritten (longest keywords first), so a keyword with no flag stays as it is.
+    rewritten (longest keywords first), so a keyword with no flag stays as it is. A sentence
+    offering a value the command's flag does not accept (``choices``: keyword -> accepted
+    values, e.g. ``on_outside='drop'`` where ``--on-outside`` takes raise, warn, nan) is left
+    out: the command never suggests a remedy it would refuse.
     """
+    if choices:
+        message = _without_refused_remedies(message, flags, choices)
     for dest in sorted(flags, key=len, reverse=True):
         flag = flags[dest]
         key = re.escape(dest)
@@ -107,9 +122,32 @@ def speak_cli(message: str, flags: dict[str, str]) -> str:
     return message
 
 
+_REMEDY = re.compile(r"(?<![\w\-.'])(\w+)=(?:'([^']*)'|\"([^\"]*)\"|([A-Za-z0-9_+^/\-]+))")
+
+
+def _without_refused_remedies(message: str, flags: dict, choices: dict) -> str:
+    """``message`` without the sentences that offer a value a flag of the command refuses."""
+    def refused(sentence: str) -> bool:
+        for m in _REMEDY.finditer(sentence):
+            dest, value = m.group(1), next(g for g in m.groups()[1:] if g is not None)
+            if dest in flags and choices.get(dest) and value not in choices[dest]:
+                return True
+        return False
+
+    sentences = re.split(r"(?<=[.;])\s+", message)
+    kept = [s for s in sentences if not refused(s)]
+    return " ".join(kept) if kept else message
+
+
+#: the running command's options (keyword -> flag, keyword -> accepted values), for warnings in its words
+_WORDS: dict = {"flags": {}, "choices": {}}
+
+
 def _show_warning(message, category, filename, lineno, file=None, line=None):
-    """Warnings from the library as one line each, like errors (no source path, no code line)."""
-    print(f"afferent: warning: {' '.join(str(message).split())}", file=sys.stderr if file is None else file)
+    """Warnings from the library as one line each, like errors (no source path, no code line), in the
+    command's own words (:func:`speak_cli`)."""
+    text = speak_cli(" ".join(str(message).split()), _WORDS["flags"], _WORDS["choices"])
+    print(f"afferent: warning: {text}", file=sys.stderr if file is None else file)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -122,6 +160,8 @@ def main(argv: list[str] | None = None) -> int:
 def _main(argv: list[str] | None) -> int:
     parser = build_parser(sys.argv[1:] if argv is None else argv)
     flags = _flags_of(parser, argv)
+    choices = _choices_of(parser, argv)
+    _WORDS.update(flags=flags, choices=choices)
     try:
         args = parser.parse_args(argv)
         args.argv = [str(a) for a in (sys.argv[1:] if argv is None else argv)]  # for the run record
@@ -138,7 +178,7 @@ def _main(argv: list[str] | None) -> int:
             return _internal_error(err)
         msg = " ".join(str(err).split())  # one line
         if not getattr(err, "key", None) and type(err).__name__ not in ("SceneError", "SceneTypeError"):
-            msg = speak_cli(msg, flags)  # in the command's own words; a scene's errors name its TOML keys
+            msg = speak_cli(msg, flags, choices)  # in the command's own words; a scene's errors name its TOML keys
         print(f"afferent: error: {msg}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:

@@ -7,14 +7,17 @@ outputs need, sampled SED cached on disk (``--no-cache``: neither read nor writt
 writer, one run.json record.
 
 Writes into OUTDIR (the scene outputs currents, profiles, sed_map, vtu [, fit] [, spikes] [, plots]):
-receptors.csv (receptor, x_m, y_m, z_m, section ids, time_s, sed_pa, current_a), afferents.csv
-(afferent, position_m, time_s, current_a), profiles.csv (the profile step), sed_map.csv (SED
+currents.nc (NetCDF-4: sed_pa and current_a over time x receptor, afferent_current_a over
+time x afferent, positions and section ids as coordinates, units as attributes; read it with
+afferent.load_results(OUTDIR), xarray, MATLAB ncread or R ncdf4; --results-format csv writes the
+long tables receptors.csv and afferents.csv instead), profiles.csv (the profile step), sed_map.csv (SED
 sampled from the export), fit.csv and profile_fit.csv with --observed, receptors.vtu
 (ParaView), run.json (the record), and the figures sed_map.png, profiles_x.png,
 profiles_z.png [, fit.png].
 
 With --spikes, also spikes.csv (afferent, spike_time_s), spike_summary.csv (rate, first-spike
-latency, ISI per afferent), raster.png, rates.png and psth.png; a static export can be driven by
+latency, ISI per afferent), spikes.nwb when pynwb is installed (the nwb extra), raster.png,
+rates.png and psth.png; a static export can be driven by
 --waveform (SED scaled by (d/d_ref)^2, valid for linear elasticity with a fixed contact area).
 
 Transduction parameters are in SI: --alpha in A (the study's table is in mA:
@@ -95,6 +98,12 @@ def add_args(parser: argparse.ArgumentParser) -> None:
                    help="with --drive rheobase: the largest current becomes K x the rheobase (default 2)")
     g.add_argument("--duration-s", type=float, help="simulated time, s (default: the stimulus; 1 s for a static export)")
     parser.add_argument("--no-plots", action="store_true", help="skip the PNG figures")
+    parser.add_argument("--results-format", choices=("netcdf", "csv"),
+                        help="time courses of receptors and afferents: one NetCDF-4 file currents.nc (default) or the "
+                             "long tables receptors.csv and afferents.csv ([outputs] format; --format names the export's)")
+    parser.add_argument("--nwb", action="store_true",
+                        help="with --spikes, also spikes.nwb (Neurodata Without Borders; needs pip install "
+                             "'afferent-skin[nwb]')")
     parser.add_argument("--no-cache", action="store_true",
                         help="neither read nor write the sampled-SED cache ($AFFERENT_CACHE_DIR or ~/.cache/afferent)")
     add_receptor_options(parser, required=False)
@@ -271,14 +280,17 @@ def scene_from_args(args):
     if stimulus is not None:
         tables["stimulus"] = stimulus
     if spikes is not None:
-        tables["spikes"], want = spikes, want + ["spikes"]
+        tables["spikes"], want = spikes, want + ["spikes"] + (["nwb"] if getattr(args, "nwb", False) else [])
+    elif getattr(args, "nwb", False):
+        raise ValueError("--nwb writes the spike trains: it needs --spikes.")
     if args.observed:
         if args.observed_unit is None:
             raise ValueError("--observed needs --observed-unit, the length unit of the observed positions (e.g. mm); "
                              "afferent never guesses a unit.")
         tables["fit"] = {"observed": args.observed, "length_unit": args.observed_unit, "normalise": args.normalise}
         want.append("fit")
-    tables["outputs"] = {"want": want + ([] if args.no_plots else ["plots"]), "dir": args.output}
+    tables["outputs"] = {"want": want + ([] if args.no_plots else ["plots"]), "dir": args.output,
+                         "format": args.results_format}
     try:
         return resolve(scene_from_dict(tables, base_dir=os.getcwd()))
     except SceneError as err:
@@ -291,7 +303,18 @@ def run(args: argparse.Namespace) -> int:
     argv = getattr(args, "argv", None)
     command = None if argv is None else "afferent " + shlex.join(argv)
     if len(args.exports) == 1 and args.exports[0].lower().endswith(".toml"):
-        return run_scene_cli(args.exports[0], output=args.output, overwrite=args.overwrite, quiet=args.quiet,
+        scene = args.exports[0]
+        if getattr(args, "results_format", None) is not None:
+            from dataclasses import replace
+
+            from ..scene import load_scene
+
+            scene = load_scene(scene)
+            scene = replace(scene, outputs=replace(scene.outputs, format=args.results_format))
+        return run_scene_cli(scene, output=args.output, overwrite=args.overwrite, quiet=args.quiet,
                              use_cache=not args.no_cache, command=command)
+    from ._main import _WORDS, speak_cli
+
     return run_scene_cli(scene_from_args(args), overwrite=args.overwrite, quiet=args.quiet,
-                         use_cache=not args.no_cache, command=command)
+                         use_cache=not args.no_cache, command=command,
+                         speak=lambda m: speak_cli(m, _WORDS["flags"], _WORDS["choices"]))

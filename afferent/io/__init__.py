@@ -28,7 +28,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from .._validation import check_option
-from ..exceptions import SEDFormatError
+from ..exceptions import AfferentWarning, SEDFormatError
 from ..field import Provenance, SEDField
 from ._assemble import NEGATIVE_SED_RTOL, ReadOptions, assemble
 from ._describe import describe_raw
@@ -367,6 +367,7 @@ def iter_sed(path_or_paths, *, format: str | None = None, progress: bool = False
         raise ValueError(f"'times' must have one entry per time step ({n_steps}); got {len(opts.times)} instead.")
     seen: set[str] = set()
     previous = None
+    negatives: list = []
     for k, raw in enumerate(raws):
         numbered = raw.times is None and opts.times is None  # numbered 0, 1, ... as read_sed does
         if numbered:
@@ -379,8 +380,12 @@ def iter_sed(path_or_paths, *, format: str | None = None, progress: bool = False
         if numbered:
             units = dict(field.provenance.units, time="step", time_source="none in the file: steps numbered 0, 1, ...")
             field = replace(field, provenance=replace(field.provenance, units=units))
+        if field.provenance.negative_sed:
+            negatives.append((k, field.provenance.negative_sed))
         for w in caught:
             key = re.sub(r"[-+]?\d[\d.eE+-]*", "#", str(w.message))
+            if field.provenance.negative_sed and _NEGATIVE_WARNING in str(w.message):
+                continue  # one warning for the whole series, with its totals, after the last step
             if key not in seen:
                 seen.add(key)
                 warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
@@ -390,6 +395,27 @@ def iter_sed(path_or_paths, *, format: str | None = None, progress: bool = False
                                  f"followed by {t!r} s (steps {k - 1} and {k}) instead.")
         previous = t
         yield field
+    if negatives:
+        warnings.warn(_series_negative_message(path_or_paths, negatives, n_steps), AfferentWarning, stacklevel=2)
+
+
+#: the words of the reader's negative-SED warning (afferent.io._assemble._negatives)
+_NEGATIVE_WARNING = "SED value(s) are negative"
+
+
+def _series_negative_message(path_or_paths, negatives: list, n_steps: int) -> str:
+    """The negative-SED warning of a whole series: in how many steps, how many values in total, the worst."""
+    paths = [path_or_paths] if isinstance(path_or_paths, (str, os.PathLike)) else list(path_or_paths)
+    name = f"{os.fspath(paths[0])!r}" + (f" and {len(paths) - 1} more file(s)" if len(paths) > 1 else "")
+    steps = [k for k, _ in negatives]
+    listed = ", ".join(map(str, steps[:6])) + (", ..." if len(steps) > 6 else "")
+    count, n_values = sum(n["count"] for _, n in negatives), sum(n["n_values"] for _, n in negatives)
+    worst, share = min(n["min_relative"] for _, n in negatives), max(n["negative_share"] for _, n in negatives)
+    return (f"SED series {name}: negative SED values in {len(steps)} of {n_steps} step(s) (step(s) {listed}; counted "
+            f"from 0): {count} of {n_values} values in total, down to {worst:.2g} x the largest SED of their step, "
+            f"summing to at most {share:.2g} x the positive values; tolerance {negatives[0][1]['tolerance']:g}. As FE "
+            "tools write where they extrapolate integration-point values to the nodes near steep gradients; set to "
+            "0. SED near those nodes is unreliable (a finer mesh or integration-point output tells how much).")
 
 
 def series_provenance(provenances) -> Provenance:

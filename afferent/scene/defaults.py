@@ -218,9 +218,15 @@ def _outputs(scene: Scene, err):
     if set(out.want) == {"plots"}:
         raise err("outputs", "want", "[outputs] 'plots' draws the figures of the other outputs; add at least one of "
                   f"{', '.join(repr(w) for w in OUTPUTS if w != 'plots')}.")
+    if "nwb" in out.want:
+        from importlib.util import find_spec
+
+        if find_spec("pynwb") is None:
+            raise err("outputs", "want", "[outputs] 'nwb' writes spikes.nwb with pynwb, which is not installed: "
+                      "pip install 'afferent-skin[nwb]'.")
     name = scene.info.name or (Path(scene.source).stem if scene.source else "scene")
     info = replace(scene.info, name=name)
-    out = replace(out, dir=out.dir or os.path.abspath(os.path.join("results", name)))
+    out = replace(out, dir=out.dir or os.path.abspath(os.path.join("results", name)), format=out.format or "netcdf")
     return info, out
 
 

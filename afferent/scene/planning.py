@@ -18,6 +18,7 @@ NEEDS = {
     "fit": _CURRENT_STAGES + ("comparison",),
     "spikes": _CURRENT_STAGES + ("input", "spiking"),
     "plots": (),
+    "nwb": _CURRENT_STAGES + ("input", "spiking"),
 }
 
 # ---------------------------------------------------------------------------- planning
@@ -54,7 +55,7 @@ def skip_reasons(scene: Scene) -> dict[str, str]:
         if s == "stimulus" and "transduction" in planned:
             out[s] = "the scene has no [stimulus] waveform: the export's own time steps are used"
             continue
-        users = [w for w, stages in NEEDS.items() if s in stages and w != "plots"]
+        users = [w for w, stages in NEEDS.items() if s in stages and w not in ("plots", "nwb")]
         which = repr(users[0]) if len(users) == 1 else "any of " + ", ".join(map(repr, users))
         out[s] = f"not needed: the requested outputs {want} do not include {which}"
     return out

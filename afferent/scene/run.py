@@ -154,7 +154,8 @@ def run_scene(scene: Scene, *, overwrite: bool = False, cache_dir=None, progress
         files: list[str] = []
         with atomic_dir(outdir, overwrite=overwrite, inputs=scene.input_files) as tmp:
             with run.steps("writing"):
-                files = write_outputs(tmp, want=want, plots="plots" in want, **run.out)
+                files = write_outputs(tmp, want=want, plots="plots" in want, results_format=scene.outputs.format,
+                                      **run.out)
             full = build_record(scene, run.planned, run.skipped, run.steps.seconds, run.record, run.inputs, caught,
                                 files, started, t_run, record_extra)
             write_json(os.path.join(tmp, "run.json"), full)
@@ -519,7 +520,7 @@ def _spike(run: _Run) -> None:
 
 # --------------------------------------------------------------------------------- CLI
 def run_scene_cli(path, *, output=None, overwrite: bool = False, quiet: bool = False, cache_dir=None,
-                  use_cache: bool = True, command: str | None = None) -> int:
+                  use_cache: bool = True, command: str | None = None, speak=None) -> int:
     """``afferent run``: load (or take) a scene, run it, summarise on stderr; returns the exit code (0).
 
     Parameters
@@ -537,6 +538,8 @@ def run_scene_cli(path, *, output=None, overwrite: bool = False, quiet: bool = F
     use_cache : bool, default=True
     command : str, optional
         The command line recorded in run.json; default ``afferent run PATH [-o OUT] [--overwrite]``.
+    speak : callable, optional
+        Rewrites a warning in the command's words (``afferent.cli._main.speak_cli``).
 
     Raises
     ------
@@ -561,5 +564,6 @@ def run_scene_cli(path, *, output=None, overwrite: bool = False, quiet: bool = F
     for line in summary_lines(result):
         print(line, file=sys.stderr)
     for msg in dict.fromkeys(str(w.message) for w in caught if not issubclass(w.category, _QUIET_CATEGORIES)):
-        print(f"afferent: warning: {' '.join(msg.split())}", file=sys.stderr)
+        msg = " ".join(msg.split())
+        print(f"afferent: warning: {speak(msg) if speak else msg}", file=sys.stderr)
     return 0

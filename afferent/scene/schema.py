@@ -17,7 +17,7 @@ from ..exceptions import AfferentError
 from ..io import FORMATS
 
 #: What a scene can ask for (``[outputs] want``).
-OUTPUTS = ("sed_map", "currents", "profiles", "fit", "spikes", "plots", "vtu")
+OUTPUTS = ("sed_map", "currents", "profiles", "fit", "spikes", "plots", "vtu", "nwb")
 
 #: Spiking engines (mirrors :data:`afferent.spiking.ENGINES`, kept here so that checking a
 #: scene does not import the spiking module).
@@ -338,10 +338,12 @@ class FitSpec:
 
 @dataclass(frozen=True)
 class OutputSpec:
-    """``[outputs]``: what to produce (``want``, from :data:`OUTPUTS`) and where (``dir``)."""
+    """``[outputs]``: what to produce (``want``, from :data:`OUTPUTS`), where (``dir``), and how the
+    time courses are written (``format``: ``'netcdf'``, one ``currents.nc``, or ``'csv'``, long tables)."""
 
     want: tuple | None = _f("outputs", choices=OUTPUTS)
     dir: str | None = _f("path")
+    format: str | None = _f("choice", "netcdf", choices=("netcdf", "csv"))
 
 
 #: TOML table -> Scene field

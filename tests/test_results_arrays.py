@@ -1,0 +1,113 @@
+"""Dense results as arrays: ``currents.nc`` (NetCDF-4) for the time courses, ``afferent.load_results``,
+``--results-format csv`` for anyone who asks, and the spike trains as NWB (issue 22)."""
+
+from __future__ import annotations
+
+import json
+
+import h5py
+import meshio
+import numpy as np
+import pandas as pd
+import pytest
+
+import afferent
+from afferent.cli import main
+from conftest import hex_box
+
+PITCH_X, PITCH_Z = 0.44, 0.22
+
+
+@pytest.fixture
+def bump(tmp_path):
+    """A 4 x 3.1 x 4 mm hex block with a Gaussian SED bump (MPa) and a papilla grid (mm)."""
+    points, hexes = hex_box(8, 4, 8, size=(4.0, 3.1, 4.0))
+    x, y, z = points.T
+    sed = 1.9e-4 * np.exp(-((x - 2.0) ** 2 + (z - 2.0) ** 2) / 0.6) * (y / 3.1)
+    vtu = tmp_path / "bump.vtu"
+    meshio.write(vtu, meshio.Mesh(points, [("hexahedron", hexes)], point_data={"SED": sed}))
+    X, Z = np.meshgrid(np.arange(PITCH_X / 2, 4.0, PITCH_X), np.arange(PITCH_Z / 2, 4.0, PITCH_Z), indexing="ij")
+    receptors = tmp_path / "R.csv"
+    pd.DataFrame({"x": X.ravel(), "y": 2.35, "z": Z.ravel()}).to_csv(receptors, index=False)
+    return vtu, receptors
+
+
+def _run(tmp_path, bump, name, *extra):
+    vtu, receptors = bump
+    out = tmp_path / name
+    argv = ["run", str(vtu), "--receptors", str(receptors), "--length-unit", "mm", "--sed-unit", "MPa",
+            "--params", "start", "--waveform", "ramp:0.5,5,0.05", "--d-ref-mm", "0.5", "--no-plots", "--no-cache",
+            "-q", "-o", str(out), *extra]
+    assert main(argv) == 0
+    return out
+
+
+def test_time_courses_are_one_netcdf_file_with_named_dimensions_units_and_coordinates(tmp_path, bump):
+    out = _run(tmp_path, bump, "nc")
+    assert not (out / "receptors.csv").exists() and not (out / "afferents.csv").exists()
+    assert "currents.nc" in json.loads((out / ".afferent-output.json").read_text())["files"]
+    assert "currents.nc" in json.loads((out / "run.json").read_text())["outputs"]
+    ds = afferent.load_results(out)
+    n_t = ds.sizes["time"]
+    assert dict(ds.sizes) == {"time": n_t, "receptor": 9 * 18, "afferent": 9} and n_t > 100
+    assert ds.sed_pa.dims == ds.current_a.dims == ("time", "receptor")
+    assert ds.afferent_current_a.dims == ("time", "afferent")
+    assert {"x_m", "y_m", "z_m", "longitudinal", "cross", "position_m"} <= set(ds.coords)
+    units = {k: ds[k].attrs["units"] for k in ("time", "x_m", "sed_pa", "current_a", "afferent_current_a", "position_m")}
+    assert units == {"time": "s", "x_m": "m", "sed_pa": "J m-3", "current_a": "A", "afferent_current_a": "A",
+                     "position_m": "m"}
+    assert all("long_name" in ds[k].attrs for k in ds.variables) and ds.attrs["Conventions"] == "CF-1.10"
+    np.testing.assert_allclose(ds.x_m.max(), 3.74e-3 + PITCH_X / 2 * 1e-3 - 0.22e-3, rtol=1e-12)
+    # synthesis sums each longitudinal section: the afferent current is the sum of its receptors'
+    by_section = ds.current_a.groupby("longitudinal").sum().values
+    np.testing.assert_allclose(by_section, ds.afferent_current_a.values, rtol=1e-12)
+    # the tables beside it, as pandas; the record
+    assert set(ds.attrs["tables"]) == {"profiles", "sed_map", "waveform"}
+    assert ds.attrs["run"]["outputs"] == sorted(ds.attrs["run"]["outputs"])
+    # a plain netCDF-4 / HDF5 file (no filter), what ncread, R ncdf4, ParaView read; CF auxiliary coordinates
+    with h5py.File(out / "currents.nc") as f:
+        assert f["current_a"].compression is None and f["current_a"].dtype == np.float64
+        assert f["current_a"].attrs["coordinates"].split() == ["x_m", "y_m", "z_m", "longitudinal", "cross"]
+
+
+def test_results_format_csv_writes_the_long_tables_with_the_same_numbers(tmp_path, bump):
+    nc, csv = _run(tmp_path, bump, "nc"), _run(tmp_path, bump, "csv", "--results-format", "csv")
+    assert not (csv / "currents.nc").exists()
+    rec = pd.read_csv(csv / "receptors.csv")
+    assert list(rec.columns) == ["receptor", "x_m", "y_m", "z_m", "longitudinal", "cross", "time_s", "sed_pa", "current_a"]
+    a, b = afferent.load_results(nc), afferent.load_results(csv)
+    b = b.reindex(receptor=a.receptor.values, afferent=a.afferent.values)
+    for v in ("sed_pa", "current_a", "afferent_current_a", "x_m", "z_m", "position_m"):
+        np.testing.assert_allclose(a[v].values, b[v].values, rtol=1e-15, err_msg=v)
+    np.testing.assert_array_equal(a.time.values, b.time.values)
+
+
+def test_scene_key_and_bad_format_and_load_results_on_a_non_output(tmp_path, bump, capsys):
+    from afferent.scene import SceneError, parse_scene
+
+    with pytest.raises(SceneError, match=r"\[outputs\] 'format'"):
+        parse_scene('[export]\nfile = "a.vtu"\n[outputs]\nwant = ["currents"]\nformat = "hdf"\n')
+    with pytest.raises(FileNotFoundError, match="is not an afferent output folder: it holds no run.json"):
+        afferent.load_results(tmp_path)
+    vtu, receptors = bump
+    assert main(["run", str(vtu), "--receptors", str(receptors), "--length-unit", "mm", "--sed-unit", "MPa",
+                 "--params", "start", "--nwb", "-o", str(tmp_path / "x")]) == 2
+    assert capsys.readouterr().err == "afferent: error: --nwb writes the spike trains: it needs --spikes.\n"
+
+
+def test_spike_trains_as_nwb_read_back_with_positions_and_parameters(tmp_path, bump):
+    pynwb = pytest.importorskip("pynwb")
+    out = _run(tmp_path, bump, "nwb", "--spikes", "--nwb", "--drive", "rheobase")
+    spikes = pd.read_csv(out / "spikes.csv", dtype={"afferent": str})
+    summary = pd.read_csv(out / "spike_summary.csv", dtype={"afferent": str})
+    record = json.loads((out / "run.json").read_text())
+    with pynwb.NWBHDF5IO(str(out / "spikes.nwb"), "r") as io:
+        units = io.read().units.to_dataframe()
+    assert list(units["afferent"]) == list(summary["afferent"])
+    np.testing.assert_allclose(units["position_m"], summary["position_m"], rtol=1e-15)
+    assert len(spikes) > 0 and sum(len(t) for t in units["spike_times"]) == len(spikes)
+    for aid, times in zip(units["afferent"], units["spike_times"]):
+        np.testing.assert_allclose(times, spikes.loc[spikes.afferent == aid].iloc[:, 1].to_numpy(), rtol=1e-15)
+    lif = record["spikes"]["lif"]
+    assert (units["tau_m_s"] == lif["tau_m"]).all() and (units["v_thresh_v"] == lif["v_thresh"]).all()
+    assert all(np.allclose(iv, [[0.0, record["spikes"]["duration_s"]]]) for iv in units["obs_intervals"])
