@@ -274,6 +274,32 @@ def _simulate_exact(current, params: LIFParams, *, dt, engine: str, duration, ti
     )
 
 
+def _warn_above_ceiling(trains, params: LIFParams, plan) -> None:
+    """Warn (and note in ``plan.notes``) when a grid engine put two spikes ``t_ref`` (s) apart or closer.
+
+    The continuous interval is ``t_ref + T(v_reset) > t_ref``, so a continuous LIF fires below the
+    1 / t_ref ceiling (Hz). On a grid of step dt the interval can be up to 2 dt shorter
+    (:func:`grid_isi_bounds`): driven hard, a grid neuron reaches or passes the ceiling (the
+    ``ra`` preset at dt = 0.1 ms: exactly 1/t_ref = 833 Hz); the exact engine never does.
+    """
+    if params.t_ref <= 0:
+        return
+    isis = [np.diff(t) for t in trains if len(t) > 1]
+    shortest = min((float(d.min()) for d in isis), default=np.inf)
+    if shortest <= params.t_ref * (1.0 + 1e-9):
+        import warnings
+
+        from ..exceptions import AfferentWarning
+
+        msg = (f"The grid engine at dt = {plan.dt:g} s fired at up to {1.0 / shortest:.4g} Hz, at or above the 1/t_ref "
+               f"ceiling of {1.0 / params.t_ref:.4g} Hz that a continuous LIF never reaches (shortest interval "
+               f"{shortest:.4g} s <= t_ref = {params.t_ref:g} s, where the continuous interval is t_ref + the time from v_reset "
+               "to threshold): the time step shortens intervals by up to 2 dt. "
+               "Use engine='exact' or a smaller dt.")
+        plan.notes.append(msg)
+        warnings.warn(msg, AfferentWarning, stacklevel=3)
+
+
 def simulate_lif(current, params: LIFParams, *, dt: float | None = None, engine: str = "auto", duration=None, times=None,
                  input_hold: str = "previous"):
     """Simulate one leaky integrate-and-fire neuron per afferent.
@@ -417,6 +443,7 @@ def simulate_lif(current, params: LIFParams, *, dt: float | None = None, engine:
     if plan.t_start:
         times_s += plan.t_start
     trains = split_trains(times_s, counts, cols, n_aff)
+    _warn_above_ceiling(trains, params, plan)
 
     return SpikeTrains(
         spike_times=trains,
