@@ -153,3 +153,44 @@ def test_synthesis_conserves_current_on_the_sample():
     cross = synthesize(res.current, Branching.cross(res.sed.layout))
     total = res.current.values.sum()
     np.testing.assert_allclose([res.afferent.values.sum(), cross.values.sum()], total, rtol=1e-13)
+
+
+def _rows(prominence=0.05, over=None):
+    """summary.csv rows as afferent demo writes them (SED Pa, widths mm), the sample's shape made up."""
+    rows = []
+    for w, zone, lon, cross in [(0.44, False, 1, 1), (0.66, False, 1, 1), (0.88, True, 1, 1), (1.10, True, 1, 1),
+                                (1.32, True, 1, 1), (2.00, True, 2, 1), (4.00, True, 2, 2)]:
+        rows.append({"indenter_mm": w, "sed_max_pa": 300.0, "interchange_zone": zone, "afferent_peaks_longitudinal": lon,
+                     "afferent_peaks_cross": cross, "peak_prominence": prominence})
+    for (w, key), v in (over or {}).items():
+        next(r for r in rows if r["indenter_mm"] == w)[key] = v
+    return rows
+
+
+def test_study_findings_decide_by_stated_criteria():
+    """Each finding names its criterion (the 2x SED band, the 0.88 mm width, the peak threshold) and flips
+    when the sample crosses it."""
+    from afferent.cli._demo import study_findings
+
+    f = {d["finding"].split(",")[0][:40]: d for d in study_findings(_rows(0.07))}
+    assert all(d["holds"] for d in study_findings(_rows(0.07))), f
+    assert "prominence >= 0.07" in f["interchange zone (peak-valley-peak SED a"]["criterion"]
+    assert f["peak SED at the papilla tips"]["criterion"] == "within 2x: 95-380 Pa"
+    off = {d["finding"]: d["holds"] for d in study_findings(_rows(over={(2.0, "sed_max_pa"): 381.0,
+                                                                     (0.88, "interchange_zone"): False,
+                                                                     (4.0, "afferent_peaks_cross"): 1}))}
+    assert [k for k, v in off.items() if not v] == [
+        "peak SED at the papilla tips, 2 mm indenter 0.5 mm deep",
+        "interchange zone (peak-valley-peak SED across the central x line) from width",
+        "afferent peaks after cross synthesis, 4 mm indenter"]
+    gap = study_findings(_rows(over={(1.10, "interchange_zone"): False}))[1]  # must hold at every wider indenter
+    assert gap["sample"] == "1.32 mm" and not gap["holds"]
+
+
+def test_demo_peak_prominence_is_checked(tmp_path, capsys):
+    from afferent.cli import main
+
+    assert main(["demo", "-o", str(tmp_path / "d"), "--peak-prominence", "1.5"]) == 2
+    assert "afferent: error: --peak-prominence must be a fraction of the profile's range, 0 < p < 1; got 1.5" in \
+        capsys.readouterr().err
+    assert not (tmp_path / "d").exists()
