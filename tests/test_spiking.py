@@ -648,5 +648,5 @@ def test_grid_engine_warns_at_the_refractory_ceiling(engine):
         exact = simulate_lif(current, RA, dt=1e-4, engine="exact", duration=0.05)
         low = simulate_lif(current[:, 1:], RA, dt=1e-4, engine=engine, duration=0.05)  # 2 x rheobase: far below
     assert exact.peak_rate()[0] == pytest.approx(RA.steady_rate(158.0 * RA.rheobase), rel=1e-9)
-    assert exact.peak_rate()[0] < 815.0
+    assert exact.peak_rate()[0] < 815.0  # 814.07 Hz
     assert low.n_spikes[0] > 3
