@@ -5,7 +5,7 @@ bundled FE sample (1.32 mm indenter, block4), computed with known transduction p
 and perturbed by seeded Gaussian noise, so that a calibration can be checked to recover them:
 
     TRUE_PARAMS: alpha = 3.0e-8 A, gamma = 8.0e-3 1/Pa, lambda = 250 Pa (the midpoint inside the sample's
-    receptor SED at 1.32 mm, 7-572 Pa, as 900 Pa was inside the 20-2400 Pa of the sample before issue 21)
+    receptor SED at 1.32 mm, 12-572 Pa, as 900 Pa was inside the 20-2400 Pa of the sample before issue 21)
     noise: 2 % of the profile's maximum, numpy default_rng(1321)
 
 Run from the repository root:  python sample_sed/observed/make_observed.py
