@@ -212,3 +212,10 @@ def test_sample_readme_tables_come_from_the_run_records():
     for name, rows in mod.all_tables().items():
         missing = [r for r in rows if r not in readme]
         assert not missing, f"{name}: run python sample_sed/readme_tables.py and paste; missing {missing[:2]}"
+
+
+def test_every_finding_says_why():
+    from afferent.cli._demo import study_findings
+
+    for f in study_findings(_rows()):
+        assert set(f) == {"finding", "study", "sample", "criterion", "holds", "note"} and len(f["note"]) > 40

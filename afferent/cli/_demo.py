@@ -168,7 +168,8 @@ def study_findings(rows: list[dict]) -> list[dict]:
     -------
     list of dict
         One per finding: ``finding``, ``study``, ``sample``, ``criterion`` (how "holds" is decided,
-        thresholds included) and ``holds`` (bool).
+        thresholds included), ``holds`` (bool) and ``note`` (why the result comes out as it does, for
+        the study's geometry; sample_sed/README.md gives the measurements).
     """
     by_w = {round(r["indenter_mm"], 2): r for r in rows}
     prom = rows[0]["peak_prominence"]
@@ -180,21 +181,26 @@ def study_findings(rows: list[dict]) -> list[dict]:
         "study": f"~{STUDY_PEAK_SED_PA:g} Pa (1.9e-4 MPa, figure 4-7 scale)",
         "sample": f"{two:.0f} Pa ({two / STUDY_PEAK_SED_PA:.2f} x); all indenters "
                   f"{min(r['sed_max_pa'] for r in rows):.0f}-{max(r['sed_max_pa'] for r in rows):.0f} Pa",
-        "criterion": f"within {SED_MAGNITUDE_FACTOR:g}x: {lo:g}-{hi:g} Pa", "holds": bool(lo <= two <= hi)}]
+        "criterion": f"within {SED_MAGNITUDE_FACTOR:g}x: {lo:g}-{hi:g} Pa", "holds": bool(lo <= two <= hi),
+        "note": "the study's 190 Pa is the scale of a 2 x 2 mm bar (its figure 4-7); narrower punches put the same "
+                "depth on fewer tips and concentrate the SED"}]
     widths = sorted(by_w)
     zone_from = next((w for i, w in enumerate(widths) if all(by_w[v]["interchange_zone"] for v in widths[i:])), None)
     out.append({
         "finding": "interchange zone (peak-valley-peak SED across the central x line) from width",
         "study": "0.66-0.88 mm", "sample": "none" if zone_from is None else f"{zone_from:g} mm",
         "criterion": f"appears at <= {STUDY_INTERCHANGE_FROM_MM:g} mm and at every wider indenter; {peaks}",
-        "holds": zone_from is not None and zone_from <= STUDY_INTERCHANGE_FROM_MM + 1e-9})
+        "holds": zone_from is not None and zone_from <= STUDY_INTERCHANGE_FROM_MM + 1e-9,
+        "note": "the receptor tips sit about 0.65 mm deep and the papilla rows 0.44 mm apart across the ridges: a punch "
+                "narrower than about two row pitches puts both edge maxima on the central tip (left panel)"})
     for kind in ("longitudinal", "cross"):
         for w, want in ((0.88, 1), (4.0, 2)):
             got = by_w[w][f"afferent_peaks_{kind}"]
             out.append({
                 "finding": f"afferent peaks after {kind} synthesis, {w:g} mm indenter",
                 "study": f"{want} (RA-I recordings; the study's longitudinal synthesis)", "sample": str(got),
-                "criterion": f"{want} peak(s); {peaks}", "holds": got == want})
+                "criterion": f"{want} peak(s); {peaks}", "holds": got == want,
+                "note": "summing receptors along a section fills a narrow punch's valley and keeps a wide one's"})
     return out
 
 
@@ -209,7 +215,8 @@ def _plot_indenters(profiles, findings: list[dict], path: str) -> None:
     top, bottom = fig.subfigures(2, 1, height_ratios=[4, 2.2])
     axes = top.subplots(1, 2, sharey=True)
     text = "\n".join(f"[{'holds' if f['holds'] else 'does NOT hold'}] {f['finding']}: study {f['study']}, "
-                     f"sample {f['sample']} ({f['criterion']})" for f in findings)
+                     f"sample {f['sample']} ({f['criterion']})" + ("" if f["holds"] else f"\n    why: {f['note']}")
+                     for f in findings)
     bottom.text(0.01, 0.95, "The study's findings on this sample\n" + text, va="top", ha="left", fontsize=7.5,
                 family="monospace", wrap=True)
     for width, x, sed_line, xa, lon in profiles:
@@ -252,7 +259,7 @@ def run(args: argparse.Namespace) -> int:
     say(pd.DataFrame(rows).to_string(index=False))
     for f in findings:
         say(f"[{'holds' if f['holds'] else 'does NOT hold'}] {f['finding']}: study {f['study']}, sample {f['sample']} "
-            f"({f['criterion']})")
+            f"({f['criterion']})" + ("" if f["holds"] else f"; why: {f['note']}"))
     n = sum(len(t) for t in spikes.spikes.spike_times)
     say(f"spikes_ramp: {n} spikes from {len(spikes.spikes.spike_times)} afferents (rate-sensitive input: onset and release)")
     say(f"afferent demo: wrote {args.output}")
