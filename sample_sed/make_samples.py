@@ -858,8 +858,9 @@ A crop of the finite-element sample of the source repository (`sample_sed/`, mad
 `sample_sed/make_samples.py`): real scikit-fem solutions for a block of fingertip skin in three
 linear-elastic layers (epidermis, dermis, subcutis). The surface carries fingerprint ridges and
 the epidermis/dermis interface carries dermal papillae. Rigid flat square punches indent it by
-0.5 mm. `afferent demo` runs on this crop, so the demo also works from an installed wheel.
-The full sample (27 MB) and its description (`sample_sed/README.md`: model, mesh, solver,
+0.5 mm; as in the study, only the four edges of its bottom face are restrained. `afferent demo`
+runs on this crop, so the demo also works from an installed wheel.
+The full sample (28 MB) and its description (`sample_sed/README.md`: model, mesh, solver,
 checks) stay in the source repository.
 
 Units as in the full sample: coordinates in mm, SED in MPa (read with `length_unit="mm"`,
