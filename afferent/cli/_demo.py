@@ -11,11 +11,11 @@ block) the static pipeline runs with the study's start parameters (``STUDY_PARAM
 and longitudinal synthesis, writing one folder per indenter (as ``afferent run`` does), plus:
 
 - ``summary.csv``: per indenter, SED at the receptors (max, median; the max over the study's peak
-  :data:`STUDY_PEAK_SED_PA`), whether the SED along the central cross-section shows an
+  ``STUDY_PEAK_SED_PA``), whether the SED along the central cross-section shows an
   interchange zone (peak-valley-peak), how many peaks the longitudinal and cross-section afferent
   profiles have, and the peak-decision threshold used (``peak_prominence``);
 - ``findings.csv``: the study's chapter-5 findings beside the sample's, each with its criterion and
-  whether it holds (:func:`study_findings`);
+  whether it holds, and why (``study_findings``);
 - ``indenters_x.png``: normalised receptor SED and longitudinal afferent current along x for
   every indenter (the study's chapter-5 comparison), with the findings and the threshold;
 - ``spikes_ramp/``: the sample's scene ``scenes/spikes_ramp.toml`` (the study's ramp-and-hold on
