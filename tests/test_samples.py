@@ -219,3 +219,16 @@ def test_every_finding_says_why():
 
     for f in study_findings(_rows()):
         assert set(f) == {"finding", "study", "sample", "criterion", "holds", "note"} and len(f["note"]) > 40
+
+
+def test_demo_case_records_its_peak_threshold(tmp_path):
+    """One indenter through the demo's case runner: the threshold is in the summary row and in run.json."""
+    import json
+
+    from afferent.cli._demo import CASES, _run_case
+
+    row, _ = _run_case(SAMPLE_DIR, {"dir": str(SAMPLE_DIR), "packaged": False}, CASES[2], str(tmp_path), 0.02)
+    assert row["peak_prominence"] == 0.02 and row["afferent_peaks_longitudinal"] == 1
+    assert row["sed_max_over_study"] == pytest.approx(row["sed_max_pa"] / 190.0)
+    rec = json.loads((tmp_path / "indent_0p88mm" / "run.json").read_text())
+    assert rec["peak_prominence"]["value"] == 0.02

@@ -135,7 +135,9 @@ def _run_case(sample: Path, sample_record: dict, case, folder: str, prominence: 
     record = {"command": "afferent demo", "case": name, "indenter_mm": width, "sample": sample_record,
               "field": field.provenance.to_dict(),
               "transduction": {"alpha_a": params.alpha, "gamma_per_pa": params.gamma, "lambda_pa": params.lambda_,
-                               "source": "the study's start parameters, afferent.transduction.STUDY_PARAMS['start']"}}
+                               "source": "the study's start parameters, afferent.transduction.STUDY_PARAMS['start']"},
+              "peak_prominence": {"value": prominence, "meaning": "a local maximum of a profile counts as a peak when it "
+                                  "stands out by this fraction of the profile's range (summary.csv peak counts)"}}
     write_pipeline_outputs(res, os.path.join(folder, name), record=record)
     idx, coord, _ = central_line(layout, "x")
     sed_line = res.sed.values[-1, idx]
