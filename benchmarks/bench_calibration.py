@@ -2,11 +2,11 @@
 
 Run from the repository root:  python benchmarks/bench_calibration.py [--repeat 3]
 
-Data: SED at the 119 receptors of sample_sed/block4 (1.32 mm indenter; 22-2374 Pa), longitudinal
+Data: SED at the 119 receptors of sample_sed/block4 (1.32 mm indenter; 12-572 Pa since issue 21), longitudinal
 sections (7 afferents), from the study's start (2.46e-8 A, 4.6e-3 1/Pa, 300 Pa). Profiles:
 
 * ``noisy``: sample_sed/observed/synthetic_1p32mm_longitudinal.csv (the model's own profile for
-  alpha 3e-8 A, gamma 2e-3 1/Pa, lambda 900 Pa plus 2 % noise; it leaves gamma and lambda on a
+  alpha 3e-8 A, gamma 8e-3 1/Pa, lambda 250 Pa plus 2 % noise; it leaves gamma and lambda on a
   ridge, so the reference slides along it);
 * ``clean g.. l..``: noise-free profiles of known (3e-8 A, gamma, lambda), compared min-max
   normalised ('both': gamma and lambda fitted) and un-normalised ('neither': alpha too).

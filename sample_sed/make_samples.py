@@ -3,7 +3,9 @@
 
 A linear-elastic, three-layer block of fingertip skin (docs/method.md, "1. The FE skin model") with
 fingerprint ridges on the surface and dermal papillae on the epidermis/dermis
-interface is indented by a rigid, frictionless flat square punch.  The problem is
+interface is indented by a rigid, frictionless flat square punch.  As in the study, only the four
+edges of the bottom face are restrained (``--bottom face`` fixes the whole bottom face instead, the
+condition of the sample before issue 21, for comparison).  The problem is
 solved with scikit-fem (trilinear 8-node hexahedra with selective reduced integration
 on a structured, mapped mesh; AMG-preconditioned CG from pyamg), post-processed to element-centroid stress/strain/SED and nodal SED, and exported
 with meshio in the formats listed in ``sample_sed/README.md``.
@@ -17,6 +19,7 @@ Usage::
     python sample_sed/make_samples.py --quick    # coarse smoke run into a temp dir
     python sample_sed/make_samples.py --check-mesh      # + 2x-refined mesh comparison
     python sample_sed/make_samples.py --packaged # only rewrite afferent/data/sample/ (a crop, no solve)
+    python sample_sed/make_samples.py --only block4 --out DIR   # one block only (DIR: not sample_sed/)
 
 Requirements: ``pip install -e .[samples]`` (scikit-fem, pyamg, meshio, numpy, scipy).
 The run is deterministic (fixed solver settings; pyamg's random start vectors seeded).  The only
@@ -351,10 +354,11 @@ class Problem:
     integration='full': plain 2x2x2 Gauss integration of the whole form (for comparison).
     """
 
-    def __init__(self, sm: SkinMesh, integration: str = "sri", log=print):
+    def __init__(self, sm: SkinMesh, integration: str = "sri", log=print, bottom: str = "edges"):
         self.sm = sm
         self.log = log
         self.integration = integration
+        self.bottom = bottom
         t0 = time.perf_counter()
         self.element = ElementVector(ElementHex1())
         self.basis = Basis(sm.mesh, self.element, intorder=2)
@@ -395,6 +399,16 @@ class Problem:
         bottom_f = np.flatnonzero(np.all(fj == 0, axis=0))
         top_f = np.flatnonzero(np.all(fj == sm.j_top, axis=0))
         self.bottom_dofs = np.asarray(self.basis.get_dofs(bottom_f).all(), dtype=np.int64)
+        if bottom == "edges":
+            # the study's condition: only the four edges of the bottom face are restrained
+            # (all components); the rest of the bottom face is free
+            X = self.dofloc[:, self.bottom_dofs]
+            L = 2.0 * sm.xc
+            on_edge = (np.abs(X[0]) <= TOL) | (np.abs(X[0] - L) <= TOL) | \
+                (np.abs(X[2]) <= TOL) | (np.abs(X[2] - L) <= TOL)
+            self.bottom_dofs = self.bottom_dofs[on_edge]
+        elif bottom != "face":
+            raise ValueError(bottom)
         self.top_ydofs = np.asarray(self.basis.get_dofs(top_f).all("u^2"), dtype=np.int64)
         self._ml_cache = {}
         log(f"  assembled K: {self.ndof} dofs, nnz {self.K.nnz}, {self.t_assemble:.1f} s")
@@ -844,8 +858,9 @@ A crop of the finite-element sample of the source repository (`sample_sed/`, mad
 `sample_sed/make_samples.py`): real scikit-fem solutions for a block of fingertip skin in three
 linear-elastic layers (epidermis, dermis, subcutis). The surface carries fingerprint ridges and
 the epidermis/dermis interface carries dermal papillae. Rigid flat square punches indent it by
-0.5 mm. `afferent demo` runs on this crop, so the demo also works from an installed wheel.
-The full sample (27 MB) and its description (`sample_sed/README.md`: model, mesh, solver,
+0.5 mm; as in the study, only the four edges of its bottom face are restrained. `afferent demo`
+runs on this crop, so the demo also works from an installed wheel.
+The full sample (28 MB) and its description (`sample_sed/README.md`: model, mesh, solver,
 checks) stay in the source repository.
 
 Units as in the full sample: coordinates in mm, SED in MPa (read with `length_unit="mm"`,
@@ -902,6 +917,11 @@ def main(argv=None):
     ap.add_argument("--out", type=Path, default=None, help="output folder")
     ap.add_argument("--integration", choices=("sri", "full"), default="sri",
                     help="hexahedron integration: selective reduced (default) or full 2x2x2")
+    ap.add_argument("--bottom", choices=("edges", "face"), default="edges",
+                    help="bottom restraint: the study's bottom edges (default) or the whole bottom face "
+                         "(the sample before issue 21, for comparison)")
+    ap.add_argument("--only", choices=("block4", "block8"), default=None,
+                    help="solve one block only (timing and comparison runs; use with --out)")
     ap.add_argument("--check-mesh", action="store_true",
                     help="also solve the 0.88 mm case on the block4 mesh refined 2x in every "
                          "direction and compare (slow, ~8x the elements)")
@@ -916,6 +936,8 @@ def main(argv=None):
     if pyamg is None:
         sys.exit("pyamg is required: pip install -e .[samples]")
     out = args.out or (Path(tempfile.gettempdir()) / "afferent_sample_sed_quick" if args.quick else here)
+    if args.only and out == here:
+        sys.exit("--only writes one block and its own build_info.json: give --out DIR (not sample_sed/)")
     out.mkdir(parents=True, exist_ok=True)
     T0 = time.perf_counter()
     print(f"output: {out}")
@@ -930,6 +952,9 @@ def main(argv=None):
         "element": {"type": "8-node trilinear hexahedron (skfem ElementHex1, vector)",
                     "integration": args.integration,
                     "integration_note": "sri: deviatoric 2x2x2 Gauss, volumetric 1 point (centre)"},
+        "boundary": {"bottom": args.bottom,
+                     "note": "edges: the four edges of the bottom face (y = 0) fixed in x, y, z; "
+                             "face: the whole bottom face fixed"},
         "solver": {"method": "CG + smoothed-aggregation AMG (pyamg), rigid-body near-nullspace",
                    "relative_residual_tol": CG_TOL},
         "blocks": {},
@@ -941,6 +966,8 @@ def main(argv=None):
     b4, b8 = specs(args.quick)
     timings = {}
     for spec in (b4, b8):
+        if args.only and spec.name != args.only:
+            continue
         print(f"[{spec.name}] building mesh")
         t0 = time.perf_counter()
         sm = build_mesh(spec)
@@ -948,7 +975,7 @@ def main(argv=None):
         timings[f"{spec.name}_mesh_s"] = round(time.perf_counter() - t0, 2)
         print(f"  {stats['n_nodes']} nodes, {stats['n_elements']} hexahedra, "
               f"{stats['n_receptors']} receptors, smallest edge {stats['smallest_edge_mm']:.4f} mm")
-        prob = Problem(sm, integration=args.integration)
+        prob = Problem(sm, integration=args.integration, bottom=args.bottom)
         post = Post(prob)
         timings[f"{spec.name}_assemble_s"] = round(prob.t_assemble, 2)
         bdir = out / spec.name
@@ -1035,7 +1062,7 @@ def main(argv=None):
     info["total_size_MB"] = round(sum(info["files"].values()) / 1e6, 2)
     (out / "build_info.json").write_text(json.dumps(info, indent=1) + "\n")
     print(f"total {timings['total_s']:.1f} s, data {info['total_size_MB']} MB -> {out}")
-    if out == here:
+    if out == here and not args.only:
         write_packaged_sample(out)
 
 

@@ -536,9 +536,9 @@ def test_cli_refuses_to_overwrite(tmp_path, cli_inputs, capsys):
 
 
 def test_a_ridge_is_reported_where_the_profile_leaves_gamma_and_lambda_free(sed, observed):
-    """The bundled sample's 1.32 mm synthetic profile (7 afferents; made from gamma 2e-3 /Pa,
-    lambda 900 Pa) constrains one combination of gamma and lambda only: least squares ends at a
-    negative lambda with the same ssd, and the report says both things. On this module's synthetic
+    """The bundled sample's 1.32 mm synthetic profile (7 afferents; made from gamma 8e-3 /Pa,
+    lambda 250 Pa) constrains one combination of gamma and lambda only: least squares ends far
+    from the truth along a flat ridge, and the report says so. On this module's synthetic
     data (143 receptors, SED 0-193 Pa spanning the sigmoid) least squares lands near the truth
     and the parameters are identified."""
     from conftest import SAMPLE_DIR
@@ -558,9 +558,8 @@ def test_a_ridge_is_reported_where_the_profile_leaves_gamma_and_lambda_free(sed,
     assert not ident["identifiable"] and ident["condition_number"] > 10 * IDENTIFIABLE_COND
     assert ident["parameters"] == ["gamma", "lambda"]  # alpha cancels under min-max normalisation
     values = list(ident["ssd_along_ridge"].values())
-    assert max(values) - min(values) < 1e-3 * min(values)  # flat along the ridge
-    assert ridge.params.lambda_ < 0 and ident["out_of_range"][0].startswith("lambda = ")
-    assert "Outside the physical range: lambda = " in ridge.message
+    assert max(values) < 2 * min(values)  # nearly flat along the ridge (within 1.5x of its floor here)
+    assert ridge.params.gamma > 2 * 8e-3  # far from the truth along the ridge (0.022 /Pa here)
     good = calibrate(sed, observed, method="least_squares")
     assert good.identifiability["identifiable"] and good.identifiability["condition_number"] < IDENTIFIABLE_COND
     assert not good.identifiability["out_of_range"]

@@ -209,15 +209,16 @@ def test_cells_of_mixed_types_weigh_by_their_volume(tmp_path):
 def test_cells_averaged_to_nodes_match_the_sample_nodal_sed(sample_sed_dir):
     # The bundled sample's point SED is, by construction (sample_sed/README.md, "Nodal SED"), the
     # average of its cell SED over the cells sharing each node, weighted by the true (2x2x2 Gauss)
-    # hexahedron volumes. Averaging with tetrahedral-split volumes reproduces it to 0.52 % (the split
-    # volume of the sample's warped hexahedra differs from the true one by up to 1.15 %); the
-    # tetrahedral weights used before were off by up to 57 %.
+    # hexahedron volumes. Averaging with tetrahedral-split volumes reproduces it to 0.80 % (0.52 % on
+    # the sample before issue 21, with the bottom face fixed): the split volume of the sample's warped
+    # hexahedra differs from the true one by up to 1.15 %, which bounds it; the tetrahedral weights
+    # used before were off by up to 57 %.
     path = sample_sed_dir / "block4" / "indent_0p88mm.vtu"
     cells = read_sed(path, length_unit="mm", sed_unit="MPa", location="cell")
     nodal = read_sed(path, length_unit="mm", sed_unit="MPa", location="point").sed[0]
     averaged = node_average(cells.cells, cells.points, cells.n_points) @ cells.sed[0]
     rel = np.abs(averaged - nodal) / nodal
-    assert rel.max() < 0.006 and np.median(rel) < 1e-4
+    assert rel.max() < 0.0115 and np.median(rel) < 1e-4
 
 
 def test_flat_tetrahedra_of_a_mesh_are_skipped(tmp_path):

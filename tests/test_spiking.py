@@ -21,6 +21,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from afferent import spiking
+from afferent.exceptions import AfferentWarning
 from afferent.spiking import LIF_PRESETS, LIFParams, SpikeTrains, grid_isi_bounds, simulate_lif
 
 # brian2 2.9 calls pyparsing's camelCase API, deprecated in pyparsing 3.3: not ours to fix.
@@ -523,6 +524,7 @@ def test_property_constant_currents_extremes(amps, sign, dt, preset):
     current = sign * np.array(amps)
     with warnings.catch_warnings(), np.errstate(all="raise"):
         warnings.simplefilter("error")
+        warnings.filterwarnings("ignore", message="The grid engine at dt", category=AfferentWarning)  # at 1/t_ref: expected
         trains = simulate_lif(constant(current, 1), params, dt=dt, duration=200 * dt, engine="fast")
         lo, hi = grid_isi_bounds(params, current, dt=dt)
     max_spikes = 200 // n_eff(params, dt) + 1
@@ -550,6 +552,7 @@ def test_property_time_varying_extremes_backends_agree(seed, low, high):
     current = rng.choice([-1.0, 1.0], (120, 8), p=[0.1, 0.9]) * 10.0**exponents
     with warnings.catch_warnings(), np.errstate(all="raise"):
         warnings.simplefilter("error")
+        warnings.filterwarnings("ignore", message="The grid engine at dt", category=AfferentWarning)  # at 1/t_ref: expected
         a = simulate_lif(current, RA, dt=1e-4, engine="fast-numba")
         b = simulate_lif(current, RA, dt=1e-4, engine="fast-numpy")
     assert same_spikes(a, b)
@@ -628,3 +631,23 @@ def test_drive_mapping_and_the_ceiling_and_silence_warnings(tmp_path, capsys):
     rec = json.loads((out / "run.json").read_text())["spikes"]["drive"]
     assert rec["mapping"] == "rheobase" and rec["rheobase_multiple"] == 3.0
     np.testing.assert_allclose(rec["drive_over_rheobase"], 3.0, rtol=1e-9)
+
+
+@pytest.mark.parametrize("engine", ["fast-numpy", "fast"])
+def test_grid_engine_warns_at_the_refractory_ceiling(engine):
+    """ra at 158 x the rheobase (the study's longitudinal fit, docs/method.md): the continuous ISI is
+    t_ref + tau ln(158/157) = 1.228 ms (814 Hz), but at the default dt = 0.1 ms the grid rounds the
+    28 us climb up to one step and fires every 12 steps = t_ref exactly, 1/t_ref = 833 Hz: warned and
+    noted. The exact engine stays below the ceiling and does not warn."""
+    current = constant(np.array([158.0 * RA.rheobase, 2.0 * RA.rheobase]), 1)
+    with pytest.warns(AfferentWarning, match=r"fired at up to 833\.3 Hz, at or above the 1/t_ref ceiling of 833\.3 Hz"):
+        trains = simulate_lif(current, RA, dt=1e-4, engine=engine, duration=0.05)
+    assert trains.peak_rate()[0] >= 1.0 / RA.t_ref * (1 - 1e-9)
+    assert any("1/t_ref" in n for n in trains.notes)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", AfferentWarning)
+        exact = simulate_lif(current, RA, dt=1e-4, engine="exact", duration=0.05)
+        low = simulate_lif(current[:, 1:], RA, dt=1e-4, engine=engine, duration=0.05)  # 2 x rheobase: far below
+    assert exact.peak_rate()[0] == pytest.approx(RA.steady_rate(158.0 * RA.rheobase), rel=1e-9)
+    assert exact.peak_rate()[0] < 815.0  # 814.07 Hz
+    assert low.n_spikes[0] > 3

@@ -297,8 +297,8 @@ def test_readme_sweep_example_runs_on_the_sample(tmp_path, monkeypatch, capsys):
     assert len(table) == 36  # 12 tasks x 3 afferents in the region, as the README says
     n = table.pivot_table(index="transduction.gamma_per_pa", columns="spikes.gain_ms", values="n_spikes", aggfunc="sum")
     # golden: the README's numbers, from this example run with the exact LIF engine (deterministic)
-    assert (n.loc[2e-3, 100.0], n.loc[1e-2, 300.0]) == (80, 273)
-    assert "80 ... 273 spikes per task" in section
+    assert (n.loc[2e-3, 100.0], n.loc[1e-2, 300.0]) == (23, 226)  # (80, 273) on the sample before issue 21
+    assert "23 ... 226 spikes per task" in section
 
 
 # ------------------------------------------------------------- killed sweeps (issue 26, item 8)

@@ -10,11 +10,14 @@ For each square indenter of the sample (0.44-2.0 mm on the 4 mm block, 4 mm on t
 block) the static pipeline runs with the study's start parameters (``STUDY_PARAMS['start']``)
 and longitudinal synthesis, writing one folder per indenter (as ``afferent run`` does), plus:
 
-- ``summary.csv``: per indenter, SED at the receptors (max, median), whether the SED along the
-  central cross-section shows an interchange zone (peak-valley-peak), and how many peaks the
-  longitudinal and cross-section afferent profiles have;
+- ``summary.csv``: per indenter, SED at the receptors (max, median; the max over the study's peak
+  ``STUDY_PEAK_SED_PA``), whether the SED along the central cross-section shows an
+  interchange zone (peak-valley-peak), how many peaks the longitudinal and cross-section afferent
+  profiles have, and the peak-decision threshold used (``peak_prominence``);
+- ``findings.csv``: the study's chapter-5 findings beside the sample's, each with its criterion and
+  whether it holds, and why (``study_findings``);
 - ``indenters_x.png``: normalised receptor SED and longitudinal afferent current along x for
-  every indenter on one figure (the study's chapter-5 comparison);
+  every indenter (the study's chapter-5 comparison), with the findings and the threshold;
 - ``spikes_ramp/``: the sample's scene ``scenes/spikes_ramp.toml`` (the study's ramp-and-hold on
   the 0.88 mm loading series, RA-I rate-sensitive input, leaky integrate-and-fire spikes).
 
@@ -66,12 +69,28 @@ def add_args(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--sample-dir", metavar="DIR",
                         help="the sample folder, laid out as sample_sed/ (default: the sample installed with the package, "
                              "a crop of sample_sed/ with the same SED at the receptors)")
+    parser.add_argument("--peak-prominence", type=float, default=PEAK_PROMINENCE, metavar="FRACTION",
+                        help="a local maximum of a profile counts as a peak when it stands out by this fraction of the "
+                             f"profile's range (default {PEAK_PROMINENCE}); recorded in summary.csv, findings.csv and the figure")
     parser.add_argument("-q", "--quiet", action="store_true", help="no progress output")
 
 
-def count_peaks(profile, *, rel_prominence: float = 0.05) -> int:
-    """Number of local maxima of a 1-D profile standing out by at least ``rel_prominence`` of its range
-    (scipy.signal.find_peaks; plateau ends count once)."""
+#: Default peak-decision threshold (dimensionless): a local maximum of a profile counts as a peak
+#: when it stands out from its surroundings by this fraction of the profile's range (max - min).
+#: ``afferent demo --peak-prominence`` changes it; summary.csv, findings.csv and the figure record it.
+PEAK_PROMINENCE = 0.05
+#: The study's peak SED at the papilla tips, Pa: 1.9e-4 MPa, the scale of its figure 4-7 (2 x 2 mm bar,
+#: 0.5 mm deep; docs/method.md, "The FE skin model").
+STUDY_PEAK_SED_PA = 190.0
+#: A sample's peak tip SED "matches" the study's magnitude within this factor either way.
+SED_MAGNITUDE_FACTOR = 2.0
+#: The narrowest indenter (mm) at which the study sees the interchange zone: 0.66-0.88 mm.
+STUDY_INTERCHANGE_FROM_MM = 0.88
+
+
+def count_peaks(profile, *, rel_prominence: float = PEAK_PROMINENCE) -> int:
+    """Number of local maxima of a 1-D profile standing out by at least ``rel_prominence`` (a fraction,
+    dimensionless) of its range (scipy.signal.find_peaks prominence; plateau ends count once)."""
     from scipy.signal import find_peaks
 
     p = np.asarray(profile, dtype=float)
@@ -95,7 +114,7 @@ def _sample(args: argparse.Namespace) -> tuple[Path, dict]:
     return sample, {"dir": str(sample), "packaged": packaged}
 
 
-def _run_case(sample: Path, sample_record: dict, case, folder: str):
+def _run_case(sample: Path, sample_record: dict, case, folder: str, prominence: float = PEAK_PROMINENCE):
     """One indenter through the static pipeline, written into ``folder``; its summary row and profiles."""
     from ..export import write_pipeline_outputs
     from ..io import read_sed
@@ -116,32 +135,92 @@ def _run_case(sample: Path, sample_record: dict, case, folder: str):
     record = {"command": "afferent demo", "case": name, "indenter_mm": width, "sample": sample_record,
               "field": field.provenance.to_dict(),
               "transduction": {"alpha_a": params.alpha, "gamma_per_pa": params.gamma, "lambda_pa": params.lambda_,
-                               "source": "the study's start parameters, afferent.transduction.STUDY_PARAMS['start']"}}
+                               "source": "the study's start parameters, afferent.transduction.STUDY_PARAMS['start']"},
+              "peak_prominence": {"value": prominence, "meaning": "a local maximum of a profile counts as a peak when it "
+                                  "stands out by this fraction of the profile's range (summary.csv peak counts)"}}
     write_pipeline_outputs(res, os.path.join(folder, name), record=record)
     idx, coord, _ = central_line(layout, "x")
     sed_line = res.sed.values[-1, idx]
     cross = synthesize(res.current, Branching.cross(layout))
     lon = res.afferent.values[-1]
+    n_sed, n_lon, n_cross = (count_peaks(p, rel_prominence=prominence) for p in (sed_line, lon, cross.values[-1]))
+    sed_max = float(res.sed.values.max())
     row = {
         "case": name, "indenter_mm": width,
-        "sed_max_pa": float(res.sed.values.max()), "sed_median_pa": float(np.median(res.sed.values)),
-        "sed_peaks_central_x": count_peaks(sed_line),
-        "interchange_zone": count_peaks(sed_line) >= 2,
-        "afferent_peaks_longitudinal": count_peaks(lon),
-        "afferent_peaks_cross": count_peaks(cross.values[-1]),
+        "sed_max_pa": sed_max, "sed_median_pa": float(np.median(res.sed.values)),
+        "sed_max_over_study": sed_max / STUDY_PEAK_SED_PA,
+        "sed_peaks_central_x": n_sed, "interchange_zone": n_sed >= 2,
+        "afferent_peaks_longitudinal": n_lon, "afferent_peaks_cross": n_cross,
+        "peak_prominence": prominence,
         "fraction_sensitive": res.saturation.fraction_sensitive,
     }
     return row, (width, coord - coord.mean(), sed_line, res.afferent.positions - res.afferent.positions.mean(), lon)
 
 
-def _plot_indenters(profiles, path: str) -> None:
+def study_findings(rows: list[dict]) -> list[dict]:
+    """The study's chapter-5 findings beside the sample's (docs/method.md, "What the study found").
+
+    Parameters
+    ----------
+    rows : list of dict
+        The ``summary.csv`` rows of :func:`run` (one per indenter, keys as there; SED in Pa,
+        widths in mm, peak counts decided at the row's ``peak_prominence``).
+
+    Returns
+    -------
+    list of dict
+        One per finding: ``finding``, ``study``, ``sample``, ``criterion`` (how "holds" is decided,
+        thresholds included), ``holds`` (bool) and ``note`` (why the result comes out as it does, for
+        the study's geometry; sample_sed/README.md gives the measurements).
+    """
+    by_w = {round(r["indenter_mm"], 2): r for r in rows}
+    prom = rows[0]["peak_prominence"]
+    peaks = f"peaks counted at prominence >= {prom:g} of the profile's range"
+    two = by_w[2.0]["sed_max_pa"]
+    lo, hi = STUDY_PEAK_SED_PA / SED_MAGNITUDE_FACTOR, STUDY_PEAK_SED_PA * SED_MAGNITUDE_FACTOR
+    out = [{
+        "finding": "peak SED at the papilla tips, 2 mm indenter 0.5 mm deep",
+        "study": f"~{STUDY_PEAK_SED_PA:g} Pa (1.9e-4 MPa, figure 4-7 scale)",
+        "sample": f"{two:.0f} Pa ({two / STUDY_PEAK_SED_PA:.2f} x); all indenters "
+                  f"{min(r['sed_max_pa'] for r in rows):.0f}-{max(r['sed_max_pa'] for r in rows):.0f} Pa",
+        "criterion": f"within {SED_MAGNITUDE_FACTOR:g}x: {lo:g}-{hi:g} Pa", "holds": bool(lo <= two <= hi),
+        "note": "the study's 190 Pa is the scale of a 2 x 2 mm bar (its figure 4-7); narrower punches put the same "
+                "depth on fewer tips and concentrate the SED"}]
+    widths = sorted(by_w)
+    zone_from = next((w for i, w in enumerate(widths) if all(by_w[v]["interchange_zone"] for v in widths[i:])), None)
+    out.append({
+        "finding": "interchange zone (peak-valley-peak SED across the central x line) from width",
+        "study": "0.66-0.88 mm", "sample": "none" if zone_from is None else f"{zone_from:g} mm",
+        "criterion": f"appears at <= {STUDY_INTERCHANGE_FROM_MM:g} mm and at every wider indenter; {peaks}",
+        "holds": zone_from is not None and zone_from <= STUDY_INTERCHANGE_FROM_MM + 1e-9,
+        "note": "the receptor tips sit about 0.65 mm deep and the papilla rows 0.44 mm apart across the ridges: a punch "
+                "narrower than about two row pitches puts both edge maxima on the central tip (left panel)"})
+    for kind in ("longitudinal", "cross"):
+        for w, want in ((0.88, 1), (4.0, 2)):
+            got = by_w[w][f"afferent_peaks_{kind}"]
+            out.append({
+                "finding": f"afferent peaks after {kind} synthesis, {w:g} mm indenter",
+                "study": f"{want} (RA-I recordings; the study's longitudinal synthesis)", "sample": str(got),
+                "criterion": f"{want} peak(s); {peaks}", "holds": got == want,
+                "note": "summing receptors along a section fills a narrow punch's valley and keeps a wide one's"})
+    return out
+
+
+def _plot_indenters(profiles, findings: list[dict], path: str) -> None:
     """``indenters_x.png``: normalised receptor SED and longitudinal afferent current along x, every indenter."""
     import matplotlib.pyplot as plt
 
     from .. import plotting
     from ..profiles import minmax_normalise
 
-    fig, axes = plt.subplots(1, 2, figsize=(11, 4), layout="constrained", sharey=True)
+    fig = plt.figure(figsize=(11, 6.2), layout="constrained")
+    top, bottom = fig.subfigures(2, 1, height_ratios=[4, 2.2])
+    axes = top.subplots(1, 2, sharey=True)
+    text = "\n".join(f"[{'holds' if f['holds'] else 'does NOT hold'}] {f['finding']}: study {f['study']}, "
+                     f"sample {f['sample']} ({f['criterion']})" + ("" if f["holds"] else f"\n    why: {f['note']}")
+                     for f in findings)
+    bottom.text(0.01, 0.95, "The study's findings on this sample\n" + text, va="top", ha="left", fontsize=7.5,
+                family="monospace", wrap=True)
     for width, x, sed_line, xa, lon in profiles:
         axes[0].plot(x * 1e3, minmax_normalise(sed_line), "o-", ms=3, label=f"{width:g} mm")
         axes[1].plot(xa * 1e3, minmax_normalise(lon), "^-", ms=3, label=f"{width:g} mm")
@@ -159,6 +238,9 @@ def run(args: argparse.Namespace) -> int:
 
     from ..scene import load_scene, run_scene
 
+    if not 0.0 < args.peak_prominence < 1.0:
+        raise ValueError(f"--peak-prominence must be a fraction of the profile's range, 0 < p < 1; "
+                         f"got {args.peak_prominence!r} instead.")
     sample, sample_record = _sample(args)
     say = (lambda msg: None) if args.quiet else (lambda msg: print(msg, file=sys.stderr))
     say(f"afferent demo: sample {str(sample)!r}" + (" (installed with the package)" if sample_record["packaged"] else ""))
@@ -166,15 +248,20 @@ def run(args: argparse.Namespace) -> int:
     with atomic_dir(args.output, overwrite=args.overwrite, inputs=(sample,)) as tmp:
         for case in CASES:
             say(f"afferent demo: {case[0]} ...")
-            row, profile = _run_case(sample, sample_record, case, tmp)
+            row, profile = _run_case(sample, sample_record, case, tmp, args.peak_prominence)
             rows.append(row)
             profiles.append(profile)
         pd.DataFrame(rows).to_csv(os.path.join(tmp, "summary.csv"), index=False)
-        _plot_indenters(profiles, os.path.join(tmp, "indenters_x.png"))
+        findings = study_findings(rows)
+        pd.DataFrame(findings).to_csv(os.path.join(tmp, "findings.csv"), index=False)
+        _plot_indenters(profiles, findings, os.path.join(tmp, "indenters_x.png"))
         scene_path = sample / "scenes" / "spikes_ramp.toml"
         say(f"afferent demo: scene {scene_path.name} ...")
         spikes = run_scene(load_scene(scene_path).with_output(os.path.join(tmp, "spikes_ramp")), use_cache=False)
     say(pd.DataFrame(rows).to_string(index=False))
+    for f in findings:
+        say(f"[{'holds' if f['holds'] else 'does NOT hold'}] {f['finding']}: study {f['study']}, sample {f['sample']} "
+            f"({f['criterion']})" + ("" if f["holds"] else f"; why: {f['note']}"))
     n = sum(len(t) for t in spikes.spikes.spike_times)
     say(f"spikes_ramp: {n} spikes from {len(spikes.spikes.spike_times)} afferents (rate-sensitive input: onset and release)")
     say(f"afferent demo: wrote {args.output}")

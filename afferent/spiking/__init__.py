@@ -282,6 +282,35 @@ def _simulate_exact(current, params: LIFParams, *, dt, engine: str, duration, ti
     )
 
 
+def _warn_above_ceiling(times_s: np.ndarray, counts: np.ndarray, params: LIFParams, plan) -> None:
+    """Warn (and note in ``plan.notes``) when a grid engine put two spikes ``t_ref`` (s) apart or closer.
+
+    The continuous interval is ``t_ref + T(v_reset) > t_ref``, so a continuous LIF fires below the
+    1 / t_ref ceiling (Hz). On a grid of step dt the interval can be up to 2 dt shorter
+    (:func:`grid_isi_bounds`): driven hard, a grid neuron reaches or passes the ceiling (the
+    ``ra`` preset at dt = 0.1 ms: exactly 1/t_ref = 833 Hz); the exact engine never does.
+    """
+    if params.t_ref <= 0 or times_s.size < 2:
+        return
+    gaps = np.diff(times_s)  # the spikes of each simulated afferent in turn (``counts`` of them): drop the gaps
+    within = np.ones(gaps.size, dtype=bool)  # between one afferent's last spike and the next one's first
+    last = np.cumsum(counts)[:-1] - 1
+    within[last[(last >= 0) & (last < gaps.size)]] = False
+    shortest = float(gaps[within].min()) if within.any() else np.inf
+    if shortest <= params.t_ref * (1.0 + 1e-9):
+        import warnings
+
+        from ..exceptions import AfferentWarning
+
+        msg = (f"The grid engine at dt = {plan.dt:g} s fired at up to {1.0 / shortest:.4g} Hz, at or above the 1/t_ref "
+               f"ceiling of {1.0 / params.t_ref:.4g} Hz that a continuous LIF never reaches (shortest interval "
+               f"{shortest:.4g} s <= t_ref = {params.t_ref:g} s, where the continuous interval is t_ref + the time from v_reset "
+               "to threshold): the time step shortens intervals by up to 2 dt. "
+               "Use engine='exact' or a smaller dt.")
+        plan.notes.append(msg)
+        warnings.warn(msg, AfferentWarning, stacklevel=3)
+
+
 def simulate_lif(current, params: LIFParams, *, dt: float | None = None, engine: str = "auto", duration=None, times=None,
                  input_hold: str = "previous"):
     """Simulate one leaky integrate-and-fire neuron per afferent.
@@ -424,6 +453,8 @@ def simulate_lif(current, params: LIFParams, *, dt: float | None = None, engine:
     times_s = steps * plan.dt
     if plan.t_start:
         times_s += plan.t_start
+    _warn_above_ceiling(times_s, counts, params, plan)
+
     return SpikeTrains(
         t=times_s,
         counts=spread_counts(counts, cols, n_aff),

@@ -4,7 +4,8 @@ These are NOT recordings. They are the model's own longitudinal-section afferent
 bundled FE sample (1.32 mm indenter, block4), computed with known transduction parameters
 and perturbed by seeded Gaussian noise, so that a calibration can be checked to recover them:
 
-    TRUE_PARAMS: alpha = 3.0e-8 A, gamma = 2.0e-3 1/Pa, lambda = 900 Pa
+    TRUE_PARAMS: alpha = 3.0e-8 A, gamma = 8.0e-3 1/Pa, lambda = 250 Pa (the midpoint inside the sample's
+    receptor SED at 1.32 mm, 12-572 Pa, as 900 Pa was inside the 20-2400 Pa of the sample before issue 21)
     noise: 2 % of the profile's maximum, numpy default_rng(1321)
 
 Run from the repository root:  python sample_sed/observed/make_observed.py
@@ -22,7 +23,7 @@ from afferent.transduction import SigmoidParams
 
 HERE = Path(__file__).resolve().parent
 BLOCK = HERE.parent / "block4"
-TRUE_PARAMS = SigmoidParams(alpha=3.0e-8, gamma=2.0e-3, lambda_=900.0)
+TRUE_PARAMS = SigmoidParams(alpha=3.0e-8, gamma=8.0e-3, lambda_=250.0)
 NOISE = 0.02
 SEED = 1321
 

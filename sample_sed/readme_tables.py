@@ -1,0 +1,84 @@
+#!/usr/bin/env python
+"""Print the number tables of ``sample_sed/README.md`` from the run records, so they cannot go stale.
+
+``build_info.json`` is the run of ``make_samples.py`` (the study's bottom-edges restraint);
+``build_info_bottom_face.json`` is the record of the earlier run with the whole bottom face fixed
+(``make_samples.py --bottom face``), kept for the comparison table. ``tests/test_samples.py``
+checks that every line printed here is in the README. Units: SED in Pa, force in N, widths mm.
+
+    python sample_sed/readme_tables.py
+"""
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+HERE = Path(__file__).resolve().parent
+STUDY_PEAK_SED_PA = 190.0      # the study's figure 4-7 scale, 1.9e-4 MPa
+
+
+def _cases(info):
+    for blk in ("block4", "block8"):
+        for tag, case in info["blocks"][blk]["cases"].items():
+            yield blk, tag, case
+
+
+def receptor_table(info) -> list[str]:
+    rows = ["| case | force (N) | tips near | tip SED min / median / max (Pa) | dermis-side median / max (Pa) "
+            "| max at (x, z) | edge offset x, z (mm) |", "|---|---|---|---|---|---|---|"]
+    for blk, tag, c in _cases(info):
+        ch, s = c["checks"], c["solve"]
+        t, d, m = ch["tip_node_SED_Pa"], ch["dermis_side_SED_Pa"], ch["max_at"]
+        rows.append(f"| {blk} {s['width_mm']:.2f} | {s['punch_force_N']:.4f} | {ch['n_receptors_near']} | "
+                    f"{t['min']:.0f} / {t['median']:.0f} / {t['max']:.0f} | {d['median']:.0f} / {d['max']:.0f} | "
+                    f"({m['x']:.2f}, {m['z']:.2f}) | {m['dx_from_edge_mm']:+.2f}, {m['dz_from_edge_mm']:+.2f} |")
+    return rows
+
+
+def interchange_table(info) -> list[str]:
+    rows = ["| case | tip SED along x through the centre (Pa) | peak-valley-peak? | valley/peak |", "|---|---|---|---|"]
+    for blk, tag, c in _cases(info):
+        ch = c["checks"]
+        p, z = ch["profile_x_tips"], ch["interchange_zone_tips"]
+        xc = 4.0 if blk == "block8" else 2.0
+        reach = max(0.89, c["solve"]["width_mm"] / 2 + 0.3)     # the tips near the edges and the centre
+        near = [(x, v) for x, v in zip(p["x"], p["SED_Pa"]) if abs(x - xc) <= reach]
+        prof = ", ".join(f"{v:.0f}" for _, v in near)
+        rows.append(f"| {blk} {c['solve']['width_mm']:.2f} | x = {near[0][0]:.2f} ... {near[-1][0]:.2f}: {prof} | "
+                    f"{'yes' if z['present'] else 'no'} | {z['valley_to_peak_ratio']:.3f} |")
+    return rows
+
+
+def ramp_table(info) -> list[str]:
+    s = info["blocks"]["block4"]["series"]
+    return ["| d (mm) | " + " | ".join(f"{r['depth_mm']:g}" for r in s) + " |",
+            "|---" * (len(s) + 1) + "|",
+            "| force (N) | " + " | ".join(f"{r['punch_force_N'] + 0.0:.4f}".replace("-0.0000", "0.0000") for r in s) + " |",
+            "| max receptor SED (Pa) | " + " | ".join(f"{r['max_receptor_SED_Pa']:.0f}" for r in s) + " |"]
+
+
+def comparison_table(edges, face) -> list[str]:
+    rows = ["| case | force (N), face -> edges | max tip SED (Pa), face -> edges | max / study's 190 Pa, face -> edges "
+            "| interchange zone, face -> edges |", "|---|---|---|---|---|"]
+    for (blk, tag, e), (_, _, f) in zip(_cases(edges), _cases(face)):
+        fe, ff = e["checks"], f["checks"]
+        me, mf = fe["tip_node_SED_Pa"]["max"], ff["tip_node_SED_Pa"]["max"]
+        yn = {True: "yes", False: "no"}
+        rows.append(f"| {blk} {e['solve']['width_mm']:.2f} | {f['solve']['punch_force_N']:.4f} -> "
+                    f"{e['solve']['punch_force_N']:.4f} | {mf:.0f} -> {me:.0f} | {mf / STUDY_PEAK_SED_PA:.1f} -> "
+                    f"{me / STUDY_PEAK_SED_PA:.1f} | {yn[ff['interchange_zone_tips']['present']]} -> "
+                    f"{yn[fe['interchange_zone_tips']['present']]} |")
+    return rows
+
+
+def all_tables(edges=None, face=None) -> dict[str, list[str]]:
+    edges = edges or json.loads((HERE / "build_info.json").read_text())
+    face = face or json.loads((HERE / "build_info_bottom_face.json").read_text())
+    return {"receptor SED": receptor_table(edges), "interchange zone": interchange_table(edges),
+            "loading ramp": ramp_table(edges), "bottom face -> bottom edges": comparison_table(edges, face)}
+
+
+if __name__ == "__main__":
+    for name, rows in all_tables().items():
+        print(f"<!-- {name}: python sample_sed/readme_tables.py -->")
+        print("\n".join(rows) + "\n")
