@@ -174,6 +174,31 @@ def test_a_first_step_of_zeros_in_a_loading_series_does_not_warn(tmp_path):
         read_sed(path, length_unit="mm", sed_unit="kPa", time_unit="s")
 
 
+def test_a_first_step_of_zeros_streamed_step_by_step_does_not_warn_but_a_series_of_zeros_does(tmp_path):
+    """iter_sed assembles each step alone: its first step (the undeformed state of a ramp) warned as an all-zero
+    field (notebook 06 caught it); the warning now comes once, after the last step, only if every step was zero."""
+    import meshio
+
+    from afferent.io import iter_sed
+
+    pts = np.array([[x, y, z] for z in (0, 1) for y in (0, 1) for x in (0, 1)], float)
+    hexa = [("hexahedron", np.array([[0, 1, 3, 2, 4, 5, 7, 6]]))]
+    ramp, flat = [], []
+    for k in range(3):
+        meshio.Mesh(pts, hexa, point_data={"SED": k * (1 + pts.sum(axis=1))}).write(tmp_path / f"r{k}.vtu")
+        meshio.Mesh(pts, hexa, point_data={"SED": np.zeros(8)}).write(tmp_path / f"z{k}.vtu")
+        ramp.append(str(tmp_path / f"r{k}.vtu"))
+        flat.append(str(tmp_path / f"z{k}.vtu"))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", AfferentWarning)
+        assert len(list(iter_sed(ramp, length_unit="mm", sed_unit="kPa", times=[0.0, 1.0, 2.0]))) == 3
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        list(iter_sed(flat, length_unit="mm", sed_unit="kPa", times=[0.0, 1.0, 2.0]))
+    zero = [w for w in caught if "every SED value is 0 J/m^3" in str(w.message)]
+    assert len(zero) == 1, [str(w.message) for w in caught]
+
+
 # -------------------------------------------------------------------------------- scenes
 SCENE = """\
 [export]

@@ -368,6 +368,8 @@ def iter_sed(path_or_paths, *, format: str | None = None, progress: bool = False
     seen: set[str] = set()
     previous = None
     negatives: list = []
+    zero = []  # the all-zero warning of each step that gave it: shown only if every step did (a loading series
+    # starts from the undeformed state)
     for k, raw in enumerate(raws):
         numbered = raw.times is None and opts.times is None  # numbered 0, 1, ... as read_sed does
         if numbered:
@@ -386,6 +388,9 @@ def iter_sed(path_or_paths, *, format: str | None = None, progress: bool = False
             key = re.sub(r"[-+]?\d[\d.eE+-]*", "#", str(w.message))
             if field.provenance.negative_sed and _NEGATIVE_WARNING in str(w.message):
                 continue  # one warning for the whole series, with its totals, after the last step
+            if _ALL_ZERO_WARNING in str(w.message):
+                zero.append(w)
+                continue
             if key not in seen:
                 seen.add(key)
                 warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
@@ -397,10 +402,14 @@ def iter_sed(path_or_paths, *, format: str | None = None, progress: bool = False
         yield field
     if negatives:
         warnings.warn(_series_negative_message(path_or_paths, negatives, n_steps), AfferentWarning, stacklevel=2)
+    if zero and len(zero) == n_steps:
+        warnings.warn_explicit(zero[0].message, zero[0].category, zero[0].filename, zero[0].lineno)
 
 
 #: the words of the reader's negative-SED warning (afferent.io._assemble._negatives)
 _NEGATIVE_WARNING = "SED value(s) are negative"
+#: the words of the all-zero warning (afferent._plausibility.sed_warning)
+_ALL_ZERO_WARNING = "every SED value is 0 J/m^3"
 
 
 def _series_negative_message(path_or_paths, negatives: list, n_steps: int) -> str:
