@@ -219,7 +219,7 @@ def test_curved_cells_give_a_linear_field_exactly_and_find_points_beyond_their_c
     bend = points.copy()
     # corners stay, mid-edge nodes rise by 0.08, face centres by 0.16: every cell's edges curve
     bend[:, 2] += 0.08 * (np.sin(np.pi * points[:, 0]) ** 2 + np.sin(np.pi * points[:, 1]) ** 2)
-    cells = cells_from_meshio([_Block(ctype, conn)])
+    cells = cells_from_meshio([_Block(ctype, conn)], "cells")
     # points on the curved cells: mapped from natural coordinates of each cell
     rng = np.random.default_rng(5)
     xi = rng.random((len(conn), 3)) * {"t": 0.3, "w": [0.45, 0.45, 0.9], "h": 0.9}[ctype[0]] + 0.03

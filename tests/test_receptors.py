@@ -270,7 +270,7 @@ def test_interface_tips_are_exactly_the_bump_apexes(block):
 
 def test_interface_tips_with_cells_object_match_connectivity(block):
     points, hexes, layer, apex, _ = block
-    cells = cells_from_meshio([meshio.CellBlock("hexahedron", hexes)])
+    cells = cells_from_meshio([meshio.CellBlock("hexahedron", hexes)], "grid")
     assert isinstance(cells, Cells)
     tips = interface_tips(points * 1e-3, cells, layer, upper=1, lower=2)
     np.testing.assert_array_equal(tips.positions, points[apex] * 1e-3)

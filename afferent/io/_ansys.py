@@ -139,7 +139,7 @@ def read_rst(path: str, *, progress: bool = False) -> RawExport:
         def __init__(self, ctype, data):
             self.type, self.data = ctype, np.asarray(data, dtype=np.int64)
 
-    cells = cells_from_meshio([_Block(t, c) for t, c in blocks]) if blocks else None
+    cells = cells_from_meshio([_Block(t, c) for t, c in blocks], path) if blocks else None
     notes = [f"ANSYS MAPDL result file (ansys-mapdl-reader): {len(times)} result set(s); nodal S and EPEL as MAPDL "
              "averages them at the nodes; EPEL shear is engineering (preset 'ansys')."]
     if kan in _NOT_TIME or (times.size > 1 and np.any(np.diff(times) <= 0)):

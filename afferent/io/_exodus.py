@@ -195,7 +195,7 @@ def _volume_blocks(nc, path: str, n_nodes: int):
                                  f"the file has {n_nodes} nodes.")
         blocks.append(_Block(ctype, conn[:, EXODUS_TO_VTK[ctype]] if ctype in EXODUS_TO_VTK else conn))
         volume.append((j, conn.shape[0]))
-    return (cells_from_meshio(blocks) if blocks else None), volume, skipped
+    return (cells_from_meshio(blocks, path) if blocks else None), volume, skipped
 
 
 def _nodal_arrays(nc, path: str, n_t: int, n_nodes: int) -> dict[str, RawArray]:

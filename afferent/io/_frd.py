@@ -323,7 +323,7 @@ def read_frd(path: str, *, progress: bool = False) -> RawExport:
             self.type, self.data = ctype, np.asarray(conn, dtype=np.int64)
 
     cells = cells_from_meshio([_Block(t, np.asarray(c)[:, FRD_TO_VTK[t]] if t in FRD_TO_VTK else c)
-                               for t, c in blocks.items()]) if blocks else None
+                               for t, c in blocks.items()], path) if blocks else None
 
     # results: group the blocks by output time, in file order
     order = np.argsort(node_ids, kind="stable")

@@ -325,13 +325,13 @@ def _array_names(fields: dict, notes: list) -> dict[str, str]:
     return {n: n for n in names}
 
 
-def _volume_cells(blocks: dict):
+def _volume_cells(blocks: dict, path: str):
     """Volume cells for sampling (tetrahedra), and [(MED type, n_elements)] in cell order."""
     from ._exodus import _Block
     from ._meshio import cells_from_meshio
 
     volume = [(t, conn) for t, conn in blocks.items() if t in MED_VOLUME_TYPES]
-    cells = cells_from_meshio([_Block(MED_VOLUME_TYPES[t], conn) for t, conn in volume]) if volume else None
+    cells = cells_from_meshio([_Block(MED_VOLUME_TYPES[t], conn) for t, conn in volume], path) if volume else None
     return cells, [(t, conn.shape[0]) for t, conn in volume]
 
 
@@ -390,7 +390,7 @@ def _read(f: _File) -> RawExport:
     names = [_text(g.attrs.get("MAI", b"")).strip() for g in f.h5["CHA"].values()] if "CHA" in f.h5 else []
     mesh_name, node, dim, length_unit = _mesh(f, names[0] if names else None)
     xyz, blocks = _mesh_arrays(f, node, dim)
-    cells, volume = _volume_cells(blocks)
+    cells, volume = _volume_cells(blocks, path)
     mesh = {"n_nodes": xyz.shape[0], "blocks": blocks, "volume": volume}
     fields = _fields(f, mesh_name)
     notes = [f"MED mesh {mesh_name!r}: {xyz.shape[0]} nodes, element types "

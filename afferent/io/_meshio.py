@@ -126,17 +126,24 @@ def _volume_blocks(cells) -> list[tuple[int, str, np.ndarray]]:
     return out
 
 
-def cells_from_meshio(cells) -> Cells | None:
+def cells_from_meshio(cells, path: str) -> Cells | None:
     """Split meshio volume cell blocks into linear tetrahedra; None when the mesh has no volume cells.
 
     Quadratic cells are split by their corner nodes (to locate points); a mesh with quadratic
     cells keeps every block's full connectivity in VTK/meshio node order (:attr:`Cells.nodes`),
     which 'linear' sampling interpolates in with the cells' own shape functions. Surface and
-    line blocks are ignored.
+    line blocks are ignored. A block whose rows do not hold its cell type's node count is
+    refused, naming ``path`` (the export).
     """
+    from meshio._common import num_nodes_per_cell
+
     blocks = _volume_blocks(cells)
     if not blocks:
         return None
+    for _, ctype, conn in blocks:
+        if conn.ndim != 2 or conn.shape[1] != num_nodes_per_cell[ctype]:
+            raise SEDFormatError(f"SED file {path!r}: a block of {ctype!r} cells must hold {num_nodes_per_cell[ctype]} "
+                                 f"node numbers per cell; got an array of shape {conn.shape} instead.")
     tets, parents, offset = [], [], 0
     for _, ctype, conn in blocks:
         pattern = np.asarray(_TETS[_HIGHER.get(ctype, ctype)])
@@ -358,7 +365,7 @@ def raw_from_mesh(mesh, path: str, fmt: str, components: dict, notes: list, *, r
     every file read for it (:attr:`RawExport.files`).
     """
     mesh.cells = volume_type_blocks(mesh.cells, path)
-    cells_obj = cells_from_meshio(mesh.cells)
+    cells_obj = cells_from_meshio(mesh.cells, path)
     points = np.asarray(mesh.points, dtype=float)
     if points.ndim != 2 or points.shape[0] == 0:
         raise SEDFormatError(f"SED file {path!r} holds no points.")

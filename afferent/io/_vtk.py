@@ -91,7 +91,9 @@ def _run_reader(reader, path: str, core) -> list[str]:
         finally:
             core.vtkOutputWindow.SetInstance(previous)
             core.vtkLogger.SetStderrVerbosity(core.vtkLogger.ConvertToVerbosity(verbosity))
-    messages = [m.strip() for m in window.GetOutput().split("\n\n") if m.strip()]
+    said = window.GetOutput()  # str, or bytes when VTK's messages quote bytes of the file that are not UTF-8
+    said = said.decode("utf-8", "replace") if isinstance(said, bytes) else said
+    messages = [m.strip() for m in said.split("\n\n") if m.strip()]
     # each message: 'ERROR: In file, line N\nvtkClass (0x...): text' -> 'text'
     texts = [m.splitlines()[-1].split("): ", 1)[-1].strip() for m in messages]
     errors = [t for m, t in zip(messages, texts) if m.startswith("ERROR") or "Error" in t]

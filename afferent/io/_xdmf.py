@@ -295,7 +295,7 @@ def _mesh_cells(heavy, mesh: ET.Element, n_points: int, path: str, notes: list):
             bad = int(data.min()) if data.min() < 0 else int(data.max())
             raise SEDFormatError(f"SED file {path!r}: the topology refers to point {bad}, but the geometry has "
                                  f"{n_points} points (numbered from 0).")
-    cells = cells_from_meshio(blocks)
+    cells = cells_from_meshio(blocks, path)
     if cells is None:
         notes.append(f"topology {ttype!r} has no volume cells: the points are treated as scattered samples.")
     return cells
