@@ -364,6 +364,15 @@ def _unit_mismatch(layout: ReceptorLayout, field: SEDField) -> str:
             "receptor positions (mm vs m is a factor 1e3).")
 
 
+def _receptors_smaller(layout: ReceptorLayout, field: SEDField) -> bool:
+    """Whether the receptors span orders of magnitude less than the field (m read as mm): the case in which
+    they collapse into one cell. Receptors spanning more (um read as mm) land mostly outside, reported as such;
+    the few inside may share a cell legitimately."""
+    from ._plausibility import scale_ratio
+
+    return bool(scale_ratio(layout.positions, field.points) < RECEPTOR_SPAN_BAND[0])
+
+
 def report_outside(layout: ReceptorLayout, outside, on_outside: str, *, where: str, hint: str, stacklevel: int = 2):
     """Raise or warn about receptors outside the SED field, per ``on_outside`` ('raise', 'warn', 'nan').
 
@@ -454,7 +463,7 @@ def _sample_field(field: SEDField, layout: ReceptorLayout, *, method: str, on_ou
     if sampler is None:
         sampler = build_sampler(field, layout, method=method)
     units = _unit_mismatch(layout, field)
-    if units:  # and every receptor falls in one cell or on one point: refused
+    if units and _receptors_smaller(layout, field):  # and every receptor in one cell or on one point: refused
         refuse_collapse(sampler.weights, sampler.outside, layout.source, units)
     if units and not sampler.outside.any():
         warnings.warn(units, AfferentWarning, stacklevel=2)

@@ -112,9 +112,14 @@ def test_nearest_on_cell_data_averages_the_cells_around_an_interface_receptor():
     got = _quiet(sample_sed, cell, lay, method="nearest")
     # to 2e-4: the sample's nodal SED was averaged from the full mesh's cells in float32
     np.testing.assert_allclose(got.values, _quiet(sample_sed, nodal, lay, method="nearest").values, rtol=1e-3)
-    assert got.interface["interfaces"] == {"1/2": 119} and 0.1 < got.interface["median_spread"] < 0.2
+    # 0.047 on the sample with the study's bottom-edges restraint (issue 21; 0.16 with the whole bottom face fixed)
+    assert got.interface["interfaces"] == {"1/2": 119} and 0.03 < got.interface["median_spread"] < 0.07
     dermis = _quiet(sample_sed, cell, lay, method="nearest", side=2)
-    assert np.all(dermis.values < got.values)  # the softer dermis stores less energy at the same strain
+    # the side moves every value, by no more than the spread between the sides that the report states (which side
+    # holds more depends on the load: under a normal traction the softer dermis stores more, under a tangential
+    # strain less; both happen under this indenter)
+    moved = np.abs(dermis.values - got.values) / got.values
+    assert moved.min() > 0 and moved.max() <= got.interface["max_spread"] + 1e-9
 
 
 def test_point_data_of_a_tool_cannot_tell_the_sides_apart():

@@ -135,7 +135,7 @@ def test_packaged_sample_gives_the_full_samples_sed_at_the_receptors(name, locat
     small = _sample(PACKAGED / name, location, method)
     full = _sample(SAMPLE_DIR / name, location, method)
     assert small.shape == full.shape and np.all(np.isfinite(small))
-    assert full.max() > 1e3  # Pa: the indented state, not an empty field
+    assert full.max() > 100  # Pa: the indented state, not an empty field (the sample's tips: 221-1819 Pa at peak)
     np.testing.assert_allclose(small, full, rtol=1e-12, atol=0)
 
 
