@@ -19,8 +19,9 @@ Run (the seed corpus is built from the test files on first use)::
 
 With ``AFFERENT_FUZZ_FINDINGS=DIR`` set, a finding does not stop the run: each new kind
 (exception type and the afferent line that raised it) is written to DIR as ``<kind>.bin`` (the
-input) and ``<kind>.txt`` (target and traceback), and fuzzing goes on; the count of inputs
-tried is written to ``DIR/stats.txt`` every 10,000 inputs and at exit.
+input) and ``<kind>.txt`` (target and traceback), and fuzzing goes on; the inputs tried, by
+outcome (a result, a documented error, too short, a finding), are written to ``DIR/stats.txt``
+every 1,000 inputs.
 
 Replay one input (prints the exception and the target)::
 
@@ -118,19 +119,29 @@ def prepare(data: bytes, folder: str) -> tuple[str, str]:
     return target, path
 
 
-def run_one(data: bytes, folder: str) -> None:
-    """Read one fuzz input; raise on anything but a documented error."""
+def run_one(data: bytes, folder: str) -> str:
+    """Read one fuzz input; raise on anything but a documented error. Returns the outcome: 'result' (read),
+    'error' (a documented error) or 'short' (too short to pick a target)."""
     from afferent.exceptions import AfferentError
 
     if len(data) < 2:
-        return
+        return "short"
     target, path = prepare(data, folder)
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             _read(target, path)
     except (AfferentError, FileNotFoundError):
-        pass
+        return "error"
+    return "result"
+
+
+def _write_stats(findings: str, outcomes: dict) -> None:
+    """``DIR/stats.txt``: the inputs tried so far in this process, by outcome (a result, a documented error, too
+    short, a finding: an undocumented exception)."""
+    Path(findings).mkdir(parents=True, exist_ok=True)
+    Path(findings, "stats.txt").write_text(f"inputs tried: {sum(outcomes.values())}\n"
+                                           + "".join(f"{k}: {v}\n" for k, v in outcomes.items()))
 
 
 def _record(findings: str, data: bytes, err: Exception) -> None:
@@ -225,18 +236,18 @@ def main() -> None:
         import afferent.stimulus  # noqa: F401
     folder = tempfile.mkdtemp(prefix="afferent-fuzz-")
     findings = os.environ.get("AFFERENT_FUZZ_FINDINGS")
-    count = [0]
+    outcomes = {"result": 0, "error": 0, "short": 0, "finding": 0}
 
     def one_input(data: bytes) -> None:
-        count[0] += 1
-        if findings and count[0] % 10_000 == 0:
-            Path(findings, "stats.txt").write_text(f"inputs tried: {count[0]}\n")
+        if findings and sum(outcomes.values()) % 1_000 == 0:
+            _write_stats(findings, outcomes)
         if not findings:
-            run_one(data, folder)
+            outcomes[run_one(data, folder)] += 1
             return
         try:
-            run_one(data, folder)
+            outcomes[run_one(data, folder)] += 1
         except Exception as err:  # record and go on
+            outcomes["finding"] += 1
             _record(findings, data, err)
 
     atheris.Setup(sys.argv, one_input)
