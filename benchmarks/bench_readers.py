@@ -31,6 +31,14 @@ FILES = [
     "tests/data/dolfinx/block.xdmf", "tests/data/exodus/EqualValueEmbeddedConstraint_out.e",
     "tests/data/exodus/tensile_bar_out.e", "tests/data/exodus/elastic_patch_quadratic_out.e",
     "tests/data/exodus/aero_blunt_wedge_wall_test3.ex2", "tests/data/sfepy/block.vtk",
+    # issue 20: tools this project had not met (each folder's README: tool, version, how made)
+    "tests/data/calculix/block_c3d15.frd", "tests/data/calculix/block_c3d8_print.dat",
+    "tests/data/calculix/block_c3d8_print.dat.gz", "tests/data/kratos/vtk/Structure_0_1.vtk",
+    "tests/data/kratos/vtu/Structure.vtm.series", "tests/data/kratos/vtu/Structure_1.vtm",
+    "tests/data/freefem/block_point.vtk", "tests/data/freefem/block_cell.vtk", "tests/data/dealii/block.pvd",
+    "tests/data/dealii/block_00.pvtu", "tests/data/dealii/indent_block.vtu", "tests/data/med/block_hexa.rmed",
+    "tests/data/med/block_tetra.med", "tests/data/med/kratos_block.med", "tests/data/vtk/lagrange_hex27.vtu",
+    "tests/data/vtk/wedge15_pyramid13.vtu",
 ]
 
 
@@ -90,13 +98,14 @@ def main() -> None:
         files.append(Path(examples.rstfile))
     except ImportError:
         print("(ansys-mapdl-reader not installed: the .rst file is skipped)")
-    print(f"{'file':<52} {'size':>9} {'nodes':>7} {'steps':>5} {'first s':>8} {'best s':>8}")
+    print(f"{'file':<40} {'size':>9} {'nodes':>7} {'steps':>5} {'first s':>8} {'best s':>8}  reader")
     for f in files:
         first, best, raw = timed(f)
         n = raw.points.shape[0] if raw.points is not None else 0
-        print(f"{f.name:<52} {f.stat().st_size / 1e3:>7.0f}KB {n:>7} {raw.n_times:>5} {first:>8.3f} {best:>8.4f}")
-    if shutil.which("ccx") is None:
-        print("(ccx not on the PATH: no large .frd)")
+        print(f"{f.name:<40} {f.stat().st_size / 1e3:>7.0f}KB {n:>7} {raw.n_times:>5} {first:>8.3f} {best:>8.4f}  "
+              f"{raw.reader or raw.format}")
+    if shutil.which("ccx") is None or args.frd_elements <= 0:
+        print("(no large .frd: ccx not on the PATH, or --frd-elements 0)")
         return
     spec = importlib.util.spec_from_file_location("mk", ROOT / "tests/data/calculix/make_calculix.py")
     mk = importlib.util.module_from_spec(spec)
