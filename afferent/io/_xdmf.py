@@ -73,7 +73,9 @@ class _Heavy:
             if p not in self.opened:
                 self.opened.append(p)
 
-    def read(self, item: ET.Element, what: str) -> np.ndarray:
+    def read(self, item: ET.Element | None, what: str) -> np.ndarray:
+        if item is None:  # a Topology, Geometry or Attribute without its <DataItem>
+            raise SEDFormatError(f"SED file {self.path!r}: {what} has no <DataItem> holding its values.")
         fmt = item.get("Format", "XML").upper()
         dims = _counts(item.get("Dimensions"), f"the Dimensions of {what}", self.path) or None
         text = (item.text or "").strip()
