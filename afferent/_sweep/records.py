@@ -106,8 +106,8 @@ def _gather(where: str, ids: _Ids, keys) -> tuple:
             continue  # a task of this sweep's folder no longer in it (an input changed)
         if rec.get("status") == "ok":
             ok += int(rec["task"], 16).to_bytes(8, sys.byteorder)
-            chunk.append(rec)
-            if len(chunk) >= 2048:
+            chunk.append({"status": "ok", "index": rec.get("index", 0), "rows": rec.get("rows", [])})  # the rest let go
+            if len(chunk) >= 512:
                 flush()
         else:
             failed[rec["task"]] = (rec.get("index", 0), {k: rec.get(k) for k in ("task", "scene", "scene_file", "params",
