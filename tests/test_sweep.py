@@ -373,7 +373,7 @@ def test_a_huge_sweep_is_counted_and_refused_before_anything_is_built(tmp_path, 
     assert time.process_time() - t < 2.0
     err = capsys.readouterr().err
     assert err.startswith(f"afferent: error: Sweep file {str(src)!r} makes 20,000,000,000 tasks (scene files x "
-                          "parameter sets); a sweep builds at most 100,000"), err
+                          "parameter sets); a sweep runs at most 1,000,000"), err
     assert "--max-tasks 20000000000" in err and not (tmp_path / "out").exists()
     one = write_sweep(tmp_path, '"spikes.gain_ms" = {start = 100, stop = 300, num = 10000000000}\n', name="one.toml")
     with pytest.raises(SceneError, match="makes 10,000,000,000 tasks"):  # a range of 10^10 values: not allocated
@@ -395,3 +395,78 @@ def test_max_tasks_sets_the_limit_and_parameter_sets_are_made_one_at_a_time(tmp_
     sets = spec._combinations(params, "product")
     assert isinstance(sets, types.GeneratorType) and spec._n_combinations(params, "product") == 8
     assert [s["c.d"] for s in sets][:4] == [float(v) for v in np.geomspace(1.0, 4.0, 4)]
+
+
+# ------------------------------------------------- the task list is a stream (issue 26, item 7)
+def test_a_sweep_of_a_million_tasks_is_specified_and_made_in_bounded_memory(tmp_path, monkeypatch):
+    """The task list was built in full (bounded only by max_tasks): 10^6 tasks, ~8 GB of resolved scenes."""
+    import time
+    import tracemalloc
+
+    from afferent._sweep import records as sw
+    from afferent._sweep.records import _Ids, _windows
+
+    src = write_sweep(tmp_path, '"transduction.gamma_per_pa" = {start = 1e-3, stop = 1e-2, num = 1000}\n'
+                                '"spikes.gain_ms" = {start = 100, stop = 300, num = 1000}\n')
+    tracemalloc.start()
+    try:
+        t = time.process_time()
+        spec = load_sweep(src, max_tasks=10**6)
+        assert spec.n_tasks == 10**6 and time.process_time() - t < 2.0
+        assert sw.WINDOW <= 4096
+        monkeypatch.setattr(sw, "WINDOW", 100)
+        ids, counts = bytearray(), {"skipped": 0, "groups": 0}
+        windows = _windows(spec, _Ids(), ids, counts)
+
+        tracemalloc.reset_peak()
+        base = tracemalloc.get_traced_memory()[0]
+        made = 0
+        for t in spec.iter_tasks():  # the stream: each task made, then dropped
+            made += 1
+            if made == 300:
+                break
+        peak = tracemalloc.get_traced_memory()[1] - base
+        assert peak < 2e6, peak  # ~8 KiB a task were held: 10^6 tasks ~ 8 GB; now one task at a time
+        assert next(iter(spec.iter_tasks())).index == 0
+        first = next(windows)  # a window holds at most WINDOW tasks, whatever the sweep's size
+        assert sum(map(len, first.values())) == 100 and len(ids) == 8 * 100
+    finally:
+        tracemalloc.stop()
+    rec = spec.digest
+    assert load_sweep(src, max_tasks=10**6).digest == rec  # the identity is the definition, not a list of tasks
+
+
+def test_resume_after_an_interruption_equals_an_uninterrupted_run(tmp_path, monkeypatch):
+    """Interrupted (Ctrl-C) mid-sweep, tasks made in windows of 3, resumed on another engine: same table and records
+    as one uninterrupted run; sweep.json holds the specification and counts, not a list of every task."""
+    from afferent._sweep import engine
+    from afferent._sweep import records as sw
+
+    src = write_sweep(tmp_path, '"transduction.gamma_per_pa" = [2e-3, 1e-2]\n"spikes.gain_ms" = {start = 100, '
+                                'stop = 300, num = 4}\n')
+    whole = sweep(src, tmp_path / "whole", scheduler="serial")
+    assert (whole.n_tasks, whole.n_ran) == (8, 8)
+    monkeypatch.setattr(sw, "WINDOW", 3)
+    real, calls = engine.run_batch, []
+
+    def interrupted(sampled, tasks):
+        calls.append(1)
+        if len(calls) == 4:
+            raise KeyboardInterrupt
+        return real(sampled, tasks)
+
+    monkeypatch.setattr(engine, "run_batch", interrupted)
+    with pytest.raises(KeyboardInterrupt):
+        sweep(src, tmp_path / "out", scheduler="serial", batch_size=1)
+    monkeypatch.setattr(engine, "run_batch", real)
+    assert len(records(tmp_path / "out")) == 3
+    again = sweep(src, tmp_path / "out", scheduler="threads", batch_size=2)
+    assert (again.n_tasks, again.n_ran, again.n_skipped, again.n_failed) == (8, 5, 3, 0)
+    pd.testing.assert_frame_equal(again.table, whole.table)
+    assert {k: r["index"] for k, r in records(tmp_path / "out").items()} == {
+        k: r["index"] for k, r in records(tmp_path / "whole").items()}
+    rec = json.loads((tmp_path / "out" / "sweep.json").read_text())
+    assert "tasks" not in rec and rec["n_tasks"] == 8 and rec["sweep_digest"] == whole.record["sweep_digest"]
+    assert rec["specification"][0]["params"]["spikes.gain_ms"] == {"start": 100, "stop": 300, "num": 4,
+                                                                    "spacing": "linear"}
+    assert rec["engine"]["windows"] == 2 and rec["n_sampling_groups"] == 1

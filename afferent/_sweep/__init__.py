@@ -17,7 +17,8 @@ are sweeps too (one task per scene).
 
 ::
 
-    load_sweep(files) -> tasks (each a resolved scene; errors name file, key and line)
+    load_sweep(files) -> a specification, tasks counted (every written value checked as a scene)
+        -> tasks made one at a time, dispatched in windows of a few thousand (records.py)
         -> group tasks by what sampling depends on (export content, receptors, region, method)
         -> sample: one task per group, read + sample once (through the SED cache)
         -> batches of tasks on the sampled SED (stimulus, transduction, synthesis, fit, spikes)
@@ -55,6 +56,7 @@ interrupted ``overwrite`` keeps the previous sweep whole).
 
 from __future__ import annotations
 
+import itertools
 import json
 import os
 import sys
@@ -63,6 +65,8 @@ import time
 from dataclasses import dataclass, field
 
 from ._local import run_local
+from . import records as _records
+from .records import _gather, _Ids, _iter_records
 from .spec import SweepSpec, Task, load_sweep
 from .table import COLUMNS, read_table
 
@@ -125,16 +129,17 @@ def _write_json(path: str, data: dict) -> None:
 SWEEP_FILES = ("sweep.json", "table.parquet", "table.csv", "tasks/*.jsonl")
 
 
-def _inputs(spec: SweepSpec) -> tuple:
-    """The sweep files and every file its scenes read: the output may not be, hold or lie inside one."""
+def _inputs(spec: SweepSpec, probe) -> tuple:
+    """The sweep files and every file its scenes read (``probe``: :meth:`SweepSpec.probe_tasks`): the output may
+    not be, hold or lie inside one."""
     seen = dict.fromkeys(spec.sources)
-    for tasks in spec.groups.values():
-        seen.update(dict.fromkeys(tasks[0].scene.input_files))
+    for t in probe:
+        seen.update(dict.fromkeys(t.scene.input_files))
     return tuple(seen)
 
 
-def _prepare(output: str, spec: SweepSpec, overwrite: bool, inputs: tuple) -> dict:
-    """Check the output folder (``afferent._output.check_writable``); the records of tasks done before (resume).
+def _prepare(output: str, spec: SweepSpec, overwrite: bool, inputs: tuple) -> _Ids:
+    """Check the output folder (``afferent._output.check_writable``); the ids of tasks done before (resume).
 
     A folder of the same sweep is resumed; with ``overwrite`` an existing folder is checked here and
     replaced only when the new sweep is complete (:func:`sweep`)."""
@@ -144,7 +149,7 @@ def _prepare(output: str, spec: SweepSpec, overwrite: bool, inputs: tuple) -> di
     record = os.path.join(output, "sweep.json")
     check_writable(output, overwrite=overwrite, what="Output folder", inputs=inputs, folder=True, resume=not overwrite)
     if overwrite or not os.path.lexists(output):
-        return {}
+        return _Ids()
     if os.path.isfile(record):
         try:
             with open(record) as f:
@@ -160,10 +165,9 @@ def _prepare(output: str, spec: SweepSpec, overwrite: bool, inputs: tuple) -> di
     elif os.listdir(output):
         raise OutputExistsError(f"Output folder {output!r} already exists and is not a sweep's (no sweep.json); "
                                 "pass overwrite=True to replace it, or choose another folder.")
-    ids = {t.id for t in spec.tasks}
-    done = {k: r for k, r in _read_records(output).items() if k in ids and r.get("status") == "ok"}
     hashes: dict = {}
-    return {k: r for k, r in done.items() if _inputs_unchanged(r.get("inputs"), hashes)}
+    return _Ids(r["task"] for r in _iter_records(output)
+                if r.get("status") == "ok" and _inputs_unchanged(r.get("inputs"), hashes))
 
 
 def _inputs_unchanged(inputs, hashes: dict) -> bool:
@@ -198,35 +202,13 @@ def _open_folder(output: str, existed: bool) -> None:
         mark_folder(output, patterns=SWEEP_FILES, files=())
 
 
-def _read_records(output: str) -> dict:
-    """Task id -> its record, from every ``tasks/*.jsonl`` (an 'ok' record wins over a failed one)."""
-    out: dict = {}
-    folder = os.path.join(output, "tasks")
-    for name in sorted(os.listdir(folder)) if os.path.isdir(folder) else ():
-        if not name.endswith(".jsonl"):
-            continue
-        try:
-            with open(os.path.join(folder, name)) as f:
-                lines = f.read().splitlines()
-        except OSError:
-            continue
-        for line in lines:
-            try:
-                rec = json.loads(line)
-            except json.JSONDecodeError:
-                continue  # unreadable: that task runs again
-            key = rec.get("task") if isinstance(rec, dict) else None
-            if key and (key not in out or rec.get("status") == "ok"):
-                out[key] = rec
-    return out
-
-
 class _Sink:
     """Writes the records of each batch as it arrives (any thread) into one file, and drives the progress bar."""
 
     def __init__(self, output, total, progress: bool):
         self.output, self.lock = output, threading.Lock()
-        self.seen: dict = {}  # task id -> (status, seconds)
+        self.batches: set = set()  # the batches written (a cluster's batch may be handed in twice)
+        self.n, self.seconds = 0, 0.0  # tasks written, their seconds
         self.bar = None
         if progress:
             from tqdm.auto import tqdm
@@ -239,17 +221,17 @@ class _Sink:
         from .._output import atomic_file
 
         with self.lock:
-            new = [i for i in items if i[0] not in self.seen]
-            if not new:
+            name = hashlib.sha256(",".join(i[0] for i in items).encode()).hexdigest()[:16]
+            if not items or name in self.batches:
                 return
-            name = hashlib.sha256(",".join(i[0] for i in new).encode()).hexdigest()[:16]
             with atomic_file(os.path.join(self.output, "tasks", f"batch-{name}.jsonl"), overwrite=True) as tmp:
                 with open(tmp, "w") as f:
-                    f.write("".join(i[3] + "\n" for i in new))
-            for task_id, status, seconds, _ in new:
-                self.seen[task_id] = (status, seconds)
+                    f.write("".join(i[3] + "\n" for i in items))
+            self.batches.add(name)
+            self.n += len(items)
+            self.seconds += sum(i[2] for i in items)
             if self.bar is not None:
-                self.bar.update(len(new))
+                self.bar.update(len(items))
 
     def close(self):
         if self.bar is not None:
@@ -257,18 +239,22 @@ class _Sink:
 
 
 # ---------------------------------------------------------------------------- engines
-def _run_serial(groups, sink, *, cache_dir, use_cache, batch_size, info) -> None:
+def _run_serial(windows, sink, *, cache_dir, use_cache, batch_size, info) -> None:
+    """Each window's groups in turn in this process; a group is sampled once for the whole sweep."""
     from . import engine
 
     info.update(kind="serial", workers=1)
-    for tasks in groups.values():
-        sampled = engine.sample(tasks[0].scene, cache_dir, use_cache)
-        info.setdefault("sampled", []).append({"tasks": len(tasks), "where": sampled.where, "seconds": sampled.seconds})
-        for b in engine.batches(tasks, 4, batch_size):
-            sink(engine.run_batch(sampled, b))
+    done: dict = {}
+    for groups in windows:
+        for g, tasks in groups.items():
+            if g not in done:
+                done[g] = engine.sample(tasks[0].scene, cache_dir, use_cache)
+                info.setdefault("sampled", []).append({"where": done[g].where, "seconds": done[g].seconds})
+            for b in engine.batches(tasks, 4, batch_size):
+                sink(engine.run_batch(done[g], b))
 
 
-def _shared_disk(client, groups, cache_dir) -> tuple[bool, str]:
+def _shared_disk(client, exports, cache_dir) -> tuple[bool, str]:
     """Whether every worker sees the export files and the cache folder as this process does."""
     import secrets
 
@@ -283,8 +269,7 @@ def _shared_disk(client, groups, cache_dir) -> tuple[bool, str]:
             f.write(token)
     except OSError as err:
         return False, f"the cache folder {folder!r} is not writable here ({err})"
-    files = {p: os.path.getsize(p) for tasks in groups.values() for p in tasks[0].scene.export.files
-             if os.path.isfile(p)}
+    files = {p: os.path.getsize(p) for p in exports if os.path.isfile(p)}
 
     def check(probe=probe, token=token, files=files):
         try:
@@ -309,12 +294,10 @@ def _shared_disk(client, groups, cache_dir) -> tuple[bool, str]:
     return True, f"all {len(answers)} workers read a token file written into {folder!r} and see the export files"
 
 
-def _run_cluster(groups, sink, *, scheduler, cache_dir, use_cache, batch_size, shared_disk, progress, info) -> None:
-    from functools import partial
-
+def _run_cluster(windows, sink, *, scheduler, probe, cache_dir, use_cache, batch_size, shared_disk, progress,
+                 info) -> None:
+    """Each window's batches on a Dask cluster, one window at a time; a group is sampled once for the whole sweep."""
     import distributed
-
-    from . import engine
 
     own = not isinstance(scheduler, distributed.Client)
     client = distributed.Client(scheduler) if own else scheduler
@@ -322,46 +305,61 @@ def _run_cluster(groups, sink, *, scheduler, cache_dir, use_cache, batch_size, s
         workers = client.scheduler_info().get("workers", {})
         slots = sum(w.get("nthreads", 1) for w in workers.values()) or 1
         if shared_disk is None:
-            shared, why = _shared_disk(client, groups, cache_dir)
+            exports = sorted({p for t in probe for p in t.scene.export.files})
+            shared, why = _shared_disk(client, exports, cache_dir)
         else:
             shared, why = bool(shared_disk), f"shared_disk={bool(shared_disk)} given"
         info.update(kind="dask-distributed", scheduler=str(client.scheduler.address), workers=len(workers),
-                    threads=slots, cache_shared=shared, cache_why=why,
+                    threads=slots, cache_shared=shared, cache_why=why, batches=0,
                     sampling="on the cluster" if shared else "here, then scattered to the workers")
-        side = sorted({p for tasks in groups.values() for t in tasks for p in (
-            t.scene.synthesis.map, t.scene.fit.observed, t.scene.stimulus.file, t.scene.transduction.calibration) if p})
+        side = sorted({p for t in probe for p in (t.scene.synthesis.map, t.scene.fit.observed, t.scene.stimulus.file,
+                                                  t.scene.transduction.calibration) if p})
         if side and not shared:
             info["side_files"] = side
             _note(f"the workers do not share this disk, yet the tasks read {len(side)} small file(s) on them (e.g. "
                   f"{side[0]!r}): each must exist at the same path on every worker, else its tasks fail and are reported.")
-        futures, members = [], {}
-        for tasks in groups.values():
-            if shared:
-                sfut = client.submit(partial(engine.sample, tasks[0].scene, cache_dir, use_cache), pure=False)
-            else:
-                sfut = client.scatter(engine.sample(tasks[0].scene, cache_dir, use_cache))
-            for b in engine.batches(tasks, slots, batch_size):
-                f = client.submit(partial(engine.run_batch, tasks=b), sfut, pure=False)
-                futures.append(f)
-                members[f.key] = b
-        info["batches"] = len(futures)
-
-        def collect(f):
-            try:
-                sink(f.result())
-            except Exception as err:  # noqa: BLE001 - a lost worker: its batch fails, the others stand
-                sink(engine.failed_batch(members[f.key], f"the batch's worker failed: {type(err).__name__}: {err}"))
-
-        for f in futures:
-            f.add_done_callback(collect)
-        if progress:
-            distributed.progress(futures)
-        distributed.wait(futures)
-        for f in futures:  # callbacks run in another thread: make sure every batch is in
-            collect(f)
+        sampled: dict = {}  # group -> the future of its sampled SED, for every window
+        for groups in windows:
+            _cluster_window(client, groups, sink, sampled, shared=shared, slots=slots, cache_dir=cache_dir,
+                            use_cache=use_cache, batch_size=batch_size, progress=progress, info=info)
     finally:
         if own:
             client.close()
+
+
+def _cluster_window(client, groups, sink, sampled, *, shared, slots, cache_dir, use_cache, batch_size, progress,
+                    info) -> None:
+    from functools import partial
+
+    import distributed
+
+    from . import engine
+
+    futures, members = [], {}
+    for g, tasks in groups.items():
+        if g not in sampled and shared:
+            sampled[g] = client.submit(partial(engine.sample, tasks[0].scene, cache_dir, use_cache), pure=False)
+        elif g not in sampled:
+            sampled[g] = client.scatter(engine.sample(tasks[0].scene, cache_dir, use_cache))
+        for b in engine.batches(tasks, slots, batch_size):
+            f = client.submit(partial(engine.run_batch, tasks=b), sampled[g], pure=False)
+            futures.append(f)
+            members[f.key] = b
+    info["batches"] += len(futures)
+
+    def collect(f):
+        try:
+            sink(f.result())
+        except Exception as err:  # noqa: BLE001 - a lost worker: its batch fails, the others stand
+            sink(engine.failed_batch(members[f.key], f"the batch's worker failed: {type(err).__name__}: {err}"))
+
+    for f in futures:
+        f.add_done_callback(collect)
+    if progress:
+        distributed.progress(futures)
+    distributed.wait(futures)
+    for f in futures:  # callbacks run in another thread: make sure every batch is in
+        collect(f)
 
 
 # ------------------------------------------------------------------------------- API
@@ -401,8 +399,9 @@ def sweep(sources, output, *, scheduler=None, overwrite: bool = False, cache_dir
     record_extra : dict, optional
         More entries for ``sweep.json`` (the command line).
     max_tasks : int, optional
-        Most tasks the sweep may have (default 100,000):
-        counted before any task is built; more is refused (:func:`load_sweep`).
+        Most tasks the sweep may have (default 1,000,000): counted before any task is made;
+        more is refused (:func:`load_sweep`). The tasks are made as they are dispatched, in
+        windows of ``afferent._sweep.records.WINDOW`` (4096); the table is what grows with the count.
 
     Returns
     -------
@@ -439,37 +438,42 @@ def sweep(sources, output, *, scheduler=None, overwrite: bool = False, cache_dir
     started = datetime.now(timezone.utc).isoformat(timespec="seconds")
     spec = load_sweep(sources, max_tasks=max_tasks)
     output = os.path.abspath(os.fspath(output))
-    inputs = _inputs(spec)
+    probe = list(spec.probe_tasks())
+    inputs = _inputs(spec, probe)
     done = _prepare(output, spec, overwrite, inputs)
-    head = {"afferent_sweep": 1, "afferent": __version__, "started_utc": started,
+    head = {"afferent_sweep": 2, "afferent": __version__, "started_utc": started,
             "sources": list(spec.sources), "sources_sha256": {p: file_sha256(p) for p in spec.sources},
-            "mode": spec.mode, "keys": list(spec.keys), "sweep_digest": spec.digest, "n_tasks": len(spec.tasks),
-            "n_sampling_groups": len(spec.groups), "tasks": [{"task": t.id, "scene": t.label, "params": t.params}
-                                                              for t in spec.tasks], **(record_extra or {})}
+            "mode": spec.mode, "keys": list(spec.keys), "sweep_digest": spec.digest, "n_tasks": spec.n_tasks,
+            "specification": _specification(spec), **(record_extra or {})}
     run = dict(scheduler=scheduler, cache_dir=cache_dir, use_cache=use_cache, batch_size=batch_size,
-               shared_disk=shared_disk, progress=progress, head=head, t0=t0)
+               shared_disk=shared_disk, progress=progress, head=head, t0=t0, probe=probe)
     if overwrite and os.path.lexists(output):  # the previous sweep stays whole until this one is complete
         with atomic_dir(output, overwrite=True, inputs=inputs, patterns=SWEEP_FILES) as tmp:
             os.mkdir(os.path.join(tmp, "tasks"))
-            table, table_path, seen, failures, full = _execute(spec, tmp, done, **run)
+            table, table_path, full = _execute(spec, tmp, done, **run)
         table_path = os.path.join(output, os.path.basename(table_path))
     else:
         _open_folder(output, existed=os.path.lexists(output))
-        table, table_path, seen, failures, full = _execute(spec, output, done, **run)
-    return SweepResult(output=output, table=table, table_path=table_path, n_tasks=len(spec.tasks),
-                       n_ran=len(seen), n_skipped=len(done), n_failed=len(failures), failures=failures,
-                       record=full)
+        table, table_path, full = _execute(spec, output, done, **run)
+    return SweepResult(output=output, table=table, table_path=table_path, n_tasks=spec.n_tasks,
+                       n_ran=full["n_ran"], n_skipped=full["n_skipped"], n_failed=full["n_failed"],
+                       failures=full["failures"], record=full)
 
 
-def _execute(spec: SweepSpec, where: str, done: dict, *, scheduler, cache_dir, use_cache, batch_size, shared_disk,
-             progress, head: dict, t0: float):
-    """Run the tasks not ``done`` and write their records, the table and sweep.json into ``where``."""
-    from .table import assemble, write_table
+def _specification(spec: SweepSpec) -> list:
+    """What sweep.json records of the tasks: per sweep file, its mode, swept values (a range as written) and scenes."""
+    def values(v):
+        return {"start": v.start, "stop": v.stop, "num": v.num, "spacing": v.spacing} if hasattr(v, "spacing") else v
 
-    todo = [t for t in spec.tasks if t.id not in done]
-    groups: dict = {}
-    for t in todo:
-        groups.setdefault(t.group, []).append(t)
+    return [{"file": path, "mode": mode, "params": {p: values(v) for p, (v, _) in params.items()},
+             "scenes": [f for f, _, _ in bases]} for path, _, mode, params, bases in spec.plans]
+
+
+def _execute(spec: SweepSpec, where: str, done: _Ids, *, scheduler, cache_dir, use_cache, batch_size, shared_disk,
+             progress, head: dict, t0: float, probe: list):
+    """Run the tasks not ``done`` (made as they are dispatched) and write their records, the table and sweep.json."""
+    from .table import write_table
+
     _write_json(os.path.join(where, "sweep.json"), dict(head, status="running"))
     info: dict = {}
     kind = LOCAL_DEFAULT if scheduler in (None, "local") else scheduler
@@ -477,8 +481,8 @@ def _execute(spec: SweepSpec, where: str, done: dict, *, scheduler, cache_dir, u
         try:
             import dask  # noqa: F401
         except ImportError:
-            if todo:
-                _note(f"Dask is not installed (pip install 'afferent-skin[dask]'): running the {len(todo)} tasks "
+            if spec.n_tasks > len(done):
+                _note(f"Dask is not installed (pip install 'afferent-skin[dask]'): running the {spec.n_tasks} tasks "
                       "serially, same results.")
             info["why"] = "Dask is not installed"
             kind = "serial"
@@ -488,31 +492,30 @@ def _execute(spec: SweepSpec, where: str, done: dict, *, scheduler, cache_dir, u
         except ImportError as err:
             raise ImportError(f"scheduler={scheduler!r} needs Dask's distributed scheduler: pip install "
                               "'afferent-skin[dask]'.") from err
-    sink = _Sink(where, len(todo), progress=progress and (kind == "serial" or kind in _LOCAL))
+    sink = _Sink(where, max(0, spec.n_tasks - len(done)), progress=progress and (kind == "serial" or kind in _LOCAL))
+    ids, counts = bytearray(), {"skipped": 0, "groups": 0}
+    windows = _records._windows(spec, done, ids, counts)
+    first = next(windows, None)
+    windows = itertools.chain([first], windows) if first is not None else iter(())
     try:
-        if not todo:
+        if first is None:
             info.update(kind="none", why="every task was done before (resume)")
         elif kind == "serial":
-            _run_serial(groups, sink, cache_dir=cache_dir, use_cache=use_cache, batch_size=batch_size, info=info)
+            _run_serial(windows, sink, cache_dir=cache_dir, use_cache=use_cache, batch_size=batch_size, info=info)
         elif kind in _LOCAL:
-            run_local(groups, sink, kind=kind, cache_dir=cache_dir, use_cache=use_cache, batch_size=batch_size,
-                       info=info)
+            run_local(windows, sink, kind=kind, cache_dir=cache_dir, use_cache=use_cache, batch_size=batch_size,
+                      info=info)
         else:
-            _run_cluster(groups, sink, scheduler=kind, cache_dir=cache_dir, use_cache=use_cache, batch_size=batch_size,
-                         shared_disk=shared_disk, progress=progress, info=info)
+            _run_cluster(windows, sink, scheduler=kind, probe=probe, cache_dir=cache_dir, use_cache=use_cache,
+                         batch_size=batch_size, shared_disk=shared_disk, progress=progress, info=info)
     finally:
         sink.close()
-    found = _read_records(where)
-    records = [found[t.id] for t in spec.tasks if t.id in found]
-    table = assemble(records, spec.keys)
+    table, failures = _gather(where, _Ids.of(ids), spec.keys)
     table_path = write_table(table, where)
-    failures = [{k: r.get(k) for k in ("task", "scene", "scene_file", "params", "stage", "error")}
-                for r in records if r.get("status") != "ok"]
     full = dict(head, status="done" if not failures else "done, with failed tasks", engine=info,
-                n_ran=len(sink.seen), n_skipped=len(done), n_failed=len(failures), failures=failures,
-                table=os.path.basename(table_path), n_rows=len(table), columns={c: COLUMNS.get(c, "swept key, as "
-                                                                                          "written") for c in table.columns if c not in ("scene", "task")},
-                task_seconds=sum(sec for _, sec in sink.seen.values()),
-                wall_seconds=time.perf_counter() - t0)
+                n_sampling_groups=counts["groups"], n_ran=sink.n, n_skipped=counts["skipped"],
+                n_failed=len(failures), failures=failures, table=os.path.basename(table_path), n_rows=len(table),
+                columns={c: COLUMNS.get(c, "swept key, as written") for c in table.columns if c not in ("scene", "task")},
+                task_seconds=sink.seconds, wall_seconds=time.perf_counter() - t0)
     _write_json(os.path.join(where, "sweep.json"), full)
-    return table, table_path, sink.seen, failures, full
+    return table, table_path, full

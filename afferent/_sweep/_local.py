@@ -15,18 +15,33 @@ import threading
 __all__ = ["run_local"]
 
 
-def run_local(groups, sink, *, kind, cache_dir, use_cache, batch_size, info) -> None:
+def run_local(windows, sink, *, kind, cache_dir, use_cache, batch_size, info) -> None:
+    """Each window's task graph on a local Dask scheduler in turn; a group is sampled once for the whole sweep
+    (its sampled SED kept here and handed to the later windows' batches)."""
+    n = os.cpu_count() or 1
+    info.update(kind=f"dask-{kind}", workers=n, batches=0, sampling_tasks=0, windows=0,
+                cache_shared=True, cache_why="local scheduler: every worker is on this machine and shares its disk")
+    sampled: dict = {}
+    for groups in windows:
+        _run_window(groups, sink, sampled, kind=kind, n=n, cache_dir=cache_dir, use_cache=use_cache,
+                    batch_size=batch_size, info=info)
+
+
+def _run_window(groups, sink, sampled, *, kind, n, cache_dir, use_cache, batch_size, info) -> None:
     from functools import partial
 
     from dask.callbacks import Callback
 
     from . import engine
 
-    n = os.cpu_count() or 1
-    dsk, keys, members = {}, [], {}
-    for gi, tasks in enumerate(groups.values()):
+    dsk, keys, members, new = {}, [], {}, {}
+    for gi, (g, tasks) in enumerate(groups.items()):
         skey = f"sample-{gi}"
-        dsk[skey] = (partial(engine.sample, tasks[0].scene, cache_dir, use_cache),)
+        if g in sampled:
+            dsk[skey] = sampled[g]
+        else:
+            dsk[skey] = (partial(engine.sample, tasks[0].scene, cache_dir, use_cache),)
+            new[skey] = g
         for bi, b in enumerate(engine.batches(tasks, n, batch_size)):
             k = f"batch-{gi}-{bi}"
             dsk[k] = (partial(engine.run_batch, tasks=b), skey)
@@ -50,17 +65,18 @@ def run_local(groups, sink, *, kind, cache_dir, use_cache, batch_size, info) -> 
         get = partial(get, initializer=partial(engine.worker_init, os.getpid()))  # workers die with this process
     else:
         from dask.threaded import get
-    info.update(kind=f"dask-{kind}", workers=n, batches=len(keys), sampling_tasks=len(groups),
-                cache_shared=True, cache_why="local scheduler: every worker is on this machine and shares its disk")
+    info.update(batches=info["batches"] + len(keys), sampling_tasks=info["sampling_tasks"] + len(new),
+                windows=info["windows"] + 1)
     from concurrent.futures.process import BrokenProcessPool
 
     try:
         with _Collect(), _sigterm_ends(workers) if kind == "processes" else contextlib.nullcontext():
-            results = get(dsk, keys, num_workers=n)
+            results = get(dsk, keys + list(new), num_workers=n)
     except BrokenProcessPool as err:
         raise _worker_death(workers, sink) from err
     for k, recs in zip(keys, results):  # anything a callback missed
         sink(recs)
+    sampled.update((g, s) for s, g in zip(results[len(keys):], new.values()))
 
 
 @contextlib.contextmanager
@@ -103,7 +119,7 @@ def _worker_death(workers: dict, sink) -> Exception:
         name = signal.Signals(sig).name if sig in signal.Signals._value2member_map_ else "?"
         return WorkerLostError(
             f"a sweep worker died (signal {sig}, {name}) while running tasks (killed, or out of memory?); "
-            f"{len(sink.seen)} task(s) finished and are kept in {sink.output!r}: run the same sweep again to resume.")
+            f"{sink.n} task(s) finished and are kept in {sink.output!r}: run the same sweep again to resume.")
     main = getattr(sys.modules.get("__main__"), "__file__", None)
     return RuntimeError(
         "The 'processes' scheduler's worker processes died before running a task"

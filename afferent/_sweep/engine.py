@@ -96,8 +96,8 @@ def run_task(task, sampled: Sampled) -> dict:
     from .table import task_rows
 
     t0 = time.perf_counter()
-    rec = {"task": task.id, "scene": task.label, "scene_file": task.scene.source, "params": task.params,
-           "group": task.group, "where": _here()}
+    rec = {"task": task.id, "index": task.index, "scene": task.label, "scene_file": task.scene.source,
+           "params": task.params, "group": task.group, "where": _here()}
     if sampled.error is not None:
         return dict(rec, status="failed", error=f"sampling the export failed: {sampled.error}", stage="sampling",
                     seconds=0.0)
@@ -146,8 +146,8 @@ def failed_batch(tasks, error: str) -> list[tuple]:
     """What :func:`run_batch` would return for tasks whose worker was lost."""
     out = []
     for t in tasks:
-        rec = {"task": t.id, "scene": t.label, "scene_file": t.scene.source, "params": t.params, "group": t.group,
-               "status": "failed", "error": error, "seconds": 0.0}
+        rec = {"task": t.id, "index": t.index, "scene": t.label, "scene_file": t.scene.source, "params": t.params,
+               "group": t.group, "status": "failed", "error": error, "seconds": 0.0}
         out.append((t.id, "failed", 0.0, record_line(t, rec)))
     return out
 

@@ -27,10 +27,12 @@ _SAMPLING_TABLES = ("export", "receptors", "sampling", "region")
 _AFFERENT_OUTPUTS = ("currents", "profiles", "fit", "spikes")
 _MODES = ("product", "zip")
 _RANGE_KEYS = ("start", "stop", "num", "spacing")
-#: Most tasks a sweep builds unless told otherwise (``max_tasks``): each task is a resolved scene
-#: checked and held in memory (~8 KiB and ~1 ms each, measured on the sample sweep), so 100,000
-#: tasks take ~0.8 GB and a few minutes before anything runs.
-MAX_TASKS = 100_000
+#: Most tasks a sweep runs unless told otherwise (``max_tasks``). Tasks are made one at a time as
+#: they are dispatched (:meth:`SweepSpec.iter_tasks`, ~1 ms each), so their number no longer costs
+#: memory; what still grows with it is the table, held in memory to be written (one row per task x
+#: afferent, ~0.2 kB a row), and the 8-byte id of every task (to keep the table to this sweep's tasks).
+#: 10^6 tasks of the sample sweep (3 afferents each) make a table of ~0.6 GB.
+MAX_TASKS = 1_000_000
 
 
 @dataclass(frozen=True)
@@ -71,6 +73,9 @@ class Task:
     group : str
         Digest of what sampling depends on (export content, read options, receptors,
         sampling method, region): tasks of one group share one sampled SED.
+    index : int
+        Position in the sweep's task stream (:meth:`SweepSpec.iter_tasks`): the task is made
+        again from the specification and this index.
     """
 
     id: str
@@ -78,29 +83,83 @@ class Task:
     label: str
     params: dict
     group: str
+    index: int = 0
 
 
 @dataclass(frozen=True)
 class SweepSpec:
-    """The tasks of a sweep, the swept keys (table columns) and where they came from."""
+    """A sweep's specification: its files read and checked, its tasks counted but not made.
 
-    tasks: tuple
+    Attributes
+    ----------
+    plans : tuple
+        Per sweep file: ``(path, lines, mode, params, scenes)``, ``params`` the swept key ->
+        (values: a list, or a range ``{start, stop, num, spacing}``; line keys), ``scenes`` the ``(scene file, tables, lines)``.
+    keys : tuple
+        The swept keys, as written (the table's columns).
+    sources : tuple
+        The sweep (or scene) files.
+    mode : str
+        'product', 'zip' or 'mixed'.
+    n_tasks : int
+        How many tasks :meth:`iter_tasks` makes (counted, not made).
+    digest : str
+        sha256 of the definition (each source's and scene file's content, the parameter
+        specification): equal digests mean the same sweep (resume).
+    """
+
+    plans: tuple = field(repr=False)
     keys: tuple
     sources: tuple
     mode: str
+    n_tasks: int
+    digest: str
+
+    def iter_tasks(self):
+        """The tasks, made one at a time in a fixed order (each a resolved scene checked as in :func:`load_sweep`).
+
+        Task ``i`` depends only on the specification, so a re-run makes the same tasks with the
+        same ids; a task equal to an earlier one (a scene listed twice) is made again with the same id.
+        """
+        hashes: dict = {}
+        index = 0
+        for path, lines, mode, params, bases in self.plans:
+            for scene_path, sdata, slines in bases:
+                for pset in _combinations(params, mode or "product"):
+                    scene = _build(sdata, slines, scene_path=scene_path, base_dir=os.path.dirname(scene_path),
+                                   pset=pset, params=params, sweep_path=path, sweep_lines=lines)
+                    _check_outputs(scene, f"Scene file {scene_path!r}")
+                    yield _task(scene, pset, hashes, index)
+                    index += 1
 
     @property
-    def digest(self) -> str:
-        """sha256 of the sorted task ids: equal digests mean the same sweep (resume)."""
-        return hashlib.sha256(",".join(sorted(t.id for t in self.tasks)).encode()).hexdigest()
+    def tasks(self) -> tuple:
+        """Every task, made at once (to inspect a small sweep; :func:`afferent.sweep` streams them)."""
+        return tuple(self.iter_tasks())
 
     @property
     def groups(self) -> dict:
-        """Sampling group -> its tasks, in task order."""
+        """Sampling group -> its tasks, in task order (made at once, as :attr:`tasks`)."""
         out: dict = {}
-        for t in self.tasks:
+        for t in self.iter_tasks():
             out.setdefault(t.group, []).append(t)
         return out
+
+    def probe_tasks(self):
+        """A few tasks, each checked as a scene, that together hold every swept value written and read every file
+        the sweep's tasks read: per scene, the first parameter set, then each listed value (a file can only be a
+        listed value) and each range's two ends of each swept key in turn (index -1: not tasks of the stream)."""
+        hashes: dict = {}
+        for path, lines, mode, params, bases in self.plans:
+            first = next(_combinations(params, mode or "product"))
+            sets = [first] + [dict(first, **{p: v}) for p, (vals, _) in params.items()
+                              for v in (vals if isinstance(vals, list) else (float(vals.start), float(vals.stop)))]
+            for scene_path, sdata, slines in bases:
+                for pset in sets:
+                    scene = _build(sdata, slines, scene_path=scene_path, base_dir=os.path.dirname(scene_path),
+                                   pset=pset, params=params, sweep_path=path, sweep_lines=lines)
+                    _check_outputs(scene, f"Scene file {scene_path!r}")
+                    yield _task(scene, pset, hashes, -1)
 
 
 # --------------------------------------------------------------------------- reading
@@ -143,7 +202,7 @@ def _scene_files(entry, path: str, lines: dict) -> list[str]:
         else:
             raise _err(path, lines, [("sweep", "scenes")], f"[sweep] 'scenes': {p!r} is neither a scene file nor a "
                        "folder of them.", "[sweep] scenes")
-    return out
+    return list(dict.fromkeys(out))  # a scene listed twice is one scene
 
 
 def _values(param: str, value, path: str, lines: dict, keys):
@@ -288,7 +347,7 @@ def _input_files(scene: Scene) -> list[str]:
     return files
 
 
-def _task(scene: Scene, pset: dict, hashes: dict) -> Task:
+def _task(scene: Scene, pset: dict, hashes: dict, index: int = 0) -> Task:
     from ..scene.stages import _hash_all
 
     files = _input_files(scene)
@@ -299,7 +358,7 @@ def _task(scene: Scene, pset: dict, hashes: dict) -> Task:
                      "exports": [hashes[p] for p in dict.fromkeys(scene.export.files) if p in hashes],
                      "files": {p: hashes[p] for p in (scene.export.coordinates, scene.receptors.file) if p in hashes}})
     return Task(id=_digest({"scene": d, "inputs": {p: hashes[p] for p in files}})[:16], scene=scene,
-                label=scene.info.name, params=dict(pset), group=group)
+                label=scene.info.name, params=dict(pset), group=group, index=index)
 
 
 def _check_outputs(scene: Scene, where: str) -> None:
@@ -330,8 +389,8 @@ def _read_sweep_file(path: str):
     return lines, mode, params, [(f, *_read_toml(f, "Scene file")) for f in scene_files]
 
 
-def _check_count(plans: list, max_tasks: int | None) -> None:
-    """Refuse a sweep of more than ``max_tasks`` tasks before any is built (counted, not made)."""
+def _check_count(plans: list, max_tasks: int | None) -> int:
+    """The sweep's task count (counted, not made); more than ``max_tasks`` is refused."""
     limit = MAX_TASKS if max_tasks is None else max_tasks
     if not isinstance(limit, int) or isinstance(limit, bool) or limit < 1:
         raise ValueError(f"'max_tasks' must be a positive integer; got {max_tasks!r} instead.")
@@ -342,9 +401,10 @@ def _check_count(plans: list, max_tasks: int | None) -> None:
         path, n = max(counts, key=lambda c: c[1])
         raise SceneError(
             f"Sweep file {path!r} makes {n:,} tasks (scene files x parameter sets"
-            + (f"; {total:,} in all" if total != n else "") + f"); a sweep builds at most {limit:,} (each is a scene "
-            "checked and held in memory, ~8 KiB). Sweep fewer values, or raise the limit: max_tasks="
-            f"{total} (afferent sweep --max-tasks {total}).", path=path)
+            + (f"; {total:,} in all" if total != n else "") + f"); a sweep runs at most {limit:,} (its table, one "
+            "row per task and afferent, is held in memory to be written). Sweep fewer values, or raise the limit: "
+            f"max_tasks={total} (afferent sweep --max-tasks {total}).", path=path)
+    return total
 
 
 def load_sweep(sources, *, max_tasks: int | None = None) -> SweepSpec:
@@ -356,8 +416,8 @@ def load_sweep(sources, *, max_tasks: int | None = None) -> SweepSpec:
         A sweep file (scene tables plus ``[sweep]``, or ``[sweep] scenes = [...]`` with the
         parameter keys), a plain scene file (one task), or a folder (each ``.toml`` in it).
     max_tasks : int, optional
-        Most tasks built (default ``MAX_TASKS``, 100,000); the count is checked before any
-        task is made, and the parameter sets are made one at a time.
+        Most tasks (default ``MAX_TASKS``, 1,000,000); counted, never made here: the tasks are
+        made one at a time as they run (:meth:`SweepSpec.iter_tasks`).
 
     Returns
     -------
@@ -370,7 +430,9 @@ def load_sweep(sources, *, max_tasks: int | None = None) -> SweepSpec:
     SceneError, SceneTypeError
         More than ``max_tasks`` tasks (counted before any is built).
         A bad ``[sweep]`` key or value (named with its file and line), a scene error, a
-        swept value a scene refuses (at its ``[sweep]`` line), two scenes with one name.
+        swept value a scene refuses (at its ``[sweep]`` line), two scenes with one name: every
+        listed value and each range's two ends are checked here (:meth:`SweepSpec.probe_tasks`);
+        a value inside a range that a scene refuses fails its task when it runs.
     """
     if isinstance(sources, (str, os.PathLike)):
         sources = [sources]
@@ -386,32 +448,35 @@ def load_sweep(sources, *, max_tasks: int | None = None) -> SweepSpec:
             files.append(p)
     if not files:
         raise ValueError("'sources' must name at least one sweep file, scene file or folder; got none.")
+    files = list(dict.fromkeys(files))
     plans = [(path, _read_sweep_file(path)) for path in files]
-    _check_count(plans, max_tasks)
-    tasks, keys, hashes = [], [], {}
+    total = _check_count(plans, max_tasks)
+    keys = list(dict.fromkeys(p for _, (_, _, params, _) in plans for p in params))
     modes = {mode for _, (_, mode, _, _) in plans if mode is not None}
-    for path, (lines, mode, params, bases) in plans:
-        for p in params:
-            if p not in keys:
-                keys.append(p)
-        for scene_path, sdata, slines in bases:
+    for _, (_, _, _, bases) in plans:
+        for _, sdata, _ in bases:
             sdata.pop("sweep", None)
-            for pset in _combinations(params, mode or "product"):
-                scene = _build(sdata, slines, scene_path=scene_path, base_dir=os.path.dirname(scene_path), pset=pset,
-                               params=params, sweep_path=path, sweep_lines=lines)
-                _check_outputs(scene, f"Scene file {scene_path!r}")
-                tasks.append(_task(scene, pset, hashes))
+    spec = SweepSpec(plans=tuple((path, *plan) for path, plan in plans), keys=tuple(keys), sources=tuple(files),
+                     mode=modes.pop() if len(modes) == 1 else "mixed" if modes else "product", n_tasks=total,
+                     digest=_spec_digest(plans))
     by_label: dict = {}
-    for t in tasks:
+    for t in spec.probe_tasks():  # every value written checked as a scene before anything runs
         by_label.setdefault(t.label, set()).add(t.scene.source)
     for label, srcs in by_label.items():
         if len(srcs) > 1:
             raise SceneError(f"Scenes {', '.join(map(repr, sorted(srcs)))} are all named {label!r}; the sweep's table "
                              "tells scenes apart by name: give each its own [scene] name.")
-    unique, seen = [], set()
-    for t in tasks:  # the same scene and values twice (e.g. a scene listed twice) is one task
-        if t.id not in seen:
-            seen.add(t.id)
-            unique.append(t)
-    return SweepSpec(tasks=tuple(unique), keys=tuple(keys), sources=tuple(files),
-                     mode=modes.pop() if len(modes) == 1 else "mixed" if modes else "product")
+    return spec
+
+
+def _spec_digest(plans: list) -> str:
+    """sha256 of a sweep's definition: each sweep and scene file's content (sha256), the swept keys and values."""
+    from ..export import file_sha256
+
+    def values(v):
+        return [v.start, v.stop, v.num, v.spacing] if isinstance(v, _Range) else v
+
+    return _digest([{"file": path, "sha256": file_sha256(path), "mode": mode,
+                     "params": [[p, values(v)] for p, (v, _) in params.items()],
+                     "scenes": [[f, file_sha256(f)] for f, _, _ in bases]}
+                    for path, (_, mode, params, bases) in plans])

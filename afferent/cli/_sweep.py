@@ -38,7 +38,7 @@ def add_args(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--batch-size", type=int, metavar="N",
                         help="tasks per Dask task (default: about four batches per worker thread)")
     parser.add_argument("--max-tasks", type=int, metavar="N",
-                        help="most tasks the sweep may have (default 100,000; counted before any is built)")
+                        help="most tasks the sweep may have (default 1,000,000; counted before any is made)")
     parser.add_argument("--no-cache", action="store_true",
                         help="neither read nor write the sampled-SED cache ($AFFERENT_CACHE_DIR or ~/.cache/afferent)")
     add_output_options(parser, what="output folder (table, tasks/, sweep.json); an existing one of the same sweep is resumed")
