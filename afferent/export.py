@@ -149,12 +149,16 @@ def profile_step_record(afferent, index: int) -> dict:
             "chosen_as": "the step of the largest total afferent current (afferent.profiles.peak_step)"}
 
 
-def step_title(what: str, times, index: int, n_steps: int) -> str:
-    """A figure title that says which step it shows: 'SED ...' over 'step 51 of 2301, t = 0.1 s (peak)'."""
+def step_title(what: str, times, index: int, n_steps: int, *, clock: str = "t", also: str = "") -> str:
+    """A figure title that says which step it shows: 'SED ...' over 'step 51 of 2301, t = 0.1 s (peak)'.
+
+    Steps are counted from 1 (the last of 5 is 'step 5 of 5'); ``index`` is 0-based (negative counts from the end).
+    ``clock`` names the time (e.g. 'FE time' for an export's own steps beside a stimulus' t); ``also`` is appended.
+    """
     if n_steps <= 1:
         return what
-    t = "" if times is None else f", t = {float(times[index]):.4g} s"
-    return f"{what}\nstep {int(index) % n_steps} of {n_steps}{t} (peak)"
+    t = "" if times is None else f", {clock} = {float(times[index]):.4g} s"
+    return f"{what}\nstep {int(index) % n_steps + 1} of {n_steps}{t} (peak){also}"
 
 
 def write_pipeline_outputs(result, outdir: str, *, record: dict, overwrite: bool = False, plots: bool = True,
@@ -549,9 +553,11 @@ def _figures(path, want, *, sed_static, sed, current, branching, afferent, fit, 
         same = sed_static is sed
         k = profile_index if same else int(np.argmax(np.nansum(np.asarray(sed_static.values), axis=1)))
         n_t, times = sed_static.values.shape[0], sed_static.times
-        plotting.plot_sed_map(sed_static, ax=axes[0], time_index=k, title=step_title("SED at receptor sites", times, k, n_t))
+        # a stimulus has its own clock: the export's time is named 'FE time' beside the stimulus' peak t
+        kw = {} if same else dict(clock="FE time", also=f";\nthe stimulus peaks at t = {float(sed.times[profile_index]):.4g} s")
+        plotting.plot_sed_map(sed_static, ax=axes[0], time_index=k, title=step_title("SED at receptor sites", times, k, n_t, **kw))
         plotting.plot_sed_map(sed_static, ax=axes[1], normalise=True, threshold=0.6, time_index=k,
-                              title=step_title("normalised SED, hot spots >= 0.6", times, k, n_t))
+                              title=step_title("normalised SED, hot spots >= 0.6", times, k, n_t, **kw))
         plotting.save_figure(fig, path("sed_map.png"))
     if "profiles" in want:
         from .synthesis import Branching, synthesize

@@ -10,7 +10,7 @@ import numpy as np
 
 __all__ = [
     "plot_sed_map", "plot_sed_profile", "plot_section_profiles", "plot_fit",
-    "plot_raster", "plot_rates", "rate_table", "plot_psth", "plot_waveform", "save_figure",
+    "plot_raster", "plot_rates", "rate_table", "plot_psth", "plot_waveform", "save_figure", "legend_beside",
 ]
 
 
@@ -59,9 +59,10 @@ def plot_sed_map(sed, *, time_index: int = -1, ax=None, normalise: bool = False,
         hot = v >= threshold
         ax.scatter(pos_mm[hot, 0], pos_mm[hot, 2], s=60, facecolors="none", edgecolors="crimson", linewidths=1.0,
                    label=f">= {threshold:g}")
-        ax.legend(loc="upper right", fontsize="small")
+        # named in the x label, not in a legend box (which would sit on receptors)
     ax.figure.colorbar(sc, ax=ax, label=label)
-    ax.set_xlabel("x, across ridges (mm)")
+    ax.set_xlabel("x, across ridges (mm)" + (f"\nred rings: normalised SED >= {threshold:g}"
+                                              if normalise and threshold is not None else ""))
     ax.set_ylabel("z, along ridges (mm)")
     ax.set_aspect("equal")
     t = sed.times[time_index]
@@ -94,6 +95,27 @@ def plot_sed_profile(sed, *, axis: str = "x", time_index: int = -1, ax=None, lab
     if label:
         ax.legend(fontsize="small")
     return ax
+
+
+def legend_beside(ax, *, title: str | None = None):
+    """The legend of ``ax`` (and of its twin Axes) to the right of it, never over its data.
+
+    When the figure lays itself out (``layout='constrained'``, as every figure made here) and
+    holds only ``ax`` and its twins, or ``ax`` has a twin (whose labels take its right side), the
+    legend is the figure's, right of everything; else it is the Axes' legend, just right of the
+    Axes. ``title`` (a note) heads the box.
+    """
+    fig = ax.figure
+    group = [a for a in fig.axes if a is ax or ax.get_shared_x_axes().joined(a, ax)]
+    handles, labels = [], []
+    for a in group:
+        h, lab = a.get_legend_handles_labels()
+        handles, labels = handles + h, labels + lab
+    style = dict(fontsize="small", title=title, title_fontsize="x-small", alignment="left")
+    engine = fig.get_layout_engine()
+    if (len(group) == len(fig.axes) or len(group) > 1) and engine is not None and type(engine).__name__ == "ConstrainedLayoutEngine":
+        return fig.legend(handles, labels, loc="outside right center", **style)
+    return ax.legend(handles, labels, loc="upper left", bbox_to_anchor=(1.02, 1.0), borderaxespad=0.0, **style)
 
 
 def save_figure(ax_or_fig, path: str, *, overwrite: bool = False, dpi: int = 150) -> str:
@@ -147,45 +169,68 @@ def plot_section_profiles(sed, current, afferent=None, *, axis: str = "x", time_
     -------
     matplotlib Axes
     """
-    ax = _axes(ax, figsize=(6.0, 3.8))
+    ax = _axes(ax, figsize=(8.5, 3.8))
     from .receptors import central_line
 
     idx, coord, at = central_line(sed.layout, axis)
     other = "z" if axis == "x" else "x"
-    ax.plot(coord * 1e3, _norm(sed.values[time_index, idx]), "o-", ms=3, label=f"SED (receptors at {other} = {at * 1e3:.2f} mm)")
-    ax.plot(coord * 1e3, _norm(current.values[time_index, idx]), "s--", ms=3, label="receptor current")
+    note = None
     if afferent is not None and getattr(afferent, "axis", axis) == axis:
+        # drawn first, wide and pale: the receptor curves on top stay visible where they coincide
         order = np.argsort(afferent.positions)
         raw = np.asarray(afferent.values[time_index, order], dtype=float)
-        ax.plot(afferent.positions[order] * 1e3, _norm(raw), "^-", ms=4, lw=2,
+        ax.plot(afferent.positions[order] * 1e3, _norm(raw), "^-", ms=9, lw=6, alpha=0.35, color="tab:green",
                 label=f"afferent current ({afferent.kind} sections)")
         if raw.size <= FEW_POINTS:
             # min-max normalising 2 or 3 values always gives 0-1 or 0-1-0: show the values themselves
             twin = ax.twinx()
             twin.plot(afferent.positions[order] * 1e3, raw * 1e9, "^:", ms=6, color="crimson", label="afferent current (nA)")
             twin.set_ylabel("afferent current, raw (nA)", color="crimson")
-            ax.text(0.02, 0.98, f"only {raw.size} afferents: their min-max normalised profile is 0-1 by construction;\n"
-                                "the raw currents are on the right axis", transform=ax.transAxes, va="top", fontsize="x-small",
-                    color="crimson")
-    ax.set_xlabel(f"{axis} ({'across' if axis == 'x' else 'along'} the ridges) (mm)")
+            note = (f"only {raw.size} afferents: their min-max\nnormalised profile is 0-1 by construction;\n"
+                    "the raw currents are on the right axis")
+    ax.plot(coord * 1e3, _norm(sed.values[time_index, idx]), "o-", ms=7, mfc="none", color="tab:blue",
+            label=f"SED (receptors at {other} = {at * 1e3:.2f} mm)")
+    ax.plot(coord * 1e3, _norm(current.values[time_index, idx]), "s--", ms=3, color="tab:orange", label="receptor current")
+    ax.set_xlabel(f"{axis}, {'across' if axis == 'x' else 'along'} the ridges (mm)")
     ax.set_ylabel("normalised (min-max)")
     ax.set_ylim(-0.05, 1.1)
-    ax.legend(fontsize="small", loc="lower center")
+    legend_beside(ax, title=note)
     ax.set_title(title or f"Profiles along {axis}")
     return ax
 
 
 def plot_fit(fit, *, ax=None, title=None):
-    """Predicted against observed profile (as compared: normalised per ``fit.normalise``)."""
-    ax = _axes(ax, figsize=(5.5, 3.6))
+    """Predicted against observed profile (as compared: normalised per ``fit.normalise``).
+
+    When a min-max normalised profile varies by less than ``SMALL_VARIATION`` (10 %) before
+    normalising, the legend says by how much: its 0..1 (and the R^2) stretch a small contrast.
+    """
+    ax = _axes(ax, figsize=(7.5, 3.6))
     x = fit.positions * 1e3 if fit.positions is not None else np.arange(len(fit.predicted))
     ax.plot(x, fit.observed, "ko", label="observed")
     ax.plot(x, fit.predicted, "-", lw=2, label="predicted")
     ax.set_xlabel("afferent position (mm)" if fit.positions is not None else "afferent")
     ax.set_ylabel("response (normalised)" if fit.normalise != "neither" else "response")
     ax.set_title(title or f"R$^2$ (study) = {fit.r2_study:.3f}, R$^2$ = {fit.r2:.3f}, ssd = {fit.ssd:.3g}")
-    ax.legend(fontsize="small")
+    legend_beside(ax, title=_stretch_note(fit))
     return ax
+
+
+#: A min-max normalised profile varying by less than this fraction before normalising is flagged by plot_fit.
+SMALL_VARIATION = 0.1
+
+
+def _stretch_note(fit) -> str | None:
+    """'min-max normalised: predicted varies by 1.4 %, observed by 5 % (stretched to 0..1)' or None."""
+    variation = getattr(fit, "variation", None)
+    if variation is None or fit.normalise == "neither":
+        return None
+    which = {"both": (0, 1), "prediction": (0,), "observation": (1,)}[fit.normalise]
+    if min(variation[i] for i in which) >= SMALL_VARIATION:
+        return None
+    names = ("predicted", "observed")
+    return ("min-max normalised; before that\n" + ", ".join(f"{names[i]} varies by {100 * variation[i]:.2g} %" for i in which)
+            + "\n(stretched to 0..1, R$^2$ with it)")
 
 
 # ---- spikes and stimuli -------------------------------------------------------------------
@@ -305,7 +350,7 @@ def plot_rates(spikes, positions=None, ax=None, *, waveform=None, label: str | N
     ValueError
         If ``positions`` does not have one entry per afferent.
     """
-    ax = _axes(ax)
+    ax = _axes(ax, figsize=(7.5, 4.2))
     rates = spikes.rates()
     axis = getattr(positions, "axis", None)
     if positions is not None and hasattr(positions, "positions"):
@@ -324,13 +369,15 @@ def plot_rates(spikes, positions=None, ax=None, *, waveform=None, label: str | N
         ax.set_xlabel(f"{axis or 'position'} (mm)")
     table = rate_table(spikes, waveform)
     order = np.argsort(x)
-    for col in [c for c in table.columns if c.endswith("_hz") and c not in ("mean_hz", "peak_instantaneous_hz")]:
-        ax.plot(x[order], table[col].to_numpy()[order], "o-", ms=3, label=f"{col[:-3]} phase")
+    phases = [c for c in table.columns if c.endswith("_hz") and c not in ("mean_hz", "peak_instantaneous_hz")]
+    for j, col in enumerate(phases):  # later phases drawn smaller and dashed: equal rates (0 Hz) stay visible
+        ax.plot(x[order], table[col].to_numpy()[order], "osDv"[j % 4] + ("-" if j == 0 else "--"), mfc="none",
+                ms=9 - 1.5 * (j % 4), label=f"{col[:-3]} phase")
     ax.plot(x[order], table["mean_hz"].to_numpy()[order], "k:", lw=1.5, label=label or "mean over the window")
     ax.plot(x[order], table["peak_instantaneous_hz"].to_numpy()[order], "^--", ms=4, color="crimson",
             label="peak instantaneous (1 / shortest ISI)")
     ax.set_ylabel("rate (Hz)")
-    ax.legend(fontsize="small")
+    legend_beside(ax)
     ax.set_title(title or f"firing rates over {spikes.duration:g} s")
     return ax
 

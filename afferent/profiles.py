@@ -469,6 +469,10 @@ class ProfileFit:
         Its time in s, when known.
     dropped : int
         Number of afferents left out because they lie outside the observed range.
+    variation : tuple of float or None
+        ``(predicted, observed)`` before normalising: ``(max - min) / max |v|`` over the compared
+        points (dimensionless). Min-max normalising a profile that varies by a few % stretches
+        that few % to 0..1 (and R^2 with it): :func:`afferent.plotting.plot_fit` says so.
     """
 
     r2_study: float
@@ -481,6 +485,7 @@ class ProfileFit:
     time_index: int | None = None
     time: float | None = None
     dropped: int = 0
+    variation: tuple[float, float] | None = None
 
 
 def peak_step(afferent) -> int:
@@ -614,5 +619,11 @@ def compare_profiles(predicted, observed, *, normalise: str = "both", time_index
         arr.setflags(write=False)
     return ProfileFit(
         r2_study=r2_study(d, e), r2=r2(d, e), ssd=ssd(d, e), predicted=e, observed=d, positions=pos,
-        normalise=normalise, time_index=t_idx, time=time, dropped=dropped,
+        normalise=normalise, time_index=t_idx, time=time, dropped=dropped, variation=(_variation(pred), _variation(obs)),
     )
+
+
+def _variation(v) -> float:
+    """``(max - min) / max |v|`` of a profile (dimensionless; 0 for an all-zero one)."""
+    top = float(np.max(np.abs(v)))
+    return float(np.ptp(v)) / top if top > 0 else 0.0

@@ -259,7 +259,8 @@ want = ["profiles", "vtu"]
                                   vtu.point_data["sed_pa"])
     from afferent.export import step_title
 
-    assert step_title("SED at receptor sites", [0.0, 0.1, 0.2], 1, 3) == "SED at receptor sites\nstep 1 of 3, t = 0.1 s (peak)"
+    assert step_title("SED at receptor sites", [0.0, 0.1, 0.2], 1, 3) == "SED at receptor sites\nstep 2 of 3, t = 0.1 s (peak)"
+    assert "step 3 of 3" in step_title("SED", [0.0, 0.1, 0.2], -1, 3)  # 1-based: the last is not "step 2 of 3"
 
 
 def test_profiles_of_three_afferents_show_the_raw_currents(bump):
@@ -283,8 +284,8 @@ def test_profiles_of_three_afferents_show_the_raw_currents(bump):
     aff = synthesize(cur, Branching.longitudinal(sub))
     assert aff.n_afferents == 3
     ax = plotting.plot_section_profiles(sed, cur, aff, axis="x")
-    texts = " ".join(t.get_text() for t in ax.texts)
-    assert "only 3 afferents: their min-max normalised profile is 0-1 by construction" in texts
+    note = " ".join(ax.figure.legends[0].get_title().get_text().split())  # the legend's heading, beside the data
+    assert "only 3 afferents: their min-max normalised profile is 0-1 by construction" in note
     twin = [a for a in ax.figure.axes if a is not ax][0]
     assert twin.get_ylabel() == "afferent current, raw (nA)"
     np.testing.assert_allclose(np.sort(twin.lines[0].get_ydata()), np.sort(aff.values[-1] * 1e9))

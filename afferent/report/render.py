@@ -54,6 +54,14 @@ def _log_axis(ax, values, axis: str = "y") -> None:
         (ax.set_yscale if axis == "y" else ax.set_xscale)("log")
 
 
+def _count_ticks(ax, counts) -> None:
+    """x ticks at the measured counts, as plain integers, no minor labels (they collide on a short log axis)."""
+    from matplotlib.ticker import NullFormatter
+
+    ax.set_xticks(counts, [f"{c:d}" for c in counts])
+    ax.xaxis.set_minor_formatter(NullFormatter())
+
+
 def _subplots(height: float):
     """A 1 x 2 figure outside pyplot (any backend, nothing left open)."""
     from matplotlib.figure import Figure
@@ -64,7 +72,7 @@ def _subplots(height: float):
 
 def _plot_sampling(results: dict, folder: str) -> str:
     """The sampling figure, saved into ``folder``; returns its path."""
-    from ..plotting import save_figure
+    from ..plotting import legend_beside, save_figure
 
     rows = results["sampling"]
     fig, (ax_e, ax_t) = _subplots(3.4)
@@ -74,19 +82,20 @@ def _plot_sampling(results: dict, folder: str) -> str:
     ax_e.set_xticks(x, [r["method"] for r in rows])
     _log_axis(ax_e, [r[k] for r in rows for k in ("err_median", "err_p95", "err_max")])
     ax_e.set_ylabel("relative error of the sampled SED")
-    ax_e.legend(fontsize="small")
+    legend_beside(ax_e)
     ax_t.bar(x - 0.2, [r["weights_s"] * 1e3 for r in rows], 0.4, label="weights (once)")
     ax_t.bar(x + 0.2, [r["per_step_s"] * 1e3 for r in rows], 0.4, label="per time step")
     ax_t.set_xticks(x, [r["method"] for r in rows])
     _log_axis(ax_t, [r[k] for r in rows for k in ("weights_s", "per_step_s")])
     ax_t.set_ylabel("time (ms)")
-    ax_t.legend(fontsize="small")
+    legend_beside(ax_t)
+    fig.suptitle("Sampling the SED at receptor sites: error and time per method")
     return save_figure(fig, os.path.join(folder, "sampling.png"))
 
 
 def _plot_spiking(results: dict, folder: str) -> str:
     """The spiking figure, saved into ``folder``; returns its path."""
-    from ..plotting import save_figure
+    from ..plotting import legend_beside, save_figure
 
     rows = [r for r in results["spiking"] if r.get("wall_s") is not None]
     exact = rows[0]
@@ -98,23 +107,29 @@ def _plot_spiking(results: dict, folder: str) -> str:
     ax_t.axhline(exact["wall_s"], color="k", ls=":", label="exact (no dt)")
     ax_t.set_xlabel("dt (ms)")
     ax_t.set_ylabel("wall time (s)")
-    ax_t.legend(fontsize="small")
+    legend_beside(ax_t)
     fast = [r for r in rows if r["engine"] == "fast"]
     dts = np.array([r["dt_s"] * 1e3 for r in fast])
-    for key, label, marker in (("rate_err_median", "rate, median relative error", "o-"),
-                               ("spike_err_median_s", "spike time, median error (s)", "^-"),
-                               ("latency_err_max_s", "first-spike latency, max error (s)", "s-")):
+    ax_s = ax_e.twinx()  # the relative error (dimensionless) left, the time errors (s) right: one unit per axis
+    hidden = []
+    for ax, key, label, marker in ((ax_e, "rate_err_median", "rate, median relative error (left)", "C0o-"),
+                                   (ax_s, "spike_err_median_s", "spike time, median error (s, right)", "C1^--"),
+                                   (ax_s, "latency_err_max_s", "first-spike latency, max error (s, right)", "C2s:")):
         vals = np.array([r[key] for r in fast], dtype=float)
-        ax_e.loglog(dts, np.where(vals > 0, vals, np.nan), marker, label=label)
-    ax_e.set_xlabel("dt (ms), fast engine (brian2: the same spikes)")
-    ax_e.set_ylabel("error against the exact engine")
-    ax_e.legend(fontsize="small")
+        hidden += [f"{label.split(',')[0]} at dt = {d:g} ms" for d, v in zip(dts, vals) if not v > 0]
+        ax.loglog(dts, np.where(vals > 0, vals, np.nan), marker, label=label)
+    ax_e.set_xlabel("dt of the fast engine (ms); brian2 gives the same spikes")
+    ax_e.set_ylabel("relative error of the rate")
+    ax_s.set_ylabel("error (s)")
+    # a zero error has no place on a log axis: say which points are not drawn
+    legend_beside(ax_e, title=("zero, not drawn: " + "; ".join(hidden)) if hidden else None)
+    fig.suptitle("Spiking engines: wall time and error against the exact engine, by time step")
     return save_figure(fig, os.path.join(folder, "spiking.png"))
 
 
 def _plot_receptors(results: dict, folder: str) -> str:
     """The receptors figure, saved into ``folder``; returns its path."""
-    from ..plotting import save_figure
+    from ..plotting import legend_beside, save_figure
 
     rows = results["receptors"]
     fig, (ax_t, ax_e) = _subplots(3.4)
@@ -123,12 +138,15 @@ def _plot_receptors(results: dict, folder: str) -> str:
     ax_t.loglog(n, [r["transduce_synthesize_s"] * 1e3 for r in rows], "s-", label="transduction + synthesis")
     ax_t.set_xlabel("receptors")
     ax_t.set_ylabel("time (ms)")
-    ax_t.legend(fontsize="small")
+    legend_beside(ax_t)
     ax_e.semilogx(n[:-1], [r["profile_error"] for r in rows[:-1]], "o-", label="normalised profile")
     ax_e.semilogx(n[:-1], [r["current_error"] for r in rows[:-1]], "s-", label="mean current per receptor")
     ax_e.set_xlabel("receptors")
+    for ax in (ax_t, ax_e):
+        _count_ticks(ax, n)
     ax_e.set_ylabel(f"max error vs {rows[-1]['per_papilla']} per papilla")
-    ax_e.legend(fontsize="small")
+    legend_beside(ax_e)
+    fig.suptitle("Receptor density: time and error against the densest layout")
     return save_figure(fig, os.path.join(folder, "receptors.png"))
 
 
@@ -154,12 +172,13 @@ def _plot_calibration(results: dict, folder: str) -> str:
     ax_n.set_ylabel("model evaluations")
     ax_e.set_ylabel("largest relative parameter error")
     fig.legend(*ax_n.get_legend_handles_labels(), loc="outside lower center", ncols=2, fontsize="small")
+    fig.suptitle("Calibration methods: cost and recovered parameters")
     return save_figure(fig, os.path.join(folder, "calibration.png"))
 
 
 def _plot_series(results: dict, folder: str) -> str:
     """The series figure, saved into ``folder``; returns its path."""
-    from ..plotting import save_figure
+    from ..plotting import legend_beside, save_figure
 
     rows = results["series"]
     fig, (ax_t, ax_m) = _subplots(3.4)
@@ -172,7 +191,8 @@ def _plot_series(results: dict, folder: str) -> str:
     for ax in (ax_t, ax_m):
         ax.set_xlabel(f"time steps ({rows[0]['points']:,}-node mesh)")
         ax.set_ylim(bottom=0)
-        ax.legend(fontsize="small")
+        legend_beside(ax)
+    fig.suptitle("Time series: whole read against streamed read")
     return save_figure(fig, os.path.join(folder, "series.png"))
 
 

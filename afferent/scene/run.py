@@ -475,7 +475,8 @@ def _compare(run: _Run) -> None:
                                time_index=run.out["profile_index"])
     run.out["fit"] = fit
     run.record["fit"] = {"r2_study": fit.r2_study, "r2": fit.r2, "ssd": fit.ssd, "normalise": fit.normalise,
-                         "dropped": fit.dropped, "time_s": fit.time}
+                         "dropped": fit.dropped, "time_s": fit.time,
+                         "variation": dict(zip(("predicted", "observed"), fit.variation))}
 
 
 def _spike(run: _Run) -> None:

@@ -1,0 +1,155 @@
+"""Every figure the package writes, rendered and checked as a reader sees it (tests/_figcheck.py):
+no legend box over a plotted point, no two labels overlapping.
+
+Drives the real routes with small inputs: the bundled scenes (sample_sed/scenes: SED map,
+profiles and fit, ramp-and-hold spikes) and the report's figures from a stored 'tiny' report
+(tests/data/report/tiny_results.json: ``afferent report --size tiny``'s results.json).
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from _figcheck import collect_figure_problems, figure_problems
+
+ROOT = Path(__file__).resolve().parents[1]
+SCENES = ROOT / "sample_sed" / "scenes"
+needs_sample = pytest.mark.skipif(not SCENES.is_dir(), reason="bundled sample (sample_sed/) not present")
+
+
+def _readable(found: dict) -> None:
+    bad = {name: p for name, p in found.items() if p}
+    assert not bad, "figures a reader cannot read:\n" + "\n".join(f"{n}: {'; '.join(p)}" for n, p in bad.items())
+
+
+def test_checker_sees_a_legend_over_a_point_and_overlapping_labels():
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(4, 3))
+    ax = fig.subplots()
+    ax.plot([0, 1], [0, 1], "o-", label="data")
+    ax.legend(loc="lower left")  # over the point (0, 0)
+    assert any("covers" in p and "'data'" in p for p in figure_problems(fig))
+    fig = Figure(figsize=(2, 2))
+    ax = fig.subplots()
+    ax.set_xticks(range(10), [f"label {i}" for i in range(10)])
+    assert any("tick" in p and "overlaps" in p for p in figure_problems(fig))
+    fig = Figure(figsize=(4, 3), layout="constrained")
+    ax = fig.subplots()
+    ax.plot([0, 1], [0, 1], "o-", label="data")
+    ax.legend(loc="lower right")
+    assert figure_problems(fig) == ["no title"]
+    ax.set_title("a title")
+    assert figure_problems(fig) == []
+    ax.plot([0, 1], [0, 1], "o-", label="the same data, drawn over")
+    ax.set_xlabel("x (across) (mm)")
+    assert figure_problems(fig) == ["axes 0: line 'data' hidden under 'the same data, drawn over'",
+                                    "axes 0 x label 'x (across) (mm)' has more than one (...)"]
+
+
+@needs_sample
+@pytest.mark.parametrize("scene", ["sed_map", "profiles", "spikes_ramp"])
+def test_run_figures_are_readable(scene, tmp_path, monkeypatch):
+    from afferent.scene import load_scene, run_scene
+
+    found = collect_figure_problems(monkeypatch)
+    res = run_scene(load_scene(SCENES / f"{scene}.toml").with_output(tmp_path / scene), cache_dir=tmp_path / "c")
+    pngs = {f for f in res.files if str(f).endswith(".png")}
+    assert pngs and {Path(f).name for f in pngs} <= set(found)
+    _readable(found)
+
+
+def test_report_figures_are_readable(tmp_path, monkeypatch):
+    import afferent.report.render as rep
+
+    results = json.loads((ROOT / "tests" / "data" / "report" / "tiny_results.json").read_text())
+    found = collect_figure_problems(monkeypatch)
+    rep._plots(results, str(tmp_path))
+    assert {"sampling.png", "spiking.png", "receptors.png", "calibration.png", "series.png"} <= set(found)
+    _readable(found)
+
+
+@needs_sample
+def test_fit_and_calibration_figures_are_readable(tmp_path, monkeypatch):
+    from afferent.cli import main
+    from afferent.scene import load_scene, run_scene
+
+    block = ROOT / "sample_sed" / "block4"
+    observed = ROOT / "sample_sed" / "observed" / "synthetic_1p32mm_longitudinal.csv"
+    scene = tmp_path / "fit.toml"
+    scene.write_text(f'[export]\nfile = "{block / "indent_1p32mm.vtu"}"\nlength_unit = "mm"\nsed_unit = "MPa"\n'
+                     f'[receptors]\nfile = "{block / "receptors.csv"}"\n[synthesis]\nkind = "longitudinal"\n'
+                     f'[fit]\nobserved = "{observed}"\nlength_unit = "mm"\n[outputs]\nwant = ["fit", "plots"]\n')
+    found = collect_figure_problems(monkeypatch)
+    run_scene(load_scene(scene).with_output(tmp_path / "fit"), cache_dir=tmp_path / "c")
+    assert "fit.png" in found
+    sed_csv = tmp_path / "sed.csv"
+    assert main(["sample", str(block / "indent_1p32mm.vtu"), "--receptors", str(block / "receptors.csv"),
+                 "--length-unit", "mm", "--sed-unit", "MPa", "-o", str(sed_csv)]) == 0
+    assert main(["calibrate", str(sed_csv), "--observed", str(observed), "--observed-unit", "mm",
+                 "--synthesis", "longitudinal", "-o", str(tmp_path / "calib")]) == 0
+    assert {"profile.png", "ssd.png"} <= set(found)
+    _readable(found)
+
+
+def test_fit_of_profiles_with_little_contrast_says_min_max_stretched_them():
+    import numpy as np
+
+    from afferent.plotting import plot_fit
+    from afferent.profiles import compare_profiles
+
+    # observed varies by 5 %, the prediction by 1.4 %: both become 0..1 and R^2 is meaningless without a word
+    fit = compare_profiles(np.array([1.0, 1.014, 1.007, 1.0]), np.array([1.0, 1.03, 1.05, 1.01]),
+                           positions=np.array([1.0, 2.0, 3.0, 4.0]) * 1e-3)
+    assert fit.variation == pytest.approx((0.014 / 1.014, 0.05 / 1.05))
+    ax = plot_fit(fit)
+    note = ax.figure.legends[0].get_title().get_text()
+    assert "predicted varies by 1.4 %" in note and "observed varies by 4.8 %" in note and "stretched" in note
+    assert figure_problems(ax.figure) == []
+    # a profile with contrast gets no note
+    fit = compare_profiles(np.array([1.0, 3.0, 2.0]), np.array([0.5, 3.0, 1.0]), positions=np.array([1.0, 2.0, 3.0]) * 1e-3)
+    assert plot_fit(fit).figure.legends[0].get_title().get_text() == ""
+
+
+def test_report_spiking_figure_keeps_units_apart_and_names_the_points_a_log_axis_drops(tmp_path, monkeypatch):
+    import afferent.report.render as rep
+
+    results = json.loads((ROOT / "tests" / "data" / "report" / "tiny_results.json").read_text())
+    fast = [r for r in results["spiking"] if r["engine"] == "fast" and r.get("wall_s") is not None]
+    fast[0]["rate_err_median"] = 0.0  # e.g. dt = 0.001 ms: the same rates as the exact engine
+    figures = []
+    monkeypatch.setattr("afferent.plotting.save_figure", lambda fig, path: figures.append(fig) or path)
+    rep._plot_spiking(results, str(tmp_path))
+    fig = figures[0]
+    assert f"zero, not drawn: rate at dt = {fast[0]['dt_s'] * 1e3:g} ms" in fig.legends[0].get_title().get_text()
+    for ax in fig.axes:  # one unit per y axis: seconds never beside a relative error
+        labels = [ln.get_label() for ln in ax.get_lines()]
+        assert not (any("relative" in lab for lab in labels) and any("(s" in lab for lab in labels)), labels
+    assert figure_problems(fig) == []
+
+
+@needs_sample
+def test_one_folder_names_its_two_clocks(tmp_path, monkeypatch):
+    """With a waveform, sed_map.png shows an export step (FE time) and the profiles the stimulus' peak:
+    both times are named, and steps count from 1."""
+    from matplotlib.figure import Figure
+
+    from afferent.scene import load_scene, run_scene
+
+    text = (SCENES / "spikes_ramp.toml").read_text()
+    text = text.replace('file = "../', f'file = "{SCENES.parent}/').replace(
+        'want = ["spikes", "profiles", "plots"]', 'want = ["sed_map", "profiles", "plots"]')
+    text = text[:text.index("[spikes]")] + text[text.index("[outputs]"):]
+    (tmp_path / "s.toml").write_text(text)
+    titles = {}
+    original = Figure.savefig
+    monkeypatch.setattr(Figure, "savefig", lambda self, f, *a, **k: (
+        titles.setdefault(str(f), [ax.get_title() for ax in self.axes]), original(self, f, *a, **k))[1])
+    run_scene(load_scene(tmp_path / "s.toml").with_output(tmp_path / "out"), cache_dir=tmp_path / "c")
+    sed_map = next(t for f, t in titles.items() if "sed_map" in f)[0]
+    profiles = next(t for f, t in titles.items() if "profiles_x" in f)[0]
+    assert "step 6 of 6, FE time = " in sed_map and "the stimulus peaks at t = 0.1 s" in sed_map, sed_map
+    assert "t = 0.1 s (peak)" in profiles and "FE time" not in profiles, profiles
