@@ -11,6 +11,7 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from _figcheck import collect_figure_problems, figure_problems
@@ -153,3 +154,17 @@ def test_one_folder_names_its_two_clocks(tmp_path, monkeypatch):
     profiles = next(t for f, t in titles.items() if "profiles_x" in f)[0]
     assert "step 6 of 6, FE time = " in sed_map and "the stimulus peaks at t = 0.1 s" in sed_map, sed_map
     assert "t = 0.1 s (peak)" in profiles and "FE time" not in profiles, profiles
+
+
+def test_demo_summary_figure_is_readable(tmp_path, monkeypatch):
+    """indenters_x.png: the 4 mm curve's peaks sat under the legend boxes (seen on the demo's figure)."""
+    from afferent.cli._demo import _plot_indenters
+
+    found = collect_figure_problems(monkeypatch)
+    x = np.linspace(-3.5, 3.5, 61) * 1e-3  # curves that reach every corner of the panels, as the 4 mm one does
+    profiles = [(w, x, np.cos(x * 1e3 * (1 + w)) ** 2, x, np.sin(x * 1e3 * (1 + w)) ** 2) for w in (0.44, 0.88, 4.0)]
+    findings = [{"finding": "interchange zone", "study": "0.66-0.88 mm", "sample": "1.32 mm", "criterion": "2 peaks",
+                 "holds": False, "note": "the tips sit deep"}]
+    _plot_indenters(profiles, findings, str(tmp_path / "indenters_x.png"))
+    assert set(found) == {"indenters_x.png"}
+    _readable(found)

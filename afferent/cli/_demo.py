@@ -228,7 +228,7 @@ def _plot_indenters(profiles, findings: list[dict], path: str) -> None:
     axes[1].set_title("afferent current, longitudinal sections")
     for ax in axes:
         ax.set_xlabel("x from the indenter centre (mm)")
-        ax.legend(title="indenter", fontsize="small")
+    plotting.legend_beside(axes[1], title="indenter")  # one box for both panels (same colours), beside the data
     axes[0].set_ylabel("normalised (min-max)")
     plotting.save_figure(fig, path)
 
