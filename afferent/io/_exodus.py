@@ -19,12 +19,11 @@ has no units: the user declares them.
 
 from __future__ import annotations
 
-import os
 
 import numpy as np
 
 from ..exceptions import SEDFormatError
-from ._raw import RawArray, RawExport
+from ._raw import RawArray, RawExport, check_export_file
 
 __all__ = ["read_exodus", "EXODUS_ELEMENTS"]
 
@@ -260,10 +259,7 @@ def read_exodus(path: str, *, progress: bool = False) -> RawExport:
         Not a netCDF file, no coordinates, a variable whose size does not match the mesh, a
         damaged or truncated file.
     """
-    if not os.path.isfile(path):
-        raise FileNotFoundError(f"SED file {path!r} not found.")
-    if os.path.getsize(path) == 0:
-        raise SEDFormatError(f"SED file {path!r} is empty.")
+    check_export_file(path)
     nc = _NetCDF(path)
     try:
         coords = _coordinates(nc, path)

@@ -37,13 +37,12 @@ does not): the user declares them.
 
 from __future__ import annotations
 
-import os
 import re
 
 import numpy as np
 
 from ..exceptions import SEDFormatError
-from ._raw import RawArray, RawExport, drop_valueless_nodes
+from ._raw import RawArray, RawExport, check_export_file, drop_valueless_nodes
 
 __all__ = ["read_med", "MED_VOLUME_TYPES"]
 
@@ -368,10 +367,7 @@ def read_med(path: str, *, progress: bool = False) -> RawExport:
         Not HDF5, not a MED layout, a field whose sizes do not match the mesh, a damaged or
         truncated file, fields with no time step in common.
     """
-    if not os.path.isfile(path):
-        raise FileNotFoundError(f"SED file {path!r} not found.")
-    if os.path.getsize(path) == 0:
-        raise SEDFormatError(f"SED file {path!r} is empty.")
+    check_export_file(path)
     f = _File(path)
     try:
         return _read(f)

@@ -25,7 +25,7 @@ from ..exceptions import AfferentWarning, SEDFormatError
 from ..field import Cells
 from dataclasses import replace
 
-from ._raw import RawArray, RawExport, files_read, stack_steps
+from ._raw import RawArray, RawExport, check_export_file, files_read, stack_steps
 
 __all__ = ["read_mesh_file", "read_vtu_series", "read_pvd", "read_xdmf", "cells_from_meshio"]
 
@@ -166,10 +166,7 @@ def _read_meshio(path: str, opened: list | None = None):
 
     from ._xdmf import read_single_grid
 
-    if not os.path.isfile(path):
-        raise FileNotFoundError(f"SED file {path!r} not found.")
-    if os.path.getsize(path) == 0:
-        raise SEDFormatError(f"SED file {path!r} is empty.")
+    check_export_file(path)
     # The format's own reader, not meshio.read: its dispatcher prints and calls sys.exit on failure.
     ext = os.path.splitext(path)[1].lower()
     def xdmf(p):
@@ -667,10 +664,7 @@ def read_xdmf(path: str, *, progress: bool = False) -> RawExport:
     series) through :mod:`afferent.io._xdmf`; a single grid through meshio."""
     from ._xdmf import has_collections, read_xdmf_collections
 
-    if not os.path.isfile(path):
-        raise FileNotFoundError(f"SED file {path!r} not found.")
-    if os.path.getsize(path) == 0:
-        raise SEDFormatError(f"SED file {path!r} is empty.")
+    check_export_file(path)
     if has_collections(path):
         return read_xdmf_collections(path, progress=progress)
     raw = read_mesh_file(path)

@@ -26,13 +26,15 @@ series_provenance` joins them.
 
 from __future__ import annotations
 
+import os
 from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..exceptions import SEDFormatError
 from ..field import Cells
 
-__all__ = ["RawExport", "RawArray", "drop_valueless_nodes", "split_steps", "stack_steps", "files_read", "h5_files"]
+__all__ = ["RawExport", "RawArray", "check_export_file", "drop_valueless_nodes", "split_steps", "stack_steps", "files_read", "h5_files"]
 
 
 @dataclass(frozen=True)
@@ -116,6 +118,14 @@ class RawExport:
         for arr in self.arrays.values():
             return arr.values.shape[0]
         return 0
+
+
+def check_export_file(path: str) -> None:
+    """Refuse an export file that is missing (FileNotFoundError) or empty (SEDFormatError), naming it."""
+    if not os.path.isfile(path):
+        raise FileNotFoundError(f"SED file {path!r} not found.")
+    if os.path.getsize(path) == 0:
+        raise SEDFormatError(f"SED file {path!r} is empty.")
 
 
 def files_read(*groups) -> tuple[str, ...]:
