@@ -202,7 +202,7 @@ def plot_section_profiles(sed, current, afferent=None, *, axis: str = "x", time_
 def plot_fit(fit, *, ax=None, title=None):
     """Predicted against observed profile (as compared: normalised per ``fit.normalise``).
 
-    When a min-max normalised profile varies by less than ``SMALL_VARIATION`` (10 %) before
+    When a min-max normalised profile varies by less than ``afferent.profiles.SMALL_VARIATION`` (10 %) before
     normalising, the legend says by how much: its 0..1 (and the R^2) stretch a small contrast.
     """
     ax = _axes(ax, figsize=(7.5, 3.6))
@@ -216,20 +216,14 @@ def plot_fit(fit, *, ax=None, title=None):
     return ax
 
 
-#: A min-max normalised profile varying by less than this fraction before normalising is flagged by plot_fit.
-SMALL_VARIATION = 0.1
-
-
 def _stretch_note(fit) -> str | None:
     """'min-max normalised: predicted varies by 1.4 %, observed by 5 % (stretched to 0..1)' or None."""
-    variation = getattr(fit, "variation", None)
-    if variation is None or fit.normalise == "neither":
+    from .profiles import stretched
+
+    small = stretched(fit) if getattr(fit, "variation", None) is not None else {}
+    if not small:
         return None
-    which = {"both": (0, 1), "prediction": (0,), "observation": (1,)}[fit.normalise]
-    if min(variation[i] for i in which) >= SMALL_VARIATION:
-        return None
-    names = ("predicted", "observed")
-    return ("min-max normalised; before that\n" + ", ".join(f"{names[i]} varies by {100 * variation[i]:.2g} %" for i in which)
+    return ("min-max normalised; before that\n" + ", ".join(f"{k} varies by {100 * v:.2g} %" for k, v in small.items())
             + "\n(stretched to 0..1, R$^2$ with it)")
 
 

@@ -623,6 +623,22 @@ def compare_profiles(predicted, observed, *, normalise: str = "both", time_index
     )
 
 
+#: A min-max normalised profile varying by less than this fraction (of its largest magnitude) before normalising
+#: is stretched from a few-% ripple to 0..1, and R^2 with it: :func:`stretched` names it, the fit figure and the
+#: run say so.
+SMALL_VARIATION = 0.1
+
+
+def stretched(fit: ProfileFit) -> dict[str, float]:
+    """The min-max normalised profiles of ``fit`` that varied by less than :data:`SMALL_VARIATION` before
+    normalising: ``{'predicted' | 'observed': variation}`` (dimensionless), empty when none did."""
+    if fit.variation is None or fit.normalise == "neither":
+        return {}
+    which = {"both": (0, 1), "prediction": (0,), "observation": (1,)}[fit.normalise]
+    names = ("predicted", "observed")
+    return {names[i]: fit.variation[i] for i in which if fit.variation[i] < SMALL_VARIATION}
+
+
 def _variation(v) -> float:
     """``(max - min) / max |v|`` of a profile (dimensionless; 0 for an all-zero one)."""
     top = float(np.max(np.abs(v)))

@@ -74,6 +74,30 @@ def test_report_figures_are_readable(tmp_path, monkeypatch):
 
 
 @needs_sample
+@needs_sample
+def test_a_run_whose_recording_is_a_few_percent_ripple_says_what_its_r2_measures(tmp_path):
+    """A fit of profiles min-max normalisation stretched from a few % to 0..1 was reported as an R^2 without a word."""
+    import json
+
+    from afferent.scene import load_scene, run_scene
+
+    block = ROOT / "sample_sed" / "block4"
+    lines = (ROOT / "sample_sed" / "observed" / "synthetic_1p32mm_longitudinal.csv").read_text().splitlines()
+    rows = [r.split(",") for r in lines if r and r[0].isdigit()]
+    ripple = tmp_path / "ripple.csv"  # the recording's positions, its response flattened to 100 .. 105 %
+    ripple.write_text("position,response\n" + "".join(f"{x},{1.0 + 0.05 * (k % 2)}\n" for k, (x, _) in enumerate(rows)))
+    scene = tmp_path / "fit.toml"
+    scene.write_text(f'[export]\nfile = "{block / "indent_1p32mm.vtu"}"\nlength_unit = "mm"\nsed_unit = "MPa"\n'
+                     f'[receptors]\nfile = "{block / "receptors.csv"}"\n[synthesis]\nkind = "longitudinal"\n'
+                     f'[fit]\nobserved = "{ripple}"\nlength_unit = "mm"\n[outputs]\nwant = ["fit"]\n')
+    run_scene(load_scene(scene).with_output(tmp_path / "out"), cache_dir=tmp_path / "c")
+    record = json.loads((tmp_path / "out" / "run.json").read_text())
+    said = [w["message"] for w in record["warnings"] if "min-max normalisation" in w["message"]]
+    assert len(said) == 1 and said[0].startswith("Before min-max normalisation the observed profile varies by 4.8 % of "
+                                                 "its largest value (under 10 %)"), record["warnings"]
+    assert f"R^2 = {record['fit']['r2']:.3g}" in said[0]
+
+
 def test_fit_and_calibration_figures_are_readable(tmp_path, monkeypatch):
     from afferent.cli import main
     from afferent.scene import load_scene, run_scene

@@ -474,9 +474,26 @@ def _compare(run: _Run) -> None:
         fit = compare_profiles(run.out["afferent"], observed, normalise=fi.normalise,
                                time_index=run.out["profile_index"])
     run.out["fit"] = fit
+    _warn_if_stretched(fit)
     run.record["fit"] = {"r2_study": fit.r2_study, "r2": fit.r2, "ssd": fit.ssd, "normalise": fit.normalise,
                          "dropped": fit.dropped, "time_s": fit.time,
                          "variation": dict(zip(("predicted", "observed"), fit.variation))}
+
+
+def _warn_if_stretched(fit) -> None:
+    """A fit whose normalised profiles were a few-% ripple before min-max normalisation: say what R^2 then measures."""
+    import warnings
+
+    from ..exceptions import AfferentWarning
+    from ..profiles import SMALL_VARIATION, stretched
+
+    small = stretched(fit)
+    if small:
+        varied = ", ".join(f"the {k} profile varies by {100 * v:.2g} %" for k, v in small.items())
+        warnings.warn(f"Before min-max normalisation {varied} of its largest value (under {100 * SMALL_VARIATION:g} %): "
+                      f"normalising stretches that ripple to 0..1, so R^2 = {fit.r2:.3g} (r2_study {fit.r2_study:.3g}) "
+                      "compares the shapes of small ripples, not the profiles' contrast; compare with normalise = "
+                      "'neither' too, or choose a profile step with more contrast.", AfferentWarning, stacklevel=2)
 
 
 def _spike(run: _Run) -> None:
