@@ -73,3 +73,24 @@ def box_vtu(tmp_path):
     path = tmp_path / "box.vtu"
     meshio.write(path, mesh, binary=True, compression="zlib")
     return path
+
+
+#: Papilla pitch across (x) and along (z) the ridges of the bump grid, mm.
+PITCH_X, PITCH_Z = 0.44, 0.22
+
+
+def write_bump(folder, n_xz: int):
+    """A 4 x 3.1 x 4 mm hex block (``n_xz`` cells across x and z) with a Gaussian SED bump (MPa) centred at
+    x = z = 2 mm, as ``bump.vtu``, and a papilla grid 2.35 mm up as ``R.csv`` (mm); returns (vtu, receptors, xs, zs)."""
+    import pandas as pd
+
+    points, hexes = hex_box(n_xz, 4, n_xz, size=(4.0, 3.1, 4.0))
+    x, y, z = points.T
+    sed = 1.9e-4 * np.exp(-((x - 2.0) ** 2 + (z - 2.0) ** 2) / 0.6) * (y / 3.1)
+    vtu = folder / "bump.vtu"
+    meshio.write(vtu, meshio.Mesh(points, [("hexahedron", hexes)], point_data={"SED": sed}))
+    xs, zs = np.arange(PITCH_X / 2, 4.0, PITCH_X), np.arange(PITCH_Z / 2, 4.0, PITCH_Z)
+    X, Z = np.meshgrid(xs, zs, indexing="ij")
+    receptors = folder / "R.csv"
+    pd.DataFrame({"x": X.ravel(), "y": 2.35, "z": Z.ravel()}).to_csv(receptors, index=False)
+    return vtu, receptors, xs, zs

@@ -17,25 +17,13 @@ from afferent.profiles import ObservedProfile
 from afferent.receptors import ReceptorLayout
 from afferent.transduction import STUDY_PARAMS, sigmoid
 
-from conftest import hex_box
-
-PITCH_X, PITCH_Z = 0.44, 0.22  # mm
-
+from conftest import hex_box, write_bump
 
 @pytest.fixture
 def bump(tmp_path):
     """A 4 x 3.1 x 4 mm hex block with a Gaussian SED bump (MPa) centred at x = z = 2 mm, and a papilla grid."""
-    points, hexes = hex_box(16, 4, 16, size=(4.0, 3.1, 4.0))
-    x, y, z = points.T
-    sed = 1.9e-4 * np.exp(-((x - 2.0) ** 2 + (z - 2.0) ** 2) / 0.6) * (y / 3.1)
-    vtu = tmp_path / "bump.vtu"
-    meshio.write(vtu, meshio.Mesh(points, [("hexahedron", hexes)], point_data={"SED": sed}))
-    xs = np.arange(PITCH_X / 2, 4.0, PITCH_X)
-    zs = np.arange(PITCH_Z / 2, 4.0, PITCH_Z)
-    X, Z = np.meshgrid(xs, zs, indexing="ij")
-    receptors = tmp_path / "R.csv"
-    pd.DataFrame({"x": X.ravel(), "y": 2.35, "z": Z.ravel()}).to_csv(receptors, index=False)
-    return vtu, receptors, X.size, len(xs), len(zs)
+    vtu, receptors, xs, zs = write_bump(tmp_path, 16)
+    return vtu, receptors, xs.size * zs.size, len(xs), len(zs)
 
 
 def test_pipeline_conserves_current_and_matches_the_sigmoid(bump):

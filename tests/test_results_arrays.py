@@ -6,30 +6,18 @@ from __future__ import annotations
 import json
 
 import h5py
-import meshio
 import numpy as np
 import pandas as pd
 import pytest
 
 import afferent
 from afferent.cli import main
-from conftest import hex_box
-
-PITCH_X, PITCH_Z = 0.44, 0.22
-
+from conftest import PITCH_X, write_bump
 
 @pytest.fixture
 def bump(tmp_path):
     """A 4 x 3.1 x 4 mm hex block with a Gaussian SED bump (MPa) and a papilla grid (mm)."""
-    points, hexes = hex_box(8, 4, 8, size=(4.0, 3.1, 4.0))
-    x, y, z = points.T
-    sed = 1.9e-4 * np.exp(-((x - 2.0) ** 2 + (z - 2.0) ** 2) / 0.6) * (y / 3.1)
-    vtu = tmp_path / "bump.vtu"
-    meshio.write(vtu, meshio.Mesh(points, [("hexahedron", hexes)], point_data={"SED": sed}))
-    X, Z = np.meshgrid(np.arange(PITCH_X / 2, 4.0, PITCH_X), np.arange(PITCH_Z / 2, 4.0, PITCH_Z), indexing="ij")
-    receptors = tmp_path / "R.csv"
-    pd.DataFrame({"x": X.ravel(), "y": 2.35, "z": Z.ravel()}).to_csv(receptors, index=False)
-    return vtu, receptors
+    return write_bump(tmp_path, 8)[:2]
 
 
 def _run(tmp_path, bump, name, *extra):
