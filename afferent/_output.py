@@ -331,6 +331,16 @@ def _public_tree(tmp: str) -> None:
             _public(os.path.join(root, name), folder=True)
 
 
+def _put(tmp: str, path: str, *, overwrite: bool, inputs: tuple, folder: bool) -> None:
+    """The final step of atomic_file / atomic_dir: ``tmp`` becomes ``path``, replacing only what
+    :func:`_replace` allows (``overwrite``), else never replacing anything that appeared meanwhile."""
+    what = "Output folder" if folder else "Output file"
+    if overwrite:
+        _replace(tmp, path, what=what, inputs=inputs, folder=folder)
+    else:
+        _rename_noreplace(tmp, path, what)
+
+
 @contextmanager
 def atomic_file(path, *, overwrite: bool = False, inputs: Iterable = ()):
     """Yield a temporary path beside ``path``; on success rename it to ``path``, else delete it.
@@ -351,10 +361,7 @@ def atomic_file(path, *, overwrite: bool = False, inputs: Iterable = ()):
         try:
             yield tmp
             _public(tmp, folder=False)
-            if overwrite:
-                _replace(tmp, path, what="Output file", inputs=inputs, folder=False)
-            else:
-                _rename_noreplace(tmp, path, "Output file")
+            _put(tmp, path, overwrite=overwrite, inputs=inputs, folder=False)
         finally:
             if os.path.lexists(tmp):
                 os.remove(tmp)
@@ -378,10 +385,7 @@ def atomic_dir(path, *, overwrite: bool = False, inputs: Iterable = (), patterns
             yield tmp
             _public_tree(tmp)
             mark_folder(tmp, patterns=patterns)
-            if overwrite:
-                _replace(tmp, path, what="Output folder", inputs=inputs, folder=True)
-            else:
-                _rename_noreplace(tmp, path, "Output folder")
+            _put(tmp, path, overwrite=overwrite, inputs=inputs, folder=True)
         finally:
             if os.path.exists(tmp):
                 shutil.rmtree(tmp, ignore_errors=True)
