@@ -57,7 +57,7 @@ def test_existing_output_is_not_overwritten(capsys, tmp_path, box_vtu, receptors
     "extra, message",
     [
         (["--sed-unit", "MPa"], "The length unit of the coordinates in SED file"),
-        (["--length-unit", "mm", "--sed-unit", "furlong"], "--sed-unit must be a SED/stress unit, one of"),
+        (["--length-unit", "mm", "--sed-unit", "furlong"], "argument --sed-unit: must be a SED/stress unit, one of"),
         (["--length-unit", "mm", "--sed-unit", "MPa", "--sed-column", "SENER"], "has no array or column 'SENER'"),
     ],
 )

@@ -7,6 +7,9 @@ numpy, pandas or a built-in raised on a case afferent does not check is a bug: e
 
 from __future__ import annotations
 
+import os
+import subprocess
+import sys
 import types
 
 import numpy as np
@@ -16,7 +19,7 @@ from afferent.cli import main
 from afferent.cli._main import COMMANDS, raised_on_purpose
 from afferent.units import length_factor
 
-from conftest import DATA_DIR
+from conftest import DATA_DIR, SAMPLE_DIR
 
 
 def _command(run):
@@ -92,3 +95,35 @@ def test_a_grid_pitch_must_be_a_finite_number_above_0(tmp_path, capsys, value):
         assert code == 2
         assert capsys.readouterr().err == (f"afferent: error: afferent {command}: argument --pitch-x-mm: must be a "
                                            f"finite number > 0; got {value!r} instead\n")
+
+
+@pytest.mark.parametrize("argv, flag, kind", [
+    (["sample", "E.vtu", "--length-unit", "mm", "--sed-unit", "MPa", "--receptors", "R.csv", "--receptor-unit", "furlong",
+      "-o", "out"], "--receptor-unit", "length"),
+    (["info", "E.vtu", "--receptors", "R.csv", "--receptor-unit", "inch"], "--receptor-unit", "length"),
+    (["info", "E.vtu", "--sed-unit", "kg"], "--sed-unit", "SED/stress"),
+    (["info", "E.vtu", "--stress-unit", "bar"], "--stress-unit", "SED/stress"),
+    (["info", "E.vtu", "--time-unit", "h"], "--time-unit", "time"),
+    (["run", "E.vtu", "--grid", "tips", "--waveform-unit", "ft", "-o", "out"], "--waveform-unit", "length"),
+    (["calibrate", "R.csv", "--observed", "O.csv", "--observed-unit", "yd", "-o", "out"], "--observed-unit", "length"),
+])
+def test_an_unknown_unit_is_named_by_its_own_flag_before_any_file_is_read(tmp_path, capsys, monkeypatch, argv, flag, kind):
+    """Before: ``--receptor-unit furlong`` was refused as ``--length-unit must be a length unit``, after reading the export."""
+    monkeypatch.chdir(tmp_path)  # none of the files exists: the unit is refused first
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"afferent: error: afferent {argv[0]}: argument {flag}: must be a {kind} unit, one of "), err
+    assert f"got {argv[argv.index(flag) + 1]!r} instead." in err and err.count("\n") == 1
+
+
+def test_a_reader_that_goes_away_stops_the_command_quietly():
+    """``afferent info E.vtu | head -0``: before, 'afferent: internal error (please report): BrokenPipeError', exit 1."""
+    read_end, write_end = os.pipe()
+    os.close(read_end)  # the reader has gone before afferent writes a byte
+    try:
+        proc = subprocess.run([sys.executable, "-m", "afferent", "info", str(SAMPLE_DIR / "block4" / "indent_0p88mm.vtu"),
+                               "--length-unit", "mm", "--sed-unit", "MPa"], stdout=write_end, stderr=subprocess.PIPE,
+                              text=True, timeout=120)
+    finally:
+        os.close(write_end)
+    assert proc.returncode == 141 and proc.stderr == "", (proc.returncode, proc.stderr)

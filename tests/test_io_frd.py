@@ -240,3 +240,47 @@ def test_a_vtu_as_ccx2paraview_writes_it_is_ordered_by_its_component_names(tmp_p
     (_, by_preset, _), _ = find_tensors(read_raw(tmp_path / "unnamed.vtu"),
                                         ReadOptions(sed_from="exact", preset="abaqus", shear="tensor"))
     np.testing.assert_array_equal(by_preset[0][:, [4, 5]], s[:, [5, 4]])  # positions read as 13, 23: swapped
+
+
+# ---------------------------------------------------------------------------------------------
+# Two materials (block_layers*.frd): the element block's material numbers become cell data, so
+# that an interface between two materials of a CalculiX model is found as on a VTU with a
+# 'layer' array. Model (make_calculix.write_layered_inp): 1.5 x 1 x 1.5 mm, y up, the
+# EPIDERMIS / DERMIS interface at y = 0.5 + 0.08 cos(2 pi x / 0.5) cos(2 pi z / 0.5) mm.
+# ---------------------------------------------------------------------------------------------
+@pytest.mark.parametrize("name", ["block_layers.frd", "block_layers_binary.frd"])
+def test_material_numbers_of_the_element_block_are_cell_data_in_material_card_order(name):
+    raw = read_raw(CCX / name)
+    arr = raw.arrays["material"]
+    assert arr.location == "cell" and arr.values.shape == (1, 864)
+    mat = arr.values[0]
+    # elements 1..432 (the lower three element layers) are the DERMIS set, the second *MATERIAL card,
+    # though its *SOLID SECTION comes first in the deck
+    assert np.array_equal(mat[:432], np.full(432, 2.0)) and np.array_equal(mat[432:], np.full(432, 1.0))
+    assert any("material number of each element" in n for n in raw.notes)
+
+
+def test_a_single_material_model_gets_no_material_array():
+    """One material carries no interface: no array that would only repeat the number 1."""
+    assert "material" not in read_raw(CCX / "block_c3d8.frd").arrays
+
+
+def test_papilla_like_tips_are_found_on_the_interface_of_a_calculix_model(tmp_path):
+    """The 13 interior maxima of the relief (both cosines +1 or both -1), nothing else; SED symmetric as the model."""
+    out = tmp_path / "tips.csv"
+    code = main(["sample", str(CCX / "block_layers.frd"), "--length-unit", "mm", "--sed-unit", "MPa", "--grid", "tips",
+                 "--material-array", "material", "--upper", "1", "--lower", "2", "-q", "-o", str(out)])
+    assert code == 0
+    import pandas as pd
+
+    df = pd.read_csv(out)
+    x, z = df["x_m"].to_numpy() * 1e3, df["z_m"].to_numpy() * 1e3
+    found = sorted(zip(np.round(x, 6), np.round(z, 6)))
+    plus, minus = (0.5, 1.0), (0.25, 0.75, 1.25)
+    expected = sorted([(a, b) for a in plus for b in plus] + [(a, b) for a in minus for b in minus])
+    assert found == expected
+    assert np.allclose(df["y_m"] * 1e3, 0.58)  # 0.5 + 0.08
+    sed = dict(zip(found, df.sort_values(["x_m", "z_m"])["sed_pa"]))
+    for (a, b), value in sed.items():  # mirror x, mirror z, swap x and z: the model's symmetries
+        for twin in ((1.5 - a, b), (a, 1.5 - b), (b, a)):
+            assert sed[tuple(np.round(twin, 6))] == pytest.approx(value, rel=1e-4)

@@ -479,3 +479,29 @@ def test_a_plain_receptor_csv_is_read_without_pandas(tmp_path):
     (tmp_path / "quoted.csv").write_text('x,y,z\n"1",2,3\n')  # not plain: pandas reads it
     assert _tables._plain_table(str(tmp_path / "quoted.csv")) is None
     assert read_receptors(tmp_path / "quoted.csv", length_unit="m").positions.tolist() == [[1.0, 2.0, 3.0]]
+
+
+@pytest.mark.parametrize("swap, flip, message", [
+    ((0, 2, 1), False, r"must face up along y .*; got a mean normal along z \(90 degrees from y\) instead\. Export the model "
+                       r"with y up"),
+    ((0, 1, 2), True, r"Material upper=1 must lie above lower=2 in y .*; got mean heights -0\.0002876 m \(upper\) and "
+                      r"-0\.0001437 m \(lower\) instead\. Either the ids are swapped"),
+])
+def test_a_model_that_is_not_y_up_is_refused_not_searched(block, swap, flip, message):
+    """Before: z up gave 'tips' on the block's side face, y down the papillae's feet, with plausible SED and no word."""
+    points, hexes, layer, _, _ = block
+    pts = points[:, list(swap)] * 1e-3
+    if flip:
+        pts[:, 1] *= -1.0
+        hexes = hexes[:, [0, 3, 2, 1, 4, 7, 6, 5]]  # keep the cells right-handed
+    with pytest.raises(ValueError, match=message):
+        interface_tips(pts, hexes, layer, upper=1, lower=2)
+
+
+def test_a_tilted_interface_within_the_limit_is_searched(block):
+    """A block turned 3 degrees about z still faces up: the check lets it through, its tips are found."""
+    points, hexes, layer, apex, _ = block
+    a = np.radians(3.0)
+    rot = np.array([[np.cos(a), -np.sin(a), 0.0], [np.sin(a), np.cos(a), 0.0], [0.0, 0.0, 1.0]])
+    tips = interface_tips(points @ rot.T * 1e-3, hexes, layer, upper=1, lower=2)
+    assert tips.positions.shape[0] == apex.size

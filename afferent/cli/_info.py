@@ -18,7 +18,7 @@ from __future__ import annotations
 import argparse
 
 from ..io import describe_raw, read_raw
-from ._options import add_input_options, add_quiet, input_kwargs, show_progress
+from ._options import add_input_options, add_quiet, input_kwargs, show_progress, unit_type
 
 describe = describe_raw  # the name notebooks/01_read_fe_export.ipynb imports
 
@@ -27,7 +27,7 @@ def add_args(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("exports", nargs="+", metavar="EXPORT", help="FE export file(s); several files are one time step each")
     parser.add_argument("--receptors", metavar="R.csv",
                         help="receptor sites (x, y, z): say which materials meet there and what --side does to their SED")
-    parser.add_argument("--receptor-unit", metavar="U", help="length unit of R.csv (default: the export's length unit)")
+    parser.add_argument("--receptor-unit", metavar="U", type=unit_type("length"), help="length unit of R.csv (default: the export's length unit)")
     parser.add_argument("--method", choices=("linear", "nearest"), default="linear", help="sampling method for --receptors")
     add_input_options(parser)
     add_quiet(parser)

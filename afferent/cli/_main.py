@@ -184,6 +184,8 @@ def _main(argv: list[str] | None) -> int:
     except KeyboardInterrupt:
         print("afferent: interrupted", file=sys.stderr)
         return 130
+    except BrokenPipeError:
+        return _reader_gone()
     except Exception as err:  # a bug: say so, keep the traceback for the report
         if _environment_message(err):  # unless it is the environment (a full or read-only disk, ...): exit 2
             print(f"afferent: error: {_environment_message(err)}", file=sys.stderr)
@@ -196,6 +198,21 @@ def _environment_message(err: BaseException) -> str | None:
     from .._output import describe_os_error
 
     return describe_os_error(err) if isinstance(err, OSError) else None
+
+
+def _reader_gone() -> int:
+    """The reader of stdout went away (``afferent info ... | head``): stop quietly, as ``cat`` would.
+
+    What is left in Python's stdout buffer is sent to /dev/null so that the interpreter's final
+    flush does not fail again; the exit status is 141 (128 + SIGPIPE), a shell's status for a
+    writer stopped by a closed pipe. Not an error of the input, not a bug: no message.
+    """
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+    except (OSError, ValueError, AttributeError):  # stdout without a file descriptor (captured in tests)
+        pass
+    return 141
 
 
 def _internal_error(err: BaseException) -> int:

@@ -8,15 +8,15 @@ import sys
 
 from ..io import FORMATS
 from ..strain_energy import PRESETS
-from ..units import LENGTH_UNITS, SED_UNITS
+from ..units import LENGTH_UNITS, SED_UNITS, length_factor, sed_factor, time_factor
 
 
 def add_input_options(parser: argparse.ArgumentParser) -> None:
     """Options that say how to read an FE export (see :func:`afferent.read_sed`)."""
     g = parser.add_argument_group("reading the export")
-    g.add_argument("--length-unit", metavar="U", help=f"unit of the coordinates ({', '.join(k for k in LENGTH_UNITS if k != 'µm')}); required unless the file states it")
-    g.add_argument("--sed-unit", metavar="U", help=f"unit of the SED array ({', '.join(SED_UNITS)}); required unless the file states it")
-    g.add_argument("--stress-unit", metavar="U", help="unit of the stress components when SED is computed from tensors")
+    g.add_argument("--length-unit", metavar="U", type=unit_type("length"), help=f"unit of the coordinates ({', '.join(k for k in LENGTH_UNITS if k != 'µm')}); required unless the file states it")
+    g.add_argument("--sed-unit", metavar="U", type=unit_type("sed"), help=f"unit of the SED array ({', '.join(SED_UNITS)}); required unless the file states it")
+    g.add_argument("--stress-unit", metavar="U", type=unit_type("sed"), help="unit of the stress components when SED is computed from tensors")
     g.add_argument("--sed-from", choices=("field", "exact", "equivalent"), default="field",
                    help="read an SED array (field), or compute 1/2 sigma:eps (exact) or the study's equivalent SED from tensors")
     g.add_argument("--poisson", type=float, metavar="NU", help="Poisson's ratio for --sed-from equivalent (the study: 0.48)")
@@ -33,7 +33,7 @@ def add_input_options(parser: argparse.ArgumentParser) -> None:
                    help="accept negative SED down to -R x the largest SED, summing to at most R x the positive values "
                         "(nodal-extrapolation artefacts of FE tools; set to 0 and reported); default 0.25")
     g.add_argument("--times", metavar="T0,T1,...", help="step times (s unless --time-unit), overriding the file")
-    g.add_argument("--time-unit", metavar="U", help="unit of the step times (s, ms, us)")
+    g.add_argument("--time-unit", metavar="U", type=unit_type("time"), help="unit of the step times (s, ms, us)")
     g.add_argument("--format", choices=tuple(FORMATS), help="file format, when the extension does not tell")
 
 
@@ -97,12 +97,32 @@ def add_receptor_options(parser: argparse.ArgumentParser, *, required: bool = Tr
                    help="generate the sites: 'tips' = papilla tips found on the export's epidermis/dermis interface "
                         "(cell array --material-array, ids --upper/--lower); 'y=H' = a ridge/papilla grid at height H "
                         "(export length unit) over the export's x-z extent")
-    g.add_argument("--receptor-unit", metavar="U", help="length unit of R.csv (default: the export's length unit)")
+    g.add_argument("--receptor-unit", metavar="U", type=unit_type("length"), help="length unit of R.csv (default: the export's length unit)")
     g.add_argument("--pitch-x-mm", type=positive_number, default=0.44, help="grid pitch across the ridges, mm (default 0.44)")
     g.add_argument("--pitch-z-mm", type=positive_number, default=0.22, help="grid pitch along the ridges, mm (default 0.22)")
     g.add_argument("--material-array", default="layer", help="cell array of material/layer ids for --grid tips (default 'layer')")
     g.add_argument("--upper", type=int, default=1, help="material id above the interface (epidermis; default 1)")
     g.add_argument("--lower", type=int, default=2, help="material id below the interface (dermis; default 2)")
+
+
+def unit_type(kind: str):
+    """argparse type for a ``kind`` unit flag ('length', 'sed', 'time'): the text as given, checked at once.
+
+    A unit the package does not know is refused by argparse with the flag's own name
+    (``argument --receptor-unit: must be a length unit, one of ...; got 'furlong' instead``), before
+    any file is read, rather than later under another flag's name.
+    """
+    factor = {"length": length_factor, "sed": sed_factor, "time": time_factor}[kind]
+
+    def check(text: str) -> str:
+        try:
+            factor(text, name="the value")
+        except ValueError as err:
+            raise argparse.ArgumentTypeError(str(err).replace("the value must", "must", 1)) from None
+        return text
+
+    check.__name__ = f"{kind} unit"
+    return check
 
 
 def positive_number(text: str) -> float:

@@ -41,7 +41,7 @@ import argparse
 import os
 import shlex
 
-from ._options import add_input_options, add_output_options, add_quiet, add_receptor_options, input_kwargs
+from ._options import add_input_options, add_output_options, add_quiet, add_receptor_options, input_kwargs, unit_type
 
 # the stage modules (pandas, scipy) load when the run needs them, not to parse the command line
 SYNTHESES = ("longitudinal", "cross", "map:FILE", "random:N")  # afferent.pipeline.SYNTHESES
@@ -64,14 +64,14 @@ def add_args(parser: argparse.ArgumentParser) -> None:
     g.add_argument("--lambda", dest="lambda_", type=float, metavar="L", help="midpoint SED, Pa")
     g = parser.add_argument_group("comparison with a recording")
     g.add_argument("--observed", metavar="OBS.csv", help="recorded profile: columns position, response")
-    g.add_argument("--observed-unit", metavar="U", help="length unit of the observed positions (m, mm, um); required with --observed")
+    g.add_argument("--observed-unit", metavar="U", type=unit_type("length"), help="length unit of the observed positions (m, mm, um); required with --observed")
     g.add_argument("--normalise", choices=("both", "prediction", "observation", "neither"), default="both",
                    help="what is min-max normalised before comparing (the study: both)")
     g = parser.add_argument_group("stimulus over time (for a static export)")
     g.add_argument("--waveform", metavar="SPEC",
                    help="indentation depth over time: 'ramp:DEPTH_MM,SPEED_MM_PER_S,HOLD_S' (ramp-and-hold with release), "
                         "'sine:FREQ_HZ,AMPLITUDE_MM,DURATION_S', or a CSV 'FILE' with columns time, depth")
-    g.add_argument("--waveform-unit", default="mm", metavar="U", help="depth unit of a waveform CSV (default mm; time in s)")
+    g.add_argument("--waveform-unit", default="mm", metavar="U", type=unit_type("length"), help="depth unit of a waveform CSV (default mm; time in s)")
     g.add_argument("--reference-step", type=int, metavar="K",
                    help="with --waveform on a multi-step export: the step solved at --d-ref-mm (-1: the last); required there")
     g.add_argument("--series-depths-mm", metavar="D0,D1,...",

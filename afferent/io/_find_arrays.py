@@ -107,7 +107,7 @@ def _coordinate_table(path: str, rid: RawArray):
 
             corners = {"hexahedron": 8, "hexahedron20": 8, "wedge": 6, "wedge15": 6, "tetra": 4, "tetra10": 4}
             ids, xyz = [], []
-            for eid, etype, nodes in elements:
+            for eid, etype, nodes, _material in elements:
                 k = corners.get(FRD_ELEMENTS[etype][0])
                 if k:
                     ids.append(eid)

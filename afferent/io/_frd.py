@@ -132,19 +132,20 @@ def _nodes(cur: _Blocks, header: bytes) -> tuple[np.ndarray, np.ndarray]:
     return ids, _fixed(lines, 3 + w, 12, 3, cur, "node")
 
 
-def _elements(cur: _Blocks, header: bytes) -> list[tuple[int, int, list[int]]]:
-    """(element id, frd type, node ids) per element."""
+def _elements(cur: _Blocks, header: bytes) -> list[tuple[int, int, list[int], int]]:
+    """(element id, frd type, node ids, material number) per element."""
     tokens = header.split()
     n = _int(cur, tokens[1], "the element count") if len(tokens) > 1 else 0
     fmt = int(tokens[-1]) if len(tokens) > 2 and tokens[-1].isdigit() else 1
     out = []
     if fmt >= 2:
         for _ in range(n):
-            eid, etype, _group, _mat = np.frombuffer(cur.take(16, "element block"), dtype="<i4")
+            eid, etype, _group, mat = np.frombuffer(cur.take(16, "element block"), dtype="<i4")
             if int(etype) not in FRD_ELEMENTS:
                 raise cur.error(f"element {int(eid)} has type {int(etype)}, which is not a CalculiX element type.")
             k = FRD_ELEMENTS[int(etype)][1]
-            out.append((int(eid), int(etype), np.frombuffer(cur.take(4 * k, "element block"), dtype="<i4").tolist()))
+            out.append((int(eid), int(etype), np.frombuffer(cur.take(4 * k, "element block"), dtype="<i4").tolist(),
+                        int(mat)))
         return out
     w = 5 if fmt == 0 else 10
     current = None
@@ -154,14 +155,15 @@ def _elements(cur: _Blocks, header: bytes) -> list[tuple[int, int, list[int]]]:
             etype = _int(cur, line[3 + w:8 + w], "an element type")
             if etype not in FRD_ELEMENTS:
                 raise cur.error(f"element {eid} has type {etype}, which is not a CalculiX element type.")
-            current = (eid, etype, [])
+            mat = line[13 + w:18 + w].strip()  # after the group number: the material, 1-based in *MATERIAL order
+            current = (eid, etype, [], _int(cur, mat, "a material number") if mat else 0)
             out.append(current)
         elif line.startswith(b" -2") and current is not None:
             body = line[3:]
             current[2].extend(_int(cur, body[i:i + w], "a node id") for i in range(0, len(body.rstrip()), w))
         else:
             raise cur.error(f"the element block must hold ' -1' and ' -2' records; got {line[:20].decode('latin-1')!r}.")
-    for eid, etype, nodes in out:
+    for eid, etype, nodes, _mat in out:
         if len(nodes) != FRD_ELEMENTS[etype][1]:
             raise SEDFormatError(
                 f"SED file {cur.path!r}: element {eid} (type {etype}, {FRD_ELEMENTS[etype][0]}) must list "
@@ -272,9 +274,45 @@ def _parse(path: str):
 
 
 def frd_mesh(path: str):
-    """(node ids, node coordinates (n, 3), elements [(id, frd type, node ids)]) of a ``.frd``."""
+    """(node ids, node coordinates (n, 3), elements [(id, frd type, node ids, material number)]) of a ``.frd``."""
     node_ids, coords, elements, _, _, _ = _parse(path)
     return node_ids, coords, elements
+
+
+def _cells(path: str, index: dict, elements):
+    """(volume cells for sampling or None, the material number of each cell in cell order) of the element block."""
+    from ._meshio import cells_from_meshio
+
+    blocks: dict[str, list] = {}
+    materials: dict[str, list] = {}  # per cell type, in the order the cells are made
+    for eid, etype, nodes, mat in elements:
+        try:
+            blocks.setdefault(FRD_ELEMENTS[etype][0], []).append([index[n] for n in nodes])
+            materials.setdefault(FRD_ELEMENTS[etype][0], []).append(mat)
+        except KeyError as err:
+            raise SEDFormatError(f"SED file {path!r}: element {eid} refers to node {err.args[0]}, "
+                                 "which the node block does not list.") from None
+
+    class _Block:  # what cells_from_meshio reads: .type and .data
+        def __init__(self, ctype, conn):
+            self.type, self.data = ctype, np.asarray(conn, dtype=np.int64)
+
+    cells = cells_from_meshio([_Block(t, np.asarray(c)[:, FRD_TO_VTK[t]] if t in FRD_TO_VTK else c)
+                               for t, c in blocks.items()], path) if blocks else None
+    return cells, [m for t in blocks for m in materials[t]]
+
+
+def _material_array(numbers: list[int], n_times: int) -> RawArray | None:
+    """The elements' material numbers (in cell order) as the cell array ``material``, when there are several.
+
+    ccx numbers the materials from 1 in the order of the input deck's ``*MATERIAL`` cards. With
+    several, the interface between two of them can be found (``--grid tips --material-array
+    material``); one material (or none, 0) gives no array.
+    """
+    material = np.asarray(numbers, dtype=float)
+    if material.size == 0 or material.min() < 1 or np.unique(material).size < 2:
+        return None
+    return RawArray("material", np.broadcast_to(material, (n_times, material.size)), "cell")
 
 
 def read_frd(path: str, *, progress: bool = False) -> RawExport:
@@ -302,28 +340,12 @@ def read_frd(path: str, *, progress: bool = False) -> RawExport:
         line), results at nodes that are not in the node block, or a time step that lacks a
         variable the first step has.
     """
-    from ._meshio import cells_from_meshio
-
     node_ids, coords, elements, results, version, binary = _parse(path)
     index = {int(i): k for k, i in enumerate(node_ids)}
     if len(index) != node_ids.size:
         raise SEDFormatError(f"SED file {path!r}: the node block lists a node id twice.")
 
-    # cells: volume elements only, node ids -> row indices
-    blocks: dict[str, list] = {}
-    for eid, etype, nodes in elements:
-        try:
-            blocks.setdefault(FRD_ELEMENTS[etype][0], []).append([index[n] for n in nodes])
-        except KeyError as err:
-            raise SEDFormatError(f"SED file {path!r}: element {eid} refers to node {err.args[0]}, "
-                                 "which the node block does not list.") from None
-
-    class _Block:  # what cells_from_meshio reads: .type and .data
-        def __init__(self, ctype, conn):
-            self.type, self.data = ctype, np.asarray(conn, dtype=np.int64)
-
-    cells = cells_from_meshio([_Block(t, np.asarray(c)[:, FRD_TO_VTK[t]] if t in FRD_TO_VTK else c)
-                               for t, c in blocks.items()], path) if blocks else None
+    cells, numbers = _cells(path, index, elements)
 
     # results: group the blocks by output time, in file order
     order = np.argsort(node_ids, kind="stable")
@@ -364,11 +386,17 @@ def read_frd(path: str, *, progress: bool = False) -> RawExport:
         stacked = np.stack(steps)
         values = stacked[..., 0] if stacked.shape[2] == 1 else stacked
         arrays[name] = RawArray(name, values, "point", None, comps if stacked.shape[2] > 1 else ())
+    material = _material_array(numbers, len(times))
+    if material is not None:
+        arrays["material"] = material
     kind = "binary" if binary else "ASCII"
     notes = [f"CalculiX .frd ({kind})"
              + (f", written by CalculiX {version}" if version else "")
              + f": {len(times)} output step(s), results {', '.join(names)}; nodal values (ccx extrapolates "
              "integration-point values to the nodes and averages them)."]
+    if material is not None:
+        notes.append(f"cell array 'material': the material number of each element (1-based, in the order of the input "
+                     f"deck's *MATERIAL cards; {np.unique(material.values[0]).size} materials)")
     points = coords
     return drop_valueless_nodes(RawExport(
         files=(path,), format="frd", points=points, arrays=arrays, times=np.asarray(times, dtype=float),

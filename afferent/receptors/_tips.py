@@ -135,6 +135,53 @@ def interface_nodes(points, cells, cell_material, *, upper, lower, noise: float 
     return nodes
 
 
+#: Largest angle in degrees between the interface's mean normal and the y axis for which a search for
+#: highs in y (papilla tips) makes sense; beyond it the model's thickness axis is another one.
+MAX_TILT_DEG = 45.0
+
+
+def check_facing_up(points, cells, cell_material, nodes, *, upper, lower) -> None:
+    """Refuse an interface that does not face up in y, the thickness axis the site finders assume.
+
+    Tips and bases are highs and lows in y (x across the ridges, y up towards the skin surface,
+    z along the ridges). A model with z up (common in FE tools) or with y pointing into the
+    finger would give sites on a side face or at the papillae's feet, with plausible-looking
+    SED: so two checks, in m. *Facing:* the interface's mean plane (least-squares, from the
+    principal axes of its ``nodes``) must have its normal within :data:`MAX_TILT_DEG` of y.
+    *Up:* the ``upper`` material's nodes must lie higher in y, on average, than the ``lower``
+    material's.
+
+    Raises
+    ------
+    ValueError
+        Naming the materials, the normal's direction and angle, or the two mean heights.
+    """
+    pts = np.asarray(points, dtype=float)
+    iface = pts[nodes]
+    if nodes.size >= 3:
+        normal = np.linalg.svd(iface - iface.mean(axis=0), full_matrices=False)[2][-1]
+        tilt = float(np.degrees(np.arccos(min(1.0, abs(normal[1])))))
+        if tilt > MAX_TILT_DEG:
+            axis = "xyz"[int(np.argmax(np.abs(normal)))]
+            raise ValueError(
+                f"The interface between materials upper={upper!r} and lower={lower!r} must face up along y (x across "
+                f"the ridges, y the thickness axis towards the skin surface, z along the ridges); got a mean normal "
+                f"along {axis} ({tilt:.0f} degrees from y) instead. Export the model with y up (rotate it in the FE "
+                f"tool or its post-processor); tips and bases are highs and lows in y.")
+    rows, owner, _ = _cell_nodes(cells, pts.shape[0])
+    mat = np.asarray(cell_material, dtype=float)
+    heights = []
+    for ids in (_material_ids("upper", upper), _material_ids("lower", lower)):
+        sel = rows[np.isin(mat[owner], ids)].ravel()
+        heights.append(float(pts[np.unique(sel[sel >= 0]), 1].mean()))
+    if heights[0] <= heights[1]:
+        raise ValueError(
+            f"Material upper={upper!r} must lie above lower={lower!r} in y (y up, towards the skin surface); got mean "
+            f"heights {heights[0]:.4g} m (upper) and {heights[1]:.4g} m (lower) instead. Either the ids are swapped "
+            f"(upper: the epidermis, lower: the dermis) or y points into the skin (then export with y pointing out of "
+            f"it: highs in y would be the papillae's feet).")
+
+
 def interface_tips(
     points,
     cells,
@@ -223,8 +270,9 @@ def interface_tips(
     Raises
     ------
     TypeError, ValueError
-        Bad shapes, types or ranges; materials absent or not touching; no tip found (the
-        message gives the interface's extent, to spot points in mm instead of m).
+        Bad shapes, types or ranges; materials absent or not touching; an interface that does
+        not face up in y or an ``upper`` material below ``lower`` (``check_facing_up``); no
+        tip found (the message gives the interface's extent, to spot points in mm instead of m).
 
     See Also
     --------
@@ -245,6 +293,7 @@ def interface_tips(
     tol = check_positive("tol", tol, unit="m")
     ranges = [None if r is None else _check_range(name, r) for name, r in (("x_range", x_range), ("z_range", z_range))]
     nodes = interface_nodes(points, cells, cell_material, upper=upper, lower=lower, noise=noise)
+    check_facing_up(points, cells, cell_material, nodes, upper=upper, lower=lower)
     pts = np.asarray(points, dtype=float)[nodes]
     x, y, z = pts.T
     # Chebyshev distance 1 in these scaled coordinates = the window's edge.

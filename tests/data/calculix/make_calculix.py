@@ -167,6 +167,65 @@ def write_inp(path: Path, kind: str, n_xy: int = 4, n_z: int = 2, el_print: bool
             f.write("*END STEP\n")
 
 
+#: The layered model (``block_layers``): a 1.5 x 1 x 1.5 mm block of two materials with y up (the
+#: thickness axis afferent assumes), their interface a relief y = 0.5 + RELIEF cos(2 pi x / RELIEF_PITCH)
+#: cos(2 pi z / RELIEF_PITCH) mm: its local maxima (papilla-tip-like, both cosines of one sign) and minima
+#: (ridge-base-like) sit on nodes.
+LAYERS_L, LAYERS_N_XZ, LAYERS_N_Y = 1.5, 12, 6
+RELIEF, RELIEF_PITCH = 0.08, 0.5
+LAYER_MATERIALS = (("EPIDERMIS", 0.136), ("DERMIS", 0.08))  # in this order in the deck: frd material 1, 2
+
+
+def layered_nodes():
+    """Node coordinates (n, 3) and ids {(ix, iz, iy): id} of the layered block (interface at node level N_Y // 2)."""
+    xs = np.linspace(0, LAYERS_L, LAYERS_N_XZ + 1)
+    nodes, ids = [], {}
+    half = LAYERS_N_Y // 2
+    for iy in range(LAYERS_N_Y + 1):
+        for iz, z in enumerate(xs):
+            for ix, x in enumerate(xs):
+                yi = 0.5 + RELIEF * np.cos(2 * np.pi * x / RELIEF_PITCH) * np.cos(2 * np.pi * z / RELIEF_PITCH)
+                y = yi * iy / half if iy <= half else yi + (H - yi) * (iy - half) / (LAYERS_N_Y - half)
+                ids[(ix, iz, iy)] = len(nodes) + 1
+                nodes.append((x, y, z))
+    return np.array(nodes), ids
+
+
+def write_layered_inp(path: Path, binary: bool = False) -> None:
+    """Two materials (ELSETs DERMIS below the relief, EPIDERMIS above), one indentation step, U and ENER."""
+    nodes, ids = layered_nodes()
+    # _hex8 walks (x, z, y) as its (x, y, z): with y and z swapped the faces turn inside out, so each
+    # element's two faces are listed the other way round to keep a positive volume
+    els = [[e[0], e[3], e[2], e[1], e[4], e[7], e[6], e[5]] for e in _hex8(LAYERS_N_XZ, LAYERS_N_Y, ids)]
+    per_layer = LAYERS_N_XZ * LAYERS_N_XZ
+    half = LAYERS_N_Y // 2
+    x, y, z = nodes[:, 0], nodes[:, 1], nodes[:, 2]
+    idx = np.arange(1, len(nodes) + 1)
+    bottom = idx[np.abs(y) < 1e-9]
+    c, p = LAYERS_L / 2, PATCH / 2
+    top = idx[(np.abs(y - H) < 1e-9) & (np.abs(x - c) <= p + 1e-9) & (np.abs(z - c) <= p + 1e-9)]
+    with open(path, "w") as f:
+        f.write("** afferent test model: two layers with a relief interface, C3D8, mm/N/s, y up\n*NODE, NSET=NALL\n")
+        for i in idx:
+            f.write(f"{i}, {nodes[i - 1, 0]:.10g}, {nodes[i - 1, 1]:.10g}, {nodes[i - 1, 2]:.10g}\n")
+        f.write("*ELEMENT, TYPE=C3D8, ELSET=EALL\n")
+        for j, e in enumerate(els, start=1):
+            f.write(f"{j}, " + _lines(e, 15) + "\n")
+        lower = list(range(1, half * per_layer + 1))
+        upper = list(range(half * per_layer + 1, len(els) + 1))
+        f.write("*ELSET, ELSET=DERMIS\n" + _lines(lower) + "\n")
+        f.write("*ELSET, ELSET=EPIDERMIS\n" + _lines(upper) + "\n")
+        f.write("*NSET, NSET=BOTTOM\n" + _lines(list(bottom)) + "\n")
+        f.write("*NSET, NSET=PATCH\n" + _lines(list(top)) + "\n")
+        for name, young in LAYER_MATERIALS:
+            f.write(f"*MATERIAL, NAME={name}\n*ELASTIC\n{young}, {NU}\n")
+        for name, _ in reversed(LAYER_MATERIALS):  # sections in the other order: the frd number follows *MATERIAL
+            f.write(f"*SOLID SECTION, ELSET={name}, MATERIAL={name}\n")
+        f.write("*BOUNDARY\nBOTTOM, 1, 3\nPATCH, 1\nPATCH, 3\n")
+        out = "*NODE OUTPUT\nU\n*ELEMENT OUTPUT\nENER\n" if binary else "*NODE FILE\nU\n*EL FILE\nENER\n"
+        f.write(f"*STEP\n*STATIC\n*BOUNDARY\nPATCH, 2, 2, {-DEPTH:.6g}\n{out}*END STEP\n")
+
+
 def run(job: str, *extra: str) -> None:
     subprocess.run(["ccx", "-i", job, *extra], cwd=HERE, check=True, capture_output=True)
     for junk in (".sta", ".cvg", ".12d"):
@@ -195,6 +254,12 @@ def main() -> None:
     run("block_c3d8_print")
     (HERE / "block_c3d8_print.frd").unlink(missing_ok=True)
     (HERE / "block_c3d8_print.dat.gz").write_bytes(gzip.compress((HERE / "block_c3d8_print.dat").read_bytes(), mtime=0))
+    write_layered_inp(HERE / "block_layers.inp")
+    run("block_layers")
+    write_layered_inp(HERE / "block_layers_binary.inp", binary=True)
+    run("block_layers_binary")
+    for job in ("block_layers", "block_layers_binary"):
+        (HERE / f"{job}.dat").unlink(missing_ok=True)
 
 
 if __name__ == "__main__":
