@@ -263,7 +263,7 @@ def _calibration_result(fit):
 
 def test_calibration_figures_keep_their_legends_beside():
     """profile.png and ssd.png of `afferent calibrate` drew plain legends: on a profile or a history that fills the
-    Axes they covered points (fails before: the legend covered 'observed' points and evaluated points)."""
+    Axes they covered points (fails before: 3 'observed' points; 6 evaluated points and 1 of the best line)."""
     from afferent.calibration import plot_calibrated_profile, plot_ssd_history
     from afferent.profiles import compare_profiles
 
@@ -271,6 +271,7 @@ def test_calibration_figures_keep_their_legends_beside():
     observed = np.random.default_rng(1).uniform(0.0, 1.0, positions.size)
     fit = compare_profiles(np.linspace(0.0, 1.0, positions.size), observed, positions=positions, normalise="neither")
     result = _calibration_result(fit)
-    for ax in (plot_calibrated_profile(result), plot_ssd_history(result)):
-        assert figure_problems(ax.figure) == [], ax.get_title()
+    found = {name: figure_problems(plot(result).figure) for name, plot in
+             (("profile.png", plot_calibrated_profile), ("ssd.png", plot_ssd_history))}
+    _readable(found)
 
