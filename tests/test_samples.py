@@ -254,3 +254,20 @@ def test_demo_case_is_a_scene_on_the_one_route(tmp_path):
     for name in ("afferents.csv", "receptors.csv", "profiles.csv", "sed_map.csv"):
         pd.testing.assert_frame_equal(pd.read_csv(tmp_path / "demo" / "indent_0p44mm" / name),
                                       pd.read_csv(tmp_path / "run" / name), check_exact=True)
+
+
+def test_demo_on_a_sample_missing_an_export_names_the_file_and_writes_nothing(tmp_path, capsys):
+    """A sample folder without one of the demo's exports: one line naming the file, exit 2, no output folder
+    (the scene is refused before anything runs)."""
+    import shutil
+
+    from afferent.cli import main
+
+    sample = tmp_path / "sample"
+    (sample / "block4").mkdir(parents=True)
+    shutil.copy(SAMPLE_DIR / "block4" / "receptors.csv", sample / "block4" / "receptors.csv")
+    assert main(["demo", "-o", str(tmp_path / "d"), "--sample-dir", str(sample), "-q"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"afferent: error: Sample file '{sample / 'block4' / 'indent_0p44mm.vtu'}' is missing: "
+                          "expected the layout of sample_sed/"), err
+    assert not (tmp_path / "d").exists()
