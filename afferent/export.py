@@ -3,9 +3,10 @@ figures, a VTU of the receptor sites (ParaView), ``run.json``, and optionally an
 spike trains; all into a folder that appears whole or not at all. :func:`load_results` reads a
 folder back.
 
-:func:`write_outputs` writes the tables and figures a run asks for (every ``afferent run``,
-through :func:`afferent.scene.run_scene`); :func:`write_pipeline_outputs` writes those of a
-:class:`~afferent.pipeline.PipelineResult` computed in Python, with the same function.
+:func:`write_outputs` writes the tables and figures a run asks for: every command (``afferent
+run``, ``sample``, ``sweep``, ``demo``) through :func:`afferent.scene.run_scene`, which also writes
+``run.json``; a result computed in Python (:func:`afferent.pipeline.run_pipeline`) is written by
+running its scene instead.
 matplotlib is imported only when figures are wanted.
 
 Files per output (``plots`` adds the PNGs):
@@ -49,9 +50,7 @@ from types import SimpleNamespace
 
 import numpy as np
 
-from ._output import atomic_dir
-
-__all__ = ["write_outputs", "write_pipeline_outputs", "write_json", "file_sha256", "versions", "jsonable",
+__all__ = ["write_outputs", "write_json", "file_sha256", "versions", "jsonable",
            "receptors_table", "write_receptor_vtu", "step_title", "profile_step_record", "results_dataset",
            "load_results", "RESULTS_FORMATS", "write_spikes_nwb"]
 
@@ -159,80 +158,6 @@ def step_title(what: str, times, index: int, n_steps: int, *, clock: str = "t", 
         return what
     t = "" if times is None else f", {clock} = {float(times[index]):.4g} s"
     return f"{what}\nstep {int(index) % n_steps + 1} of {n_steps}{t} (peak){also}"
-
-
-def write_pipeline_outputs(result, outdir: str, *, record: dict, overwrite: bool = False, plots: bool = True,
-                           results_format: str = "csv") -> list[str]:
-    """Write the outputs of a :class:`~afferent.pipeline.PipelineResult` into ``outdir`` (atomically, as a whole).
-
-    The outputs ``currents``, ``profiles``, ``sed_map`` and ``vtu``, ``fit`` when a fit was
-    made, ``spikes`` with spikes (files: see the module docstring; :func:`write_outputs`
-    writes them, as for ``afferent run``), and ``run.json``: ``record`` with versions,
-    saturation, fit, spikes, the profile step, stage timings and the list of outputs.
-
-    Parameters
-    ----------
-    result : PipelineResult
-        From :func:`afferent.pipeline.run_pipeline` [and :func:`~afferent.pipeline.run_spikes`].
-    outdir : str
-        The folder to create.
-    record : dict
-        Entries for run.json (the command, inputs, ...).
-    overwrite : bool, default=False
-        Replace an existing folder.
-    plots : bool, default=True
-        Also draw the figures.
-    results_format : {'csv', 'netcdf'}, default='csv'
-        The time courses as long CSV tables (what ``afferent demo`` writes) or ``currents.nc``
-        (what ``afferent run`` writes).
-
-    Returns
-    -------
-    list of str
-        The files written (names inside ``outdir``).
-    """
-    want = {"currents", "profiles", "sed_map", "vtu"} | ({"fit"} if result.fit is not None else set()) | (
-        {"spikes"} if result.spikes is not None else set())
-    with atomic_dir(outdir, overwrite=overwrite) as tmp:
-        written = write_outputs(tmp, want=want, plots=plots, sed_static=result.sed, sed=result.sed,
-                                current=result.current, branching=result.branching, afferent=result.afferent,
-                                fit=result.fit, waveform=result.waveform, spikes=result.spikes,
-                                profile_index=result.profile_index, results_format=results_format)
-        written.append("run.json")
-        write_json(os.path.join(tmp, "run.json"), _pipeline_record(result, record, written))
-    return written
-
-
-def _pipeline_record(result, record: dict, written: list) -> dict:
-    """run.json of :func:`write_pipeline_outputs`: ``record`` plus what the result says about itself."""
-    full = dict(record)
-    full.setdefault("versions", versions())
-    full["saturation"] = {
-        "fraction_sensitive": result.saturation.fraction_sensitive,
-        "fraction_high": result.saturation.fraction_high,
-        "fraction_low": result.saturation.fraction_low,
-        "modulation": result.saturation.modulation,
-        "gamma_sed_range": result.saturation.gamma_sed_range,
-        "message": result.saturation.message,
-    }
-    if result.fit is not None:
-        full["fit"] = {"r2_study": result.fit.r2_study, "r2": result.fit.r2, "ssd": result.fit.ssd,
-                       "normalise": result.fit.normalise, "dropped": result.fit.dropped}
-    if result.spikes is not None:
-        sp = result.spikes
-        full["spikes"] = {
-            "engine": sp.engine, "backend": getattr(sp, "backend", None), "dt_s": sp.dt, "duration_s": sp.duration,
-            "input": getattr(result.input, "kind", None), "input_level": getattr(result.input, "level", None),
-            "n_spikes": int(sum(len(t) for t in sp.spike_times)),
-            "silent_skipped": [str(sp.afferent_ids[i]) for i in sp.silent_skipped],
-            "notes": list(getattr(sp, "notes", ())),
-            "lif": {k: getattr(sp.params, k) for k in ("tau_m", "r_m", "v_rest", "v_thresh", "v_reset", "t_ref")},
-            "drive": result.drive,
-        }
-    full["profile_step"] = profile_step_record(result.afferent, result.profile_index)
-    full["stage_seconds"] = result.timings
-    full["outputs"] = sorted(written)
-    return full
 
 
 def write_json(path: str, data: dict) -> None:

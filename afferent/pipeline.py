@@ -6,19 +6,20 @@
         --synthesize--> AfferentCurrent [--compare_profiles(observed)--> ProfileFit]
 
 Each stage is also usable on its own; :func:`run_pipeline` only chains them, times them
-and keeps every intermediate result.
+and keeps every intermediate result, and :func:`run_spikes` adds the spikes
+(:func:`afferent.spiking.spike_afferents`). This is the Python API's orchestrator; a scene
+(:func:`afferent.scene.run_scene`, every command) runs the same stage functions. The stage
+modules never import this one: :func:`~afferent.synthesis.make_branching` and
+:func:`~afferent.synthesis.parse_synthesis` live in :mod:`afferent.synthesis`,
+:func:`~afferent.stimulus.apply_waveform` in :mod:`afferent.stimulus` (still importable from
+here).
 """
 
 from __future__ import annotations
 
 import time
-import warnings
 from dataclasses import dataclass, field
-
 from typing import TYPE_CHECKING
-
-from ._validation import check_option
-from .exceptions import AfferentWarning
 
 if TYPE_CHECKING:  # the stage modules (scipy, pandas) load when a function below runs, not on import
     from .profiles import ObservedProfile, ProfileFit
@@ -27,64 +28,7 @@ if TYPE_CHECKING:  # the stage modules (scipy, pandas) load when a function belo
     from .synthesis import AfferentCurrent, Branching
     from .transduction import ReceptorCurrent, SaturationReport, SigmoidParams
 
-__all__ = ["PipelineResult", "run_pipeline", "apply_waveform", "run_spikes", "make_branching", "parse_synthesis", "SYNTHESES", "INPUTS"]
-
-SYNTHESES = ("longitudinal", "cross", "map:FILE", "random:N")
-
-
-def parse_synthesis(spec: str) -> tuple[str, int | None]:
-    """Split a synthesis spelling into its kind and, for ``'random:N'``, N.
-
-    Parameters
-    ----------
-    spec : str
-        ``'longitudinal'``, ``'cross'``, ``'map:FILE'`` or ``'random:N'``.
-
-    Returns
-    -------
-    (str, int or None)
-        The kind (``'longitudinal'``, ``'cross'``, ``'map'``, ``'random'``) and N (None but for random).
-
-    Raises
-    ------
-    ValueError
-        An unknown kind, or N not a whole number.
-    """
-    kind, _, arg = str(spec).partition(":")
-    check_option("synthesis", kind if not arg else f"{kind}:", ("longitudinal", "cross", "map:", "random:"))
-    if kind != "random":
-        return kind, None
-    try:
-        return kind, int(arg)
-    except ValueError as err:
-        raise ValueError(f"'synthesis' random:N needs a whole number of receptors per afferent; got {arg!r} instead.") from err
-
-
-def make_branching(spec: str | Branching, layout: ReceptorLayout, *, rng=None) -> Branching:
-    """A :class:`Branching` from its command-line spelling.
-
-    Parameters
-    ----------
-    spec : str or Branching
-        ``'longitudinal'`` (sections parallel to the ridges, profile vs x), ``'cross'``
-        (sections across the ridges, profile vs z), ``'map:FILE'`` (CSV receptor,
-        afferent[,weight]) or ``'random:N'`` (N receptors per afferent, seeded by ``rng``).
-    layout : ReceptorLayout
-    rng : None, int or numpy.random.Generator
-        Seed for ``'random:N'``.
-    """
-    from .synthesis import Branching
-
-    if isinstance(spec, Branching):
-        return spec
-    kind, n = parse_synthesis(spec)
-    if kind == "longitudinal":
-        return Branching.longitudinal(layout)
-    if kind == "cross":
-        return Branching.cross(layout)
-    if kind == "map":
-        return Branching.from_map(str(spec).partition(":")[2], layout)
-    return Branching.random(layout, n, rng=rng)
+__all__ = ["PipelineResult", "run_pipeline", "run_spikes"]
 
 
 @dataclass(frozen=True)
@@ -104,47 +48,6 @@ class PipelineResult:
     scaling: dict | None = None
     profile_index: int = 0
     drive: dict | None = None
-
-
-def apply_waveform(sed: ReceptorSED, waveform, *, d_ref: float, reference_step: int | None = None,
-                   series_depths=None) -> tuple[ReceptorSED, dict]:
-    """The stimulus stage: SED sampled from the export -> SED over the waveform's times.
-
-    Parameters
-    ----------
-    sed : ReceptorSED
-        SED at the receptors as sampled from the export, J/m^3.
-    waveform : afferent.stimulus.Waveform
-        Indentation depth (m) over time (s).
-    d_ref : float
-        Indentation depth of the export's reference step, m.
-    reference_step : int, optional
-        The step solved at ``d_ref`` (-1: the last); required when the export has several.
-    series_depths : array_like of shape (n_steps,), optional
-        Depth in m of every step of a loading series: the time course is interpolated in depth
-        between the steps (:func:`afferent.stimulus.interpolate_series`) instead of scaled by
-        (d / d_ref)^2 (:func:`afferent.stimulus.scale_static`).
-
-    Returns
-    -------
-    (ReceptorSED, dict)
-        SED over the waveform's times, and :func:`afferent.stimulus.scaling_record` (the d^2
-        law measured against the series, when given).
-
-    Raises
-    ------
-    ValueError
-        Several steps and no ``reference_step`` (:func:`afferent.stimulus.no_reference_step_message`).
-    """
-    from .stimulus import interpolate_series, no_reference_step_message, scale_static, scaling_record
-
-    if reference_step is None and sed.values.shape[0] > 1:
-        raise ValueError(no_reference_step_message(sed.values.shape[0], sed.times))
-    step = 0 if reference_step is None else reference_step
-    scaling = scaling_record(sed, waveform, d_ref=d_ref, reference_step=step, series_depths=series_depths)
-    timed = (interpolate_series(sed, waveform, series_depths=series_depths) if series_depths is not None
-             else scale_static(sed, waveform, d_ref=d_ref, time_index=step))
-    return timed, scaling
 
 
 def run_pipeline(
@@ -174,7 +77,7 @@ def run_pipeline(
     params : SigmoidParams
         Transduction parameters (alpha A, gamma 1/Pa, lambda Pa).
     synthesis : str or Branching, default='longitudinal'
-        See :func:`make_branching`.
+        See :func:`afferent.synthesis.make_branching`.
     method, on_outside : str
         Sampling options (:func:`afferent.sample_sed`).
     observed : ObservedProfile, optional
@@ -206,7 +109,8 @@ def run_pipeline(
     """
     from .profiles import compare_profiles, peak_step
     from .sampling import sample_sed
-    from .synthesis import synthesize
+    from .stimulus import apply_waveform
+    from .synthesis import make_branching, synthesize
     from .transduction import saturation_report, transduce
 
     timings = {}
@@ -238,43 +142,21 @@ def run_pipeline(
                           scaling=scaling if waveform is not None else None, profile_index=profile_index)
 
 
-INPUTS = ("static", "rate-sensitive")
-
-
 def run_spikes(result: PipelineResult, lif, *, dt: float, engine: str = "auto", input: str = "static",
                gain: float | None = None, tau: float | None = None, duration: float | None = None,
                drive: str = "resistance", rheobase_multiple: float = 2.0,
                reference_current: float | None = None) -> PipelineResult:
-    """Add spikes to a pipeline result: input current -> leaky integrate-and-fire.
+    """Add spikes to a pipeline result: input current -> leaky integrate-and-fire
+    (:func:`afferent.spiking.spike_afferents` on the result's currents and branching).
 
     Parameters
     ----------
     result : PipelineResult
         From :func:`run_pipeline`.
     lif : afferent.spiking.LIFParams
-    dt : float
-        LIF time step in s.
-    engine : {'auto', 'fast', 'brian2', ...}
-        See :func:`afferent.spiking.simulate_lif`.
-    input : {'static', 'rate-sensitive'}, default='static'
-        ``'static'``: the afferent current itself (the study's sigmoid of SED; fires through a
-        hold). ``'rate-sensitive'``: each receptor's current adapts on its own
-        (:func:`afferent.stimulus.adapting_input`, rectified rate of change, fires at onset
-        and offset), then the inputs are summed into afferents.
-    gain : float, optional
-        Gain of the rate-sensitive input in s (required for it).
-    tau : float, optional
-        Time constant of the rate-sensitive input in s (default that of ``adapting_input``).
-    duration : float, optional
-        Simulated time in s; default: to the last sample (``dt`` past it for a single sample).
-    drive : {'resistance', 'rheobase'}, default='resistance'
-        How the input current becomes the membrane drive (:data:`afferent.spiking.DRIVE_MAPPINGS`):
-        through ``r_m`` as is, or rescaled so that ``reference_current`` (default: the largest
-        input current) is ``rheobase_multiple`` x the rheobase.
-    rheobase_multiple : float, default=2.0
-        With ``drive='rheobase'``: the reference current's multiple of the rheobase.
-    reference_current : float, optional
-        With ``drive='rheobase'``: the reference current in A (default the run's largest).
+    dt, engine, input, gain, tau, duration, drive, rheobase_multiple, reference_current
+        As :func:`afferent.spiking.spike_afferents` (``dt``, ``gain``, ``tau``, ``duration`` in
+        s; ``reference_current`` in A).
 
     Returns
     -------
@@ -282,7 +164,7 @@ def run_spikes(result: PipelineResult, lif, *, dt: float, engine: str = "auto", 
         ``result`` with ``input`` (the current fed to the LIF, tagged with its kind), ``spikes``,
         and ``drive``: the mapping used and :func:`afferent.spiking.drive_report` (per afferent
         drive / rheobase, predicted and simulated rates; a warning when every afferent sits at
-        the 1 / t_ref ceiling or all are silent).
+        the 1 / t_ref ceiling or all are silent); ``timings`` gains 'input' and 'spiking'.
 
     Warns
     -----
@@ -291,33 +173,23 @@ def run_spikes(result: PipelineResult, lif, *, dt: float, engine: str = "auto", 
     """
     from dataclasses import replace
 
-    from . import stimulus
-    from .spiking import DRIVE_MAPPINGS, drive_report, rheobase_scale, simulate_lif
+    from .spiking import spike_afferents
 
-    check_option("input", input, INPUTS)
-    timings = dict(result.timings)
-    t = time.perf_counter()
-    if input == "static":
-        drive_current = stimulus.static_input(result.afferent)
-    else:
-        if gain is None:
-            raise ValueError("input='rate-sensitive' needs gain= (s): how much input current (A) per A/s of rate.")
-        kw = {} if tau is None else {"tau": tau}
-        drive_current = stimulus.adapting_input(result.current, gain=gain, **kw).synthesize(result.branching)
-    check_option("drive", drive, DRIVE_MAPPINGS)
-    mapping = {"mapping": drive, "r_m_ohm": lif.r_m, "rheobase_a": lif.rheobase}
-    if drive == "rheobase":
-        scale, ref = rheobase_scale(drive_current.values, lif, multiple=rheobase_multiple, reference=reference_current)
-        drive_current = replace(drive_current, values=drive_current.values * scale)
-        mapping.update(rheobase_multiple=rheobase_multiple, reference_current_a=ref, scale=scale)
-    timings["input"] = time.perf_counter() - t
-    if duration is None:
-        times = result.afferent.times
-        duration = float(times[-1] - times[0]) if times is not None and len(times) > 1 else None
-    t = time.perf_counter()
-    spikes = simulate_lif(drive_current, lif, dt=dt, engine=engine, duration=duration)
-    timings["spiking"] = time.perf_counter() - t
-    report = drive_report(drive_current.values, lif, spikes)
-    if report["warning"]:
-        warnings.warn(report["warning"], AfferentWarning, stacklevel=2)
-    return replace(result, input=drive_current, spikes=spikes, timings=timings, drive={**mapping, **report})
+    stage = spike_afferents(result.afferent, lif, dt=dt, engine=engine, input=input, current=result.current,
+                            branching=result.branching, gain=gain, tau=tau, duration=duration, drive=drive,
+                            rheobase_multiple=rheobase_multiple, reference_current=reference_current)
+    return replace(result, input=stage.input, spikes=stage.spikes, timings={**result.timings, **stage.seconds},
+                   drive=stage.drive)
+
+
+#: Names that moved to their stage modules, importable from here as before (not re-documented here).
+_MOVED = {"make_branching": "synthesis", "parse_synthesis": "synthesis", "SYNTHESES": "synthesis",
+          "apply_waveform": "stimulus", "INPUTS": "spiking"}
+
+
+def __getattr__(name: str):
+    if name in _MOVED:
+        from importlib import import_module
+
+        return getattr(import_module(f"afferent.{_MOVED[name]}"), name)
+    raise AttributeError(f"module 'afferent.pipeline' has no attribute {name!r}")

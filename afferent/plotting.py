@@ -93,7 +93,7 @@ def plot_sed_profile(sed, *, axis: str = "x", time_index: int = -1, ax=None, lab
     ax.set_xlabel(f"{axis} (mm)")
     ax.set_ylabel("normalised SED" if normalise else "mean SED over section (Pa)")
     if label:
-        ax.legend(fontsize="small")
+        legend_beside(ax)  # beside the Axes: several profiles fill it
     return ax
 
 
@@ -103,7 +103,8 @@ def legend_beside(ax, *, title: str | None = None):
     When the figure lays itself out (``layout='constrained'``, as every figure made here) and
     holds only ``ax`` and its twins, or ``ax`` has a twin (whose labels take its right side), the
     legend is the figure's, right of everything; else it is the Axes' legend, just right of the
-    Axes. ``title`` (a note) heads the box.
+    Axes. ``title`` (a note) heads the box. Called again for the same Axes (a function that adds
+    a labelled curve to a given Axes each time), it replaces the box it made before.
     """
     fig = ax.figure
     group = [a for a in fig.axes if a is ax or ax.get_shared_x_axes().joined(a, ax)]
@@ -111,10 +112,16 @@ def legend_beside(ax, *, title: str | None = None):
     for a in group:
         h, lab = a.get_legend_handles_labels()
         handles, labels = handles + h, labels + lab
+        if a.get_legend() is not None:
+            a.get_legend().remove()
+    for old in [leg for leg in fig.legends if getattr(leg, "_afferent_beside", None) in group]:
+        old.remove()
     style = dict(fontsize="small", title=title, title_fontsize="x-small", alignment="left")
     engine = fig.get_layout_engine()
     if (len(group) == len(fig.axes) or len(group) > 1) and engine is not None and type(engine).__name__ == "ConstrainedLayoutEngine":
-        return fig.legend(handles, labels, loc="outside right center", **style)
+        leg = fig.legend(handles, labels, loc="outside right center", **style)
+        leg._afferent_beside = ax
+        return leg
     return ax.legend(handles, labels, loc="upper left", bbox_to_anchor=(1.02, 1.0), borderaxespad=0.0, **style)
 
 
@@ -405,7 +412,7 @@ def plot_psth(spikes, bin_width: float, ax=None, *, label: str | None = None, ti
     ax.set_ylabel("rate per afferent (Hz)")
     ax.set_xlim(edges[0], edges[-1])
     if label:
-        ax.legend(fontsize="small")
+        legend_beside(ax)  # beside the Axes: the bars fill it
     ax.set_title(title or f"PSTH, {bin_width * 1e3:g} ms bins")
     return ax
 

@@ -16,9 +16,9 @@ The receptors of one afferent act as parallel current sources, so
 The study compares two groupings: longitudinal sections (receptors on one line parallel to
 the ridges, i.e. same x; profile against x) and cross-sections (same z; profile against z).
 
-Size: just over 600 lines (255 of them docstrings), kept whole: one stage with one data model,
-the four branching kinds of :class:`Branching` and the :class:`AfferentCurrent` that
-:func:`synthesize` builds from it.
+Size: about 680 lines (280 of them docstrings), kept whole: one stage with one data model,
+the four branching kinds of :class:`Branching` (and :func:`make_branching`, which picks one by its
+spelling) and the :class:`AfferentCurrent` that :func:`synthesize` builds from it.
 """
 
 from __future__ import annotations
@@ -37,7 +37,7 @@ from .exceptions import AfferentWarning, SEDFormatError
 from .receptors._layout import label_means
 from .transduction import _check_values_times
 
-__all__ = ["Branching", "AfferentCurrent", "synthesize"]
+__all__ = ["Branching", "AfferentCurrent", "synthesize", "make_branching", "parse_synthesis", "SYNTHESES"]
 
 _KINDS = ("longitudinal", "cross", "map", "random")
 _AXES = ("x", "z")
@@ -429,6 +429,63 @@ class Branching:
             f"<Branching {self.kind!r}: {self.n_afferents} afferents x {self.n_receptors} receptors, "
             f"{span} receptors per afferent, positions along {self.axis}>"
         )
+
+
+#: The spellings of a synthesis (:func:`make_branching`).
+SYNTHESES = ("longitudinal", "cross", "map:FILE", "random:N")
+
+
+def parse_synthesis(spec: str) -> tuple[str, int | None]:
+    """Split a synthesis spelling into its kind and, for ``'random:N'``, N.
+
+    Parameters
+    ----------
+    spec : str
+        ``'longitudinal'``, ``'cross'``, ``'map:FILE'`` or ``'random:N'``.
+
+    Returns
+    -------
+    (str, int or None)
+        The kind (``'longitudinal'``, ``'cross'``, ``'map'``, ``'random'``) and N (None but for random).
+
+    Raises
+    ------
+    ValueError
+        An unknown kind, or N not a whole number.
+    """
+    kind, _, arg = str(spec).partition(":")
+    check_option("synthesis", kind if not arg else f"{kind}:", ("longitudinal", "cross", "map:", "random:"))
+    if kind != "random":
+        return kind, None
+    try:
+        return kind, int(arg)
+    except ValueError as err:
+        raise ValueError(f"'synthesis' random:N needs a whole number of receptors per afferent; got {arg!r} instead.") from err
+
+
+def make_branching(spec: str | Branching, layout, *, rng=None) -> Branching:
+    """A :class:`Branching` from its spelling in a scene or on the command line.
+
+    Parameters
+    ----------
+    spec : str or Branching
+        ``'longitudinal'`` (sections parallel to the ridges, profile vs x), ``'cross'``
+        (sections across the ridges, profile vs z), ``'map:FILE'`` (CSV receptor,
+        afferent[,weight]) or ``'random:N'`` (N receptors per afferent, seeded by ``rng``).
+    layout : ReceptorLayout
+    rng : None, int or numpy.random.Generator
+        Seed for ``'random:N'``.
+    """
+    if isinstance(spec, Branching):
+        return spec
+    kind, n = parse_synthesis(spec)
+    if kind == "longitudinal":
+        return Branching.longitudinal(layout)
+    if kind == "cross":
+        return Branching.cross(layout)
+    if kind == "map":
+        return Branching.from_map(str(spec).partition(":")[2], layout)
+    return Branching.random(layout, n, rng=rng)
 
 
 def _check_layout(layout):

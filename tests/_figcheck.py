@@ -4,7 +4,8 @@
 
 - a legend box (an Axes' or the figure's) or a text placed in an Axes covers a plotted point:
   a line's vertex (not the segments between), a scatter offset or a bar (its rectangle clipped
-  to its Axes: corners and centre);
+  to its Axes: a grid of points from corner to corner, 6 px apart; each bin of a histogram
+  drawn with ``stairs`` too);
 - two labels overlap: tick labels (major and minor, those in view), axis labels, titles, the
   offset text (``x10^3``), texts placed in the Axes and the figure's titles, pairwise over the
   whole figure (so a twin Axes' labels and a colour bar's count too);
@@ -31,7 +32,7 @@ TOLERANCE_PX = 0.5
 
 def _points(fig):
     """Display coordinates (n, 2) of every plotted point, with the artist's label, per Axes."""
-    from matplotlib.patches import Rectangle
+    from matplotlib.patches import Rectangle, StepPatch
 
     for ax in fig.axes:
         box = ax.get_window_extent()
@@ -50,11 +51,36 @@ def _points(fig):
         for patch in ax.patches:
             if isinstance(patch, Rectangle) and patch.get_visible() and patch.get_height() != 0:
                 ext = patch.get_window_extent()
-                x0, x1 = max(ext.x0, box.x0), min(ext.x1, box.x1)
-                y0, y1 = max(ext.y0, box.y0), min(ext.y1, box.y1)
-                if x1 > x0 and y1 > y0:  # the visible part of the bar, as its 4 corners and centre
-                    yield ax, f"bar {patch.get_label()}", np.array(
-                        [[x0, y0], [x0, y1], [x1, y0], [x1, y1], [(x0 + x1) / 2, (y0 + y1) / 2]])
+                xy = _bar_points(ext.x0, ext.y0, ext.x1, ext.y1, box)
+                if xy.size:
+                    yield ax, f"bar {patch.get_label()}", xy
+            elif isinstance(patch, StepPatch) and patch.get_visible():  # ax.stairs (a histogram): each bin a bar
+                values, edges, baseline = patch.get_data()
+                base = 0.0 if baseline is None else baseline
+                bars = []
+                for i, v in enumerate(np.asarray(values, float)):
+                    b = base if np.ndim(base) == 0 else base[i]
+                    if np.isfinite(v) and v != b:
+                        (x0, y0), (x1, y1) = patch.get_transform().transform([[edges[i], b], [edges[i + 1], v]])
+                        bars.append(_bar_points(min(x0, x1), min(y0, y1), max(x0, x1), max(y0, y1), box))
+                if bars:
+                    yield ax, f"bar {patch.get_label()}", np.concatenate(bars)
+
+
+#: Spacing (pixels) of the points that stand for a bar's body: a legend box over a bar covers some.
+BAR_GRID_PX = 6.0
+
+
+def _bar_points(x0, y0, x1, y1, box):
+    """The visible part of a bar (display coordinates), clipped to its Axes, as a grid of points from corner to
+    corner at most :data:`BAR_GRID_PX` apart (a legend over the bar's body covers some, not only over a corner)."""
+    x0, x1 = max(x0, box.x0), min(x1, box.x1)
+    y0, y1 = max(y0, box.y0), min(y1, box.y1)
+    if not (x1 > x0 and y1 > y0):
+        return np.empty((0, 2))
+    nx, ny = (int(np.ceil(d / BAR_GRID_PX)) + 1 for d in (x1 - x0, y1 - y0))
+    gx, gy = np.meshgrid(np.linspace(x0, x1, nx), np.linspace(y0, y1, ny))
+    return np.column_stack([gx.ravel(), gy.ravel()])
 
 
 def _inside(xy, box):

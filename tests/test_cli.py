@@ -216,7 +216,7 @@ def test_run_options_mirror_the_library_constants_and_parse_only_the_chosen_comm
     """afferent/cli/_run.py spells the choices out so that parsing does not import pandas or scipy; they must
     stay the library's."""
     from afferent.cli import _run
-    from afferent.pipeline import SYNTHESES
+    from afferent.synthesis import SYNTHESES
     from afferent.sampling import METHODS
     from afferent.transduction import STUDY_PARAMS
 

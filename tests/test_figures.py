@@ -192,3 +192,86 @@ def test_demo_summary_figure_is_readable(tmp_path, monkeypatch):
     _plot_indenters(profiles, findings, str(tmp_path / "indenters_x.png"))
     assert set(found) == {"indenters_x.png"}
     _readable(found)
+
+
+def _curves_in_every_corner(n: int = 4):
+    """n curves (values 0..1) over 61 points that reach every corner of the Axes, as the demo's 4 mm one does."""
+    x = np.linspace(-3.5, 3.5, 61)
+    return x, [np.cos(x * (1 + w)) ** 2 for w in (0.44, 0.88, 2.0, 4.0)[:n]]
+
+
+def test_checker_sees_a_legend_over_a_histogram():
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(4, 3))
+    ax = fig.subplots()
+    ax.stairs(np.full(20, 5.0), np.linspace(0, 1, 21), fill=True, label="rate")
+    ax.legend(loc="upper right")
+    assert any("covers" in p and "'bar rate'" in p for p in figure_problems(fig))
+
+
+def test_sed_profiles_on_one_axes_keep_their_legend_beside():
+    """plot_sed_profile with a label, several on one Axes: the legend sat over a profile's point; each call now
+    replaces the one box beside the Axes (fails before: the legend covered a point of '0.44 mm')."""
+    from afferent.plotting import plot_sed_profile
+    from afferent.receptors import grid_layout
+    from afferent.sampling import ReceptorSED
+
+    layout = grid_layout(x_range=(0.0, 5.28e-3), z_range=(0.0, 2.2e-3), y=-0.75e-3)
+    x_mm = layout.positions[:, 0] * 1e3
+    ax = None
+    for w in (0.44, 0.88, 2.0, 4.0):
+        values = 1.0 + 100.0 * np.cos(x_mm * (1 + w))[None, :] ** 2  # Pa
+        sed = ReceptorSED(values, np.array([0.1]), layout, "linear", np.zeros(layout.n_receptors, bool))
+        ax = plot_sed_profile(sed, ax=ax, label=f"{w:g} mm", normalise=True)
+    ax.set_title("SED along x")
+    assert figure_problems(ax.figure) == []
+    (box,) = ax.figure.legends  # one box, holding every profile
+    assert [t.get_text() for t in box.get_texts()] == ["0.44 mm", "0.88 mm", "2 mm", "4 mm"]
+
+
+def test_psth_legend_is_beside_the_bars():
+    """plot_psth with labels (two populations on one Axes, as notebook 05 draws them): the legend sat on the bars
+    (fails before: it covered bins of 'rate-sensitive')."""
+    from afferent.plotting import plot_psth
+    from afferent.spiking import LIFParams, simulate_lif
+
+    t = np.linspace(0.0, 1.0, 1001)  # s
+    lif = LIFParams.from_preset("ra")
+    ax = None
+    for label, level in (("static", 3e-7), ("rate-sensitive", 2e-7)):  # A: steady firing over the whole second
+        spikes = simulate_lif(np.full((t.size, 5), level), lif, times=t, duration=1.0)
+        ax = plot_psth(spikes, 0.02, ax=ax, label=label)
+    assert figure_problems(ax.figure) == []
+
+
+def _calibration_result(fit):
+    """A CalibrationResult around ``fit`` (what the two figures read), its ssd history filling the Axes."""
+    import pandas as pd
+
+    from afferent.calibration import CalibrationResult
+    from afferent.transduction import STUDY_PARAMS, saturation_report
+
+    rng = np.random.default_rng(0)
+    runs = pd.DataFrame({"evaluation": np.arange(1, 201), "ssd": 10 ** rng.uniform(-3, 0, 200), "degenerate": False})
+    iters = pd.DataFrame({"evaluations": [1, 50, 120, 200], "ssd": [1.0, 0.1, 0.01, 1e-3]})
+    p = STUDY_PARAMS["start"]
+    return CalibrationResult(p, fit.ssd, fit.r2_study, fit.r2, iters, runs, None, (),
+                             saturation_report(np.array([[50.0, 300.0]]), p), True, "converged", "", 200, "rsm1",
+                             "longitudinal", "both", p, fit)
+
+
+def test_calibration_figures_keep_their_legends_beside():
+    """profile.png and ssd.png of `afferent calibrate` drew plain legends: on a profile or a history that fills the
+    Axes they covered points (fails before: 3 'observed' points; 6 evaluated points and 1 of the best line)."""
+    from afferent.calibration import plot_calibrated_profile, plot_ssd_history
+    from afferent.profiles import compare_profiles
+
+    positions = np.linspace(0.0, 5e-3, 200)  # m
+    observed = np.random.default_rng(1).uniform(0.0, 1.0, positions.size)
+    fit = compare_profiles(np.linspace(0.0, 1.0, positions.size), observed, positions=positions, normalise="neither")
+    result = _calibration_result(fit)
+    found = {name: figure_problems(plot(result).figure) for name, plot in
+             (("profile.png", plot_calibrated_profile), ("ssd.png", plot_ssd_history))}
+    _readable(found)
+

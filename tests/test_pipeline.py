@@ -12,9 +12,10 @@ import pytest
 
 from afferent import read_sed, sample_sed
 from afferent.cli import main
-from afferent.pipeline import make_branching, run_pipeline
+from afferent.pipeline import run_pipeline
 from afferent.profiles import ObservedProfile
 from afferent.receptors import ReceptorLayout
+from afferent.synthesis import make_branching
 from afferent.transduction import STUDY_PARAMS, sigmoid
 
 from conftest import hex_box, write_bump
@@ -73,6 +74,20 @@ def test_make_branching_specs():
         make_branching("radial", layout)
     with pytest.raises(ValueError, match=re.escape("'synthesis' random:N needs a whole number of receptors per afferent; got 'x' instead.")):
         make_branching("random:x", layout)
+
+
+def test_names_moved_to_their_stages_still_import_from_pipeline():
+    """make_branching, parse_synthesis, SYNTHESES (synthesis), apply_waveform (stimulus), INPUTS (spiking) live in their
+    stage modules; afferent.pipeline hands out the same objects, as before the move."""
+    import afferent.pipeline as pipeline
+    from afferent import spiking, stimulus, synthesis
+    from afferent.pipeline import apply_waveform, make_branching as moved  # noqa: F401 (the import is the test)
+
+    assert moved is synthesis.make_branching and apply_waveform is stimulus.apply_waveform
+    assert pipeline.parse_synthesis is synthesis.parse_synthesis and pipeline.SYNTHESES is synthesis.SYNTHESES
+    assert pipeline.INPUTS is spiking.INPUTS
+    with pytest.raises(AttributeError, match="module 'afferent.pipeline' has no attribute 'write_pipeline_outputs'"):
+        pipeline.write_pipeline_outputs  # noqa: B018
 
 
 def test_run_cli_writes_every_output(capsys, tmp_path, bump):

@@ -232,3 +232,42 @@ def test_demo_case_records_its_peak_threshold(tmp_path):
     assert row["sed_max_over_study"] == pytest.approx(row["sed_max_pa"] / 190.0)
     rec = json.loads((tmp_path / "indent_0p88mm" / "run.json").read_text())
     assert rec["peak_prominence"]["value"] == 0.02
+
+
+def test_demo_case_is_a_scene_on_the_one_route(tmp_path):
+    """An indenter of the demo is a scene run by run_scene (the planner, writer and run.json of `afferent run`),
+    not a route of its own: its run.json holds the scene, the plan and the inputs' hashes, and `afferent run`
+    given the same scene writes the same tables (fails before: the demo's own run.json had no scene nor plan)."""
+    import json
+    from pathlib import Path
+
+    from afferent.cli._demo import CASES, _run_case, case_scene
+    from afferent.scene import run_scene
+
+    _run_case(SAMPLE_DIR, {"dir": str(SAMPLE_DIR), "packaged": False}, CASES[0], str(tmp_path / "demo"))
+    rec = json.loads((tmp_path / "demo" / "indent_0p44mm" / "run.json").read_text())
+    assert rec["afferent_scene"] == 1 and rec["command"] == "afferent demo" and rec["case"] == "indent_0p44mm"
+    assert rec["plan"] == ["reading", "sampling", "transduction", "synthesis"]
+    assert rec["scene"]["outputs"]["format"] == "csv" and rec["scene"]["transduction"]["params"] == "start"
+    assert {Path(p).name for p in rec["inputs"]} == {"indent_0p44mm.vtu", "receptors.csv"}
+    run_scene(case_scene(SAMPLE_DIR, CASES[0]).with_output(tmp_path / "run"), use_cache=False)
+    for name in ("afferents.csv", "receptors.csv", "profiles.csv", "sed_map.csv"):
+        pd.testing.assert_frame_equal(pd.read_csv(tmp_path / "demo" / "indent_0p44mm" / name),
+                                      pd.read_csv(tmp_path / "run" / name), check_exact=True)
+
+
+def test_demo_on_a_sample_missing_an_export_names_the_file_and_writes_nothing(tmp_path, capsys):
+    """A sample folder without one of the demo's exports: one line naming the file, exit 2, no output folder
+    (the scene is refused before anything runs)."""
+    import shutil
+
+    from afferent.cli import main
+
+    sample = tmp_path / "sample"
+    (sample / "block4").mkdir(parents=True)
+    shutil.copy(SAMPLE_DIR / "block4" / "receptors.csv", sample / "block4" / "receptors.csv")
+    assert main(["demo", "-o", str(tmp_path / "d"), "--sample-dir", str(sample), "-q"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"afferent: error: Sample file '{sample / 'block4' / 'indent_0p44mm.vtu'}' is missing: "
+                          "expected the layout of sample_sed/"), err
+    assert not (tmp_path / "d").exists()

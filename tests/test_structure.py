@@ -139,3 +139,55 @@ def test_readme_development_tree_names_only_what_exists():
     named = set(re.findall(r"^\s*([A-Za-z_][A-Za-z0-9_]*(?:\.py|/))", tree, flags=re.M))
     ghost = sorted(named - files - top)
     assert not ghost, f"README.md's Development tree names modules that do not exist: {ghost}"
+
+
+#: The orchestra: what chains the stages (the Python API's pipeline, scenes, sweeps, the commands, the
+#: report). Every other module of afferent/ is a stage or a tool the stages share, and imports none of them.
+ORCHESTRA = ("afferent.pipeline", "afferent.scene", "afferent._sweep", "afferent.cli", "afferent.report")
+
+
+def _module_name(path: Path, root: Path = ROOT) -> str:
+    parts = list(path.relative_to(root).with_suffix("").parts)
+    return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+
+
+def imported_modules(path: Path, root: Path = ROOT) -> set[str]:
+    """Every module (and ``module.name``) that ``path`` (a file of the package under ``root``) imports, at its top
+    or inside a function, relative imports resolved."""
+    name = _module_name(path, root)
+    package = name if path.name == "__init__.py" else name.rpartition(".")[0]
+    out = set()
+    for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+        if isinstance(node, ast.Import):
+            out.update(a.name for a in node.names)
+        elif isinstance(node, ast.ImportFrom):
+            base = node.module or ""
+            if node.level:
+                head = package.split(".")[: len(package.split(".")) - node.level + 1]
+                base = ".".join(head + ([node.module] if node.module else []))
+            out.add(base)
+            out.update(f"{base}.{a.name}" for a in node.names)
+    return out
+
+
+def test_imported_modules_resolves_relative_imports(tmp_path):
+    pkg = tmp_path / "afferent" / "calibration"
+    pkg.mkdir(parents=True)
+    (pkg / "entry.py").write_text("from ..pipeline import make_branching\ndef f():\n    from .. import scene\n")
+    assert {"afferent.pipeline", "afferent.pipeline.make_branching", "afferent.scene"} <= \
+        imported_modules(pkg / "entry.py", tmp_path)
+
+
+def test_the_stages_never_import_the_orchestra():
+    """No stage module imports afferent.pipeline, scene, _sweep, cli or report, not even inside a function
+    (fails before: calibration/entry.py imported make_branching from afferent.pipeline)."""
+    bad = []
+    for path in _modules():
+        name = _module_name(path)
+        if name in ("afferent", "afferent.__main__") or name.startswith(ORCHESTRA):
+            continue
+        for imp in sorted(imported_modules(path)):
+            if any(imp == o or imp.startswith(o + ".") for o in ORCHESTRA):
+                bad.append(f"{path.relative_to(PACKAGE).as_posix()} imports {imp}")
+    assert not bad, "stage modules importing the orchestra (move the function to its stage): " + "; ".join(bad)
+

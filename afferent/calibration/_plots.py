@@ -1,7 +1,8 @@
 """Figures of a calibration: the final profile fit and the ssd per iteration.
 
 matplotlib is imported inside the functions only. Each takes ``ax=None`` (a new figure) and
-returns the Axes; positions are shown in mm, the data stay SI.
+returns the Axes; positions are shown in mm, the data stay SI. Legends sit beside the Axes
+(:func:`afferent.plotting.legend_beside`), never over the points.
 """
 
 from __future__ import annotations
@@ -35,6 +36,8 @@ def plot_calibrated_profile(result, *, ax=None, title=None):
     -------
     matplotlib Axes
     """
+    from ..plotting import legend_beside
+
     ax = _axes(ax, (5.5, 3.8))
     fit = result.fit
     x = fit.positions * 1e3 if fit.positions is not None else np.arange(len(fit.predicted))
@@ -49,7 +52,7 @@ def plot_calibrated_profile(result, *, ax=None, title=None):
         f"{result.method}, {result.synthesis}: ssd {result.ssd:.3g}, R$^2$ (study) {result.r2_study:.3f}\n"
         f"alpha {p.alpha:.3g} A, gamma {p.gamma:.3g} 1/Pa, lambda {p.lambda_:.4g} Pa"
     ), fontsize="small")
-    ax.legend(fontsize="small")
+    legend_beside(ax)  # beside the Axes, never over a point
     return ax
 
 
@@ -68,6 +71,8 @@ def plot_ssd_history(result, *, ax=None, title=None):
     matplotlib Axes
         Logarithmic y axis when every ssd is > 0.
     """
+    from ..plotting import legend_beside
+
     ax = _axes(ax, (5.5, 3.8))
     runs = result.design_runs
     it = result.iterations
@@ -85,5 +90,5 @@ def plot_ssd_history(result, *, ax=None, title=None):
     ax.set_ylabel("ssd")
     ax.set_title(title or f"{result.method}: {result.n_iterations} iteration(s), {result.n_evaluations} evaluations",
                  fontsize="small")
-    ax.legend(fontsize="small")
+    legend_beside(ax)  # beside the Axes, never over a point
     return ax

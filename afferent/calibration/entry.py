@@ -14,9 +14,8 @@ import numpy as np
 
 from .._validation import check_option, check_rng
 from .._validation import plain as _plain
-from ..pipeline import make_branching
 from ..profiles import _as_observed
-from ..synthesis import Branching
+from ..synthesis import Branching, make_branching
 from ..transduction import STUDY_PARAMS, SigmoidParams
 from .design import DEFAULT_INCREMENT, vector_to_params
 from .objective import Objective
@@ -177,7 +176,7 @@ def calibrate(
     layout : ReceptorLayout, optional
         Receptor sites (m), only with a plain-array ``sed``.
     synthesis : {'longitudinal', 'cross', 'map:FILE', 'random:N'} or Branching, default='longitudinal'
-        Receptor -> afferent grouping (:func:`afferent.pipeline.make_branching`). To compare
+        Receptor -> afferent grouping (:func:`afferent.synthesis.make_branching`). To compare
         groupings (the study: longitudinal vs cross) use :func:`~afferent.calibration.compare_syntheses`.
     start : SigmoidParams or tuple, default=STUDY_PARAMS['start']
         Start point, alpha (A) > 0, gamma (1/Pa) > 0, lambda (Pa) != 0; the default is the

@@ -6,9 +6,11 @@ receptors, whose SED at the receptors is the full sample's (its README.md says h
 ``--sample-dir sample_sed`` (or ``$AFFERENT_SAMPLE_DIR``) runs the demo on the full sample of a
 source checkout instead, with the same results.
 
-For each square indenter of the sample (0.44-2.0 mm on the 4 mm block, 4 mm on the 8 mm
-block) the static pipeline runs with the study's start parameters (``STUDY_PARAMS['start']``)
-and longitudinal synthesis, writing one folder per indenter (as ``afferent run`` does), plus:
+Each square indenter of the sample (0.44-2.0 mm on the 4 mm block, 4 mm on the 8 mm block) is
+one scene (``case_scene``: the study's start parameters, ``STUDY_PARAMS['start']``, and
+longitudinal synthesis) run by ``afferent.scene.run_scene``, the planner, writer and run record
+of ``afferent run``: one folder per indenter holds what ``afferent run`` writes for that scene
+(the time courses as CSV tables) and its ``run.json``. Then:
 
 - ``summary.csv``: per indenter, SED at the receptors (max, median; the max over the study's peak
   ``STUDY_PEAK_SED_PA``), whether the SED along the central cross-section shows an
@@ -114,31 +116,63 @@ def _sample(args: argparse.Namespace) -> tuple[Path, dict]:
     return sample, {"dir": str(sample), "packaged": packaged}
 
 
-def _run_case(sample: Path, sample_record: dict, case, folder: str, prominence: float = PEAK_PROMINENCE):
-    """One indenter through the static pipeline, written into ``folder``; its summary row and profiles."""
-    from ..export import write_pipeline_outputs
-    from ..io import read_sed
-    from ..pipeline import run_pipeline
-    from ..receptors import central_line, read_receptors
-    from ..synthesis import Branching, synthesize
-    from ..transduction import STUDY_PARAMS
+#: What each indenter's scene writes: the tables and figures of ``afferent run`` (time courses as long
+#: CSV tables, ``receptors.csv`` and ``afferents.csv``, small enough here to open in a spreadsheet).
+CASE_OUTPUTS = {"want": ["currents", "profiles", "sed_map", "vtu", "plots"], "format": "csv"}
+
+
+def case_scene(sample: Path, case):
+    """The scene of one indenter of the sample: the static pipeline with the study's start parameters.
+
+    Parameters
+    ----------
+    sample : Path
+        The sample folder, laid out as ``sample_sed/`` (coordinates mm, SED MPa).
+    case : tuple
+        One entry of :data:`CASES`: (name, block folder, file, indenter width in mm).
+
+    Returns
+    -------
+    afferent.scene.Scene
+        Not yet resolved, without an output folder (``with_output`` gives it one); the same as a
+        scene file with these tables in the sample folder, run by ``afferent run``.
+
+    Raises
+    ------
+    AfferentError
+        The sample has no such file.
+    """
+    from ..scene import scene_from_dict
 
     name, block, fname, width = case
     path = sample / block / fname
     if not path.is_file():
         raise AfferentError(f"Sample file {str(path)!r} is missing: expected the layout of sample_sed/ "
                             "(block4/, block8/, scenes/); regenerate with 'make samples'.")
-    params = STUDY_PARAMS["start"]
-    field = read_sed(str(path), length_unit="mm", sed_unit="MPa")
-    layout = read_receptors(sample / block / "receptors.csv", length_unit="mm")
-    res = run_pipeline(field, layout, params, synthesis="longitudinal")
+    return scene_from_dict({
+        "scene": {"name": name, "description": f"{width:g} mm square indenter 0.5 mm deep: SED -> receptors -> "
+                                               "afferents, the study's start parameters, longitudinal synthesis"},
+        "export": {"file": f"{block}/{fname}", "length_unit": "mm", "sed_unit": "MPa"},
+        "receptors": {"file": f"{block}/receptors.csv"},
+        "transduction": {"params": "start"},
+        "synthesis": {"kind": "longitudinal"},
+        "outputs": dict(CASE_OUTPUTS),
+    }, base_dir=sample)
+
+
+def _run_case(sample: Path, sample_record: dict, case, folder: str, prominence: float = PEAK_PROMINENCE):
+    """One indenter's scene (:func:`case_scene`) run into ``folder``/name; its summary row and profiles."""
+    from ..receptors import central_line
+    from ..scene import run_scene
+    from ..synthesis import Branching, synthesize
+
+    name, _, _, width = case
+    scene = case_scene(sample, case).with_output(os.path.join(folder, name))
     record = {"command": "afferent demo", "case": name, "indenter_mm": width, "sample": sample_record,
-              "field": field.provenance.to_dict(),
-              "transduction": {"alpha_a": params.alpha, "gamma_per_pa": params.gamma, "lambda_pa": params.lambda_,
-                               "source": "the study's start parameters, afferent.transduction.STUDY_PARAMS['start']"},
               "peak_prominence": {"value": prominence, "meaning": "a local maximum of a profile counts as a peak when it "
                                   "stands out by this fraction of the profile's range (summary.csv peak counts)"}}
-    write_pipeline_outputs(res, os.path.join(folder, name), record=record)
+    res = run_scene(scene, use_cache=False, record_extra=record)
+    layout = res.sed.layout
     idx, coord, _ = central_line(layout, "x")
     sed_line = res.sed.values[-1, idx]
     cross = synthesize(res.current, Branching.cross(layout))
@@ -152,7 +186,7 @@ def _run_case(sample: Path, sample_record: dict, case, folder: str, prominence: 
         "sed_peaks_central_x": n_sed, "interchange_zone": n_sed >= 2,
         "afferent_peaks_longitudinal": n_lon, "afferent_peaks_cross": n_cross,
         "peak_prominence": prominence,
-        "fraction_sensitive": res.saturation.fraction_sensitive,
+        "fraction_sensitive": res.record["saturation"]["fraction_sensitive"],
     }
     return row, (width, coord - coord.mean(), sed_line, res.afferent.positions - res.afferent.positions.mean(), lon)
 

@@ -44,7 +44,7 @@ import shlex
 from ._options import add_input_options, add_output_options, add_quiet, add_receptor_options, input_kwargs, unit_type
 
 # the stage modules (pandas, scipy) load when the run needs them, not to parse the command line
-SYNTHESES = ("longitudinal", "cross", "map:FILE", "random:N")  # afferent.pipeline.SYNTHESES
+SYNTHESES = ("longitudinal", "cross", "map:FILE", "random:N")  # afferent.synthesis.SYNTHESES
 METHODS = ("linear", "nearest")  # afferent.sampling.METHODS
 STUDY_ROWS = ("start", "longitudinal", "cross")  # the keys of afferent.transduction.STUDY_PARAMS
 
@@ -190,7 +190,7 @@ def _receptors_table(args) -> dict:
 
 
 def _synthesis_table(args) -> dict:
-    from ..pipeline import parse_synthesis
+    from ..synthesis import parse_synthesis
 
     kind, n = parse_synthesis(args.synthesis)
     table = {"kind": kind, "seed": args.seed}

@@ -116,8 +116,10 @@ The package's modules::
     run       the executor: stages in order, the SED cache, run_scene, run_scene_cli
     record    run.json and the printed summary
 
-The writer is :func:`afferent.export.write_outputs`, shared with
-:func:`afferent.export.write_pipeline_outputs`.
+The writer is :func:`afferent.export.write_outputs`; ``afferent demo`` runs one scene per
+indenter of the sample through :func:`run_scene` as well. The stages are the stage modules' own
+functions (:func:`afferent.stimulus.apply_waveform`, :func:`afferent.synthesis.make_branching`,
+:func:`afferent.spiking.spike_afferents`, ...); none of them imports this package.
 """
 
 from __future__ import annotations

@@ -402,9 +402,7 @@ def _read_and_sample(run: _Run, layout, *, progress: bool):
 
 def _stimulus(run: _Run, sed):
     """Stage 'stimulus': the waveform (trimmed to the simulated span when only spikes are wanted) drives the SED."""
-    from ..pipeline import apply_waveform
-
-    from ..stimulus import no_reference_step_message
+    from ..stimulus import apply_waveform, no_reference_step_message
 
     scene = run.scene
     st = scene.stimulus
@@ -497,9 +495,8 @@ def _warn_if_stretched(fit) -> None:
 
 
 def _spike(run: _Run) -> None:
-    """Stages 'input' and 'spiking' (:func:`afferent.pipeline.run_spikes`)."""
-    from ..pipeline import PipelineResult, run_spikes
-    from ..spiking import LIFParams
+    """Stages 'input' and 'spiking' (:func:`afferent.spiking.spike_afferents`)."""
+    from ..spiking import LIFParams, spike_afferents
 
     sp, out = run.scene.spikes, run.out
     lif = LIFParams.from_preset(sp.lif_preset)
@@ -515,13 +512,10 @@ def _spike(run: _Run) -> None:
         warnings.warn("The export states no step times: its steps are numbered 0, 1, ... (time unit 'step'), and "
                       "spiking reads those numbers as seconds; give the steps' times ([export] times, --times).",
                       AfferentWarning, stacklevel=2)
-    pr = PipelineResult(out["sed"], out["current"], out["branching"], out["afferent"], out["saturation"], out["fit"],
-                        {}, waveform=out["waveform"])
-    pr = run_spikes(pr, lif, dt=sp.dt_s, engine=sp.engine, input=sp.input, gain=sp.gain_s, tau=sp.tau_s,
-                    duration=duration, drive=sp.drive, rheobase_multiple=sp.rheobase_multiple,
-                    reference_current=sp.reference_current_a)
-    run.steps.seconds["input"] = pr.timings["input"]
-    run.steps.seconds["spiking"] = pr.timings["spiking"]
+    pr = spike_afferents(out["afferent"], lif, dt=sp.dt_s, engine=sp.engine, input=sp.input, current=out["current"],
+                         branching=out["branching"], gain=sp.gain_s, tau=sp.tau_s, duration=duration, drive=sp.drive,
+                         rheobase_multiple=sp.rheobase_multiple, reference_current=sp.reference_current_a)
+    run.steps.seconds.update(pr.seconds)
     spikes = pr.spikes
     out.update(spikes=spikes, drive=pr.input)
     run.span["simulated_s"] = float(spikes.duration)

@@ -259,7 +259,7 @@ class TransductionSpec:
 
 @dataclass(frozen=True)
 class SynthesisSpec:
-    """``[synthesis]``: receptor -> afferent grouping (:func:`afferent.pipeline.make_branching`)."""
+    """``[synthesis]``: receptor -> afferent grouping (:func:`afferent.synthesis.make_branching`)."""
 
     kind: str | None = _f("choice", "longitudinal", choices=("longitudinal", "cross", "map", "random"))
     map: str | None = _f("path")
@@ -304,7 +304,7 @@ _LIF_FIELDS = ("tau_m_s", "r_m_ohm", "v_rest_v", "v_thresh_v", "v_reset_v", "t_r
 
 @dataclass(frozen=True)
 class SpikesSpec:
-    """``[spikes]``: input current and leaky integrate-and-fire (:func:`afferent.pipeline.run_spikes`)."""
+    """``[spikes]``: input current and leaky integrate-and-fire (:func:`afferent.spiking.spike_afferents`)."""
 
     engine: str | None = _f("choice", "auto", choices=_ENGINES)
     dt_s: float | None = _f("number", 1e-4, quantity="time")

@@ -128,7 +128,8 @@ Where the parts live: :func:`simulate_lif` and :data:`ENGINES` here; ``_params.p
 parameters, presets and brian2's step arithmetic; ``_input.py`` reading the current;
 ``_grid.py`` the grid engines ('fast', 'brian2'); ``_exact.py`` the exact engine;
 ``_group.py`` grouping spikes by afferent; ``_trains.py`` :class:`SpikeTrains`; ``_drive.py``
-the drive mapping (:func:`rheobase_scale`, :func:`drive_report`). Every public name is
+the drive mapping (:func:`rheobase_scale`, :func:`drive_report`) and :func:`spike_afferents`
+(input current, drive mapping, LIF: the stages 'input' and 'spiking' of a run). Every public name is
 importable from :mod:`afferent.spiking`.
 """
 
@@ -139,6 +140,7 @@ import numpy as np
 from .._validation import check_option
 from . import _drive, _params
 from ._drive import CEILING_FRACTION, drive_report, rheobase_scale  # noqa: F401 (CEILING_FRACTION: importable here)
+from ._drive import INPUTS, SpikeStage, spike_afferents
 from ._exact import _pieces, _run_exact_numba, _run_exact_numpy
 from ._grid import _peak_current, _plan, _run_brian2, _run_numba, _run_numpy, _silent
 from ._group import _numba_available
@@ -157,6 +159,9 @@ __all__ = [
     "DRIVE_MAPPINGS",
     "rheobase_scale",
     "drive_report",
+    "spike_afferents",
+    "SpikeStage",
+    "INPUTS",
 ]
 
 #: Documented default parameter sets; see the module docstring for the sources.

@@ -1,10 +1,16 @@
-"""How an afferent current becomes the LIF's drive (rheobase mapping), and what the LIF made of it."""
+"""How an afferent current becomes the LIF's drive (rheobase mapping), what the LIF made of it, and
+:func:`spike_afferents`, the stages 'input' and 'spiking' of a run in order."""
 
 from __future__ import annotations
 
+import time
+import warnings
+from dataclasses import dataclass
+
 import numpy as np
 
-from .._validation import check_positive
+from .._validation import check_option, check_positive
+from ..exceptions import AfferentWarning
 from ._params import LIFParams
 from ._trains import SpikeTrains
 
@@ -82,3 +88,111 @@ def drive_report(input_values, lif: LIFParams, spikes: SpikeTrains) -> dict:
         "all_silent": all_silent, "warning": warning,
     }
 
+
+
+#: What the LIF is given (:func:`spike_afferents`): the afferent current itself, or the rate-sensitive input.
+INPUTS = ("static", "rate-sensitive")
+
+
+@dataclass(frozen=True)
+class SpikeStage:
+    """What :func:`spike_afferents` made of an afferent current.
+
+    Attributes
+    ----------
+    input : afferent.stimulus.InputCurrent
+        The current fed to the LIF in A (after any drive mapping), tagged with its kind.
+    spikes : SpikeTrains
+    drive : dict
+        The mapping used (``mapping``, ``r_m_ohm``, ``rheobase_a``, and with 'rheobase' its
+        multiple, reference current in A and scale) and :func:`drive_report`.
+    seconds : dict
+        Wall time of the stages 'input' and 'spiking', s.
+    """
+
+    input: object
+    spikes: SpikeTrains
+    drive: dict
+    seconds: dict
+
+
+def spike_afferents(afferent, lif: LIFParams, *, dt: float, engine: str = "auto", input: str = "static",
+                    current=None, branching=None, gain: float | None = None, tau: float | None = None,
+                    duration: float | None = None, drive: str = "resistance", rheobase_multiple: float = 2.0,
+                    reference_current: float | None = None) -> SpikeStage:
+    """The stages 'input' and 'spiking': the input current -> its drive mapping -> leaky integrate-and-fire.
+
+    Parameters
+    ----------
+    afferent : afferent.synthesis.AfferentCurrent
+        Afferent currents in A over times in s.
+    lif : LIFParams
+    dt : float
+        LIF time step in s.
+    engine : {'auto', 'fast', 'brian2', ...}
+        See :func:`afferent.spiking.simulate_lif`.
+    input : {'static', 'rate-sensitive'}, default='static'
+        ``'static'``: the afferent current itself (the study's sigmoid of SED; fires through a
+        hold). ``'rate-sensitive'``: each receptor's current adapts on its own
+        (:func:`afferent.stimulus.adapting_input`, rectified rate of change, fires at onset
+        and offset), then the inputs are summed into afferents.
+    current : afferent.transduction.ReceptorCurrent, optional
+        Receptor currents in A (required for the rate-sensitive input).
+    branching : afferent.synthesis.Branching, optional
+        The grouping that made ``afferent`` (required for the rate-sensitive input).
+    gain : float, optional
+        Gain of the rate-sensitive input in s (required for it).
+    tau : float, optional
+        Time constant of the rate-sensitive input in s (default that of ``adapting_input``).
+    duration : float, optional
+        Simulated time in s; default: to the last sample (``dt`` past it for a single sample).
+    drive : {'resistance', 'rheobase'}, default='resistance'
+        How the input current becomes the membrane drive (:data:`afferent.spiking.DRIVE_MAPPINGS`):
+        through ``r_m`` as is, or rescaled so that ``reference_current`` (default: the largest
+        input current) is ``rheobase_multiple`` x the rheobase.
+    rheobase_multiple : float, default=2.0
+        With ``drive='rheobase'``: the reference current's multiple of the rheobase.
+    reference_current : float, optional
+        With ``drive='rheobase'``: the reference current in A (default the run's largest).
+
+    Returns
+    -------
+    SpikeStage
+
+    Warns
+    -----
+    AfferentWarning
+        When all afferents fire at >= 90 % of 1 / t_ref, or none fires.
+    """
+    from dataclasses import replace
+
+    from .. import stimulus
+    from . import simulate_lif
+
+    check_option("input", input, INPUTS)
+    seconds = {}
+    t = time.perf_counter()
+    if input == "static":
+        drive_current = stimulus.static_input(afferent)
+    else:
+        if gain is None:
+            raise ValueError("input='rate-sensitive' needs gain= (s): how much input current (A) per A/s of rate.")
+        kw = {} if tau is None else {"tau": tau}
+        drive_current = stimulus.adapting_input(current, gain=gain, **kw).synthesize(branching)
+    check_option("drive", drive, DRIVE_MAPPINGS)
+    mapping = {"mapping": drive, "r_m_ohm": lif.r_m, "rheobase_a": lif.rheobase}
+    if drive == "rheobase":
+        scale, ref = rheobase_scale(drive_current.values, lif, multiple=rheobase_multiple, reference=reference_current)
+        drive_current = replace(drive_current, values=drive_current.values * scale)
+        mapping.update(rheobase_multiple=rheobase_multiple, reference_current_a=ref, scale=scale)
+    seconds["input"] = time.perf_counter() - t
+    if duration is None:
+        times = afferent.times
+        duration = float(times[-1] - times[0]) if times is not None and len(times) > 1 else None
+    t = time.perf_counter()
+    spikes = simulate_lif(drive_current, lif, dt=dt, engine=engine, duration=duration)
+    seconds["spiking"] = time.perf_counter() - t
+    report = drive_report(drive_current.values, lif, spikes)
+    if report["warning"]:
+        warnings.warn(report["warning"], AfferentWarning, stacklevel=3)
+    return SpikeStage(drive_current, spikes, {**mapping, **report}, seconds)

@@ -24,6 +24,9 @@ at most 1e-12 of the waveform's scale: ``sin`` of a full-depth sinusoid may give
 **Quasi-static scaling** (:func:`scale_static`, :func:`depth_scaling_error`): one static FE
 solution at depth ``d_ref`` gives the SED at every depth as ``SED(t) = SED_static (d(t) /
 d_ref)^2``. Where that holds, and where it does not, is spelled out in :func:`scale_static`.
+:func:`apply_waveform` is the stage a run calls: d^2 scaling of one step, or interpolation in
+depth between the steps of a loading series (:func:`interpolate_series`), and the record of
+either (:func:`scaling_record`).
 
 **RA-I adaptation** (:func:`adapting_input`, :ref:`method-spikes`): a static sigmoid of SED fed
 to the LIF fires through a hold; RA-I afferents do not. :func:`adapting_input` turns the
@@ -47,6 +50,7 @@ from ._scaling import (  # noqa: F401 (SCALING_* and no_reference_step_message: 
     SCALING_ERROR_WARN,
     SCALING_VALIDITY,
     ScalingCheck,
+    apply_waveform,
     depth_scaling_error,
     interpolate_series,
     no_reference_step_message,
@@ -62,6 +66,7 @@ __all__ = [
     "sinusoid",
     "read_waveform",
     "scale_static",
+    "apply_waveform",
     "depth_scaling_error",
     "scaling_record",
     "interpolate_series",

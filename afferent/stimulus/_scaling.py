@@ -1,7 +1,8 @@
 """Quasi-static SED over a waveform: d^2 scaling of one FE step, interpolation in a loading series, their checks.
 
 :func:`scale_static`, :func:`interpolate_series`, :func:`scaling_record`, :func:`depth_scaling_error`
-(documented in :mod:`afferent.stimulus`).
+(documented in :mod:`afferent.stimulus`), and :func:`apply_waveform`, the stimulus stage that picks
+one of the two for a run.
 """
 
 from __future__ import annotations
@@ -415,3 +416,42 @@ def depth_scaling_error(sed, depths, *, ref_index: int = -1) -> ScalingCheck:
     expo[ref] = np.nan
     expo[~np.isfinite(expo)] = np.nan
     return ScalingCheck(d.copy(), ref, l2, mx, expo, int(keep.sum()))
+
+
+def apply_waveform(sed, waveform: Waveform, *, d_ref: float, reference_step: int | None = None,
+                   series_depths=None) -> tuple:
+    """The stimulus stage: SED sampled from the export -> SED over the waveform's times.
+
+    Parameters
+    ----------
+    sed : ReceptorSED
+        SED at the receptors as sampled from the export, J/m^3.
+    waveform : afferent.stimulus.Waveform
+        Indentation depth (m) over time (s).
+    d_ref : float
+        Indentation depth of the export's reference step, m.
+    reference_step : int, optional
+        The step solved at ``d_ref`` (-1: the last); required when the export has several.
+    series_depths : array_like of shape (n_steps,), optional
+        Depth in m of every step of a loading series: the time course is interpolated in depth
+        between the steps (:func:`afferent.stimulus.interpolate_series`) instead of scaled by
+        (d / d_ref)^2 (:func:`afferent.stimulus.scale_static`).
+
+    Returns
+    -------
+    (ReceptorSED, dict)
+        SED over the waveform's times, and :func:`afferent.stimulus.scaling_record` (the d^2
+        law measured against the series, when given).
+
+    Raises
+    ------
+    ValueError
+        Several steps and no ``reference_step`` (:func:`afferent.stimulus.no_reference_step_message`).
+    """
+    if reference_step is None and sed.values.shape[0] > 1:
+        raise ValueError(no_reference_step_message(sed.values.shape[0], sed.times))
+    step = 0 if reference_step is None else reference_step
+    scaling = scaling_record(sed, waveform, d_ref=d_ref, reference_step=step, series_depths=series_depths)
+    timed = (interpolate_series(sed, waveform, series_depths=series_depths) if series_depths is not None
+             else scale_static(sed, waveform, d_ref=d_ref, time_index=step))
+    return timed, scaling
