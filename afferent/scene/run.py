@@ -517,9 +517,14 @@ def _spike(run: _Run) -> None:
                       AfferentWarning, stacklevel=2)
     pr = PipelineResult(out["sed"], out["current"], out["branching"], out["afferent"], out["saturation"], out["fit"],
                         {}, waveform=out["waveform"])
+    zones = None
+    if sp.branching == "zones":
+        from ..zones import split_zones
+
+        zones = split_zones(out["branching"], out["current"].layout, sp.zones_per_afferent)
     pr = run_spikes(pr, lif, dt=sp.dt_s, engine=sp.engine, input=sp.input, gain=sp.gain_s, tau=sp.tau_s,
                     duration=duration, drive=sp.drive, rheobase_multiple=sp.rheobase_multiple,
-                    reference_current=sp.reference_current_a)
+                    reference_current=sp.reference_current_a, zones=zones)
     run.steps.seconds["input"] = pr.timings["input"]
     run.steps.seconds["spiking"] = pr.timings["spiking"]
     spikes = pr.spikes
@@ -528,6 +533,7 @@ def _spike(run: _Run) -> None:
     run.record["spikes"] = {
         "engine": spikes.engine, "backend": getattr(spikes, "backend", None), "dt_s": spikes.dt,
         "duration_s": spikes.duration, "input": getattr(pr.input, "kind", None),
+        "branching": sp.branching, **({"zones": zones.record()} if zones is not None else {}),
         "n_afferents": int(spikes.n_afferents), "n_spikes": int(sum(len(t) for t in spikes.spike_times)),
         "silent_skipped": [str(spikes.afferent_ids[i]) for i in spikes.silent_skipped],
         "notes": list(getattr(spikes, "notes", ())),
