@@ -294,3 +294,30 @@ def test_scene_zones_per_afferent_checked_and_defaulted(tmp_path):
         resolve(parse_scene(text + "zones_per_afferent = 0\n", base_dir=str(tmp_path)))
     with pytest.raises(SceneError, match=r"'branching'.*one of 'sum', 'zones'"):
         resolve(parse_scene(text.replace('"zones"', '"max"'), base_dir=str(tmp_path)))
+
+
+def test_sweep_sweeps_the_branching_model_like_any_key(tmp_path):
+    """"spikes.branching" = ["sum", "zones"] in a sweep: one column, each task run as its scene would."""
+    from pathlib import Path
+
+    import pandas as pd
+
+    from afferent._sweep import sweep
+
+    scenes = Path(__file__).resolve().parents[1] / "sample_sed" / "scenes"
+    base = (scenes / "sweep_gamma.toml").read_text().split("[sweep]")[0].replace('"../', f'"{scenes.parent.as_posix()}/')
+    base = base.replace("hold_s = 2.0", "hold_s = 0.1").replace("tau_ms = 5.0", "tau_ms = 5.0\nzones_per_afferent = 2")
+    src = tmp_path / "s.toml"
+    src.write_text(base + '[sweep]\n"spikes.branching" = ["sum", "zones"]\n')
+    res = sweep(src, tmp_path / "out", scheduler="serial", use_cache=False)
+    t = res.table
+    assert sorted(t["spikes.branching"].unique()) == ["sum", "zones"] and res.n_failed == 0
+    by = {m: t[t["spikes.branching"] == m].n_spikes.to_numpy() for m in ("sum", "zones")}
+    assert by["sum"].sum() > 0 and not np.array_equal(by["sum"], by["zones"])
+    one = tmp_path / "one.toml"
+    one.write_text(base.replace("tau_ms = 5.0", 'tau_ms = 5.0\nbranching = "zones"'))
+    from afferent.cli import main
+
+    assert main(["run", str(one), "-o", str(tmp_path / "one"), "--quiet", "--no-cache"]) == 0
+    ref = pd.read_csv(tmp_path / "one" / "spike_summary.csv")
+    np.testing.assert_array_equal(by["zones"], ref.n_spikes.to_numpy())
