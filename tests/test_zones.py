@@ -259,14 +259,17 @@ def test_split_zones_errors():
 
 
 # ------------------------------------------------------------------------- scene and CLI
-def test_cli_branching_zones_is_recorded_and_sum_stays_the_default(tmp_path, sample_sed_dir, capsys):
+def test_cli_branching_zones_is_recorded_and_sum_stays_the_default(tmp_path, capsys):
     from afferent.cli import main
+    from afferent.cli._demo import packaged_sample_dir
 
-    base = ["run", str(sample_sed_dir / "block4" / "indent_0p88mm.vtu"), "--receptors", str(sample_sed_dir / "block4" / "receptors.csv"),
+    b4 = packaged_sample_dir() / "block4"
+    base = ["run", str(b4 / "indent_0p88mm.vtu"), "--receptors", str(b4 / "receptors.csv"),
             "--length-unit", "mm", "--sed-unit", "MPa", "--params", "start", "--spikes", "--no-plots", "--no-cache",
-            "-q", "--drive", "rheobase", "--rheobase-multiple", "4", "--duration-s", "0.05"]
-    assert main(base + ["-o", str(tmp_path / "sum")]) == 0
+            "--drive", "rheobase", "--rheobase-multiple", "4", "--duration-s", "0.05"]
+    assert main(base + ["-q", "-o", str(tmp_path / "sum")]) == 0
     assert main(base + ["--branching", "zones", "--zones-per-afferent", "2", "-o", str(tmp_path / "zones")]) == 0
+    assert "input, zones: 14 zones, 2 per afferent)" in capsys.readouterr().err  # the one-screen summary
     rs = json.loads((tmp_path / "sum" / "run.json").read_text())
     rz = json.loads((tmp_path / "zones" / "run.json").read_text())
     assert rs["spikes"]["branching"] == "sum" and "zones" not in rs["spikes"]
@@ -277,7 +280,6 @@ def test_cli_branching_zones_is_recorded_and_sum_stays_the_default(tmp_path, sam
     assert rz["spikes"]["drive"]["reference_current_a"] == pytest.approx(rs["spikes"]["drive"]["reference_current_a"],
                                                                         rel=1e-12)
     assert sum(rz["spikes"]["drive"]["rate_hz"]) < sum(rs["spikes"]["drive"]["rate_hz"])
-    capsys.readouterr()
     assert main(base + ["--zones-per-afferent", "2", "-o", str(tmp_path / "bad")]) == 2
     assert "afferent: error: --zones-per-afferent applies to --branching zones" in capsys.readouterr().err
 
@@ -321,3 +323,30 @@ def test_sweep_sweeps_the_branching_model_like_any_key(tmp_path):
     assert main(["run", str(one), "-o", str(tmp_path / "one"), "--quiet", "--no-cache"]) == 0
     ref = pd.read_csv(tmp_path / "one" / "spike_summary.csv")
     np.testing.assert_array_equal(by["zones"], ref.n_spikes.to_numpy())
+
+
+def test_python_api_run_spikes_with_zones_records_them(tmp_path, sample_sed_dir):
+    """run_pipeline -> split_zones -> run_spikes(zones=) -> write_pipeline_outputs: run.json says zones."""
+    from afferent import read_sed
+    from afferent.export import write_pipeline_outputs
+    from afferent.pipeline import run_pipeline, run_spikes
+    from afferent.receptors import read_receptors
+    from afferent.transduction import STUDY_PARAMS
+
+    b4 = sample_sed_dir / "block4"
+    layout = read_receptors(b4 / "receptors.csv", length_unit="mm")
+    res = run_pipeline(read_sed(b4 / "indent_1p32mm.vtu", length_unit="mm", sed_unit="MPa"), layout,
+                       STUDY_PARAMS["start"])
+    zones = split_zones(res.branching, layout, 4)
+    out = run_spikes(res, RA, dt=1e-4, duration=0.05, drive="rheobase", rheobase_multiple=8, zones=zones)
+    assert out.zones is zones and out.input.values.shape == (1, 28) and out.spikes.n_afferents == 7
+    # the rheobase scale is taken from the summed afferent current: the sum model's own scale
+    ref = run_spikes(res, RA, dt=1e-4, duration=0.05, drive="rheobase", rheobase_multiple=8)
+    assert out.drive["scale"] == pytest.approx(ref.drive["scale"], rel=1e-12)
+    assert np.all(out.spikes.n_spikes <= ref.spikes.n_spikes) and out.spikes.n_spikes.sum() > 0
+    write_pipeline_outputs(out, str(tmp_path / "o"), record={}, plots=False)
+    rec = json.loads((tmp_path / "o" / "run.json").read_text())["spikes"]
+    assert rec["branching"] == "zones" and rec["zones"]["n_zones"] == 28
+    other = split_zones(Branching.cross(layout), layout, 2)
+    with pytest.raises(ValueError, match=r"'zones' must divide the afferents of the result's branching"):
+        run_spikes(res, RA, dt=1e-4, duration=0.05, zones=other)
