@@ -193,11 +193,29 @@ def test_fast_engine_zones_within_the_grid_bounds_of_the_closed_form():
     assert isi.size > 10 and np.all(isi >= float(lo) - 1e-12) and np.all(isi <= float(hi) + 1e-12)
 
 
+@pytest.mark.slow
+@pytest.mark.filterwarnings("ignore:.*deprecated - use:DeprecationWarning",
+                            "ignore:.*argument is deprecated, use:DeprecationWarning")  # brian2 2.9 and pyparsing 3.3
+def test_brian2_zones_give_the_fast_engines_spikes_step_for_step():
+    """brian2: a neuron per zone, a delay-free Synapses resetting the afferent's other zones; the fast
+    engine's spikes, step for step (two equal zones crossing in one step are one spike)."""
+    pytest.importorskip("brian2")
+    rng = np.random.default_rng(1)
+    cur = np.concatenate([rng.uniform(0, 3, size=(40, 7)), np.full((40, 2), 2.5)], axis=1) * RA.rheobase
+    zones = [0, 0, 0, 1, 1, 2, 2, 3, 3]
+    kw = dict(dt=1e-4, times=np.arange(40) * 1e-3, zones=zones)
+    fast = simulate_lif(cur, RA, engine="fast", **kw)
+    b2 = simulate_lif(cur, RA, engine="brian2", **kw)
+    assert (b2.engine, b2.backend) == ("brian2", "brian2-numpy") and fast.n_spikes.min() > 3
+    np.testing.assert_array_equal(b2.counts, fast.counts)
+    np.testing.assert_array_equal(b2.t, fast.t)
+    np.testing.assert_array_equal(fast.spike_times[3], simulate_lif(cur[:, [7]], RA, engine="fast", dt=1e-4,
+                                                                    times=np.arange(40) * 1e-3).spike_times[0])
+
+
 # ------------------------------------------------------------------------- errors
 def test_zones_errors_are_named():
     cur = constant([1e-6, 1e-6], 5)
-    with pytest.raises(ValueError, match=r"'zones' run on the exact and fast engines; brian2 has no zones engine"):
-        simulate_lif(cur, RA, dt=1e-4, engine="brian2", zones=[0, 0])
     with pytest.raises(ValueError, match=r"'zones' must give one afferent index \(int\) per column of the current \(2\)"):
         simulate_lif(cur, RA, dt=1e-3, zones=[0, 0, 1])
     with pytest.raises(ValueError, match=r"'zones' must be non-decreasing afferent indices >= 0"):
