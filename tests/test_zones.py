@@ -368,3 +368,58 @@ def test_python_api_run_spikes_with_zones_records_them(tmp_path, sample_sed_dir)
     other = split_zones(Branching.cross(layout), layout, 2)
     with pytest.raises(ValueError, match=r"'zones' must divide the afferents of the result's branching"):
         run_spikes(res, RA, dt=1e-4, duration=0.05, zones=other)
+
+
+def test_zones_from_map_groups_each_afferents_receptors_by_label(tmp_path):
+    from afferent.zones import zones_from_map
+
+    layout = _strip(2, 4)  # ids '0'..'7'; L0: the x = 0 line
+    b = Branching.longitudinal(layout)
+    ids = layout.ids.tolist()
+    labels = {r: ("tip" if layout.positions[j, 2] < 3e-4 else "base") for j, r in enumerate(ids)}
+    path = tmp_path / "zones.csv"
+    path.write_text("receptor,zone\n" + "".join(f"{r},{labels[r]}\n" for r in ids) + "99,tip\n")
+    z = zones_from_map(b, path)
+    # zones in the order their labels first appear in the map (receptor '0' is at the largest z: 'base')
+    assert z.rule == "map" and z.branching.afferent_ids.tolist() == ["L0/base", "L0/tip", "L1/base", "L1/tip"]
+    assert z.record()["map_rows_unused"] == 1 and z.branching.receptor_counts.tolist() == [2, 2, 2, 2]
+    cur = np.random.default_rng(3).uniform(size=(2, 8)) * 1e-8
+    zc, ac = synthesize(cur, z.branching).values, synthesize(cur, b).values
+    np.testing.assert_allclose(zc[:, :2].sum(1), ac[:, 0], rtol=1e-14)
+    for j, rid in enumerate(ids):  # every receptor in the zone of its label
+        row = next(k for k in range(z.n_zones) if j in z.branching.weights[[k]].indices)
+        assert z.branching.afferent_ids[row].endswith("/" + labels[rid])
+    path.write_text("receptor,zone\n0,a\n1,a\n")
+    with pytest.raises(ValueError, match=r"Zone map '.*zones.csv': 6 receptor\(s\) of the branching have no zone: "
+                                         r"'2', '3', '4', '5', '6', \.\.\."):
+        zones_from_map(b, path)
+    path.write_text("receptor,zone\n0,a\n0,b\n")
+    with pytest.raises(ValueError, match=r"receptor '0' is listed more than once"):
+        zones_from_map(b, path)
+    path.write_text("receptor,group\n0,a\n")
+    from afferent.exceptions import SEDFormatError
+
+    with pytest.raises(SEDFormatError, match=r"must have columns 'receptor' and 'zone'; missing 'zone'"):
+        zones_from_map(b, path)
+
+
+def test_cli_zone_map_runs_and_conflicts_are_errors(tmp_path, capsys):
+    from afferent.cli import main
+    from afferent.cli._demo import packaged_sample_dir
+    from afferent.receptors import read_receptors
+
+    b4 = packaged_sample_dir() / "block4"
+    layout = read_receptors(b4 / "receptors.csv", length_unit="mm")
+    zmap = tmp_path / "zones.csv"
+    zmap.write_text("receptor,zone\n" + "".join(f"{r},{'near' if abs(z - 1.9e-3) < 0.5e-3 else 'far'}\n"
+                                                for r, z in zip(layout.ids, layout.positions[:, 2])))
+    base = ["run", str(b4 / "indent_0p88mm.vtu"), "--receptors", str(b4 / "receptors.csv"), "--length-unit", "mm",
+            "--sed-unit", "MPa", "--params", "start", "--spikes", "--no-plots", "--no-cache", "-q", "--drive",
+            "rheobase", "--rheobase-multiple", "4", "--duration-s", "0.05", "--branching", "zones"]
+    assert main(base + ["--zone-map", str(zmap), "-o", str(tmp_path / "m")]) == 0
+    rec = json.loads((tmp_path / "m" / "run.json").read_text())
+    assert rec["spikes"]["zones"]["rule"] == "map" and rec["spikes"]["zones"]["n_zones"] == 14
+    assert str(zmap) in rec["inputs"]
+    capsys.readouterr()
+    assert main(base + ["--zone-map", str(zmap), "--zones-per-afferent", "2", "-o", str(tmp_path / "bad")]) == 2
+    assert "give --zone-map (each receptor's zone) or --zones-per-afferent" in capsys.readouterr().err
