@@ -161,7 +161,9 @@ def run_exact_zones(pc: _Pieces, aff: np.ndarray, keep: np.ndarray, peak: np.nda
     columns ``aff == a``; ``peak``: the largest zone current of each kept afferent, A (sizes the
     spike buffer). Returns (spike times grouped by afferent, count per kept afferent)."""
     cols = np.flatnonzero(np.isin(aff, keep))
-    values = np.ascontiguousarray(pc.values[:, cols])
+    # column-major: each zone's samples contiguous, as the per-afferent loop walks them (an afferent's
+    # few zones are a few streams through memory, not one stride of all zones per sample)
+    values = np.asfortranarray(pc.values[:, cols])
     zptr = np.append(np.searchsorted(aff[cols], keep, side="left"), cols.size).astype(np.int64)
     block = _numba_zones() if backend == "numba" else _zones_block
     consts = _exact_consts(params, pc.t_stop)
