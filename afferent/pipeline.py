@@ -48,6 +48,7 @@ class PipelineResult:
     scaling: dict | None = None
     profile_index: int = 0
     drive: dict | None = None
+    zones: object | None = None
 
 
 def run_pipeline(
@@ -145,7 +146,7 @@ def run_pipeline(
 def run_spikes(result: PipelineResult, lif, *, dt: float, engine: str = "auto", input: str = "static",
                gain: float | None = None, tau: float | None = None, duration: float | None = None,
                drive: str = "resistance", rheobase_multiple: float = 2.0,
-               reference_current: float | None = None) -> PipelineResult:
+               reference_current: float | None = None, zones=None) -> PipelineResult:
     """Add spikes to a pipeline result: input current -> leaky integrate-and-fire
     (:func:`afferent.spiking.spike_afferents` on the result's currents and branching).
 
@@ -157,14 +158,20 @@ def run_spikes(result: PipelineResult, lif, *, dt: float, engine: str = "auto", 
     dt, engine, input, gain, tau, duration, drive, rheobase_multiple, reference_current
         As :func:`afferent.spiking.spike_afferents` (``dt``, ``gain``, ``tau``, ``duration`` in
         s; ``reference_current`` in A).
+    zones : afferent.zones.Zones, optional
+        The ``zones`` branching model (:func:`afferent.zones.split_zones` of
+        ``result.branching``): the input is synthesized per zone and each zone drives its own
+        LIF; the afferent fires when one of its zones does, and all reset
+        (:func:`afferent.spiking.simulate_lif`). Default None: the ``sum`` model, the study's.
 
     Returns
     -------
     PipelineResult
-        ``result`` with ``input`` (the current fed to the LIF, tagged with its kind), ``spikes``,
-        and ``drive``: the mapping used and :func:`afferent.spiking.drive_report` (per afferent
-        drive / rheobase, predicted and simulated rates; a warning when every afferent sits at
-        the 1 / t_ref ceiling or all are silent); ``timings`` gains 'input' and 'spiking'.
+        ``result`` with ``input`` (the current fed to the LIF, tagged with its kind; one column per
+        zone with ``zones``), ``spikes`` (per afferent), ``zones``, and ``drive``: the mapping used
+        and :func:`afferent.spiking.drive_report` (per afferent drive / rheobase, of its strongest
+        zone with ``zones``, predicted and simulated rates; a warning when every afferent sits at
+        the 1 / t_ref ceiling or all are silent).
 
     Warns
     -----
@@ -177,9 +184,9 @@ def run_spikes(result: PipelineResult, lif, *, dt: float, engine: str = "auto", 
 
     stage = spike_afferents(result.afferent, lif, dt=dt, engine=engine, input=input, current=result.current,
                             branching=result.branching, gain=gain, tau=tau, duration=duration, drive=drive,
-                            rheobase_multiple=rheobase_multiple, reference_current=reference_current)
+                            rheobase_multiple=rheobase_multiple, reference_current=reference_current, zones=zones)
     return replace(result, input=stage.input, spikes=stage.spikes, timings={**result.timings, **stage.seconds},
-                   drive=stage.drive)
+                   drive=stage.drive, zones=zones)
 
 
 #: Names that moved to their stage modules, importable from here as before (not re-documented here).

@@ -97,6 +97,14 @@ def add_args(parser: argparse.ArgumentParser) -> None:
     g.add_argument("--rheobase-multiple", type=float, default=2.0, metavar="K",
                    help="with --drive rheobase: the largest current becomes K x the rheobase (default 2)")
     g.add_argument("--duration-s", type=float, help="simulated time, s (default: the stimulus; 1 s for a static export)")
+    g.add_argument("--branching", choices=("sum", "zones"), default="sum",
+                   help="sum: an afferent's receptor currents summed into one LIF (the study; default); zones: one LIF "
+                        "per spike-initiation zone, the first at threshold fires the afferent and resets all its zones")
+    g.add_argument("--zones-per-afferent", type=int, metavar="K",
+                   help="with --branching zones: each afferent's receptors split into K groups along it (default 4)")
+    g.add_argument("--zone-map", metavar="ZONES.csv",
+                   help="with --branching zones: each receptor's zone (columns receptor, zone) instead of "
+                        "--zones-per-afferent")
     parser.add_argument("--no-plots", action="store_true", help="skip the PNG figures")
     parser.add_argument("--results-format", choices=("netcdf", "csv"),
                         help="time courses of receptors and afferents: one NetCDF-4 file currents.nc (default) or the "
@@ -205,12 +213,18 @@ def _spikes_table(args) -> dict | None:
     if not args.spikes:
         if args.input == "rate-sensitive":
             raise ValueError("--input rate-sensitive applies to spikes: add --spikes.")
+        if args.branching != "sum" or args.zones_per_afferent is not None or args.zone_map is not None:
+            raise ValueError("--branching, --zones-per-afferent and --zone-map apply to spikes: add --spikes.")
         return None
     if args.input == "rate-sensitive" and args.gain_s is None:
         raise ValueError("--input rate-sensitive needs --gain-s (s): how much input current (A) per A/s of rate.")
+    for flag, value in (("--zones-per-afferent", args.zones_per_afferent), ("--zone-map", args.zone_map)):
+        if value is not None and args.branching != "zones":
+            raise ValueError(f"{flag} applies to --branching zones; add --branching zones.")
     return {"engine": args.engine, "dt_ms": args.dt_ms, "lif_preset": args.lif_preset, "input": args.input,
             "gain_s": args.gain_s, "tau_ms": args.tau_ms, "drive": args.drive,
-            "rheobase_multiple": args.rheobase_multiple, "duration_s": args.duration_s}
+            "rheobase_multiple": args.rheobase_multiple, "duration_s": args.duration_s, "branching": args.branching,
+            "zones_per_afferent": args.zones_per_afferent, "zone_map": args.zone_map}
 
 
 #: scene key -> the option that sets it, to say a scene's complaint in the command's words
@@ -222,6 +236,8 @@ _FLAGS = {
     ("stimulus", "series_depths_mm"): "--series-depths-mm", ("stimulus", "dt_ms"): "--waveform-dt-ms",
     ("spikes", "lif_preset"): "--lif-preset", ("spikes", "dt_ms"): "--dt-ms", ("spikes", "duration_s"): "--duration-s",
     ("spikes", "gain_s"): "--gain-s", ("spikes", "tau_ms"): "--tau-ms", ("fit", "observed"): "--observed",
+    ("spikes", "zones_per_afferent"): "--zones-per-afferent", ("spikes", "branching"): "--branching",
+    ("spikes", "zone_map"): "--zone-map",
     ("fit", "length_unit"): "--observed-unit",
 }
 

@@ -247,6 +247,16 @@ def _spikes(scene: Scene, err, out):
         if sp.duration_s is not None and sp.duration_s <= 0:
             key = _given(scene, "spikes", "duration_s")
             raise err("spikes", key, f"[spikes] {key!r} must be > 0; got {sp.duration_s!r} s instead.")
+        if sp.zones_per_afferent is not None and sp.zones_per_afferent < 1:
+            raise err("spikes", "zones_per_afferent", "[spikes] 'zones_per_afferent' must be >= 1 (receptor groups per "
+                      f"afferent); got {sp.zones_per_afferent!r} instead.")
+        if sp.zone_map is not None and sp.zones_per_afferent is not None:
+            raise err("spikes", "zone_map", "[spikes] give 'zone_map' (each receptor's zone) or 'zones_per_afferent' "
+                      "(receptors split into groups along the afferent), not both.")
+        if sp.branching == "zones" and sp.zones_per_afferent is None and sp.zone_map is None:
+            from ..zones import DEFAULT_ZONES_PER_AFFERENT
+
+            sp = replace(sp, zones_per_afferent=DEFAULT_ZONES_PER_AFFERENT)
     return sp
 
 

@@ -233,6 +233,8 @@ def _hash_inputs(run: _Run):
             extra_files.append(scene.synthesis.map)
         if "comparison" in planned:
             extra_files.append(scene.fit.observed)
+        if "spiking" in planned and scene.spikes.branching == "zones":
+            extra_files.append(scene.spikes.zone_map)
         if "stimulus" in planned and scene.stimulus.waveform == "file":
             extra_files.append(scene.stimulus.file)
         for p in extra_files:
@@ -512,9 +514,15 @@ def _spike(run: _Run) -> None:
         warnings.warn("The export states no step times: its steps are numbered 0, 1, ... (time unit 'step'), and "
                       "spiking reads those numbers as seconds; give the steps' times ([export] times, --times).",
                       AfferentWarning, stacklevel=2)
+    zones = None
+    if sp.branching == "zones":
+        from ..zones import split_zones, zones_from_map
+
+        zones = (zones_from_map(out["branching"], sp.zone_map) if sp.zone_map is not None
+                 else split_zones(out["branching"], out["current"].layout, sp.zones_per_afferent))
     pr = spike_afferents(out["afferent"], lif, dt=sp.dt_s, engine=sp.engine, input=sp.input, current=out["current"],
                          branching=out["branching"], gain=sp.gain_s, tau=sp.tau_s, duration=duration, drive=sp.drive,
-                         rheobase_multiple=sp.rheobase_multiple, reference_current=sp.reference_current_a)
+                         rheobase_multiple=sp.rheobase_multiple, reference_current=sp.reference_current_a, zones=zones)
     run.steps.seconds.update(pr.seconds)
     spikes = pr.spikes
     out.update(spikes=spikes, drive=pr.input)
@@ -522,6 +530,7 @@ def _spike(run: _Run) -> None:
     run.record["spikes"] = {
         "engine": spikes.engine, "backend": getattr(spikes, "backend", None), "dt_s": spikes.dt,
         "duration_s": spikes.duration, "input": getattr(pr.input, "kind", None),
+        "branching": sp.branching, **({"zones": zones.record()} if zones is not None else {}),
         "n_afferents": int(spikes.n_afferents), "n_spikes": int(sum(len(t) for t in spikes.spike_times)),
         "silent_skipped": [str(spikes.afferent_ids[i]) for i in spikes.silent_skipped],
         "notes": list(getattr(spikes, "notes", ())),

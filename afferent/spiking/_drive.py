@@ -108,18 +108,21 @@ class SpikeStage:
         multiple, reference current in A and scale) and :func:`drive_report`.
     seconds : dict
         Wall time of the stages 'input' and 'spiking', s.
+    zones : afferent.zones.Zones or None
+        The spike-initiation zones the LIF ran on (None: the ``sum`` model).
     """
 
     input: object
     spikes: SpikeTrains
     drive: dict
     seconds: dict
+    zones: object = None
 
 
 def spike_afferents(afferent, lif: LIFParams, *, dt: float, engine: str = "auto", input: str = "static",
                     current=None, branching=None, gain: float | None = None, tau: float | None = None,
                     duration: float | None = None, drive: str = "resistance", rheobase_multiple: float = 2.0,
-                    reference_current: float | None = None) -> SpikeStage:
+                    reference_current: float | None = None, zones=None) -> SpikeStage:
     """The stages 'input' and 'spiking': the input current -> its drive mapping -> leaky integrate-and-fire.
 
     Parameters
@@ -137,7 +140,7 @@ def spike_afferents(afferent, lif: LIFParams, *, dt: float, engine: str = "auto"
         (:func:`afferent.stimulus.adapting_input`, rectified rate of change, fires at onset
         and offset), then the inputs are summed into afferents.
     current : afferent.transduction.ReceptorCurrent, optional
-        Receptor currents in A (required for the rate-sensitive input).
+        Receptor currents in A (required for the rate-sensitive input and for ``zones``).
     branching : afferent.synthesis.Branching, optional
         The grouping that made ``afferent`` (required for the rate-sensitive input).
     gain : float, optional
@@ -153,7 +156,14 @@ def spike_afferents(afferent, lif: LIFParams, *, dt: float, engine: str = "auto"
     rheobase_multiple : float, default=2.0
         With ``drive='rheobase'``: the reference current's multiple of the rheobase.
     reference_current : float, optional
-        With ``drive='rheobase'``: the reference current in A (default the run's largest).
+        With ``drive='rheobase'``: the reference current in A (default the run's largest
+        afferent current; with ``zones``, the largest sum of an afferent's zone currents, so that
+        ``sum`` and ``zones`` runs of the same scene share one scale).
+    zones : afferent.zones.Zones, optional
+        The ``zones`` branching model (:func:`afferent.zones.split_zones` of ``branching``): the
+        input is synthesized per zone and each zone drives its own LIF; the afferent fires when
+        one of its zones does, and all reset (:func:`afferent.spiking.simulate_lif`). Default
+        None: the ``sum`` model, the study's.
 
     Returns
     -------
@@ -170,19 +180,24 @@ def spike_afferents(afferent, lif: LIFParams, *, dt: float, engine: str = "auto"
     from . import simulate_lif
 
     check_option("input", input, INPUTS)
+    _check_zones(zones, branching)
     seconds = {}
     t = time.perf_counter()
+    target = branching if zones is None else zones.branching
     if input == "static":
-        drive_current = stimulus.static_input(afferent)
+        from ..synthesis import synthesize
+
+        drive_current = stimulus.static_input(afferent if zones is None else synthesize(current, target))
     else:
         if gain is None:
             raise ValueError("input='rate-sensitive' needs gain= (s): how much input current (A) per A/s of rate.")
         kw = {} if tau is None else {"tau": tau}
-        drive_current = stimulus.adapting_input(current, gain=gain, **kw).synthesize(branching)
+        drive_current = stimulus.adapting_input(current, gain=gain, **kw).synthesize(target)
     check_option("drive", drive, DRIVE_MAPPINGS)
     mapping = {"mapping": drive, "r_m_ohm": lif.r_m, "rheobase_a": lif.rheobase}
     if drive == "rheobase":
-        scale, ref = rheobase_scale(drive_current.values, lif, multiple=rheobase_multiple, reference=reference_current)
+        summed = drive_current.values if zones is None else _afferent_sums(drive_current.values, zones)
+        scale, ref = rheobase_scale(summed, lif, multiple=rheobase_multiple, reference=reference_current)
         drive_current = replace(drive_current, values=drive_current.values * scale)
         mapping.update(rheobase_multiple=rheobase_multiple, reference_current_a=ref, scale=scale)
     seconds["input"] = time.perf_counter() - t
@@ -190,9 +205,37 @@ def spike_afferents(afferent, lif: LIFParams, *, dt: float, engine: str = "auto"
         times = afferent.times
         duration = float(times[-1] - times[0]) if times is not None and len(times) > 1 else None
     t = time.perf_counter()
-    spikes = simulate_lif(drive_current, lif, dt=dt, engine=engine, duration=duration)
+    spikes = simulate_lif(drive_current, lif, dt=dt, engine=engine, duration=duration, zones=zones)
     seconds["spiking"] = time.perf_counter() - t
-    report = drive_report(drive_current.values, lif, spikes)
+    report = drive_report(drive_current.values if zones is None else _strongest_zone(drive_current.values, zones),
+                          lif, spikes)
     if report["warning"]:
         warnings.warn(report["warning"], AfferentWarning, stacklevel=3)
-    return SpikeStage(drive_current, spikes, {**mapping, **report}, seconds)
+    return SpikeStage(drive_current, spikes, {**mapping, **report}, seconds, zones)
+
+
+def _check_zones(zones, branching) -> None:
+    """``zones`` must divide the afferents of ``branching`` (None: the sum model)."""
+    if zones is None:
+        return
+    if not (hasattr(zones, "parent") and hasattr(zones, "branching") and hasattr(zones, "afferent")):
+        raise TypeError(f"'zones' must be an afferent.zones.Zones; got {type(zones).__name__} instead.")
+    if branching is None or not (zones.parent.n_afferents == branching.n_afferents
+                                 and (zones.parent.afferent_ids == branching.afferent_ids).all()):
+        raise ValueError("'zones' must divide the afferents of the result's branching; build them with "
+                         "afferent.zones.split_zones(result.branching, layout, k).")
+
+
+def _afferent_sums(values, zones):
+    """Each afferent's current (A, (n_times, n_afferents)) as the sum of its zones' (``values``)."""
+    from ..zones import zone_indicator
+
+    return (zone_indicator(zones).T @ values.T).T
+
+
+def _strongest_zone(values, zones):
+    """Peak current (A) of each afferent's strongest zone, shape (1, n_afferents), for the drive report."""
+    out = np.zeros(zones.parent.n_afferents)
+    if values.size:
+        np.maximum.at(out, zones.afferent, values.max(axis=0))
+    return out[None, :]
