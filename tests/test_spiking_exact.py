@@ -627,3 +627,24 @@ def test_the_compiled_exact_kernel_is_cached_on_disk_for_the_next_process(tmp_pa
             for _ in range(2)]
     assert runs == [["0", "1"], ["1", "0"]]  # compiled and saved, then loaded
     assert any(name.endswith(".nbi") for _, _, files in os.walk(tmp_path) for name in files)
+
+
+def test_used_peak_is_the_max_over_the_used_samples_without_a_second_pass():
+    """issue 23: the exact engine's peak per afferent (over the samples its pieces use) comes from
+    the input's extremes and the unused last samples; it equals the plain max over the used rows."""
+    from afferent.spiking._exact import _pieces, _used_peak
+
+    rng = np.random.default_rng(23)
+    n_times, n_aff = 41, 64
+    times = np.arange(n_times) * 1e-3
+    for k in range(12):
+        current = rng.uniform(0.0, 1e-6, (n_times, n_aff))
+        hot = rng.choice(n_aff, k * 5 % n_aff, replace=False)
+        current[-1, hot] = 2e-6  # the largest value in the last sample only
+        current[-3:, :3] = 3e-6  # ... or also in a used one
+        current[:, 5] = 1e-7  # constant: the largest value everywhere
+        for duration, hold in ((0.041, "previous"), (0.040, "previous"), (0.0385, "previous"),
+                               (0.040, "linear"), (0.0385, "linear"), (0.041, "linear")):
+            pc = _pieces(current, None, duration, times, 1e-2, hold)
+            used = int(pc.nxt[-1]) + 1 if hold == "linear" else pc.starts.size
+            np.testing.assert_array_equal(_used_peak(pc, hold), current[:used].max(axis=0), err_msg=f"{k} {duration} {hold}")

@@ -139,7 +139,7 @@ import numpy as np
 from .._validation import check_option
 from . import _drive, _params
 from ._drive import CEILING_FRACTION, drive_report, rheobase_scale  # noqa: F401 (CEILING_FRACTION: importable here)
-from ._exact import _pieces, _run_exact_numba, _run_exact_numpy
+from ._exact import _pieces, _run_exact_numba, _run_exact_numpy, _used_peak
 from ._grid import _peak_current, _plan, _run_brian2, _run_numba, _run_numpy, _silent
 from ._group import _numba_available
 from ._params import _MAX_DRIVE_V, LIFParams, _refractory_steps, grid_isi_bounds
@@ -239,13 +239,7 @@ def _simulate_exact(current, params: LIFParams, *, dt, engine: str, duration, ti
     if backend is None:
         backend = "numba" if _numba_repays(pc.starts.size, n_aff) else "numpy"
     _check_drive(pc.extremes, params)
-    n_pieces = pc.starts.size
-    if hold == "linear" and n_pieces:  # the drive reaches the next sample's value at the piece's end
-        peak = values[: int(pc.nxt[-1]) + 1].max(axis=0) if n_aff else np.zeros(0)
-    elif n_pieces == values.shape[0]:
-        peak = pc.extremes[1]
-    else:
-        peak = values[:n_pieces].max(axis=0) if n_aff else np.zeros(0)
+    peak = _used_peak(pc, hold)
     # The exact engine fires only where the drive exceeds theta: no rounding margin needed.
     silent = params.r_m * peak <= params.theta
     cols = np.flatnonzero(~silent)
