@@ -132,8 +132,9 @@ def as_csr(weights) -> CSRWeights:
     ValueError
         If ``weights`` is not 2-D.
     """
-    if isinstance(weights, CSRWeights):
-        return weights
+    if isinstance(weights, CSRWeights):  # rebuilt: one made by hand may be unsorted or writable
+        rows = np.repeat(np.arange(weights.shape[0]), np.diff(weights.indptr))
+        return CSRWeights.from_coo(weights.data, rows, weights.indices, weights.shape)
     if hasattr(weights, "tocoo") and hasattr(weights, "shape"):
         if len(weights.shape) != 2:
             raise ValueError(f"'weights' must be a 2-D array of shape (n_afferents, n_receptors); "

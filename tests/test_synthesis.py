@@ -250,9 +250,11 @@ def test_branching_takes_scipy_sparse_dense_or_csr_weights_alike():
     dense = np.array([[1.0, 0.0, 2.0], [0.0, 0.0, 0.5]])
     made = [Branching(w, [0.0, 1e-3], "x", "map", ["a", "b"])
             for w in (dense, sparse.csr_array(dense), sparse.coo_array(dense), CSRWeights.from_coo(
-                [2.0, 1.0, 0.5, 0.0], [0, 0, 1, 1], [2, 0, 2, 0], (2, 3)))]
+                [2.0, 1.0, 0.5, 0.0], [0, 0, 1, 1], [2, 0, 2, 0], (2, 3)),
+                      CSRWeights(np.array([2.0, 1.0, 0.5, 0.0]), np.array([2, 0, 2, 0]), np.array([0, 2, 4]), (2, 3)))]
     for b in made:
         assert isinstance(b.weights, CSRWeights) and b.weights.nnz == 3  # the stored 0 dropped
+        assert b.weights.indices.tolist() == [0, 2, 2] and not b.weights.data.flags.writeable  # sorted, read-only
         assert np.array_equal(b.weights.toarray(), dense) and b.receptor_counts.tolist() == [2, 1]
     with pytest.raises(ValueError, match=re.escape(
         "'weights' must be a 2-D array of shape (n_afferents, n_receptors); got 3-D."
