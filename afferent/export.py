@@ -1,4 +1,4 @@
-"""The one writer of results: a NetCDF-4 array file of the time courses, CSV tables (pandas), PNG
+"""The one writer of results: a NetCDF-4 array file of the time courses, CSV tables, PNG
 figures, a VTU of the receptor sites (ParaView), ``run.json``, and optionally an NWB file of the
 spike trains; all into a folder that appears whole or not at all. :func:`load_results` reads a
 folder back.
@@ -49,6 +49,8 @@ from importlib import metadata
 from types import SimpleNamespace
 
 import numpy as np
+
+from ._tables import write_table
 
 __all__ = ["write_outputs", "write_json", "file_sha256", "versions", "jsonable",
            "receptors_table", "write_receptor_vtu", "step_title", "profile_step_record", "results_dataset",
@@ -204,11 +206,10 @@ def write_outputs(folder: str, *, want, plots: bool, sed_static, sed, current=No
     if "currents" in want:
         _write_currents(path, sed, current, afferent, results_format)
     if "profiles" in want:
-        import pandas as pd
-
         t = afferent.times[profile_index] if afferent.times is not None else np.nan
-        pd.DataFrame({"afferent": afferent.afferent_ids, "position_m": afferent.positions, "time_s": t,
-                      "current_a": np.asarray(afferent.values)[profile_index]}).to_csv(path("profiles.csv"), index=False)
+        write_table(path("profiles.csv"), {"afferent": afferent.afferent_ids, "position_m": afferent.positions,
+                                           "time_s": np.full(len(afferent.positions), t, dtype=float),
+                                           "current_a": np.asarray(afferent.values)[profile_index]})
     if "fit" in want and fit is not None:
         import pandas as pd
 
@@ -218,10 +219,10 @@ def write_outputs(folder: str, *, want, plots: bool, sed_static, sed, current=No
         pd.DataFrame({"position_m": fit.positions, "predicted": fit.predicted, "observed": fit.observed}).to_csv(
             path("profile_fit.csv"), index=False)
     if "spikes" in want and spikes is not None:
-        spikes.to_dataframe().to_csv(path("spikes.csv"), index=False)
-        summary = spikes.summary().reset_index()
-        summary.insert(1, "position_m", afferent.positions)
-        summary.to_csv(path("spike_summary.csv"), index=False)
+        write_table(path("spikes.csv"), spikes.table())
+        summary = spikes.summary_table()
+        write_table(path("spike_summary.csv"), {"afferent": summary.pop("afferent"), "position_m": afferent.positions,
+                                                **summary})
     if "nwb" in want and spikes is not None:
         write_spikes_nwb(path("spikes.nwb"), spikes, afferent)
     if "vtu" in want:
@@ -231,7 +232,7 @@ def write_outputs(folder: str, *, want, plots: bool, sed_static, sed, current=No
             write_receptor_vtu(path("receptors.vtu"), sed_static,
                                time_index=int(np.argmax(np.nansum(np.asarray(sed_static.values), axis=1))))
     if waveform is not None:
-        waveform.to_dataframe().to_csv(path("waveform.csv"), index=False)
+        write_table(path("waveform.csv"), waveform.table())
     if plots:
         _figures(path, want, sed_static=sed_static, sed=sed, current=current, branching=branching, afferent=afferent,
                  fit=fit, waveform=waveform, spikes=spikes, profile_index=profile_index)

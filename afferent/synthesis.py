@@ -29,8 +29,8 @@ import warnings
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import sparse
 
+from ._csr import CSRWeights, as_csr
 from ._validation import check_option, check_rng
 from ._validation import plain as _plain
 from .exceptions import AfferentWarning, SEDFormatError
@@ -59,9 +59,11 @@ class Branching:
 
     Parameters
     ----------
-    weights : scipy.sparse array or array_like of shape (n_afferents, n_receptors)
+    weights : scipy.sparse array, CSRWeights or array_like of shape (n_afferents, n_receptors)
         Dimensionless weight of receptor j in afferent i (1 in the study; 0 = not connected);
-        finite and >= 0. Stored as a read-only ``scipy.sparse.csr_array`` of float64.
+        finite and >= 0. Stored as a read-only ``afferent._csr.CSRWeights`` of float64: scipy's
+        CSR arrays ``data``, ``indices``, ``indptr`` and ``shape`` in numpy, ``weights @ x``
+        bit for bit scipy's, ``weights.to_scipy()`` a ``scipy.sparse.csr_array``, ``weights.toarray()``.
     positions : array_like of shape (n_afferents,)
         Coordinate of each afferent along ``axis`` in m, used to plot and compare profiles:
         for ``'longitudinal'`` the section's x, for ``'cross'`` the section's z, for
@@ -84,7 +86,7 @@ class Branching:
         ``kind`` is not one of the allowed values.
     """
 
-    weights: sparse.csr_array
+    weights: CSRWeights
     positions: np.ndarray
     axis: str
     kind: str
@@ -94,11 +96,7 @@ class Branching:
     def __post_init__(self):
         check_option("axis", self.axis, _AXES)
         check_option("kind", self.kind, _KINDS)
-        w = sparse.csr_array(self.weights, dtype=np.float64, copy=True)
-        if w.ndim != 2:
-            raise ValueError(f"'weights' must be a 2-D array of shape (n_afferents, n_receptors); got {w.ndim}-D.")
-        w.sum_duplicates()
-        w.sort_indices()
+        w = as_csr(self.weights)  # repeated positions summed, columns sorted
         if not np.all(np.isfinite(w.data)) or np.any(w.data < 0):
             bad = np.flatnonzero(~np.isfinite(w.data) | (w.data < 0))[0]
             row = int(np.searchsorted(w.indptr, bad, side="right") - 1)
@@ -106,7 +104,7 @@ class Branching:
                 f"'weights' must be finite and >= 0 (dimensionless); got {float(w.data[bad])!r} for afferent {row}, "
                 f"receptor {int(w.indices[bad])} instead."
             )
-        w.eliminate_zeros()
+        w = w.eliminate_zeros()
         n_aff, n_rec = w.shape
         pos = np.array(self.positions, dtype=np.float64, copy=True)
         if pos.shape != (n_aff,) or not np.all(np.isfinite(pos)):
@@ -128,7 +126,7 @@ class Branching:
                     f"'receptor_ids' must have one entry per receptor column ({n_rec}); got shape {rids.shape} instead."
                 )
             rids.setflags(write=False)
-        for arr in (w.data, w.indices, w.indptr, pos, ids):
+        for arr in (pos, ids):  # w's arrays are read-only already
             arr.setflags(write=False)
         for name, value in (("weights", w), ("positions", pos), ("afferent_ids", ids), ("receptor_ids", rids)):
             object.__setattr__(self, name, value)
@@ -143,7 +141,7 @@ class Branching:
         rank = np.empty_like(order)
         rank[order] = np.arange(order.size)
         n = layout.n_receptors
-        w = sparse.csr_array((np.ones(n), (rank[inverse], np.arange(n))), shape=(uniq.size, n))
+        w = CSRWeights.from_coo(np.ones(n), rank[inverse], np.arange(n), (uniq.size, n))
         ids = np.array([f"{prefix}{u}" for u in uniq[order]])
         return cls(w, centres[order], axis, kind, ids, layout.ids)
 
@@ -293,7 +291,7 @@ class Branching:
         order = np.lexsort((np.array([first_seen[n] for n in names]), centres))
         rank = np.empty_like(order)
         rank[order] = np.arange(order.size)
-        w = sparse.csr_array((wcol, (rank[rows], cols_idx)), shape=(names.size, layout.n_receptors))
+        w = CSRWeights.from_coo(wcol, rank[rows], cols_idx, (names.size, layout.n_receptors))
         out = cls(w, centres[order], axis, "map", names[order], layout.ids)
         unassigned = out.unassigned
         if unassigned.size:
@@ -373,7 +371,7 @@ class Branching:
         order = np.argsort(centres, kind="stable")
         members, centres = members[order], centres[order]
         rows = np.repeat(np.arange(n_aff), k)
-        w = sparse.csr_array((np.ones(n_aff * k), (rows, members.ravel())), shape=(n_aff, n))
+        w = CSRWeights.from_coo(np.ones(n_aff * k), rows, members.ravel(), (n_aff, n))
         ids = np.array([f"R{i}" for i in range(n_aff)])
         return cls(w, centres, axis, "random", ids, layout.ids)
 
@@ -416,10 +414,10 @@ class Branching:
         """
         import pandas as pd
 
-        coo = self.weights.tocoo()
+        w = self.weights
         rids = self.receptor_ids if self.receptor_ids is not None else np.arange(self.n_receptors).astype(str)
         return pd.DataFrame(
-            {"afferent": self.afferent_ids[coo.row], "receptor": rids[coo.col], "weight": coo.data}
+            {"afferent": np.repeat(self.afferent_ids, np.diff(w.indptr)), "receptor": rids[w.indices], "weight": w.data}
         )
 
     def __repr__(self) -> str:

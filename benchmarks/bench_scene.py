@@ -22,7 +22,11 @@ spikes (``want = ["spikes"]``, its region: 3 afferents). Runs ``--repeats`` time
 warm sampled-SED cache and with an empty one (reading and sampling the series), and prints
 the median wall and user+sys CPU time, the load average (the machine may be shared: wall
 times under load are upper bounds) and the exact command. ``--tree DIR`` runs the package of
-another checkout (e.g. the commit before a change) for a before/after comparison.
+another checkout (e.g. the commit before a change) for a before/after comparison. Modules run
+from compiled bytecode, as from an installed package (pip writes the ``.pyc`` files at install;
+an editable install on first import): ``PYTHONDONTWRITEBYTECODE`` is dropped and the ``.pyc``
+files go to a temporary ``PYTHONPYCACHEPREFIX``, written by the untimed first run (without
+them every run compiles the package's ~25k lines: +0.2-0.3 s CPU).
 
 Run:  python benchmarks/bench_scene.py --shell [--repeats 5] [--tree DIR]
 """
@@ -126,9 +130,11 @@ def shell(repeats: int, tree: str, engine: str) -> None:
     scene = spikes_only_scene(work, engine)
     base = [sys.executable, "-m", "afferent", "run", scene, "-o", os.path.join(work, "out"), "--overwrite", "-q"]
     warm = os.path.join(work, "cache")
-    env = dict(os.environ, AFFERENT_CACHE_DIR=warm, MPLBACKEND="Agg")
-    subprocess.run(base, env=env, check=True, cwd=tree)  # fills the cache and numba's; not timed
-    print(f"# package: {os.path.abspath(tree)}/afferent (python -m afferent, run from that folder); [spikes] engine = {engine!r}")
+    env = dict(os.environ, AFFERENT_CACHE_DIR=warm, MPLBACKEND="Agg", PYTHONPYCACHEPREFIX=os.path.join(work, "pyc"))
+    env.pop("PYTHONDONTWRITEBYTECODE", None)
+    subprocess.run(base, env=env, check=True, cwd=tree)  # fills the caches: sampled SED, numba's, bytecode; not timed
+    print(f"# package: {os.path.abspath(tree)}/afferent (python -m afferent, run from that folder); [spikes] engine = {engine!r}; "
+          f"bytecode in {env['PYTHONPYCACHEPREFIX']}")
     for label in ("warm cache", "cold cache"):
         cmd = ["/usr/bin/time", "-f", "%e %U %S", *base]
         walls, cpus = [], []
@@ -139,10 +145,21 @@ def shell(repeats: int, tree: str, engine: str) -> None:
             e, u, s = map(float, done.stderr.strip().splitlines()[-1].split())
             walls.append(e)
             cpus.append(u + s)
-        print(f"# command: cd {tree} && AFFERENT_CACHE_DIR={cache} {' '.join(cmd)}")
+        print(f"# command: cd {tree} && AFFERENT_CACHE_DIR={cache} PYTHONPYCACHEPREFIX={env['PYTHONPYCACHEPREFIX']} "
+              f"{' '.join(cmd)}")
         print(f"{label:<11} wall {statistics.median(walls):.2f} s median of {repeats} "
               f"(min {min(walls):.2f}, max {max(walls):.2f}); user+sys {statistics.median(cpus):.2f} s; "
               f"load average {os.getloadavg()[0]:.1f} on {os.cpu_count()} CPUs")
+    for code in ("pass", "import numpy", "import pandas", "import scipy.sparse, scipy.special"):  # the references
+        walls, cpus = [], []
+        for _ in range(repeats):
+            done = subprocess.run(["/usr/bin/time", "-f", "%e %U %S", sys.executable, "-c", code], env=env,
+                                  check=True, capture_output=True, text=True)
+            e, u, s = map(float, done.stderr.strip().splitlines()[-1].split())
+            walls.append(e)
+            cpus.append(u + s)
+        print(f"{'python -c ' + repr(code):<45} wall {statistics.median(walls):.2f} s, user+sys "
+              f"{statistics.median(cpus):.2f} s (medians of {repeats})")
 
 
 def main(argv=None):

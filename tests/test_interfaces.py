@@ -215,3 +215,28 @@ dir = {str(tmp_path / "out")!r}
     assert record["sampling"]["side"] == 2 and record["sampling"]["interface"]["n_changed"] == 25
     assert record["field"]["coincident"]["n_copies_merged"] == 2505
     assert any("lie on an interface between materials" in w for w in map(str, record["warnings"]))
+
+
+def test_quick_bin_test_and_first_tetrahedra_agree_with_the_plain_forms():
+    """issue 23: the coincident test's cube check (one sorted integer per cube) and the first
+    tetrahedron of each cell (where a sorted parent changes) give what a lexsort and np.unique gave."""
+    from afferent.io._coincident import _any_in_one_bin, _first_of_each
+
+    def plain(xyz, tol):
+        q = np.floor((xyz - xyz.min(axis=0)) / tol)
+        q = q[np.lexsort(q.T)]
+        return bool(np.any(np.all(q[1:] == q[:-1], axis=1)))
+
+    rng = np.random.default_rng(23)
+    for k in range(40):
+        xyz = rng.uniform(-1e-3, 4e-3, (2000, 3))
+        if k % 2:  # a copy a round-off away (same cube or a neighbour), or written identically
+            xyz[rng.integers(2000)] = xyz[rng.integers(2000)] * (1 + (k % 4 == 1) * 1e-15)
+        for tol in (1e-9, 1e-5, 3e-4, 5e-3):
+            assert _any_in_one_bin(xyz, tol) == plain(xyz, tol), (k, tol)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        far = np.array([[0.0, 0, 0], [1.0, 0, 0], [1.0, 0, 0]])  # cube indices beyond int64 (1e20), silently
+        assert _any_in_one_bin(far, 1e-20) and _any_in_one_bin(far[:2], 1e-20) in (False, True)
+    for parent in (np.repeat(np.arange(50), rng.integers(1, 7, 50)), rng.integers(0, 50, 300), np.zeros(0, int)):
+        np.testing.assert_array_equal(_first_of_each(parent), np.unique(parent, return_index=True)[1])

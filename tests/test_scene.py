@@ -293,6 +293,38 @@ def test_sed_only_scene_never_imports_brian2(tmp_path):
     assert {"python", "numpy", "afferent-skin"} <= set(record["versions"]) and record["warnings"] == []
 
 
+_HEAVY = ("pandas", "scipy", "xarray", "matplotlib", "numba", "h5netcdf", "h5py", "tqdm", "brian2")
+_SHELL = """
+import json, sys
+from afferent.cli import main
+code = main(["run", sys.argv[1], "-o", sys.argv[2], "-q"])
+print(json.dumps({"code": code, "heavy": sorted(m for m in %r if m in sys.modules)}))
+""" % (_HEAVY,)
+
+
+@needs_sample
+def test_spikes_only_scene_from_the_shell_imports_no_heavy_module(tmp_path):
+    """Issue 23: `afferent run` of the spikes-only ramp scene (warm sampled-SED cache) imports neither
+    pandas (3 small CSVs), nor scipy (synthesis of 51 receptors, the sigmoid), nor xarray, matplotlib,
+    numba (3 afferents: the numpy engine), h5py/h5netcdf or tqdm."""
+    text = (SCENES / "spikes_ramp.toml").read_text().replace('"../block4', f'"{SAMPLE / "block4"}')
+    text = re.sub(r"(?m)^want = .*$", 'want = ["spikes"]', text)
+    scene = write_scene(tmp_path, text, "spikes_only.toml")
+    cache = tmp_path / "cache"
+    run_scene(load_scene(scene).with_output(tmp_path / "fill"), cache_dir=cache)  # reading + sampling: scipy
+    env = dict(os.environ, PYTHONPATH=str(ROOT), AFFERENT_CACHE_DIR=str(cache), MPLBACKEND="Agg")
+    proc = subprocess.run([sys.executable, "-c", _SHELL, str(scene), str(tmp_path / "out")],
+                          capture_output=True, text=True, env=env, timeout=120, cwd=tmp_path)
+    assert proc.returncode == 0, proc.stderr
+    out = json.loads(proc.stdout.strip().splitlines()[-1])
+    assert out == {"code": 0, "heavy": []}
+    assert sorted(os.listdir(tmp_path / "out")) == [".afferent-output.json", "run.json", "spike_summary.csv",
+                                                    "spikes.csv", "waveform.csv"]
+    for name in ("spikes.csv", "spike_summary.csv", "waveform.csv"):  # the same bytes as the in-process run's
+        assert (tmp_path / "out" / name).read_bytes() == (tmp_path / "fill" / name).read_bytes()
+    assert json.loads((tmp_path / "out" / "run.json").read_text())["cache"]["hit"] is True
+
+
 @needs_sample
 def test_cache_hit_then_invalidated_by_a_changed_export(tmp_path):
     import meshio

@@ -419,8 +419,10 @@ def test_exact_numba_without_numba_raises(monkeypatch):
 
 
 def test_auto_takes_numba_only_when_it_repays_its_import(monkeypatch):
-    """'exact' runs small simulations on numpy unless numba is already imported (importing it
-    costs 0.4-1 s, more than a small scene's whole simulation); large ones on numba."""
+    """'exact' runs small simulations on numpy (importing numba costs 0.4-1 s, more than a small
+    scene's whole simulation), large ones on numba: by the workload alone, never by whether numba
+    happens to be imported (before: it was, and a scene's spike times differed in their last bits
+    between a fresh process and one that had imported numba)."""
     import sys
 
     monkeypatch.delitem(sys.modules, "numba", raising=False)
@@ -430,10 +432,8 @@ def test_auto_takes_numba_only_when_it_repays_its_import(monkeypatch):
     assert spiking._numba_repays(100_000, 12_500) == (importlib.util.find_spec("numba") is not None)  # ~31 s on numpy
     # bench_spiking's workload: 0.64 s on numpy, 0.17 s on numba + 0.54 s to load it (issue 23)
     assert spiking._numba_repays(1_001, 12_500) == (importlib.util.find_spec("numba") is not None)
-    monkeypatch.setitem(sys.modules, "numba", object())   # already imported: no import to repay
-    assert spiking._numba_repays(10, 1)
-    monkeypatch.setattr(spiking, "_numba_available", lambda: False)
-    assert not spiking._numba_repays(10, 1)
+    monkeypatch.setitem(sys.modules, "numba", object())   # imported already: the same choice
+    assert not spiking._numba_repays(10, 1) and not spiking._numba_repays(23_000, 3)
 
 
 def test_auto_is_exact():
@@ -627,3 +627,24 @@ def test_the_compiled_exact_kernel_is_cached_on_disk_for_the_next_process(tmp_pa
             for _ in range(2)]
     assert runs == [["0", "1"], ["1", "0"]]  # compiled and saved, then loaded
     assert any(name.endswith(".nbi") for _, _, files in os.walk(tmp_path) for name in files)
+
+
+def test_used_peak_is_the_max_over_the_used_samples_without_a_second_pass():
+    """issue 23: the exact engine's peak per afferent (over the samples its pieces use) comes from
+    the input's extremes and the unused last samples; it equals the plain max over the used rows."""
+    from afferent.spiking._exact import _pieces, _used_peak
+
+    rng = np.random.default_rng(23)
+    n_times, n_aff = 41, 64
+    times = np.arange(n_times) * 1e-3
+    for k in range(12):
+        current = rng.uniform(0.0, 1e-6, (n_times, n_aff))
+        hot = rng.choice(n_aff, k * 5 % n_aff, replace=False)
+        current[-1, hot] = 2e-6  # the largest value in the last sample only
+        current[-3:, :3] = 3e-6  # ... or also in a used one
+        current[:, 5] = 1e-7  # constant: the largest value everywhere
+        for duration, hold in ((0.041, "previous"), (0.040, "previous"), (0.0385, "previous"),
+                               (0.040, "linear"), (0.0385, "linear"), (0.041, "linear")):
+            pc = _pieces(current, None, duration, times, 1e-2, hold)
+            used = int(pc.nxt[-1]) + 1 if hold == "linear" else pc.starts.size
+            np.testing.assert_array_equal(_used_peak(pc, hold), current[:used].max(axis=0), err_msg=f"{k} {duration} {hold}")

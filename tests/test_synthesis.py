@@ -11,6 +11,7 @@ import pandas as pd
 import pytest
 from scipy import sparse
 
+from afferent._csr import CSRWeights
 from afferent.exceptions import AfferentWarning, SEDFormatError
 from afferent.receptors import ReceptorLayout
 from afferent.synthesis import AfferentCurrent, Branching, synthesize
@@ -42,7 +43,8 @@ def test_longitudinal_groups_by_x(layout):
     assert b.afferent_ids.tolist() == [f"L{i}" for i in range(NX)]
     assert b.receptor_counts.tolist() == [NZ] * NX
     assert b.is_partition and b.unassigned.size == 0
-    assert isinstance(b.weights, sparse.csr_array) and not b.weights.data.flags.writeable
+    assert isinstance(b.weights, CSRWeights) and not b.weights.data.flags.writeable
+    assert not b.weights.indices.flags.writeable and not b.weights.indptr.flags.writeable
 
 
 def test_cross_groups_by_z(layout):
@@ -125,7 +127,7 @@ def test_from_map_csv_with_weights_and_shared_receptor(layout, tmp_path):
 def test_from_map_round_trip_and_axis(layout):
     b = Branching.cross(layout)
     again = Branching.from_map(b.to_dataframe(), layout, axis="z")
-    assert (again.weights != b.weights).nnz == 0
+    assert np.array_equal(again.weights.toarray(), b.weights.toarray())
     np.testing.assert_allclose(again.positions, b.positions, rtol=1e-15)
     assert again.afferent_ids.tolist() == b.afferent_ids.tolist()
 
@@ -173,10 +175,10 @@ def test_random_is_reproducible_and_seed_dependent(layout):
     a = Branching.random(layout, 9, rng=42)
     b = Branching.random(layout, 9, rng=42)
     c = Branching.random(layout, 9, rng=43)
-    assert (a.weights != b.weights).nnz == 0 and np.array_equal(a.positions, b.positions)
-    assert (a.weights != c.weights).nnz > 0
+    assert np.array_equal(a.weights.toarray(), b.weights.toarray()) and np.array_equal(a.positions, b.positions)
+    assert not np.array_equal(a.weights.toarray(), c.weights.toarray())
     g = Branching.random(layout, 9, rng=np.random.default_rng(42))
-    assert (a.weights != g.weights).nnz == 0
+    assert np.array_equal(a.weights.toarray(), g.weights.toarray())
 
 
 def test_random_fields_are_compact_nearest_neighbour_patches(layout):
@@ -197,7 +199,7 @@ def test_random_fields_are_compact_nearest_neighbour_patches(layout):
 
         assert any(is_knn_of(m) for m in members), row
     np.testing.assert_allclose(
-        b.positions, [layout.positions[b.weights[[r]].indices, 0].mean() for r in range(b.n_afferents)], rtol=1e-15
+        b.positions, [layout.positions[b.weights.to_scipy()[[r]].indices, 0].mean() for r in range(b.n_afferents)], rtol=1e-15
     )
 
 
@@ -219,6 +221,45 @@ def test_random_options_and_errors(layout):
         "'rng' must be None, an int seed or a numpy.random.Generator; got 'seed' instead."
     )):
         Branching.random(layout, 3, rng="seed")
+
+
+# --------------------------------------------------------------------- weights (afferent._csr)
+def test_csr_weights_product_is_scipys_bit_for_bit():
+    rng = np.random.default_rng(5)
+    n_aff, n_rec, nnz = 40, 300, 2000
+    rows, cols = rng.integers(0, n_aff - 3, nnz), rng.integers(0, n_rec, nnz)  # 3 empty rows at the end
+    data = rng.lognormal(0.0, 1.0, nnz) * (rng.random(nnz) > 0.05)  # some stored zeros
+    ref = sparse.csr_array((data, (rows, cols)), shape=(n_aff, n_rec))
+    ref.sum_duplicates()
+    ours = CSRWeights.from_coo(data, rows, cols, (n_aff, n_rec))
+    assert np.array_equal(ours.indptr, ref.indptr) and np.array_equal(ours.indices, ref.indices)
+    assert np.array_equal(ours.data, ref.data)  # repeated positions summed in scipy's order
+    x = rng.normal(0.0, 1e-8, (500, n_rec))  # currents over (time, receptor), as synthesize multiplies them
+    for operand in (x.T, np.ascontiguousarray(x.T), x[0], x[:, :7].T[:, 1]):
+        if operand.shape[0] != n_rec:
+            continue
+        assert np.array_equal(ours @ operand, ref @ operand)
+    assert np.array_equal(ours.toarray(), ref.toarray())
+    assert (ours.to_scipy() != ref).nnz == 0
+    lean = ours.eliminate_zeros()
+    assert lean.nnz == int(np.count_nonzero(ref.data)) and np.array_equal(lean.toarray(), ref.toarray())
+    assert np.array_equal(lean @ x.T, ref @ x.T)
+
+
+def test_branching_takes_scipy_sparse_dense_or_csr_weights_alike():
+    dense = np.array([[1.0, 0.0, 2.0], [0.0, 0.0, 0.5]])
+    made = [Branching(w, [0.0, 1e-3], "x", "map", ["a", "b"])
+            for w in (dense, sparse.csr_array(dense), sparse.coo_array(dense), CSRWeights.from_coo(
+                [2.0, 1.0, 0.5, 0.0], [0, 0, 1, 1], [2, 0, 2, 0], (2, 3)),
+                      CSRWeights(np.array([2.0, 1.0, 0.5, 0.0]), np.array([2, 0, 2, 0]), np.array([0, 2, 4]), (2, 3)))]
+    for b in made:
+        assert isinstance(b.weights, CSRWeights) and b.weights.nnz == 3  # the stored 0 dropped
+        assert b.weights.indices.tolist() == [0, 2, 2] and not b.weights.data.flags.writeable  # sorted, read-only
+        assert np.array_equal(b.weights.toarray(), dense) and b.receptor_counts.tolist() == [2, 1]
+    with pytest.raises(ValueError, match=re.escape(
+        "'weights' must be a 2-D array of shape (n_afferents, n_receptors); got 3-D."
+    )):
+        Branching(np.ones((1, 2, 3)), [0.0], "x", "map", ["a"])
 
 
 # --------------------------------------------------------------------- Branching validation

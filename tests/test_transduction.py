@@ -122,6 +122,23 @@ def test_sigmoid_keeps_shape_and_returns_float64():
     assert np.ndim(sigmoid(0, p)) == 0
 
 
+def test_expit_is_scipys_to_4_ulp_over_the_whole_real_line_and_exact_at_the_ends():
+    from scipy.special import expit
+
+    from afferent.transduction import _expit
+
+    rng = np.random.default_rng(23)
+    mag = np.logspace(-320, 308.2, 200_001)  # |x| from subnormal to the float maximum
+    x = np.concatenate([-mag, mag, rng.normal(0.0, 3.0, 100_000), rng.uniform(-800.0, 800.0, 100_000),
+                        [0.0, -0.0, 709.78, -709.78, 709.79, -709.79, 745.2, -745.2, FLOAT_MAX, -FLOAT_MAX]])
+    ours, ref = _expit(x), expit(x)
+    np.testing.assert_array_max_ulp(ours, ref, maxulp=4)
+    ends = (ref == 0.0) | (ref == 1.0)
+    assert ends.sum() > 200_000 and np.array_equal(ours[ends], ref[ends])  # the saturated ends bit for bit
+    np.testing.assert_array_equal(_expit([np.inf, -np.inf, np.nan, 0.0]), [1.0, 0.0, np.nan, 0.5])
+    assert np.all(np.diff(_expit(np.sort(x))) >= 0)  # monotone
+
+
 EXTREME_SED = [0.0, 1e300, -1e300, 1.7e308, -1.7e308, FLOAT_MAX, -FLOAT_MAX]
 EXTREME_PARAMS = [
     SigmoidParams(1e-8, 0.0, 300.0),  # gamma 0: alpha/2 everywhere

@@ -256,9 +256,10 @@ def test_split_zones_partitions_each_afferent_along_it():
     assert z.branching.receptor_counts.tolist() == [3, 2, 2, 3, 2, 2]
     assert z.afferent.tolist() == [0, 0, 0, 1, 1, 1]
     for row in range(z.n_zones):  # contiguous along z, z0 at the smallest z
-        zs = layout.positions[z.branching.weights[[row]].indices, 2]
+        w = z.branching.weights
+        zs = layout.positions[w.indices[w.indptr[row]:w.indptr[row + 1]], 2]
         assert np.ptp(zs) <= 2.2e-4 * 2 + 1e-12
-    first = layout.positions[z.branching.weights[[0]].indices, 2]
+    first = layout.positions[w.indices[w.indptr[0]:w.indptr[1]], 2]
     np.testing.assert_allclose(np.sort(first), [0.0, 2.2e-4, 4.4e-4])
     # every connection in exactly one zone of its afferent: zone currents sum to the afferent's
     cur = np.random.default_rng(0).uniform(size=(4, layout.n_receptors)) * 1e-8
@@ -400,7 +401,8 @@ def test_zones_from_map_groups_each_afferents_receptors_by_label(tmp_path):
     zc, ac = synthesize(cur, z.branching).values, synthesize(cur, b).values
     np.testing.assert_allclose(zc[:, :2].sum(1), ac[:, 0], rtol=1e-14)
     for j, rid in enumerate(ids):  # every receptor in the zone of its label
-        row = next(k for k in range(z.n_zones) if j in z.branching.weights[[k]].indices)
+        w = z.branching.weights
+        row = next(k for k in range(z.n_zones) if j in w.indices[w.indptr[k]:w.indptr[k + 1]])
         assert z.branching.afferent_ids[row].endswith("/" + labels[rid])
     path.write_text("receptor,zone\n0,a\n1,a\n")
     with pytest.raises(ValueError, match=r"Zone map '.*zones.csv': 6 receptor\(s\) of the branching have no zone: "

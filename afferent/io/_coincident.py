@@ -68,10 +68,14 @@ def _any_in_one_bin(xyz: np.ndarray, tol: float) -> bool:
     copies always has some in one cube. Most exports have none, and skip the KD-tree
     (0.03 s instead of 0.25 s for the 89,739 nodes of sample_sed/block8).
     """
-    q = np.floor((xyz - xyz.min(axis=0)) / tol)
-    order = np.lexsort(q.T)
-    q = q[order]
-    return bool(np.any(np.all(q[1:] == q[:-1], axis=1)))
+    with np.errstate(invalid="ignore"):  # a cube index beyond int64 (tol ~1e-19 of the extent) casts to one value
+        q = np.floor((xyz - xyz.min(axis=0)) / tol).astype(np.int64)
+    # One integer per cube (wrapping products: two cubes may share one, never one cube two), sorted:
+    # 2.2 instead of 5.2 ms for the 41,595 nodes of sample_sed/block4 against a lexsort of the three
+    # indices. A shared integer of two cubes only sends the export on to the KD-tree, which decides.
+    key = q[:, 0] * np.int64(-7046029254386353131) ^ q[:, 1] * np.int64(-4417276706812531889) ^ q[:, 2]
+    key.sort()
+    return bool(np.any(key[1:] == key[:-1]))
 
 
 def coincident_labels(xyz: np.ndarray, tetra: np.ndarray, rtol: float = COINCIDENT_RTOL):
@@ -160,6 +164,14 @@ def _disagreement(sed: np.ndarray, labels: np.ndarray, mean: np.ndarray, counts:
             "max_relative": float(rel.max()) if rel.size else 0.0, "max_node": node}
 
 
+def _first_of_each(parent: np.ndarray) -> np.ndarray:
+    """Index of the first tetrahedron of each cell: where ``parent`` changes when it is sorted (as
+    the readers build it: 0.4 instead of 3.4 ms for sample_sed/block4's 224,112), else np.unique's."""
+    if parent.size and np.all(parent[1:] >= parent[:-1]):
+        return np.flatnonzero(np.concatenate([[True], parent[1:] != parent[:-1]]))
+    return np.unique(parent, return_index=True)[1]
+
+
 def merge_coincident(xyz: np.ndarray, sed: np.ndarray, location: str, cells: Cells, rtol: float = COINCIDENT_RTOL):
     """Merge coincident points into nodes: (xyz, sed, cells, report) or the inputs and None when there are none.
 
@@ -186,7 +198,7 @@ def merge_coincident(xyz: np.ndarray, sed: np.ndarray, location: str, cells: Cel
         one material: the mesh's own discontinuity, apart from the interface's jump); ``sides`` (:class:`~afferent.field.NodeSides` or None): for point data
         on cells with material ids, the mean of each material's copies where materials meet.
     """
-    found = coincident_labels(xyz, cells.tetra[np.unique(cells.parent, return_index=True)[1]], rtol)
+    found = coincident_labels(xyz, cells.tetra[_first_of_each(cells.parent)], rtol)
     if found is None:
         return xyz, sed, cells, None, None
     labels, n_nodes, tol = found

@@ -33,9 +33,10 @@ Three engines:
     samples plus at most a log per spike (a steady drive firing again and again from
     ``v_reset`` reuses the last one): numba, a dependency, its kernel compiled once and cached
     on disk (one afferent at a time, the afferents split in blocks over one thread per core,
-    with identical results) when the run repays its load (numba already imported, or the
-    numpy loop estimated above :data:`NUMBA_FROM_S`: importing numba and loading the cached
-    kernel costs 0.4-1 s, more than a small scene's whole simulation), else numpy
+    with identical results) when the run repays its load (the numpy loop estimated above
+    :data:`NUMBA_FROM_S`, decided by the workload alone so that a scene's bytes do not depend on
+    what else the process imported: importing numba and loading the cached kernel costs
+    0.4-1 s, more than a small scene's whole simulation), else numpy
     (``'exact-numba'`` / ``'exact-numpy'`` force a back end; the two agree to ~1e-13 s, to a
     few ps where the drive is barely above threshold; the result's ``backend`` says which ran). The spikes come back flat, as brian2's
     ``SpikeMonitor`` gives them (``SpikeTrains.t``, ``SpikeTrains.i``), with
@@ -141,7 +142,7 @@ from .._validation import check_option
 from . import _drive, _params
 from ._drive import CEILING_FRACTION, drive_report, rheobase_scale  # noqa: F401 (CEILING_FRACTION: importable here)
 from ._drive import INPUTS, SpikeStage, spike_afferents
-from ._exact import _pieces, _run_exact_numba, _run_exact_numpy
+from ._exact import _pieces, _run_exact_numba, _run_exact_numpy, _used_peak
 from ._grid import _peak_current, _plan, _run_brian2, _run_numba, _run_numpy, _silent
 from ._group import _numba_available
 from ._params import _MAX_DRIVE_V, LIFParams, _refractory_steps, grid_isi_bounds
@@ -207,7 +208,9 @@ def _check_drive(extremes: tuple, params: LIFParams) -> None:
 
 
 #: The exact engine's ``'exact'`` (``'auto'``) back end is numba only when the numpy loop is
-#: estimated to take longer than this (s), or numba is already imported: a fresh ``import
+#: estimated to take longer than this (s), whether or not numba is imported already (the two
+#: back ends agree to the last bits or two of a spike time, not bit for bit: the choice must
+#: not depend on what else the process imported, or one scene would give two sets of bytes): a fresh ``import
 #: numba`` plus loading the cached compiled loop costs 0.4-1 s on the development machine,
 #: while the numpy loop costs about 10 us per input sample plus 50 ns per sample and afferent
 #: (measured: 23,000 samples x 3 afferents 0.22 s; 1,001 x 12,500 ramp-and-hold, 3.7 M spikes,
@@ -216,24 +219,11 @@ NUMBA_FROM_S = 0.5
 
 
 def _numba_repays(n_pieces: int, n_afferents: int) -> bool:
-    """Whether ``'exact'`` should run on numba: installed, and imported already or worth importing."""
+    """Whether ``'exact'`` should run on numba: installed, and the workload worth its import."""
     import importlib.util
-    import sys
 
-    if "numba" in sys.modules:
-        return _numba_available()
     # find_spec, not an import: importing is the cost being avoided
     return n_pieces * (1e-5 + 5e-8 * n_afferents) > NUMBA_FROM_S and importlib.util.find_spec("numba") is not None
-
-
-def _used_peak(pc, hold: str) -> np.ndarray:
-    """Largest current (A) of each column over the samples the exact engine's pieces use."""
-    values, n_pieces, n_aff = pc.values, pc.starts.size, pc.values.shape[1]
-    if hold == "linear" and n_pieces:  # the drive reaches the next sample's value at the piece's end
-        return values[: int(pc.nxt[-1]) + 1].max(axis=0) if n_aff else np.zeros(0)
-    if n_pieces == values.shape[0]:
-        return pc.extremes[1]
-    return values[:n_pieces].max(axis=0) if n_aff else np.zeros(0)
 
 
 def _check_isi_resolution(params: LIFParams, peak: np.ndarray, pc) -> None:

@@ -203,17 +203,32 @@ class SpikeTrains:
         denom = max(self.n_afferents, 1) * np.diff(edges)
         return counts / denom, edges
 
+    def table(self) -> dict:
+        """Every spike as columns (no pandas): ``afferent`` (ids, str) and ``spike_time_s`` (s), sorted
+        by afferent; what :meth:`to_dataframe` holds and ``spikes.csv`` lists."""
+        return {"afferent": np.repeat(self.afferent_ids, self.n_spikes), "spike_time_s": self.t}
+
     def to_dataframe(self):
         """Tidy table of every spike: columns ``afferent`` and ``spike_time_s``, sorted by afferent."""
         import pandas as pd
 
-        counts = self.n_spikes
-        return pd.DataFrame(
-            {
-                "afferent": np.repeat(self.afferent_ids, counts),
-                "spike_time_s": self.t,
-            }
-        )
+        return pd.DataFrame(self.table())
+
+    def summary_table(self) -> dict:
+        """One entry per afferent, as columns (no pandas): ``afferent`` (ids) then the columns of
+        :meth:`summary`; what ``spike_summary.csv`` lists (with the afferents' positions)."""
+        isis = self.isi()
+        mean_isi = np.array([d.mean() if d.size >= 1 else np.nan for d in isis])
+        cv_isi = np.array([d.std() / d.mean() if d.size >= 2 else np.nan for d in isis])
+        return {
+            "afferent": np.asarray(self.afferent_ids),
+            "n_spikes": self.n_spikes,
+            "rate_hz": self.rates(),
+            "first_spike_latency_s": self.first_spike_latency(),
+            "mean_isi_s": mean_isi,
+            "cv_isi": cv_isi,
+            "simulated": self.simulated,
+        }
 
     def summary(self):
         """One row per afferent, as a DataFrame indexed by ``afferent``.
@@ -225,21 +240,9 @@ class SpikeTrains:
         """
         import pandas as pd
 
-        isis = self.isi()
-        mean_isi = np.array([d.mean() if d.size >= 1 else np.nan for d in isis])
-        cv_isi = np.array([d.std() / d.mean() if d.size >= 2 else np.nan for d in isis])
-        df = pd.DataFrame(
-            {
-                "n_spikes": self.n_spikes,
-                "rate_hz": self.rates(),
-                "first_spike_latency_s": self.first_spike_latency(),
-                "mean_isi_s": mean_isi,
-                "cv_isi": cv_isi,
-                "simulated": self.simulated,
-            },
-            index=pd.Index(self.afferent_ids, name="afferent"),
-        )
-        return df
+        columns = self.summary_table()
+        index = pd.Index(columns.pop("afferent"), name="afferent")
+        return pd.DataFrame(columns, index=index)
 
     def __repr__(self) -> str:
         return (

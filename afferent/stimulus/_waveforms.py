@@ -169,11 +169,15 @@ class Waveform:
                 out.append((str(name), t0, t1))
         return out
 
+    def table(self) -> dict:
+        """Columns ``time_s`` (s) and ``depth_m`` (m), no pandas: what ``waveform.csv`` lists."""
+        return {"time_s": self.times, "depth_m": self.depth}
+
     def to_dataframe(self):
         """Table with columns ``time_s`` and ``depth_m``."""
         import pandas as pd
 
-        return pd.DataFrame({"time_s": self.times, "depth_m": self.depth})
+        return pd.DataFrame(self.table())
 
     def __repr__(self) -> str:
         return (
