@@ -21,6 +21,27 @@ EXPECTED = ["01_read_fe_export", "02_receptors_and_sampling", "03_transduction_a
 PRIVATE = re.compile(r"\bafferent(\.\w+)*\._\w+|from\s+\.?_\w+\s+import")
 
 
+#: Run first in the kernel of test_notebook_runs: every figure the notebook displays (the inline backend
+#: renders it through ``print_figure``) goes through tests/_figcheck.py, whose findings (a legend over data,
+#: overlapping labels, no title, ...) are written to stderr, where the leak check below finds them;
+#: a last cell prints how many figures were checked (the test compares it with the figures shown).
+FIGCHECK_CELL = """\
+import importlib.util as _u, sys as _sys
+from matplotlib.backend_bases import FigureCanvasBase as _Canvas
+_spec = _u.spec_from_file_location("_figcheck", {figcheck!r})
+_figcheck = _u.module_from_spec(_spec)
+_spec.loader.exec_module(_figcheck)
+_print_figure, _checked = _Canvas.print_figure, []
+def _checked_print_figure(self, *args, **kwargs):
+    _checked.append(1)
+    for problem in _figcheck.figure_problems(self.figure):
+        _sys.stderr.write(f"figure check: {{problem}}\\n")
+    return _print_figure(self, *args, **kwargs)
+_Canvas.print_figure = _checked_print_figure
+"""
+FIGCHECK_COUNT = "print('figures checked:', len(_checked))"
+
+
 def _executor():
     spec = importlib.util.spec_from_file_location("execute_notebooks", ROOT / "notebooks" / "execute_notebooks.py")
     module = importlib.util.module_from_spec(spec)
@@ -98,7 +119,11 @@ def test_notebook_runs(path, monkeypatch):
     # the kernel imports the package of this checkout, not whichever one is installed
     monkeypatch.setenv("PYTHONPATH", os.pathsep.join(filter(None, [str(ROOT), os.environ.get("PYTHONPATH")])))
     nb = nbformat.read(path, as_version=4)
+    nb.cells.insert(0, nbformat.v4.new_code_cell(FIGCHECK_CELL.format(figcheck=str(ROOT / "tests" / "_figcheck.py"))))
+    nb.cells.append(nbformat.v4.new_code_cell(FIGCHECK_COUNT))
     client = nbclient.NotebookClient(nb, timeout=300, kernel_name="python3", resources={"metadata": {"path": str(path.parent)}})
     client.execute()
-    # no error, and no warning the notebook does not catch and explain itself
+    # no error, no warning the notebook does not catch and explain itself, no figure the layout checker flags
     assert not _leaks(nb)
+    shown = sum("image/png" in o.get("data", {}) for c in _code_cells(nb) for o in c.outputs)
+    assert nb.cells[-1].outputs[0]["text"] == f"figures checked: {shown}\n" and shown
