@@ -238,13 +238,15 @@ def run_pipeline(
                           scaling=scaling if waveform is not None else None, profile_index=profile_index)
 
 
-INPUTS = ("static", "rate-sensitive")
+INPUTS = ("static", "rate-sensitive", "slowly-adapting")
+# input -> mode of stimulus.adapting_input
+_ADAPTATION_OF_INPUT = {"rate-sensitive": "rectified-rate", "slowly-adapting": "static-plus-rate"}
 
 
 def run_spikes(result: PipelineResult, lif, *, dt: float, engine: str = "auto", input: str = "static",
                gain: float | None = None, tau: float | None = None, duration: float | None = None,
                drive: str = "resistance", rheobase_multiple: float = 2.0,
-               reference_current: float | None = None) -> PipelineResult:
+               reference_current: float | None = None, static_gain: float | None = None) -> PipelineResult:
     """Add spikes to a pipeline result: input current -> leaky integrate-and-fire.
 
     Parameters
@@ -260,11 +262,13 @@ def run_spikes(result: PipelineResult, lif, *, dt: float, engine: str = "auto", 
         ``'static'``: the afferent current itself (the study's sigmoid of SED; fires through a
         hold). ``'rate-sensitive'``: each receptor's current adapts on its own
         (:func:`afferent.stimulus.adapting_input`, rectified rate of change, fires at onset
-        and offset), then the inputs are summed into afferents.
+        and offset), then the inputs are summed into afferents. ``'slowly-adapting'``: the
+        same per receptor with the SA-I static-plus-rate input (mode ``'static-plus-rate'``:
+        fires through a hold, faster during the ramp; docs/classes.md).
     gain : float, optional
-        Gain of the rate-sensitive input in s (required for it).
+        Gain of the rate term in s (required for both adapting inputs).
     tau : float, optional
-        Time constant of the rate-sensitive input in s (default that of ``adapting_input``).
+        Time constant of the rate in s (default that of ``adapting_input``).
     duration : float, optional
         Simulated time in s; default: to the last sample (``dt`` past it for a single sample).
     drive : {'resistance', 'rheobase'}, default='resistance'
@@ -275,6 +279,8 @@ def run_spikes(result: PipelineResult, lif, *, dt: float, engine: str = "auto", 
         With ``drive='rheobase'``: the reference current's multiple of the rheobase.
     reference_current : float, optional
         With ``drive='rheobase'``: the reference current in A (default the run's largest).
+    static_gain : float, optional
+        With ``input='slowly-adapting'``: the dimensionless gain on the static current (default 1).
 
     Returns
     -------
@@ -301,9 +307,12 @@ def run_spikes(result: PipelineResult, lif, *, dt: float, engine: str = "auto", 
         drive_current = stimulus.static_input(result.afferent)
     else:
         if gain is None:
-            raise ValueError("input='rate-sensitive' needs gain= (s): how much input current (A) per A/s of rate.")
+            raise ValueError(f"input={input!r} needs gain= (s): how much input current (A) per A/s of rate.")
         kw = {} if tau is None else {"tau": tau}
-        drive_current = stimulus.adapting_input(result.current, gain=gain, **kw).synthesize(result.branching)
+        if static_gain is not None:
+            kw["static_gain"] = static_gain
+        drive_current = stimulus.adapting_input(result.current, gain=gain, mode=_ADAPTATION_OF_INPUT[input],
+                                                **kw).synthesize(result.branching)
     check_option("drive", drive, DRIVE_MAPPINGS)
     mapping = {"mapping": drive, "r_m_ohm": lif.r_m, "rheobase_a": lif.rheobase}
     if drive == "rheobase":

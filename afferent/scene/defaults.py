@@ -59,10 +59,11 @@ def resolve(scene: Scene) -> Scene:
     sy = _synthesis(scene, err)
     st = _stimulus(scene, o, err)
     info, out = _outputs(scene, err)
-    sp = _spikes(scene, err, out)
+    af = _fill(scene.afferent)
+    sp = _spikes(replace(scene, afferent=af), err, out)
     fi = _fit(scene, err, out, ex)
     resolved = replace(scene, info=info, export=ex, receptors=rec, sampling=_fill(scene.sampling), transduction=tr,
-                       synthesis=sy, stimulus=st, spikes=sp, fit=fi, outputs=out, resolved=True)
+                       synthesis=sy, stimulus=st, spikes=sp, fit=fi, outputs=out, afferent=af, resolved=True)
     return resolved
 
 
@@ -230,17 +231,35 @@ def _outputs(scene: Scene, err):
     return info, out
 
 
+def class_overrides(scene: Scene) -> list:
+    """The [spikes] keys (SI names) whose value in the resolved ``scene`` is not its afferent class's."""
+    from ..classes import afferent_class
+
+    preset = afferent_class(scene.afferent.afferent_class).spikes_defaults()
+    return sorted(k for k, v in preset.items() if getattr(scene.spikes, k) != v)
+
+
 def _spikes(scene: Scene, err, out):
-    """[spikes]: defaults filled, requirements checked."""
-    sp = _fill(scene.spikes)
+    """[spikes]: the afferent class's values where the scene gives none, defaults filled, requirements checked."""
+    from ..classes import afferent_class
+
+    preset = afferent_class(scene.afferent.afferent_class).spikes_defaults()
+    if scene.spikes.input is not None and scene.spikes.input != preset.get("input"):
+        # another input than the class's: the class's parameters of its own input do not apply
+        preset = {k: v for k, v in preset.items() if k not in ("gain_s", "tau_s", "static_gain")}
+    sp = replace(scene.spikes, **{k: v for k, v in preset.items() if getattr(scene.spikes, k) is None})
+    sp = _fill(sp)
+    if sp.static_gain is not None and sp.input != "slowly-adapting":
+        key = _given(scene, "spikes", "static_gain")
+        raise err("spikes", key, f"[spikes] {key!r} applies to input = 'slowly-adapting', not {sp.input!r}.")
     if "spikes" in out.want:
         from ..spiking import LIF_PRESETS  # light: brian2 is imported only by the brian2 engine
 
         if sp.lif_preset not in LIF_PRESETS:
             raise err("spikes", "lif_preset", f"[spikes] 'lif_preset' must be one of {', '.join(map(repr, LIF_PRESETS))}; "
                       f"got {sp.lif_preset!r} instead.{suggest(sp.lif_preset, list(LIF_PRESETS))}")
-        if sp.input == "rate-sensitive" and sp.gain_s is None:
-            raise err("spikes", "input", "[spikes] input = 'rate-sensitive' needs gain_s (A of input per A/s of rate).")
+        if sp.input != "static" and sp.gain_s is None:
+            raise err("spikes", "input", f"[spikes] input = {sp.input!r} needs gain_s (A of input per A/s of rate).")
         if sp.dt_s <= 0:
             key = _given(scene, "spikes", "dt_s")
             raise err("spikes", key, f"[spikes] {key!r} must be > 0; got {sp.dt_s!r} s instead.")

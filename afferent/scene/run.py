@@ -170,8 +170,6 @@ def run_scene(scene: Scene, *, overwrite: bool = False, cache_dir=None, progress
     )
 
 
-
-
 @dataclass
 class _Run:
     """The state of one execution: the scene, its plan, results so far and the record entries."""
@@ -201,6 +199,7 @@ def _compute_downstream(run: _Run, sed) -> None:
     """The planned stages after sampling, from SED at the region's receptors (J/m^3); also :mod:`afferent.sweep`'s tasks."""
     run.out.update(sed_static=sed, sed=sed, current=None, branching=None, afferent=None, fit=None, waveform=None,
                    spikes=None, profile_index=-1)
+    _record_class(run)
     if "transduction" not in run.planned:
         return
     sed_t = _stimulus(run, sed) if "stimulus" in run.planned else sed
@@ -496,6 +495,18 @@ def _warn_if_stretched(fit) -> None:
                       "'neither' too, or choose a profile step with more contrast.", AfferentWarning, stacklevel=2)
 
 
+def _record_class(run: _Run) -> None:
+    """The afferent class into the record (afferent.classes); warns when the receptors sit where its sites do not."""
+    from ..classes import afferent_class
+    from ..exceptions import AfferentWarning
+    from .defaults import class_overrides
+
+    cls = afferent_class(run.scene.afferent.afferent_class)
+    run.record["afferent_class"] = cls.record(class_overrides(run.scene))
+    if msg := cls.sites_warning(run.scene.receptors.grid):
+        warnings.warn(msg, AfferentWarning, stacklevel=2)
+
+
 def _spike(run: _Run) -> None:
     """Stages 'input' and 'spiking' (:func:`afferent.pipeline.run_spikes`)."""
     from ..pipeline import PipelineResult, run_spikes
@@ -519,7 +530,7 @@ def _spike(run: _Run) -> None:
                         {}, waveform=out["waveform"])
     pr = run_spikes(pr, lif, dt=sp.dt_s, engine=sp.engine, input=sp.input, gain=sp.gain_s, tau=sp.tau_s,
                     duration=duration, drive=sp.drive, rheobase_multiple=sp.rheobase_multiple,
-                    reference_current=sp.reference_current_a)
+                    reference_current=sp.reference_current_a, static_gain=sp.static_gain)
     run.steps.seconds["input"] = pr.timings["input"]
     run.steps.seconds["spiking"] = pr.timings["spiking"]
     spikes = pr.spikes
@@ -528,6 +539,7 @@ def _spike(run: _Run) -> None:
     run.record["spikes"] = {
         "engine": spikes.engine, "backend": getattr(spikes, "backend", None), "dt_s": spikes.dt,
         "duration_s": spikes.duration, "input": getattr(pr.input, "kind", None),
+        "input_params": {k: getattr(pr.input, k, None) for k in ("mode", "tau", "gain", "off_gain", "static_gain")},
         "n_afferents": int(spikes.n_afferents), "n_spikes": int(sum(len(t) for t in spikes.spike_times)),
         "silent_skipped": [str(spikes.afferent_ids[i]) for i in spikes.silent_skipped],
         "notes": list(getattr(spikes, "notes", ())),

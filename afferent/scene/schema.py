@@ -315,7 +315,7 @@ class SpikesSpec:
     v_thresh_v: float | None = _f("number", quantity="voltage")
     v_reset_v: float | None = _f("number", quantity="voltage")
     t_ref_s: float | None = _f("number", quantity="time")
-    input: str | None = _f("choice", "static", choices=("static", "rate-sensitive"))
+    input: str | None = _f("choice", "static", choices=("static", "rate-sensitive", "slowly-adapting"))
     drive: str | None = _f("choice", "resistance", choices=("resistance", "rheobase"),
                            doc="current -> membrane: through r_m as is, or the largest current -> k x rheobase")
     rheobase_multiple: float | None = _f("number", 2.0, doc="drive = 'rheobase': the reference current's multiple")
@@ -323,6 +323,15 @@ class SpikesSpec:
     gain_s: float | None = _f("number", quantity="time")
     tau_s: float | None = _f("number", quantity="time")
     duration_s: float | None = _f("number", quantity="time")
+    static_gain: float | None = _f("number", doc="input = 'slowly-adapting': gain k_s on the static current")
+
+
+@dataclass(frozen=True)
+class AfferentSpec:
+    """``[afferent]``: the afferent class (``class = "SA-I"``), a preset of the ``[spikes]`` keys the
+    scene leaves out (:mod:`afferent.classes`)."""
+
+    afferent_class: str | None = _f("choice", "RA-I", choices=("RA-I", "SA-I"), aliases=("class",))
 
 
 @dataclass(frozen=True)
@@ -359,6 +368,7 @@ _TABLES = {
     "spikes": ("spikes", SpikesSpec),
     "fit": ("fit", FitSpec),
     "outputs": ("outputs", OutputSpec),
+    "afferent": ("afferent", AfferentSpec),
 }
 _TABLE_OF_FIELD = {attr: table for table, (attr, _) in _TABLES.items()}
 
@@ -374,7 +384,7 @@ class Scene:
 
     Attributes
     ----------
-    info, export, receptors, sampling, region, transduction, synthesis, stimulus, spikes, fit, outputs
+    info, export, receptors, sampling, region, transduction, synthesis, stimulus, spikes, fit, outputs, afferent
         The ``[scene]``, ``[export]``, ... tables.
     source : str or None
         The scene file (absolute path), if read from one.
@@ -393,6 +403,7 @@ class Scene:
     stimulus: StimulusSpec = field(default_factory=StimulusSpec)
     spikes: SpikesSpec = field(default_factory=SpikesSpec)
     fit: FitSpec = field(default_factory=FitSpec)
+    afferent: AfferentSpec = field(default_factory=AfferentSpec)
     source: str | None = None
     resolved: bool = False
     origin: _Origin = field(default_factory=lambda: _Origin(None, os.getcwd(), {}), compare=False, repr=False)
