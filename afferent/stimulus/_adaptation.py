@@ -257,7 +257,12 @@ def adapting_input(current, *, gain: float, tau: float = DEFAULT_TAU, off_gain: 
 
     Mode ``'static-plus-rate'`` (SA-I, slowly adapting; ``kind='slowly-adapting'``)::
 
-        I_in(t)   = max(k_s I + k_d r, 0)                k_s dimensionless, k_d = gain in s
+        I_in(t)   = max(k_s (I - I_rest) + k_d r, 0)     k_s dimensionless, k_d = gain in s
+
+    ``I_rest`` is the current of unloaded skin: the sigmoid at zero SED for a receptor current
+    that carries its sigmoid parameters (``alpha / (1 + exp(gamma lambda))``, 0.2 alpha for the
+    study's start row, which would otherwise fire SA-I afferents at rest), 0 for a current
+    without them (taken as measured from rest); the returned ``notes`` say which.
 
     A step ``dI`` then gives ``k_s dI + k_d dI / tau`` at once, decaying with ``tau`` to the
     sustained ``k_s dI``: the neuron fires through a hold, faster during the ramp, and a
@@ -375,9 +380,10 @@ def adapting_input(current, *, gain: float, tau: float = DEFAULT_TAU, off_gain: 
     values = np.asarray(values, dtype=np.float64)
     if values.shape[0] == 1 and mode == "static-plus-rate":
         # one sample: a current constant for all time (a static export), whose rate is 0
-        return InputCurrent(np.maximum(static_gain * values, 0.0), np.asarray(times, dtype=np.float64),
+        rest, note = _rest_current(source)
+        return InputCurrent(np.maximum(static_gain * (values - rest), 0.0), np.asarray(times, dtype=np.float64),
                             _KIND_OF_MODE[mode], level, source, mode, tau, gain, None,
-                            ("one sample: the current is constant, so the rate term is 0",), static_gain)
+                            (note, "one sample: the current is constant, so the rate term is 0"), static_gain)
     if values.shape[0] < 2:
         raise ValueError(
             f"'current' must have at least 2 time samples to take a rate; got {values.shape[0]} instead. "
@@ -395,7 +401,9 @@ def adapting_input(current, *, gain: float, tau: float = DEFAULT_TAU, off_gain: 
         notes.append(msg)
     r = _lowpass_rate(values, times, tau)
     if mode == "static-plus-rate":
-        out = np.maximum(static_gain * values + gain * r, 0.0)
+        rest, note = _rest_current(source)
+        notes.append(note)
+        out = np.maximum(static_gain * (values - rest) + gain * r, 0.0)
     else:
         out = gain * np.maximum(r, 0.0) + off_gain * np.maximum(-r, 0.0)
         # Rates that are pure float noise on a constant current (|dI| ~ 1e-16 I) must not drive anything.
@@ -403,6 +411,17 @@ def adapting_input(current, *, gain: float, tau: float = DEFAULT_TAU, off_gain: 
         out[out <= 1e-12 * scale * max(gain, off_gain) / tau] = 0.0
     return InputCurrent(out, times, _KIND_OF_MODE[mode], level, source, mode, tau, gain, off_gain, tuple(notes),
                         static_gain)
+
+
+def _rest_current(source) -> tuple:
+    """(current of unloaded skin in A, a note saying so) for the static term of mode 'static-plus-rate'."""
+    params = getattr(source, "params", None)
+    if params is None:
+        return 0.0, "static term: the current as given (no sigmoid parameters to find its value at zero SED)"
+    from ..transduction import sigmoid
+
+    rest = float(sigmoid(np.zeros(1), params)[0])
+    return rest, f"static term measured from the sigmoid's current at zero SED, {rest:.4g} A"
 
 
 def _mode_gains(mode: str, gain: float, off_gain, static_gain) -> tuple:
