@@ -31,6 +31,7 @@ from ._layout import (  # noqa: F401
     SITE_OF_KIND,
     ReceptorLayout,
     central_line,
+    describe_sites,
     group_coordinates,
     read_receptors,
 )
@@ -47,6 +48,7 @@ from ._tips import (  # noqa: F401
 __all__ = [
     "ReceptorLayout",
     "central_line",
+    "describe_sites",
     "read_receptors",
     "group_coordinates",
     "grid_layout",

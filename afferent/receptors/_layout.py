@@ -28,6 +28,17 @@ SECTION_TOLERANCE_M = 20e-6
 SITE_KINDS = ("RA-I", "SA-I", "file")
 #: The site kind of each ``kind`` of :func:`interface_sites` and :func:`grid_layout`.
 SITE_OF_KIND = {"tips": "RA-I", "bases": "SA-I"}
+_SITE_WORDS = {"RA-I": "RA-I sites (dermal-papilla tips, Meissner corpuscles)",
+               "SA-I": "SA-I sites (intermediate-ridge bases, Merkel cells)",
+               "file": "sites as given (a receptor file: no site rule)"}
+
+
+def describe_sites(layout: "ReceptorLayout") -> str:
+    """One line: how many sites, what they are, where (mm), e.g. for ``afferent info --receptors``."""
+    lo, hi = layout.positions.min(axis=0) * 1e3, layout.positions.max(axis=0) * 1e3
+    src = f" from {layout.source}" if layout.source else ""
+    return (f"receptor sites: {layout.n_receptors} {_SITE_WORDS[layout.site]}{src}; x [{lo[0]:.4g}, {hi[0]:.4g}], "
+            f"y [{lo[1]:.4g}, {hi[1]:.4g}], z [{lo[2]:.4g}, {hi[2]:.4g}] mm")
 
 
 #: Largest section label: labels index arrays of ``max label + 1`` entries
