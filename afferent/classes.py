@@ -76,13 +76,14 @@ class AfferentClass:
                 "spikes": self.spikes_defaults(), "branching": self.branching, "sources": list(self.sources),
                 "overridden": sorted(overridden)}
 
-    def sites_warning(self, grid: str | None) -> str | None:
-        """A sentence when receptors placed by ``grid`` (``[receptors] grid``) are not this class's sites, else None."""
-        if self.name == "SA-I" and grid == "tips":
-            return ("[afferent] class = 'SA-I' with [receptors] grid = 'tips': the receptors sit at the papilla tips "
-                    "(the RA-I sites), not at the bases of the intermediate ridges where the Merkel cells are; give "
-                    "those sites as a receptor file or a regular grid (y_mm at the ridge bases).")
-        return None
+    def sites_warning(self, site: str | None) -> str | None:
+        """A sentence when the receptors' ``site`` (:attr:`afferent.receptors.ReceptorLayout.site`: 'RA-I'
+        papilla tips, 'SA-I' ridge bases, 'file' or None: unknown) is another class's, else None."""
+        if site not in AFFERENT_CLASSES or site == self.name:
+            return None
+        return (f"[afferent] class = {self.name!r} with receptors at the {site} sites ({AFFERENT_CLASSES[site].sites}), "
+                f"not at this class's ({self.sites}); give [afferent] class = {site!r}, or place the receptors at the "
+                f"{self.name} sites.")
 
 
 #: The class every scene gets unless it names one.
@@ -91,14 +92,13 @@ DEFAULT_CLASS = "RA-I"
 #: The named classes (documented on the Afferent classes page, docs/classes.md).
 AFFERENT_CLASSES: dict[str, AfferentClass] = {
     "RA-I": AfferentClass(
-        name="RA-I", sites="papilla tips of the epidermis-dermis interface (the study's receptor sites)",
+        name="RA-I", sites="papilla tips of the epidermis-dermis interface",
         transduction="sigmoid", input="static", gain_s=None, tau_s=None, static_gain=None, lif_preset="ra",
         drive="resistance", rheobase_multiple=None, branching="sum",
         sources=("the study (docs/method.md): sigmoid of SED, summed per afferent, static LIF input",
                  "LIF 'ra': TouchSim, Saal et al. 2017 PNAS 114:E5693 (afferent.spiking)")),
     "SA-I": AfferentClass(
-        name="SA-I", sites="bases of the intermediate ridges (Merkel cells); a grid or a site list where the "
-        "interface has no intermediate ridges",
+        name="SA-I", sites="bases of the intermediate ridges",
         transduction="sigmoid", input="slowly-adapting", gain_s=0.2, tau_s=8e-3, static_gain=1.0, lif_preset="sa1",
         drive="rheobase", rheobase_multiple=10.0, branching="sum",
         sources=("sigmoid of SED: Lesniak & Gerling 2009 Math Biosci 220:15",

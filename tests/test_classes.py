@@ -163,6 +163,7 @@ def _phase_spikes(trains, lo, hi):
     return [int(np.count_nonzero((t >= lo) & (t < hi))) for t in trains.spike_times]
 
 
+@pytest.mark.slow  # 3.7 s: two ramp-and-hold runs, the SA-I one sampling a ridge-base grid on the interface
 @needs_sample
 def test_sa1_fires_through_the_hold_and_ra1_does_not(tmp_path):
     """The published contrast (Knibestöl 1973; Maksimovic et al. 2014; docs/classes.md): under the study's
@@ -175,6 +176,8 @@ def test_sa1_fires_through_the_hold_and_ra1_does_not(tmp_path):
 
     sa, ra = run("sa1_ramp.toml"), run("spikes_ramp.toml")
     assert sa.record["afferent_class"]["name"] == "SA-I" and sa.record["spikes"]["input"] == "slowly-adapting"
+    assert sa.record["receptors"]["site"] == "SA-I" and sa.spikes.n_afferents == 2  # the ridge-base rows under the punch
+    assert not [w for w in sa.record["warnings"] if "[afferent] class" in w["message"]]
     assert ra.record["afferent_class"] == {**ra.record["afferent_class"], "name": "RA-I", "overridden": ["input"]}
     late_hold = _phase_spikes(sa.spikes, 1.6, 2.1)
     assert min(late_hold) >= 4  # every SA-I afferent fires in the last 0.5 s of the hold (>= 8 Hz)
@@ -186,6 +189,26 @@ def test_sa1_fires_through_the_hold_and_ra1_does_not(tmp_path):
         assert ramp_rate > 1.5 * hold_rate
     assert _phase_spikes(ra.spikes, 0.3, 2.1) == [0] * ra.spikes.n_afferents  # RA-I: silent through the hold
     assert min(_phase_spikes(ra.spikes, 0.0, 0.15)) > 0 and min(_phase_spikes(ra.spikes, 2.1, 2.3)) > 0
+
+
+def test_sites_of_another_class_are_said():
+    assert afferent_class("SA-I").sites_warning("SA-I") is None and afferent_class("SA-I").sites_warning("file") is None
+    assert afferent_class("SA-I").sites_warning("RA-I") == (
+        "[afferent] class = 'SA-I' with receptors at the RA-I sites (papilla tips of the epidermis-dermis interface), "
+        "not at this class's (bases of the intermediate ridges); give [afferent] class = 'RA-I', or place the "
+        "receptors at the SA-I sites.")
+
+
+@needs_sample
+def test_sweep_selects_the_class_and_its_table_says_which(tmp_path):
+    from afferent import sweep
+
+    text = (SCENES / "sa1_ramp.toml").read_text().replace('"../block4', f'"{BLOCK}')
+    text = text.replace("hold_s = 2.0", "hold_s = 0.3").replace('want = ["spikes", "plots"]', 'want = ["spikes"]')
+    (tmp_path / "sw.toml").write_text(text + '\n[sweep]\n"afferent.class" = ["RA-I", "SA-I"]\n')
+    table = sweep(tmp_path / "sw.toml", tmp_path / "out", scheduler="serial", use_cache=False).table
+    by = table.groupby("afferent.class")["n_spikes"].sum()
+    assert set(by.index) == {"RA-I", "SA-I"} and by["RA-I"] > 5 * by["SA-I"] > 0  # RA-I class: static 'ra' input
 
 
 @needs_sample

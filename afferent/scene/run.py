@@ -199,7 +199,7 @@ def _compute_downstream(run: _Run, sed) -> None:
     """The planned stages after sampling, from SED at the region's receptors (J/m^3); also :mod:`afferent.sweep`'s tasks."""
     run.out.update(sed_static=sed, sed=sed, current=None, branching=None, afferent=None, fit=None, waveform=None,
                    spikes=None, profile_index=-1)
-    _record_class(run)
+    _record_class(run, getattr(sed.layout, "site", None))
     if "transduction" not in run.planned:
         return
     sed_t = _stimulus(run, sed) if "stimulus" in run.planned else sed
@@ -497,15 +497,14 @@ def _warn_if_stretched(fit) -> None:
                       "'neither' too, or choose a profile step with more contrast.", AfferentWarning, stacklevel=2)
 
 
-def _record_class(run: _Run) -> None:
+def _record_class(run: _Run, site) -> None:
     """The afferent class into the record (afferent.classes); warns when the receptors sit where its sites do not."""
     from ..classes import afferent_class
     from ..exceptions import AfferentWarning
     from .defaults import class_overrides
-
     cls = afferent_class(run.scene.afferent.afferent_class)
     run.record["afferent_class"] = cls.record(class_overrides(run.scene))
-    if msg := cls.sites_warning(run.scene.receptors.grid):
+    if msg := cls.sites_warning(site):
         warnings.warn(msg, AfferentWarning, stacklevel=2)
 
 
