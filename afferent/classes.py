@@ -47,7 +47,8 @@ class AfferentClass:
     rheobase_multiple : float or None
         With ``drive='rheobase'``: the largest input current's multiple of the rheobase.
     branching : str
-        How receptor currents make one afferent: ``'sum'`` (the study's).
+        How receptor currents make spikes (``[spikes] branching``): ``'sum'`` (the study's) or
+        ``'zones'`` (:mod:`afferent.zones`).
     sources : tuple of str
         Where each choice comes from (short references; docs/classes.md has the table).
     """
@@ -67,14 +68,13 @@ class AfferentClass:
 
     def spikes_defaults(self) -> dict:
         """``[spikes]`` field -> value this class sets (SI keys; fields it leaves alone are absent)."""
-        keys = ("input", "gain_s", "tau_s", "static_gain", "lif_preset", "drive", "rheobase_multiple")
+        keys = ("input", "gain_s", "tau_s", "static_gain", "lif_preset", "drive", "rheobase_multiple", "branching")
         return {k: getattr(self, k) for k in keys if getattr(self, k) is not None}
 
     def record(self, overridden=()) -> dict:
         """The class as run.json records it; ``overridden``: [spikes] keys the scene set itself."""
         return {"name": self.name, "sites": self.sites, "transduction": self.transduction,
-                "spikes": self.spikes_defaults(), "branching": self.branching, "sources": list(self.sources),
-                "overridden": sorted(overridden)}
+                "spikes": self.spikes_defaults(), "sources": list(self.sources), "overridden": sorted(overridden)}
 
     def sites_warning(self, site: str | None) -> str | None:
         """A sentence when the receptors' ``site`` (:attr:`afferent.receptors.ReceptorLayout.site`: 'RA-I'
@@ -105,7 +105,8 @@ AFFERENT_CLASSES: dict[str, AfferentClass] = {
                  "static + rate input, tau 8 ms, k_d / (tau k_s) = 25: generator function of Gerling et al. 2018 "
                  "PLoS Comput Biol 14:e1006264 (fit code yw5aj/PlosCompBiol, fit_model.py start values)",
                  "LIF 'sa1': 30 mV, 30 pF, 5 GOhm, 1 ms (Gerling-lab model code; afferent.spiking)",
-                 "drive 'rheobase' x 10 and branching 'sum': this package's choices (docs/classes.md)")),
+                 "drive 'rheobase' x 10 and branching 'sum' (not the published heminode 'zones'): this package's "
+                 "choices (docs/classes.md)")),
 }
 
 

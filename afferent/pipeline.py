@@ -246,7 +246,8 @@ _ADAPTATION_OF_INPUT = {"rate-sensitive": "rectified-rate", "slowly-adapting": "
 def run_spikes(result: PipelineResult, lif, *, dt: float, engine: str = "auto", input: str = "static",
                gain: float | None = None, tau: float | None = None, duration: float | None = None,
                drive: str = "resistance", rheobase_multiple: float = 2.0,
-               reference_current: float | None = None, static_gain: float | None = None) -> PipelineResult:
+               reference_current: float | None = None, static_gain: float | None = None,
+               zones=None) -> PipelineResult:
     """Add spikes to a pipeline result: input current -> leaky integrate-and-fire.
 
     Parameters
@@ -278,7 +279,14 @@ def run_spikes(result: PipelineResult, lif, *, dt: float, engine: str = "auto", 
     rheobase_multiple : float, default=2.0
         With ``drive='rheobase'``: the reference current's multiple of the rheobase.
     reference_current : float, optional
-        With ``drive='rheobase'``: the reference current in A (default the run's largest).
+        With ``drive='rheobase'``: the reference current in A (default the run's largest
+        afferent current; with ``zones``, the largest sum of an afferent's zone currents, so that
+        ``sum`` and ``zones`` runs of the same scene share one scale).
+    zones : afferent.zones.Zones, optional
+        The ``zones`` branching model (:func:`afferent.zones.split_zones` of
+        ``result.branching``): the input is synthesized per zone and each zone drives its own
+        LIF; the afferent fires when one of its zones does, and all reset
+        (:func:`afferent.spiking.simulate_lif`). Default None: the ``sum`` model, the study's.
     static_gain : float, optional
         With ``input='slowly-adapting'``: the dimensionless gain on the static current (default 1).
 
@@ -301,10 +309,14 @@ def run_spikes(result: PipelineResult, lif, *, dt: float, engine: str = "auto", 
     from .spiking import DRIVE_MAPPINGS, drive_report, rheobase_scale, simulate_lif
 
     check_option("input", input, INPUTS)
+    _check_zones(zones, result.branching)
     timings = dict(result.timings)
     t = time.perf_counter()
+    target = result.branching if zones is None else zones.branching
     if input == "static":
-        drive_current = stimulus.static_input(result.afferent)
+        from .synthesis import synthesize
+
+        drive_current = stimulus.static_input(result.afferent if zones is None else synthesize(result.current, target))
     else:
         if gain is None:
             raise ValueError(f"input={input!r} needs gain= (s): how much input current (A) per A/s of rate.")
@@ -312,11 +324,12 @@ def run_spikes(result: PipelineResult, lif, *, dt: float, engine: str = "auto", 
         if static_gain is not None:
             kw["static_gain"] = static_gain
         drive_current = stimulus.adapting_input(result.current, gain=gain, mode=_ADAPTATION_OF_INPUT[input],
-                                                **kw).synthesize(result.branching)
+                                                **kw).synthesize(target)
     check_option("drive", drive, DRIVE_MAPPINGS)
     mapping = {"mapping": drive, "r_m_ohm": lif.r_m, "rheobase_a": lif.rheobase}
     if drive == "rheobase":
-        scale, ref = rheobase_scale(drive_current.values, lif, multiple=rheobase_multiple, reference=reference_current)
+        summed = drive_current.values if zones is None else _afferent_sums(drive_current.values, zones)
+        scale, ref = rheobase_scale(summed, lif, multiple=rheobase_multiple, reference=reference_current)
         drive_current = replace(drive_current, values=drive_current.values * scale)
         mapping.update(rheobase_multiple=rheobase_multiple, reference_current_a=ref, scale=scale)
     timings["input"] = time.perf_counter() - t
@@ -324,9 +337,39 @@ def run_spikes(result: PipelineResult, lif, *, dt: float, engine: str = "auto", 
         times = result.afferent.times
         duration = float(times[-1] - times[0]) if times is not None and len(times) > 1 else None
     t = time.perf_counter()
-    spikes = simulate_lif(drive_current, lif, dt=dt, engine=engine, duration=duration)
+    spikes = simulate_lif(drive_current, lif, dt=dt, engine=engine, duration=duration, zones=zones)
     timings["spiking"] = time.perf_counter() - t
-    report = drive_report(drive_current.values, lif, spikes)
+    report = drive_report(drive_current.values if zones is None else _strongest_zone(drive_current.values, zones), lif,
+                          spikes)
     if report["warning"]:
         warnings.warn(report["warning"], AfferentWarning, stacklevel=2)
     return replace(result, input=drive_current, spikes=spikes, timings=timings, drive={**mapping, **report})
+
+
+def _check_zones(zones, branching) -> None:
+    """``zones`` must divide the afferents of ``branching`` (None: the sum model)."""
+    if zones is None:
+        return
+    if not (hasattr(zones, "parent") and hasattr(zones, "branching") and hasattr(zones, "afferent")):
+        raise TypeError(f"'zones' must be an afferent.zones.Zones; got {type(zones).__name__} instead.")
+    if not (zones.parent.n_afferents == branching.n_afferents
+            and (zones.parent.afferent_ids == branching.afferent_ids).all()):
+        raise ValueError("'zones' must divide the afferents of the result's branching; build them with "
+                         "afferent.zones.split_zones(result.branching, layout, k).")
+
+
+def _afferent_sums(values, zones):
+    """Each afferent's current (A, (n_times, n_afferents)) as the sum of its zones' (``values``)."""
+    from .zones import zone_indicator
+
+    return (zone_indicator(zones).T @ values.T).T
+
+
+def _strongest_zone(values, zones):
+    """Peak current (A) of each afferent's strongest zone, shape (1, n_afferents), for the drive report."""
+    import numpy as np
+
+    out = np.zeros(zones.parent.n_afferents)
+    if values.size:
+        np.maximum.at(out, zones.afferent, values.max(axis=0))
+    return out[None, :]

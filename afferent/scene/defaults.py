@@ -240,6 +240,19 @@ def class_overrides(scene: Scene) -> list:
     return sorted(k for k, v in preset.items() if getattr(scene.spikes, k) != v)
 
 
+def class_record(scene: Scene, site) -> dict:
+    """The afferent class as run.json records it; warns when the receptors' ``site`` is another class's."""
+    import warnings
+
+    from ..classes import afferent_class
+    from ..exceptions import AfferentWarning
+
+    cls = afferent_class(scene.afferent.afferent_class)
+    if msg := cls.sites_warning(site):
+        warnings.warn(msg, AfferentWarning, stacklevel=3)
+    return cls.record(class_overrides(scene))
+
+
 def _spikes(scene: Scene, err, out):
     """[spikes]: the afferent class's values where the scene gives none, defaults filled, requirements checked."""
     from ..classes import afferent_class
@@ -267,6 +280,13 @@ def _spikes(scene: Scene, err, out):
         if sp.duration_s is not None and sp.duration_s <= 0:
             key = _given(scene, "spikes", "duration_s")
             raise err("spikes", key, f"[spikes] {key!r} must be > 0; got {sp.duration_s!r} s instead.")
+        if sp.zones_per_afferent is not None and sp.zones_per_afferent < 1:
+            raise err("spikes", "zones_per_afferent", "[spikes] 'zones_per_afferent' must be >= 1 (receptor groups per "
+                      f"afferent); got {sp.zones_per_afferent!r} instead.")
+        if sp.branching == "zones" and sp.zones_per_afferent is None:
+            from ..zones import DEFAULT_ZONES_PER_AFFERENT
+
+            sp = replace(sp, zones_per_afferent=DEFAULT_ZONES_PER_AFFERENT)
     return sp
 
 

@@ -17,7 +17,7 @@ from dataclasses import dataclass, field, replace
 from ..export import profile_step_record
 from .planning import plan, skip_reasons
 from .record import _QUIET_CATEGORIES, build_record, reemit, summary_lines
-from .defaults import resolve
+from .defaults import class_record, resolve
 from .schema import _LIF_FIELDS, Scene, SceneError, _plain_json
 from .stages import (_branching, _crop, _hash_all, _layout_before_reading, _layout_from_field, _params, _restrict,
                      _trim, _waveform)
@@ -199,7 +199,7 @@ def _compute_downstream(run: _Run, sed) -> None:
     """The planned stages after sampling, from SED at the region's receptors (J/m^3); also :mod:`afferent.sweep`'s tasks."""
     run.out.update(sed_static=sed, sed=sed, current=None, branching=None, afferent=None, fit=None, waveform=None,
                    spikes=None, profile_index=-1)
-    _record_class(run, getattr(sed.layout, "site", None))
+    run.record["afferent_class"] = class_record(run.scene, getattr(sed.layout, "site", None))
     if "transduction" not in run.planned:
         return
     sed_t = _stimulus(run, sed) if "stimulus" in run.planned else sed
@@ -497,17 +497,6 @@ def _warn_if_stretched(fit) -> None:
                       "'neither' too, or choose a profile step with more contrast.", AfferentWarning, stacklevel=2)
 
 
-def _record_class(run: _Run, site) -> None:
-    """The afferent class into the record (afferent.classes); warns when the receptors sit where its sites do not."""
-    from ..classes import afferent_class
-    from ..exceptions import AfferentWarning
-    from .defaults import class_overrides
-    cls = afferent_class(run.scene.afferent.afferent_class)
-    run.record["afferent_class"] = cls.record(class_overrides(run.scene))
-    if msg := cls.sites_warning(site):
-        warnings.warn(msg, AfferentWarning, stacklevel=2)
-
-
 def _spike(run: _Run) -> None:
     """Stages 'input' and 'spiking' (:func:`afferent.pipeline.run_spikes`)."""
     from ..pipeline import PipelineResult, run_spikes
@@ -529,9 +518,14 @@ def _spike(run: _Run) -> None:
                       AfferentWarning, stacklevel=2)
     pr = PipelineResult(out["sed"], out["current"], out["branching"], out["afferent"], out["saturation"], out["fit"],
                         {}, waveform=out["waveform"])
+    zones = None
+    if sp.branching == "zones":
+        from ..zones import split_zones
+
+        zones = split_zones(out["branching"], out["current"].layout, sp.zones_per_afferent)
     pr = run_spikes(pr, lif, dt=sp.dt_s, engine=sp.engine, input=sp.input, gain=sp.gain_s, tau=sp.tau_s,
                     duration=duration, drive=sp.drive, rheobase_multiple=sp.rheobase_multiple,
-                    reference_current=sp.reference_current_a, static_gain=sp.static_gain)
+                    reference_current=sp.reference_current_a, static_gain=sp.static_gain, zones=zones)
     run.steps.seconds["input"] = pr.timings["input"]
     run.steps.seconds["spiking"] = pr.timings["spiking"]
     spikes = pr.spikes
@@ -541,6 +535,7 @@ def _spike(run: _Run) -> None:
         "engine": spikes.engine, "backend": getattr(spikes, "backend", None), "dt_s": spikes.dt,
         "duration_s": spikes.duration, "input": getattr(pr.input, "kind", None),
         "input_params": {k: getattr(pr.input, k, None) for k in ("mode", "tau", "gain", "off_gain", "static_gain")},
+        "branching": sp.branching, **({"zones": zones.record()} if zones is not None else {}),
         "n_afferents": int(spikes.n_afferents), "n_spikes": int(sum(len(t) for t in spikes.spike_times)),
         "silent_skipped": [str(spikes.afferent_ids[i]) for i in spikes.silent_skipped],
         "notes": list(getattr(spikes, "notes", ())),

@@ -328,6 +328,11 @@ class SpikesSpec:
     gain_s: float | None = _f("number", quantity="time")
     tau_s: float | None = _f("number", quantity="time")
     duration_s: float | None = _f("number", quantity="time")
+    branching: str | None = _f("choice", "sum", choices=("sum", "zones"),
+                               doc="receptor currents -> spikes: summed into one LIF per afferent, or one LIF per "
+                                   "spike-initiation zone (the first zone at threshold fires and resets all)")
+    zones_per_afferent: int | None = _f("int", doc="branching = 'zones': receptor groups per afferent, split along "
+                                                   "it; default 4")
     static_gain: float | None = _f("number", doc="input = 'slowly-adapting': gain k_s on the static current")
 
 

@@ -144,6 +144,7 @@ from ._grid import _peak_current, _plan, _run_brian2, _run_numba, _run_numpy, _s
 from ._group import _numba_available
 from ._params import _MAX_DRIVE_V, LIFParams, _refractory_steps, grid_isi_bounds
 from ._trains import SpikeTrains, spread_counts
+from ._zones import simulate_zones
 
 __all__ = [
     "LIFParams",
@@ -220,6 +221,30 @@ def _numba_repays(n_pieces: int, n_afferents: int) -> bool:
     return n_pieces * (1e-5 + 5e-8 * n_afferents) > NUMBA_FROM_S and importlib.util.find_spec("numba") is not None
 
 
+def _used_peak(pc, hold: str) -> np.ndarray:
+    """Largest current (A) of each column over the samples the exact engine's pieces use."""
+    values, n_pieces, n_aff = pc.values, pc.starts.size, pc.values.shape[1]
+    if hold == "linear" and n_pieces:  # the drive reaches the next sample's value at the piece's end
+        return values[: int(pc.nxt[-1]) + 1].max(axis=0) if n_aff else np.zeros(0)
+    if n_pieces == values.shape[0]:
+        return pc.extremes[1]
+    return values[:n_pieces].max(axis=0) if n_aff else np.zeros(0)
+
+
+def _check_isi_resolution(params: LIFParams, peak: np.ndarray, pc) -> None:
+    """Every interval is >= t_ref + (time from v_reset to threshold under the ``peak`` drive, A): it
+    must stay resolvable in double precision over the window, or spikes would pile up at one time."""
+    isi_min = float(np.min(params.steady_isi(peak)))
+    resolution = 8 * np.spacing(max(abs(pc.t_start), abs(pc.t_stop)))
+    if not isi_min > resolution:
+        raise ValueError(
+            f"The exact engine cannot resolve the inter-spike interval: t_ref + the time from v_reset to threshold "
+            f"at the peak drive is {isi_min:.3g} s, at or below the time resolution {resolution:.3g} s of the "
+            f"window [{pc.t_start!r}, {pc.t_stop!r}] s; got t_ref = {params.t_ref!r} s. Give t_ref > 0 or a "
+            "smaller current."
+        )
+
+
 def _simulate_exact(current, params: LIFParams, *, dt, engine: str, duration, times, hold: str) -> SpikeTrains:
     """The exact engine behind :func:`simulate_lif` (``engine`` 'exact', 'exact-numba', 'exact-numpy')."""
     if engine == "exact":
@@ -234,33 +259,16 @@ def _simulate_exact(current, params: LIFParams, *, dt, engine: str, duration, ti
     else:
         backend = "numpy"
     pc = _pieces(current, dt, duration, times, params.tau_m, hold)
-    values = pc.values
-    n_aff = values.shape[1]
+    n_aff = pc.values.shape[1]
     if backend is None:
         backend = "numba" if _numba_repays(pc.starts.size, n_aff) else "numpy"
     _check_drive(pc.extremes, params)
-    n_pieces = pc.starts.size
-    if hold == "linear" and n_pieces:  # the drive reaches the next sample's value at the piece's end
-        peak = values[: int(pc.nxt[-1]) + 1].max(axis=0) if n_aff else np.zeros(0)
-    elif n_pieces == values.shape[0]:
-        peak = pc.extremes[1]
-    else:
-        peak = values[:n_pieces].max(axis=0) if n_aff else np.zeros(0)
+    peak = _used_peak(pc, hold)
     # The exact engine fires only where the drive exceeds theta: no rounding margin needed.
     silent = params.r_m * peak <= params.theta
     cols = np.flatnonzero(~silent)
     if cols.size:
-        # Every interval is >= t_ref + (time from v_reset to threshold under the peak drive): it
-        # must stay resolvable in double precision, or spikes would pile up at one time.
-        isi_min = float(np.min(params.steady_isi(peak[cols])))
-        resolution = 8 * np.spacing(max(abs(pc.t_start), abs(pc.t_stop)))
-        if not isi_min > resolution:
-            raise ValueError(
-                f"The exact engine cannot resolve the inter-spike interval: t_ref + the time from v_reset to threshold "
-                f"at the peak drive is {isi_min:.3g} s, at or below the time resolution {resolution:.3g} s of the "
-                f"window [{pc.t_start!r}, {pc.t_stop!r}] s; got t_ref = {params.t_ref!r} s. Give t_ref > 0 or a "
-                "smaller current."
-            )
+        _check_isi_resolution(params, peak[cols], pc)
     if cols.size == 0:
         times_s, counts = np.empty(0), np.zeros(0, np.int64)
     elif backend == "numba":
@@ -312,7 +320,7 @@ def _warn_above_ceiling(times_s: np.ndarray, counts: np.ndarray, params: LIFPara
 
 
 def simulate_lif(current, params: LIFParams, *, dt: float | None = None, engine: str = "auto", duration=None, times=None,
-                 input_hold: str = "previous"):
+                 input_hold: str = "previous", zones=None):
     """Simulate one leaky integrate-and-fire neuron per afferent.
 
     Parameters
@@ -348,11 +356,21 @@ def simulate_lif(current, params: LIFParams, *, dt: float | None = None, engine:
         The current between samples: each sample held until the next (brian2's ``TimedArray``;
         all engines), or linear from each sample to the next (exact engine only; a grid engine
         refuses it).
+    zones : afferent.zones.Zones or array_like of int, optional
+        The ``zones`` branching model (:ref:`spikes-zones`): the columns of ``current`` are
+        spike-initiation zones, ``zones`` gives each column's afferent (a :class:`afferent.zones.Zones`,
+        whose ``afferent`` and ``afferent_ids`` are used, or one afferent index per column,
+        non-decreasing). Each zone integrates its own current in its own LIF; an afferent
+        fires when any of its zones reaches threshold, and all its zones reset and share the
+        refractory period. Exact and fast engines (the fast one on numpy, the exact one on
+        numba or, with ``'exact-numpy'``, plain Python); brian2 refuses it. Default None: one
+        LIF per column (the ``sum`` model).
 
     Returns
     -------
     SpikeTrains
-        Spike times per afferent, with the engine used and the afferents skipped as silent.
+        Spike times per afferent, with the engine used and the afferents skipped as silent
+        (with ``zones``: per afferent, silent when all its zones are).
 
     Raises
     ------
@@ -400,6 +418,9 @@ def simulate_lif(current, params: LIFParams, *, dt: float | None = None, engine:
     check_option("input_hold", input_hold, INPUT_HOLDS)
     if engine == "auto":
         engine = "exact"
+    if zones is not None:
+        return simulate_zones(current, params, zones, dt=dt, engine=engine, duration=duration, times=times,
+                              hold=input_hold)
     if engine.startswith("exact"):
         return _simulate_exact(current, params, dt=dt, engine=engine, duration=duration, times=times, hold=input_hold)
     if input_hold != "previous":
