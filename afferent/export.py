@@ -223,6 +223,8 @@ def _pipeline_record(result, record: dict, written: list) -> dict:
         full["spikes"] = {
             "engine": sp.engine, "backend": getattr(sp, "backend", None), "dt_s": sp.dt, "duration_s": sp.duration,
             "input": getattr(result.input, "kind", None), "input_level": getattr(result.input, "level", None),
+            "branching": "sum" if getattr(result, "zones", None) is None else "zones",
+            **({"zones": result.zones.record()} if getattr(result, "zones", None) is not None else {}),
             "n_spikes": int(sum(len(t) for t in sp.spike_times)),
             "silent_skipped": [str(sp.afferent_ids[i]) for i in sp.silent_skipped],
             "notes": list(getattr(sp, "notes", ())),

@@ -104,6 +104,7 @@ class PipelineResult:
     scaling: dict | None = None
     profile_index: int = 0
     drive: dict | None = None
+    zones: object | None = None
 
 
 def apply_waveform(sed: ReceptorSED, waveform, *, d_ref: float, reference_step: int | None = None,
@@ -293,9 +294,10 @@ def run_spikes(result: PipelineResult, lif, *, dt: float, engine: str = "auto", 
     Returns
     -------
     PipelineResult
-        ``result`` with ``input`` (the current fed to the LIF, tagged with its kind), ``spikes``,
-        and ``drive``: the mapping used and :func:`afferent.spiking.drive_report` (per afferent
-        drive / rheobase, predicted and simulated rates; a warning when every afferent sits at
+        ``result`` with ``input`` (the current fed to the LIF, tagged with its kind; one column per
+        zone with ``zones``), ``spikes`` (per afferent), ``zones``, and ``drive``: the mapping used
+        and :func:`afferent.spiking.drive_report` (per afferent drive / rheobase, of its strongest
+        zone with ``zones``, predicted and simulated rates; a warning when every afferent sits at
         the 1 / t_ref ceiling or all are silent).
 
     Warns
@@ -343,7 +345,7 @@ def run_spikes(result: PipelineResult, lif, *, dt: float, engine: str = "auto", 
                           spikes)
     if report["warning"]:
         warnings.warn(report["warning"], AfferentWarning, stacklevel=2)
-    return replace(result, input=drive_current, spikes=spikes, timings=timings, drive={**mapping, **report})
+    return replace(result, input=drive_current, spikes=spikes, timings=timings, drive={**mapping, **report}, zones=zones)
 
 
 def _check_zones(zones, branching) -> None:

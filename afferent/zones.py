@@ -18,20 +18,21 @@ whose positions are along x; x for cross-sections), are split into ``k`` contigu
 of equal size (sizes differ by at most one receptor, the larger groups first). An afferent
 with fewer than ``k`` receptors gets one zone per receptor. Every connection of an afferent
 (receptor, weight) goes to exactly one of its zones, so the zone currents of an afferent sum
-to its ``sum`` current.
+to its ``sum`` current. Or the user names each receptor's zone (:func:`zones_from_map`, a CSV
+``receptor, zone``): the zones of an afferent are then the zone labels of its receptors.
 """
 
 from __future__ import annotations
 
 import numbers
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from scipy import sparse
 
 from ._validation import plain as _plain
 
-__all__ = ["Zones", "split_zones", "BRANCHING_MODELS", "DEFAULT_ZONES_PER_AFFERENT"]
+__all__ = ["Zones", "split_zones", "zones_from_map", "BRANCHING_MODELS", "DEFAULT_ZONES_PER_AFFERENT"]
 
 #: How the receptor currents of an afferent drive its spikes: ``'sum'`` (the study: one current,
 #: one LIF) or ``'zones'`` (one LIF per group of receptors, all reset when one fires).
@@ -63,13 +64,16 @@ class Zones:
     parent : Branching
         The afferents (the ``sum`` model's branching).
     rule : str
-        How the zones were formed (``'split:K along z'``), for the record.
+        How the zones were formed (``'split:K along z'``, ``'map'``), for the record.
+    info : dict, optional
+        More for the record (a map's rows not used).
     """
 
     branching: object
     afferent: np.ndarray
     parent: object
     rule: str
+    info: dict = field(default_factory=dict)
 
     def __post_init__(self):
         aff = np.asarray(self.afferent, dtype=np.int64).copy()
@@ -103,7 +107,7 @@ class Zones:
         rec = self.branching.receptor_counts
         return {"rule": self.rule, "n_zones": self.n_zones,
                 "zones_per_afferent": [int(per.min()), int(per.max())] if per.size else [0, 0],
-                "receptors_per_zone": [int(rec.min()), int(rec.max())] if rec.size else [0, 0]}
+                "receptors_per_zone": [int(rec.min()), int(rec.max())] if rec.size else [0, 0], **self.info}
 
     def __repr__(self) -> str:
         per = self.zones_per_afferent
@@ -188,6 +192,103 @@ def split_zones(branching, layout, zones_per_afferent: int = DEFAULT_ZONES_PER_A
                    branching.receptor_ids)
     axis_name = "xyz"[_LENGTH_AXIS[branching.axis]]
     return Zones(zb, np.array(zone_aff, dtype=np.int64), branching, f"split:{k} along {axis_name}")
+
+
+def _zone_table(source):
+    """(receptor ids, zone labels, where) of a receptor -> zone table (CSV path or DataFrame), as text."""
+    import os
+
+    import pandas as pd
+
+    if isinstance(source, pd.DataFrame):
+        df, where = source, "Zone map"
+    else:
+        from ._tables import read_table
+
+        where = f"Zone map {os.fspath(source)!r}"
+        df, _ = read_table(os.fspath(source), what="Zone map file", expected="receptor, zone", as_text=True)
+    cols = {str(c).strip().lower(): c for c in df.columns}
+    missing = [c for c in ("receptor", "zone") if c not in cols]
+    if missing:
+        from .exceptions import SEDFormatError
+
+        found = ", ".join(repr(str(c)) for c in df.columns) or "none"
+        raise (ValueError if isinstance(source, pd.DataFrame) else SEDFormatError)(
+            f"{where} must have columns 'receptor' and 'zone'; missing {', '.join(map(repr, missing))}. "
+            f"Found columns {found}.")
+    rec = df[cols["receptor"]].astype(str).str.strip().to_numpy()
+    zone = df[cols["zone"]].astype(str).str.strip().to_numpy()
+    return rec, zone, where
+
+
+def zones_from_map(branching, source) -> Zones:
+    """Zones named by the user: each receptor's zone label, from a table ``receptor, zone``.
+
+    Parameters
+    ----------
+    branching : Branching
+        The afferents, with ``receptor_ids`` (built from a layout).
+    source : str, path-like or pandas.DataFrame
+        A CSV file (comma, semicolon, tab or whitespace separated; ``#`` comments) or a DataFrame
+        with columns ``receptor`` (ids as in the layout) and ``zone`` (any label); one row per
+        receptor. The zones of an afferent are the labels of its receptors, in the order they
+        first appear in the table; a receptor shared by several afferents is in the zone of
+        that label in each. Rows of receptors the branching does not have (outside a region)
+        are not used; the record counts them.
+
+    Returns
+    -------
+    Zones
+        ``rule`` ``'map'``; zone ids ``'<afferent>/<label>'``; positions those of the afferents;
+        ``info['map_rows_unused']``, the rows of receptors the branching does not have.
+
+    Raises
+    ------
+    FileNotFoundError, SEDFormatError
+        The file is missing, unreadable or lacks the columns.
+    ValueError
+        A receptor listed twice, or receptors of the branching without a zone (the message
+        counts and names them), or a branching without receptor ids.
+    """
+    from .synthesis import Branching, _preview
+
+    if not isinstance(branching, Branching):
+        raise TypeError(f"'branching' must be a Branching; got {type(branching).__name__} instead.")
+    if branching.receptor_ids is None:
+        raise ValueError("'branching' must carry receptor_ids (build it from a ReceptorLayout) to match a zone map.")
+    rec, zone, where = _zone_table(source)
+    if len(set(rec.tolist())) != rec.size:
+        dup = next(r for r in rec.tolist() if (rec == r).sum() > 1)
+        raise ValueError(f"{where}: receptor {dup!r} is listed more than once; give each receptor one zone.")
+    label = dict(zip(rec.tolist(), zone.tolist()))
+    ids = branching.receptor_ids.tolist()
+    connected = np.unique(branching.weights.indices)
+    lost = [ids[j] for j in connected if ids[j] not in label]
+    if lost:
+        raise ValueError(f"{where}: {len(lost)} receptor(s) of the branching have no zone: {_preview(lost)}.")
+    order = list(dict.fromkeys(zone.tolist()))  # zone labels in the order they first appear
+    rank = {z: i for i, z in enumerate(order)}
+    w = branching.weights
+    rows, cols, data, zone_aff, zone_ids = [], [], [], [], []
+    for a in range(branching.n_afferents):
+        c, d = w.indices[w.indptr[a]:w.indptr[a + 1]], w.data[w.indptr[a]:w.indptr[a + 1]]
+        labs = np.array([rank[label[ids[j]]] for j in c], dtype=np.int64)
+        for r in np.unique(labs):
+            part = labs == r
+            rows.append(np.full(int(part.sum()), len(zone_ids)))
+            cols.append(c[part])
+            data.append(d[part])
+            zone_aff.append(a)
+            zone_ids.append(f"{branching.afferent_ids[a]}/{order[r]}")
+    aff = np.array(zone_aff, dtype=np.int64)
+    cat = (lambda parts, dt: np.concatenate(parts) if parts else np.zeros(0, dt))
+    zb = sparse.csr_array((cat(data, float), (cat(rows, np.int64), cat(cols, np.int64))),
+                          shape=(len(zone_ids), branching.n_receptors))
+    known = set(ids)
+    unused = sum(1 for r in rec.tolist() if r not in known)
+    zb = Branching(zb, branching.positions[aff], branching.axis, branching.kind, np.array(zone_ids, dtype=str),
+                   branching.receptor_ids)
+    return Zones(zb, aff, branching, "map", {"map_rows_unused": int(unused)})
 
 
 def zone_indicator(zones: Zones):

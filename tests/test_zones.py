@@ -193,11 +193,29 @@ def test_fast_engine_zones_within_the_grid_bounds_of_the_closed_form():
     assert isi.size > 10 and np.all(isi >= float(lo) - 1e-12) and np.all(isi <= float(hi) + 1e-12)
 
 
+@pytest.mark.slow
+@pytest.mark.filterwarnings("ignore:.*deprecated - use:DeprecationWarning",
+                            "ignore:.*argument is deprecated, use:DeprecationWarning")  # brian2 2.9 and pyparsing 3.3
+def test_brian2_zones_give_the_fast_engines_spikes_step_for_step():
+    """brian2: a neuron per zone, a delay-free Synapses resetting the afferent's other zones; the fast
+    engine's spikes, step for step (two equal zones crossing in one step are one spike)."""
+    pytest.importorskip("brian2")
+    rng = np.random.default_rng(1)
+    cur = np.concatenate([rng.uniform(0, 3, size=(40, 7)), np.full((40, 2), 2.5)], axis=1) * RA.rheobase
+    zones = [0, 0, 0, 1, 1, 2, 2, 3, 3]
+    kw = dict(dt=1e-4, times=np.arange(40) * 1e-3, zones=zones)
+    fast = simulate_lif(cur, RA, engine="fast", **kw)
+    b2 = simulate_lif(cur, RA, engine="brian2", **kw)
+    assert (b2.engine, b2.backend) == ("brian2", "brian2-numpy") and fast.n_spikes.min() > 3
+    np.testing.assert_array_equal(b2.counts, fast.counts)
+    np.testing.assert_array_equal(b2.t, fast.t)
+    np.testing.assert_array_equal(fast.spike_times[3], simulate_lif(cur[:, [7]], RA, engine="fast", dt=1e-4,
+                                                                    times=np.arange(40) * 1e-3).spike_times[0])
+
+
 # ------------------------------------------------------------------------- errors
 def test_zones_errors_are_named():
     cur = constant([1e-6, 1e-6], 5)
-    with pytest.raises(ValueError, match=r"'zones' run on the exact and fast engines; brian2 has no zones engine"):
-        simulate_lif(cur, RA, dt=1e-4, engine="brian2", zones=[0, 0])
     with pytest.raises(ValueError, match=r"'zones' must give one afferent index \(int\) per column of the current \(2\)"):
         simulate_lif(cur, RA, dt=1e-3, zones=[0, 0, 1])
     with pytest.raises(ValueError, match=r"'zones' must be non-decreasing afferent indices >= 0"):
@@ -259,14 +277,17 @@ def test_split_zones_errors():
 
 
 # ------------------------------------------------------------------------- scene and CLI
-def test_cli_branching_zones_is_recorded_and_sum_stays_the_default(tmp_path, sample_sed_dir, capsys):
+def test_cli_branching_zones_is_recorded_and_sum_stays_the_default(tmp_path, capsys):
     from afferent.cli import main
+    from afferent.cli._demo import packaged_sample_dir
 
-    base = ["run", str(sample_sed_dir / "block4" / "indent_0p88mm.vtu"), "--receptors", str(sample_sed_dir / "block4" / "receptors.csv"),
+    b4 = packaged_sample_dir() / "block4"
+    base = ["run", str(b4 / "indent_0p88mm.vtu"), "--receptors", str(b4 / "receptors.csv"),
             "--length-unit", "mm", "--sed-unit", "MPa", "--params", "start", "--spikes", "--no-plots", "--no-cache",
-            "-q", "--drive", "rheobase", "--rheobase-multiple", "4", "--duration-s", "0.05"]
-    assert main(base + ["-o", str(tmp_path / "sum")]) == 0
+            "--drive", "rheobase", "--rheobase-multiple", "4", "--duration-s", "0.05"]
+    assert main(base + ["-q", "-o", str(tmp_path / "sum")]) == 0
     assert main(base + ["--branching", "zones", "--zones-per-afferent", "2", "-o", str(tmp_path / "zones")]) == 0
+    assert "input, zones: 14 zones, 2 per afferent)" in capsys.readouterr().err  # the one-screen summary
     rs = json.loads((tmp_path / "sum" / "run.json").read_text())
     rz = json.loads((tmp_path / "zones" / "run.json").read_text())
     assert rs["spikes"]["branching"] == "sum" and "zones" not in rs["spikes"]
@@ -277,7 +298,6 @@ def test_cli_branching_zones_is_recorded_and_sum_stays_the_default(tmp_path, sam
     assert rz["spikes"]["drive"]["reference_current_a"] == pytest.approx(rs["spikes"]["drive"]["reference_current_a"],
                                                                         rel=1e-12)
     assert sum(rz["spikes"]["drive"]["rate_hz"]) < sum(rs["spikes"]["drive"]["rate_hz"])
-    capsys.readouterr()
     assert main(base + ["--zones-per-afferent", "2", "-o", str(tmp_path / "bad")]) == 2
     assert "afferent: error: --zones-per-afferent applies to --branching zones" in capsys.readouterr().err
 
@@ -294,3 +314,112 @@ def test_scene_zones_per_afferent_checked_and_defaulted(tmp_path):
         resolve(parse_scene(text + "zones_per_afferent = 0\n", base_dir=str(tmp_path)))
     with pytest.raises(SceneError, match=r"'branching'.*one of 'sum', 'zones'"):
         resolve(parse_scene(text.replace('"zones"', '"max"'), base_dir=str(tmp_path)))
+
+
+def test_sweep_sweeps_the_branching_model_like_any_key(tmp_path):
+    """"spikes.branching" = ["sum", "zones"] in a sweep: one column, each task run as its scene would."""
+    from pathlib import Path
+
+    import pandas as pd
+
+    from afferent._sweep import sweep
+
+    scenes = Path(__file__).resolve().parents[1] / "sample_sed" / "scenes"
+    base = (scenes / "sweep_gamma.toml").read_text().split("[sweep]")[0].replace('"../', f'"{scenes.parent.as_posix()}/')
+    base = base.replace("hold_s = 2.0", "hold_s = 0.1").replace("tau_ms = 5.0", "tau_ms = 5.0\nzones_per_afferent = 2")
+    src = tmp_path / "s.toml"
+    src.write_text(base + '[sweep]\n"spikes.branching" = ["sum", "zones"]\n')
+    res = sweep(src, tmp_path / "out", scheduler="serial", use_cache=False)
+    t = res.table
+    assert sorted(t["spikes.branching"].unique()) == ["sum", "zones"] and res.n_failed == 0
+    by = {m: t[t["spikes.branching"] == m].n_spikes.to_numpy() for m in ("sum", "zones")}
+    assert by["sum"].sum() > 0 and not np.array_equal(by["sum"], by["zones"])
+    one = tmp_path / "one.toml"
+    one.write_text(base.replace("tau_ms = 5.0", 'tau_ms = 5.0\nbranching = "zones"'))
+    from afferent.cli import main
+
+    assert main(["run", str(one), "-o", str(tmp_path / "one"), "--quiet", "--no-cache"]) == 0
+    ref = pd.read_csv(tmp_path / "one" / "spike_summary.csv")
+    np.testing.assert_array_equal(by["zones"], ref.n_spikes.to_numpy())
+
+
+def test_python_api_run_spikes_with_zones_records_them(tmp_path, sample_sed_dir):
+    """run_pipeline -> split_zones -> run_spikes(zones=) -> write_pipeline_outputs: run.json says zones."""
+    from afferent import read_sed
+    from afferent.export import write_pipeline_outputs
+    from afferent.pipeline import run_pipeline, run_spikes
+    from afferent.receptors import read_receptors
+    from afferent.transduction import STUDY_PARAMS
+
+    b4 = sample_sed_dir / "block4"
+    layout = read_receptors(b4 / "receptors.csv", length_unit="mm")
+    res = run_pipeline(read_sed(b4 / "indent_1p32mm.vtu", length_unit="mm", sed_unit="MPa"), layout,
+                       STUDY_PARAMS["start"])
+    zones = split_zones(res.branching, layout, 4)
+    out = run_spikes(res, RA, dt=1e-4, duration=0.05, drive="rheobase", rheobase_multiple=8, zones=zones)
+    assert out.zones is zones and out.input.values.shape == (1, 28) and out.spikes.n_afferents == 7
+    # the rheobase scale is taken from the summed afferent current: the sum model's own scale
+    ref = run_spikes(res, RA, dt=1e-4, duration=0.05, drive="rheobase", rheobase_multiple=8)
+    assert out.drive["scale"] == pytest.approx(ref.drive["scale"], rel=1e-12)
+    assert np.all(out.spikes.n_spikes <= ref.spikes.n_spikes) and out.spikes.n_spikes.sum() > 0
+    write_pipeline_outputs(out, str(tmp_path / "o"), record={}, plots=False)
+    rec = json.loads((tmp_path / "o" / "run.json").read_text())["spikes"]
+    assert rec["branching"] == "zones" and rec["zones"]["n_zones"] == 28
+    other = split_zones(Branching.cross(layout), layout, 2)
+    with pytest.raises(ValueError, match=r"'zones' must divide the afferents of the result's branching"):
+        run_spikes(res, RA, dt=1e-4, duration=0.05, zones=other)
+
+
+def test_zones_from_map_groups_each_afferents_receptors_by_label(tmp_path):
+    from afferent.zones import zones_from_map
+
+    layout = _strip(2, 4)  # ids '0'..'7'; L0: the x = 0 line
+    b = Branching.longitudinal(layout)
+    ids = layout.ids.tolist()
+    labels = {r: ("tip" if layout.positions[j, 2] < 3e-4 else "base") for j, r in enumerate(ids)}
+    path = tmp_path / "zones.csv"
+    path.write_text("receptor,zone\n" + "".join(f"{r},{labels[r]}\n" for r in ids) + "99,tip\n")
+    z = zones_from_map(b, path)
+    # zones in the order their labels first appear in the map (receptor '0' is at the largest z: 'base')
+    assert z.rule == "map" and z.branching.afferent_ids.tolist() == ["L0/base", "L0/tip", "L1/base", "L1/tip"]
+    assert z.record()["map_rows_unused"] == 1 and z.branching.receptor_counts.tolist() == [2, 2, 2, 2]
+    cur = np.random.default_rng(3).uniform(size=(2, 8)) * 1e-8
+    zc, ac = synthesize(cur, z.branching).values, synthesize(cur, b).values
+    np.testing.assert_allclose(zc[:, :2].sum(1), ac[:, 0], rtol=1e-14)
+    for j, rid in enumerate(ids):  # every receptor in the zone of its label
+        row = next(k for k in range(z.n_zones) if j in z.branching.weights[[k]].indices)
+        assert z.branching.afferent_ids[row].endswith("/" + labels[rid])
+    path.write_text("receptor,zone\n0,a\n1,a\n")
+    with pytest.raises(ValueError, match=r"Zone map '.*zones.csv': 6 receptor\(s\) of the branching have no zone: "
+                                         r"'2', '3', '4', '5', '6', \.\.\."):
+        zones_from_map(b, path)
+    path.write_text("receptor,zone\n0,a\n0,b\n")
+    with pytest.raises(ValueError, match=r"receptor '0' is listed more than once"):
+        zones_from_map(b, path)
+    path.write_text("receptor,group\n0,a\n")
+    from afferent.exceptions import SEDFormatError
+
+    with pytest.raises(SEDFormatError, match=r"must have columns 'receptor' and 'zone'; missing 'zone'"):
+        zones_from_map(b, path)
+
+
+def test_cli_zone_map_runs_and_conflicts_are_errors(tmp_path, capsys):
+    from afferent.cli import main
+    from afferent.cli._demo import packaged_sample_dir
+    from afferent.receptors import read_receptors
+
+    b4 = packaged_sample_dir() / "block4"
+    layout = read_receptors(b4 / "receptors.csv", length_unit="mm")
+    zmap = tmp_path / "zones.csv"
+    zmap.write_text("receptor,zone\n" + "".join(f"{r},{'near' if abs(z - 1.9e-3) < 0.5e-3 else 'far'}\n"
+                                                for r, z in zip(layout.ids, layout.positions[:, 2])))
+    base = ["run", str(b4 / "indent_0p88mm.vtu"), "--receptors", str(b4 / "receptors.csv"), "--length-unit", "mm",
+            "--sed-unit", "MPa", "--params", "start", "--spikes", "--no-plots", "--no-cache", "-q", "--drive",
+            "rheobase", "--rheobase-multiple", "4", "--duration-s", "0.05", "--branching", "zones"]
+    assert main(base + ["--zone-map", str(zmap), "-o", str(tmp_path / "m")]) == 0
+    rec = json.loads((tmp_path / "m" / "run.json").read_text())
+    assert rec["spikes"]["zones"]["rule"] == "map" and rec["spikes"]["zones"]["n_zones"] == 14
+    assert str(zmap) in rec["inputs"]
+    capsys.readouterr()
+    assert main(base + ["--zone-map", str(zmap), "--zones-per-afferent", "2", "-o", str(tmp_path / "bad")]) == 2
+    assert "give --zone-map (each receptor's zone) or --zones-per-afferent" in capsys.readouterr().err

@@ -341,7 +341,7 @@ def _digest(obj) -> str:
 def _input_files(scene: Scene) -> list[str]:
     files = list(dict.fromkeys(p for p in scene.export.files if os.path.isfile(p)))
     for p in (scene.export.coordinates, scene.receptors.file, scene.synthesis.map, scene.fit.observed,
-              scene.stimulus.file, scene.transduction.calibration):
+              scene.stimulus.file, scene.transduction.calibration, scene.spikes.zone_map):
         if p is not None and os.path.isfile(p):
             files.append(p)
     return files

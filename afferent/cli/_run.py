@@ -107,6 +107,9 @@ def add_args(parser: argparse.ArgumentParser) -> None:
                         "per spike-initiation zone, the first at threshold fires the afferent and resets all its zones")
     g.add_argument("--zones-per-afferent", type=int, metavar="K",
                    help="with --branching zones: each afferent's receptors split into K groups along it (default 4)")
+    g.add_argument("--zone-map", metavar="ZONES.csv",
+                   help="with --branching zones: each receptor's zone (columns receptor, zone) instead of "
+                        "--zones-per-afferent")
     parser.add_argument("--no-plots", action="store_true", help="skip the PNG figures")
     parser.add_argument("--results-format", choices=("netcdf", "csv"),
                         help="time courses of receptors and afferents: one NetCDF-4 file currents.nc (default) or the "
@@ -215,18 +218,19 @@ def _spikes_table(args) -> dict | None:
     if not args.spikes:
         if args.input not in (None, "static"):
             raise ValueError(f"--input {args.input} applies to spikes: add --spikes.")
-        if args.branching not in (None, "sum") or args.zones_per_afferent is not None:
-            raise ValueError("--branching and --zones-per-afferent apply to spikes: add --spikes.")
+        if args.branching not in (None, "sum") or args.zones_per_afferent is not None or args.zone_map is not None:
+            raise ValueError("--branching, --zones-per-afferent and --zone-map apply to spikes: add --spikes.")
         return None
     if args.input == "rate-sensitive" and args.gain_s is None:
         raise ValueError("--input rate-sensitive needs --gain-s (s): how much input current (A) per A/s of rate.")
-    if args.zones_per_afferent is not None and args.branching != "zones":
-        raise ValueError("--zones-per-afferent applies to --branching zones; add --branching zones.")
+    for flag, value in (("--zones-per-afferent", args.zones_per_afferent), ("--zone-map", args.zone_map)):
+        if value is not None and args.branching != "zones":
+            raise ValueError(f"{flag} applies to --branching zones; add --branching zones.")
     # options not given stay out: the afferent class (--class) or the scene defaults fill them
     return {"engine": args.engine, "dt_ms": args.dt_ms, "lif_preset": args.lif_preset, "input": args.input,
             "gain_s": args.gain_s, "tau_ms": args.tau_ms, "static_gain": args.static_gain, "drive": args.drive,
             "rheobase_multiple": args.rheobase_multiple, "duration_s": args.duration_s, "branching": args.branching,
-            "zones_per_afferent": args.zones_per_afferent}
+            "zones_per_afferent": args.zones_per_afferent, "zone_map": args.zone_map}
 
 
 #: scene key -> the option that sets it, to say a scene's complaint in the command's words
@@ -240,6 +244,7 @@ _FLAGS = {
     ("spikes", "gain_s"): "--gain-s", ("spikes", "tau_ms"): "--tau-ms", ("spikes", "static_gain"): "--static-gain",
     ("afferent", "class"): "--class", ("fit", "observed"): "--observed",
     ("spikes", "zones_per_afferent"): "--zones-per-afferent", ("spikes", "branching"): "--branching",
+    ("spikes", "zone_map"): "--zone-map",
     ("fit", "length_unit"): "--observed-unit",
 }
 

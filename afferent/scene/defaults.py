@@ -283,7 +283,10 @@ def _spikes(scene: Scene, err, out):
         if sp.zones_per_afferent is not None and sp.zones_per_afferent < 1:
             raise err("spikes", "zones_per_afferent", "[spikes] 'zones_per_afferent' must be >= 1 (receptor groups per "
                       f"afferent); got {sp.zones_per_afferent!r} instead.")
-        if sp.branching == "zones" and sp.zones_per_afferent is None:
+        if sp.zone_map is not None and sp.zones_per_afferent is not None:
+            raise err("spikes", "zone_map", "[spikes] give 'zone_map' (each receptor's zone) or 'zones_per_afferent' "
+                      "(receptors split into groups along the afferent), not both.")
+        if sp.branching == "zones" and sp.zones_per_afferent is None and sp.zone_map is None:
             from ..zones import DEFAULT_ZONES_PER_AFFERENT
 
             sp = replace(sp, zones_per_afferent=DEFAULT_ZONES_PER_AFFERENT)

@@ -93,7 +93,7 @@ def summary_lines(result) -> list[str]:
         sp = result.record["spikes"]
         out.append(f"  spikes: {sp['n_spikes']} from {sp['n_afferents']} afferents in {sp['duration_s']:g} s "
                    f"({sp['engine']}, {'dt %g ms' % (sp['dt_s'] * 1e3) if sp.get('dt_s') else 'no grid'}, "
-                   f"{sp['input']} input)")
+                   f"{sp['input']} input{_zones_words(sp)})")
     sat = result.record.get("saturation")
     if sat:
         out.append(f"  transduction: {sat['fraction_sensitive']:.1%} of receptor samples in the sigmoid's sensitive "
@@ -102,3 +102,12 @@ def summary_lines(result) -> list[str]:
     if result.fit is not None:
         out.append(f"  fit: R2(study) {result.fit.r2_study:.3f}, R2 {result.fit.r2:.3f}, ssd {result.fit.ssd:.3g}")
     return out
+
+
+def _zones_words(sp: dict) -> str:
+    """', zones: 28 zones, 4 per afferent' for a zones run's spikes record, '' for the sum model."""
+    z = sp.get("zones")
+    if not z:
+        return ""
+    lo, hi = z["zones_per_afferent"]
+    return f", zones: {z['n_zones']} zones, {lo if lo == hi else f'{lo}-{hi}'} per afferent"

@@ -232,6 +232,8 @@ def _hash_inputs(run: _Run):
             extra_files.append(scene.synthesis.map)
         if "comparison" in planned:
             extra_files.append(scene.fit.observed)
+        if "spiking" in planned and scene.spikes.branching == "zones":
+            extra_files.append(scene.spikes.zone_map)
         if "stimulus" in planned and scene.stimulus.waveform == "file":
             extra_files.append(scene.stimulus.file)
         for p in extra_files:
@@ -520,9 +522,10 @@ def _spike(run: _Run) -> None:
                         {}, waveform=out["waveform"])
     zones = None
     if sp.branching == "zones":
-        from ..zones import split_zones
+        from ..zones import split_zones, zones_from_map
 
-        zones = split_zones(out["branching"], out["current"].layout, sp.zones_per_afferent)
+        zones = (zones_from_map(out["branching"], sp.zone_map) if sp.zone_map is not None
+                 else split_zones(out["branching"], out["current"].layout, sp.zones_per_afferent))
     pr = run_spikes(pr, lif, dt=sp.dt_s, engine=sp.engine, input=sp.input, gain=sp.gain_s, tau=sp.tau_s,
                     duration=duration, drive=sp.drive, rheobase_multiple=sp.rheobase_multiple,
                     reference_current=sp.reference_current_a, static_gain=sp.static_gain, zones=zones)

@@ -333,6 +333,8 @@ class SpikesSpec:
                                    "spike-initiation zone (the first zone at threshold fires and resets all)")
     zones_per_afferent: int | None = _f("int", doc="branching = 'zones': receptor groups per afferent, split along "
                                                    "it; default 4")
+    zone_map: str | None = _f("path", doc="branching = 'zones': CSV receptor, zone naming each receptor's zone "
+                                          "(instead of zones_per_afferent)")
     static_gain: float | None = _f("number", doc="input = 'slowly-adapting': gain k_s on the static current")
 
 
@@ -432,9 +434,10 @@ class Scene:
     @property
     def input_files(self) -> tuple:
         """Every file the scene names (its own file, exports, coordinates, receptors, calibration, map,
-        waveform, observed profile): an output may not be, hold or lie inside one of them."""
+        waveform, observed profile, zone map): an output may not be, hold or lie inside one of them."""
         paths = (self.source, *(self.export.files or ()), self.export.coordinates, self.receptors.file,
-                 self.transduction.calibration, self.synthesis.map, self.stimulus.file, self.fit.observed)
+                 self.transduction.calibration, self.synthesis.map, self.stimulus.file, self.fit.observed,
+                 self.spikes.zone_map)
         return tuple(p for p in paths if p)
 
     def with_output(self, path) -> "Scene":

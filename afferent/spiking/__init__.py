@@ -362,9 +362,10 @@ def simulate_lif(current, params: LIFParams, *, dt: float | None = None, engine:
         whose ``afferent`` and ``afferent_ids`` are used, or one afferent index per column,
         non-decreasing). Each zone integrates its own current in its own LIF; an afferent
         fires when any of its zones reaches threshold, and all its zones reset and share the
-        refractory period. Exact and fast engines (the fast one on numpy, the exact one on
-        numba or, with ``'exact-numpy'``, plain Python); brian2 refuses it. Default None: one
-        LIF per column (the ``sum`` model).
+        refractory period. Every engine: the exact one on numba or, with ``'exact-numpy'``,
+        plain Python; the fast one on numpy; brian2 with a ``Synapses`` resetting the afferent's
+        other zones (the fast engine's spikes, step for step). Default None: one LIF per column
+        (the ``sum`` model).
 
     Returns
     -------

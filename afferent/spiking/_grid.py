@@ -257,11 +257,14 @@ tau_m : second (shared, constant)
 """
 
 
-def _run_brian2(plan: _Plan, cols: np.ndarray, params: LIFParams):
+def _run_brian2(plan: _Plan, cols: np.ndarray, params: LIFParams, links=None):
     """The reference engine: brian2 NeuronGroup + TimedArray + SpikeMonitor in an explicit Network.
 
     Code objects use brian2's numpy target through ``codeobj_class`` (nothing is compiled and
-    the global ``prefs.codegen.target`` is left alone).
+    the global ``prefs.codegen.target`` is left alone). ``links``: optional (pre, post) arrays of
+    positions in ``cols`` (spike-initiation zones of one afferent, :mod:`afferent.spiking._zones`):
+    a spike of ``pre`` resets ``post`` and makes it refractory in the same step (a
+    ``Synapses`` without delay, applied before the resets).
     """
     import brian2 as b2
     from brian2.codegen.runtime.numpy_rt import NumpyCodeObject
@@ -297,6 +300,11 @@ def _run_brian2(plan: _Plan, cols: np.ndarray, params: LIFParams):
     group.v = params.v_rest * b2.volt
     monitor = b2.SpikeMonitor(group, codeobj_class=NumpyCodeObject)
     net = b2.Network(group, monitor)
+    if links is not None and len(links[0]):
+        syn = b2.Synapses(group, group, on_pre="v_post = v_reset_post\nlastspike_post = t\nnot_refractory_post = False",
+                          codeobj_class=NumpyCodeObject)
+        syn.connect(i=np.asarray(links[0]), j=np.asarray(links[1]))
+        net.add(syn)
     net.run(plan.n_steps * dt * b2.second, namespace={})
     steps = np.rint(np.asarray(monitor.t_) / dt).astype(np.int64)
     return _group_numpy(steps, np.asarray(monitor.i, dtype=np.int64), cols.size)

@@ -5,7 +5,7 @@ model (:mod:`afferent.spiking`). The afferent fires when any of its zones reache
 then every zone of that afferent is set to ``v_reset`` and held there for ``t_ref`` (one
 refractory period for the afferent). With one zone per afferent this is the ``sum`` model.
 
-Two engines:
+Three engines:
 
 * exact (:func:`_zones_afferent`): event-driven like :mod:`afferent.spiking._exact`, the same
   closed forms per zone (held input: ``T = tau ln((D - u) / (D - theta))``; linear input: the
@@ -16,8 +16,10 @@ Two engines:
 * fast (:func:`_run_fast_zones`): brian2's grid semantics (the update of ``_grid._lif_loop``),
   numpy, vectorised over zones; an afferent spikes at the first step in which one of its zones
   is at or above threshold.
-
-brian2 has no zones engine here.
+* brian2 (:func:`_run_brian2_zones`): a neuron per zone and a delay-free ``Synapses`` from every
+  zone to the other zones of its afferent (``v_post = v_reset``, refractory from ``t``), applied
+  in the step of the spike before the resets; zones crossing in one step make one spike. It
+  gives the fast engine's spikes step for step (``tests/test_zones.py``).
 """
 
 from __future__ import annotations
@@ -246,17 +248,14 @@ def _afferent_peak(zone_peak: np.ndarray, aff: np.ndarray, n_aff: int) -> np.nda
 def simulate_zones(current, params: LIFParams, zones, *, dt, engine: str, duration, times, hold: str):
     """:func:`afferent.spiking.simulate_lif` with ``zones``: the current's columns are zones.
 
-    ``engine``: 'exact', 'exact-numba', 'exact-numpy' (plain Python here) or 'fast',
-    'fast-numba', 'fast-numpy' (numpy here); brian2 is refused. Returns SpikeTrains per afferent.
+    ``engine``: 'exact', 'exact-numba', 'exact-numpy' (plain Python here), 'fast', 'fast-numba',
+    'fast-numpy' (numpy here) or 'brian2'. Returns SpikeTrains per afferent.
     """
     from . import _check_drive, _check_isi_resolution, _used_peak, _warn_above_ceiling
     from ._exact import _pieces
     from ._grid import _constants, _peak_current, _plan, _silent
     from ._trains import SpikeTrains, spread_counts
 
-    if engine == "brian2":
-        raise ValueError("'zones' run on the exact and fast engines; brian2 has no zones engine here. "
-                         "Use engine='exact' (or 'fast'); got engine='brian2'.")
     if engine.startswith("exact"):
         backend = exact_backend(engine)
         src = _pieces(current, dt, duration, times, params.tau_m, hold)
@@ -267,7 +266,7 @@ def simulate_zones(current, params: LIFParams, zones, *, dt, engine: str, durati
                              f"got engine={engine!r} instead.")
         if dt is None:
             raise ValueError(f"'dt' must be given with engine={engine!r}: it is the time step in s; got None instead.")
-        backend, src = "numpy", _plan(current, dt, duration, times)
+        backend, src = ("brian2-numpy" if engine == "brian2" else "numpy"), _plan(current, dt, duration, times)
         peak = _peak_current(src) if src.values.shape[1] else np.zeros(0)
     aff, n_aff, ids = zone_groups(zones, src.values.shape[1], None)
     _check_drive(src.extremes, params)
@@ -285,12 +284,31 @@ def simulate_zones(current, params: LIFParams, zones, *, dt, engine: str, durati
     else:
         keep = np.flatnonzero(~_silent(np.where(np.isfinite(aff_peak), aff_peak, 0.0), params, src.dt))
         E, n_ref = _constants(params, src.dt)
-        steps, counts = _run_fast_zones(src, aff, keep, params, E, n_ref) if keep.size else (
-            np.empty(0, np.int64), np.zeros(0, np.int64))
+        if not keep.size:
+            steps, counts = np.empty(0, np.int64), np.zeros(0, np.int64)
+        elif engine == "brian2":
+            steps, counts = _run_brian2_zones(src, aff, keep, params)
+        else:
+            steps, counts = _run_fast_zones(src, aff, keep, params, E, n_ref)
         t = steps * src.dt + src.t_start if src.t_start else steps * src.dt
         _warn_above_ceiling(t, counts, params, src)
-        dur, step, eng = src.n_steps * src.dt, src.dt, "fast"
+        dur, step, eng = src.n_steps * src.dt, src.dt, ("brian2" if engine == "brian2" else "fast")
     silent = np.setdiff1d(np.arange(n_aff), keep)
     return SpikeTrains(t=t, counts=spread_counts(counts, keep, n_aff), afferent_ids=ids, duration=dur, dt=step,
                        engine=eng, backend=backend, silent_skipped=silent, params=params, t_start=src.t_start,
                        notes=tuple(notes))
+
+
+def _run_brian2_zones(plan, aff: np.ndarray, keep: np.ndarray, params: LIFParams):
+    """The brian2 zones engine: one neuron per zone, a delay-free ``Synapses`` from every zone to the
+    other zones of its afferent that resets them and starts their refractory period. Returns (spike
+    steps grouped by afferent, count per kept afferent); zones crossing in one step are one spike."""
+    from ._grid import _run_brian2
+
+    cols = np.flatnonzero(np.isin(aff, keep))
+    owner = np.searchsorted(keep, aff[cols])
+    pre, post = np.nonzero((owner[:, None] == owner[None, :]) & ~np.eye(cols.size, dtype=bool))
+    steps, counts = _run_brian2(plan, cols, params, links=(pre, post))
+    zone_of = np.repeat(np.arange(cols.size), counts)
+    pairs = np.unique(np.stack([owner[zone_of], steps]), axis=1) if steps.size else np.zeros((2, 0), np.int64)
+    return _group_numpy(pairs[1].astype(np.int64), pairs[0].astype(np.int64), keep.size)
