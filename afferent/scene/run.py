@@ -256,7 +256,7 @@ def _cache_key(run: _Run, layout, exp_files, hashes) -> str:
         rkey = {"positions_sha256": positions_digest(layout.positions), "n": int(layout.n_receptors)}
     else:
         rkey = {"found_on_export": {k: _plain_json(getattr(rec, k)) for k in
-                                    ("grid", "y_m", "pitch_x_m", "pitch_z_m", "x_range_m", "z_range_m", "origin_m",
+                                    ("grid", "rows", "y_m", "pitch_x_m", "pitch_z_m", "x_range_m", "z_range_m", "origin_m",
                                      "material_array", "upper", "lower")},
                 "region": {"x_range_m": _plain_json(scene.region.x_range_m),
                            "z_range_m": _plain_json(scene.region.z_range_m)}}
@@ -294,7 +294,9 @@ def _receptor_sed(run: _Run, exp_files, hashes, *, cache_dir, use_cache: bool, p
         sed = _read_sample_store(run, layout, key, cache, cache_info, progress=progress)
     run.record["cache"] = cache_info
     run.region_info["n_receptors_sampled"] = int(sed.layout.n_receptors)
-    run.record["receptors"] = {"source": scene.receptors.file or f"grid = {scene.receptors.grid!r}", **run.region_info}
+    rec = scene.receptors
+    source = rec.file or f"grid = {rec.grid!r}" + (f", rows = {rec.rows!r}" if rec.grid == "regular" else "")
+    run.record["receptors"] = {"source": source, "site": sed.layout.site, **run.region_info}
     return sed
 
 

@@ -204,24 +204,29 @@ class ExportSpec:
 _GRID_KEYS = ("y_m", "x_range_m", "z_range_m", "origin_m", "pitch_x_m", "pitch_z_m")
 _GRID_DEFAULTS = {"pitch_x_m": 0.44e-3, "pitch_z_m": 0.22e-3, "material_array": "layer", "upper": 1, "lower": 2}
 _TIPS_KEYS = ("material_array", "upper", "lower")
+#: grid values whose sites are found on the export's interface (:func:`afferent.receptors.sites_from_export` kind)
+MESH_GRIDS = ("tips", "bases")
 
 
 @dataclass(frozen=True)
 class ReceptorSpec:
-    """``[receptors]``: a receptor CSV (``file``) or a generated ``grid`` ('tips' or 'regular')."""
+    """``[receptors]``: a receptor CSV (``file``) or generated sites: ``grid`` = 'tips' (RA-I papilla tips) or
+    'bases' (SA-I intermediate-ridge bases) found on the export, or 'regular' (a grid of papilla or ridge-base rows)."""
 
     file: str | None = _f("path")
     length_unit: str | None = _f("str", doc="unit of the CSV's x, y, z; default [export] length_unit")
-    grid: str | None = _f("choice", choices=("tips", "regular"))
+    grid: str | None = _f("choice", choices=("tips", "bases", "regular"))
+    rows: str | None = _f("choice", choices=("tips", "bases"),
+                          doc="regular grid: papilla rows (RA-I, default 'tips') or ridge-base rows ('bases', SA-I)")
     y_m: float | None = _f("number", quantity="length")
     pitch_x_m: float | None = _f("number", quantity="length", doc="grids; default 0.44 mm (ridge pitch)")
     pitch_z_m: float | None = _f("number", quantity="length", doc="grids; default 0.22 mm (papilla pitch)")
     x_range_m: tuple | None = _f("pair", quantity="length")
     z_range_m: tuple | None = _f("pair", quantity="length")
     origin_m: tuple | None = _f("pair", quantity="length", doc="(x0, z0): a point of a regular grid")
-    material_array: str | None = _f("str", doc="tips; default 'layer'")
-    upper: object = _f("int_or_ints", doc="tips; default 1 (epidermis)")
-    lower: object = _f("int_or_ints", doc="tips; default 2 (dermis)")
+    material_array: str | None = _f("str", doc="tips, bases; default 'layer'")
+    upper: object = _f("int_or_ints", doc="tips, bases; default 1 (epidermis)")
+    lower: object = _f("int_or_ints", doc="tips, bases; default 2 (dermis)")
 
 
 @dataclass(frozen=True)

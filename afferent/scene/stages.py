@@ -50,28 +50,28 @@ def _layout_before_reading(scene: Scene):
         from ..receptors import grid_layout
 
         return grid_layout(x_range=rec.x_range_m, z_range=rec.z_range_m, y=rec.y_m, pitch_x=rec.pitch_x_m,
-                           pitch_z=rec.pitch_z_m, origin=rec.origin_m)
+                           pitch_z=rec.pitch_z_m, origin=rec.origin_m, kind=rec.rows or "tips")
     return None
 
 
 def _layout_from_field(scene: Scene, field):
-    """Receptors found on the export: papilla tips, or a regular grid over the export's extent."""
+    """Receptors found on the export: papilla tips or ridge bases, or a regular grid over the export's extent."""
     rec = scene.receptors
     pitch = dict(pitch_x=rec.pitch_x_m, pitch_z=rec.pitch_z_m)
-    if rec.grid == "tips":
-        from ..receptors import tips_from_export
+    if rec.grid in ("tips", "bases"):
+        from ..receptors import sites_from_export
 
         files = [f for f in field.provenance.files if not f.lower().endswith(".pvd")] or list(field.provenance.files)
         unit = field.provenance.units.get("length")
         # the region is applied afterwards (as interface_tips' own ranges would be: last), to count what it leaves out
-        return tips_from_export(files[0], length_unit=unit, material_array=rec.material_array, upper=rec.upper,
-                                lower=rec.lower, **pitch)
+        return sites_from_export(files[0], length_unit=unit, material_array=rec.material_array, upper=rec.upper,
+                                 lower=rec.lower, kind=rec.grid, **pitch)
     from ..receptors import grid_layout
 
     lo, hi = field.bounds
     x_range = rec.x_range_m or (lo[0] + rec.pitch_x_m / 2, hi[0] - rec.pitch_x_m / 2)
     z_range = rec.z_range_m or (lo[2] + rec.pitch_z_m / 2, hi[2] - rec.pitch_z_m / 2)
-    return grid_layout(x_range=x_range, z_range=z_range, y=rec.y_m, origin=rec.origin_m, **pitch)
+    return grid_layout(x_range=x_range, z_range=z_range, y=rec.y_m, origin=rec.origin_m, kind=rec.rows or "tips", **pitch)
 
 
 def _crop(field, positions, method: str):
