@@ -50,17 +50,29 @@ def papillae(ix, kz, three_d: bool):
     return bx * sum(bump((kz - r) / 2.0) for r in ROWS_Z)
 
 
-def ridged_block(*, three_d=True, quadratic=False, ridges=True):
+def waffle(ix, kz):
+    """The chapter-4 kind of 3-D interface (0 at the apex level, 1 on papilla tops): flat-topped papillae whose
+    bases, between papillae along z, lie at the intermediate ridges' apex level, so that level is one connected
+    waffle. Across x: apex |d| <= 1 step, flanks to 5, papilla top 6 steps (0.165 mm) wide; along z: top
+    |dz| <= 1, flanks to 3, 2 steps of apex-level floor between papillae."""
+    d = np.min(np.abs(np.asarray(ix, float)[..., None] - RIDGES), axis=-1)
+    dz = np.min(np.abs(np.asarray(kz, float)[..., None] - ROWS_Z), axis=-1)
+    return np.clip((d - 1.0) / 4.0, 0.0, 1.0) * np.clip((3.0 - dz) / 2.0, 0.0, 1.0)
+
+
+def ridged_block(*, three_d=True, quadratic=False, ridges=True, chapter4=False):
     """(points mm, cells, layer, index(i, k) of the interface node at lattice x index i, z index k).
 
     Linear: 8-node hexahedra one lattice step wide. Quadratic: 20-node hexahedra two steps wide
     (their midside nodes are the odd lattice nodes; y gets mid-levels between Y_LINES). Without
-    ``ridges`` the interface is a flat base with papilla bumps."""
+    ``ridges`` the interface is a flat base with papilla bumps; ``chapter4``: the :func:`waffle` interface."""
     ys = Y_LINES if not quadratic else np.sort(np.r_[Y_LINES, 0.5 * (Y_LINES[1:] + Y_LINES[:-1])])
     j_if = 2 if not quadratic else 4
     ny = ys.size - 1
     I, J, K = np.meshgrid(np.arange(NX + 1), np.arange(ny + 1), np.arange(NZ + 1), indexing="ij")
     relief = np.where(J == j_if, HEIGHT * papillae(I, K, three_d) - DEPTH * ridges * trough(I), 0.0)
+    if chapter4:
+        relief = np.where(J == j_if, (HEIGHT + DEPTH) * waffle(I, K) - DEPTH, 0.0)
     points = np.column_stack([(X_OFF + I * H).ravel(), (ys[J] + relief).ravel(), (Z_OFF + K * H).ravel()])
     nid = lambda i, j, k: (i * (ny + 1) + j) * (NZ + 1) + k  # noqa: E731
     s = 2 if quadratic else 1
@@ -125,6 +137,20 @@ def test_two_d_ridged_block_gives_ridge_lines_of_sites():
     np.testing.assert_array_equal(bases.positions, points[expected(index, RIDGES, ROWS_Z)] * 1e-3)
 
 
+def test_chapter4_waffle_bases_beside_each_papilla_only():
+    """Apex level connected through the gaps between papillae: bases only where papillae flank the ridge."""
+    points, cells, layer, index = ridged_block(chapter4=True)
+    assert np.isclose(points[index(8, 6), 1], points[index(16, 6), 1])  # ridge and gap between papillae: one level
+    bases = interface_sites(points * 1e-3, cells, layer, upper=1, lower=2, kind="bases")
+    tips = interface_sites(points * 1e-3, cells, layer, upper=1, lower=2)
+    np.testing.assert_array_equal(bases.positions, points[expected(index, RIDGES, ROWS_Z)] * 1e-3)
+    np.testing.assert_array_equal(tips.positions, points[expected(index, PAPILLAE[1:3], ROWS_Z)] * 1e-3)
+    with pytest.raises(ValueError, match=re.escape("lie on flat stretches wider across x than max_flat = 0.0001 m "
+                                                   "(the narrowest 0.000165 m, at y = 0.00036 m): a flat top, not "
+                                                   "papilla tips.")):
+        interface_sites(points * 1e-3, cells, layer, upper=1, lower=2, max_flat=0.1e-3)
+
+
 def test_jittered_coordinates_give_the_same_nodes(block3d, rng):
     points, cells, layer, index = block3d
     noisy = points * 1e-3 + rng.uniform(-0.4e-6, 0.4e-6, points.shape)  # below the 1 um default noise
@@ -155,8 +181,8 @@ def test_flat_base_is_refused_naming_file_materials_and_prominence(tmp_path):
     message = (
         f"Export {str(path)!r}: The interface between materials upper=1 and lower=2 must have intermediate-ridge "
         "bases (lows sinking >= 1e-05 m within pitch 0.00044 x 0.00022 m windows); got none on its 1813 nodes, "
-        "spanning x [1.13e-05, 0.001331], y [0.0003, 0.00036], z [7.1e-06, 0.0009971] m, instead. Its lowest nodes "
-        "form 1 flat stretch(es) wider across x than half the ridge pitch (0.00022 m; the widest 0.00132 m, at "
+        "spanning x [1.13e-05, 0.001331], y [0.0003, 0.00036], z [7.1e-06, 0.0009971] m, instead. Its 1393 local "
+        "lows lie on flat stretches wider across x than max_flat = 0.00011 m (the narrowest 0.000165 m, at "
         "y = 0.0003 m): a flat base, not intermediate-ridge bases. Points must be in m."
     )
     with pytest.raises(ValueError, match=re.escape(message)):

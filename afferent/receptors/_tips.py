@@ -155,39 +155,86 @@ def _interface_graph(rows, nodes: np.ndarray, n_points: int):
     local[nodes] = np.arange(nodes.size)
     loc = local[np.where(rows >= 0, rows, n_points)]
     loc = loc[(loc >= 0).sum(axis=1) >= 2]
-    a, b = [], []
-    for i in range(loc.shape[1]):
-        for j in range(i + 1, loc.shape[1]):
-            ok = (loc[:, i] >= 0) & (loc[:, j] >= 0) & (loc[:, i] != loc[:, j])
-            a.append(loc[ok, i])
-            b.append(loc[ok, j])
-    a, b = np.concatenate(a + [np.zeros(0, int)]), np.concatenate(b + [np.zeros(0, int)])
+    i, j = np.triu_indices(loc.shape[1], 1)
+    a, b = loc[:, i].ravel(), loc[:, j].ravel()
+    ok = (a >= 0) & (b >= 0) & (a != b)
+    a, b = a[ok], b[ok]
     m = nodes.size
     return coo_matrix((np.ones(2 * a.size, bool), (np.r_[a, b], np.r_[b, a])), shape=(m, m)).tocsr()
 
 
-def _tops(graph, h: np.ndarray, candidate: np.ndarray, noise: float) -> list[np.ndarray]:
-    """The flat tops holding candidates: groups of nodes linked by mesh neighbours within ``noise`` of each other's
-    height ``h`` (m), cut to the nodes within ``noise`` of the group's extreme; local indices, extreme groups first."""
+#: Samples per half ridge pitch along each cross-section of :func:`_flat_widths` (resolution 5.5 um at 0.44 mm).
+_SECTION_SAMPLES = 40
+
+
+def _flat_widths(cand: np.ndarray, x, h, z, pitch_x: float, noise: float, drop: float, sides: int = 2) -> np.ndarray:
+    """Width across x (m) of the flat stretch each candidate sits on, in its own cross-section of the ridges.
+
+    The interface, a surface h(x, z) (h = y for tips, -y for bases, m) interpolated linearly
+    between its nodes (a Delaunay triangulation in x-z), is sampled along x at the candidate's
+    z, ``pitch_x / 2`` each way. The stretch runs from the candidate while h stays within
+    ``noise`` of its value; its width is inf unless h falls by ``drop`` on both sides within
+    the half pitch (on one side with ``sides=1``: ``keep_edge``, cut papillae and ridges).
+    """
+    from matplotlib.tri import LinearTriInterpolator, Triangulation
+    from scipy.spatial import Delaunay, QhullError
+
+    if cand.size == 0:
+        return np.zeros(0)
+    try:
+        tri = Delaunay(np.column_stack([x, z]))
+    except QhullError:  # all interface nodes on one line in x-z: no cross-section to take
+        return np.full(cand.size, np.inf)
+    # matplotlib's trapezoid-map point location: fast for queries outside the triangulation too (qhull's own
+    # search falls back to trying every triangle for those, e.g. beyond a cropped mesh's boundary)
+    interpolate = LinearTriInterpolator(Triangulation(x, z, triangles=tri.simplices), h)
+
+    def surface(qx, qz):  # linear interpolation of h (m); NaN outside the triangulation
+        return np.ma.filled(interpolate(qx, qz).astype(float), np.nan)
+
+    t = np.arange(1, _SECTION_SAMPLES + 1) * (0.5 * pitch_x / _SECTION_SAMPLES)
+    widths, flanks = np.zeros(cand.size), np.zeros(cand.size, int)
+    for sign in (-1.0, 1.0):
+        xs = x[cand][:, None] + sign * t
+        inside = (xs >= x.min()) & (xs <= x.max())  # beyond the interface's x extent: NaN
+        along = np.full(xs.shape, np.nan)
+        along[inside] = surface(xs[inside], np.broadcast_to(z[cand][:, None], xs.shape)[inside])
+        off = ~(np.abs(along - h[cand][:, None]) <= noise)  # NaN (outside the mesh) ends the stretch too
+        first = np.where(off.any(axis=1), off.argmax(axis=1), t.size)
+        widths += np.where(first > 0, t[np.maximum(first - 1, 0)], 0.0)
+        flanks += (along <= h[cand][:, None] - drop).any(axis=1)
+    return np.where(flanks >= sides, widths, np.inf)
+
+
+def _apexes(cand: np.ndarray, width: np.ndarray, h: np.ndarray, max_flat: float, noise: float):
+    """(narrow, wide): the candidates on apexes at most ``max_flat`` (m) wide across x, and the mask of those on
+    flanked flat stretches wider than that (floors). Where there is such a floor, narrow candidates at its
+    height (within ``noise``) are floor too: a coarse mesh that cannot show the floor's width."""
+    wide = np.isfinite(width) & (width > max_flat + noise)
+    narrow = width <= max_flat + noise
+    if wide.any() and narrow.any():
+        levels = np.sort(h[cand[wide]])
+        k = np.clip(np.searchsorted(levels, h[cand]), 1, levels.size - 1) if levels.size > 1 else np.zeros(cand.size, int)
+        near = np.minimum(np.abs(levels[k] - h[cand]), np.abs(levels[np.maximum(k - 1, 0)] - h[cand]))
+        narrow &= near > noise
+    return cand[narrow], wide
+
+
+def _segments(graph, sites: np.ndarray, h: np.ndarray, noise: float) -> list[np.ndarray]:
+    """``sites`` (local indices) grouped into pieces linked through mesh cells with heights within ``noise``."""
     from scipy.sparse.csgraph import connected_components
 
-    coo = graph.tocoo()
-    level = np.abs(h[coo.row] - h[coo.col]) <= noise
-    flat = graph.__class__((np.ones(level.sum(), bool), (coo.row[level], coo.col[level])), shape=graph.shape)
+    sub = graph[sites][:, sites].tocoo()
+    level = np.abs(h[sites[sub.row]] - h[sites[sub.col]]) <= noise
+    flat = graph.__class__((np.ones(level.sum(), bool), (sub.row[level], sub.col[level])), shape=sub.shape)
     _, label = connected_components(flat, directed=False)
-    peak = np.full(label.max() + 1, -np.inf)
-    np.maximum.at(peak, label, h)
-    in_top = h >= peak[label] - noise
-    wanted = np.unique(label[candidate & in_top])
-    idx = np.flatnonzero(in_top & np.isin(label, wanted))
-    idx = idx[np.lexsort((idx, label[idx]))]
-    groups = np.split(idx, np.flatnonzero(np.diff(label[idx])) + 1) if idx.size else []
-    return sorted(groups, key=lambda g: -peak[label[g[0]]])
+    order = np.argsort(label, kind="stable")
+    return np.split(sites[order], np.flatnonzero(np.diff(label[order])) + 1)
 
 
 def _sites_on_top(top: np.ndarray, x, z, pitch_z: float, noise: float) -> np.ndarray:
-    """Site nodes on one flat top (local indices): its centre across x; along z one site, or one per ``pitch_z``
-    (m) centred on the top's length when the top is a ridge line; each the top node nearest the aimed point."""
+    """Site nodes on one flat piece (local indices): its centre across x; along z one site, or one per ``pitch_z``
+    (m) centred on the piece's length when it is a ridge line; each the piece's node nearest the aimed point."""
     xc = 0.5 * (x[top].min() + x[top].max())
     z0, z1 = z[top].min(), z[top].max()
     n = int(np.floor((z1 - z0) / pitch_z + 1e-9)) + 1
@@ -215,7 +262,7 @@ def _interior(sites: np.ndarray, x, z, pitch_x: float, pitch_z: float, noise: fl
     return sites[keep]
 
 
-def _no_sites_error(kind, upper, lower, min_prominence, pitch_x, pitch_z, ranges, pts, floors) -> ValueError:
+def _no_sites_error(kind, upper, lower, min_prominence, pitch_x, pitch_z, ranges, pts, wide) -> ValueError:
     """The error for an interface without sites: what was asked, the interface's extent, the flat tops refused."""
     lo, hi = pts.min(axis=0), pts.max(axis=0)
     what = "highs rising" if kind == "tips" else "lows sinking"
@@ -226,13 +273,12 @@ def _no_sites_error(kind, upper, lower, min_prominence, pitch_x, pitch_z, ranges
         f"{pts.shape[0]} nodes, spanning x [{lo[0]:.4g}, {hi[0]:.4g}], y [{lo[1]:.4g}, {hi[1]:.4g}], "
         f"z [{lo[2]:.4g}, {hi[2]:.4g}] m, instead."
     )
-    if floors:
-        width, y = max(floors)
-        side = ("highest", "top") if kind == "tips" else ("lowest", "base")
+    if wide is not None:
+        n, width, y, max_flat = wide
+        side = ("highs", "top") if kind == "tips" else ("lows", "base")
         msg += (
-            f" Its {side[0]} nodes form {len(floors)} flat stretch(es) wider across x than half the ridge pitch "
-            f"({0.5 * pitch_x!r} m; the widest {width:.4g} m, at y = {y:.4g} m): a flat {side[1]}, not "
-            f"{SITE_KINDS_ON_MESH[kind]}."
+            f" Its {n} local {side[0]} lie on flat stretches wider across x than max_flat = {max_flat!r} m (the "
+            f"narrowest {width:.4g} m, at y = {y:.4g} m): a flat {side[1]}, not {SITE_KINDS_ON_MESH[kind]}."
         )
     return ValueError(msg + " Points must be in m.")
 
@@ -251,6 +297,7 @@ def interface_sites(
     z_range=None,
     noise: float = COORDINATE_NOISE_M,
     min_prominence: float = MIN_PROMINENCE_M,
+    max_flat: float | None = None,
     keep_edge: bool = False,
     tol: float = SECTION_TOLERANCE_M,
 ) -> ReceptorLayout:
@@ -271,15 +318,25 @@ def interface_sites(
     2. *Local extreme.* n is a candidate when no interface node in its window is higher than
        its height + ``noise`` and n rises at least ``min_prominence`` above the lowest node of
        its window (isolated nodes, and flat stretches far from any relief, are not extremes).
-    3. *Flat tops.* Interface nodes linked through mesh cells with heights within ``noise`` of
-       each other form a flat group; its *top* is the nodes within ``noise`` of the group's
-       highest. A top wider across x than half the ridge pitch (``pitch_x / 2``) is a flat
-       floor (or ceiling), not an apex: it gives no site. This refuses, e.g., a flat base
-       between papilla bumps, where every node is an equally low "base".
-    4. *Sites on a top.* The site is the top node nearest the top's centre (middle of its x
-       and z extents; ties to smaller x, then z). A top longer along z than one ``pitch_z`` (a
-       ridge that runs along z, e.g. a trapezoid-apexed intermediate ridge, or the papilla
-       ridges of a 2-D ridged model) gets one site per ``pitch_z``, centred on its length.
+    3. *Narrow apexes across the ridges only.* Each candidate's cross-section of the ridges
+       (the interface interpolated linearly between its nodes, sampled along x at the
+       candidate's z, half a ridge pitch each way) must fall by ``min_prominence`` on both
+       sides (papillae and intermediate ridges run along z, side by side), and the flat stretch
+       the candidate sits on (where the section stays within ``noise`` of its height) must be
+       at most ``max_flat`` wide. Otherwise the candidate sits on a flat floor (or ceiling), or
+       on a stretch cut by the mesh's boundary, not on an apex, and gives no site. Where the
+       interface has such a floor flanked on both sides, candidates at the floor's height
+       (within ``noise``) give none either: they are the same floor, shown as a V by a mesh too
+       coarse to resolve its width. This refuses a flat base between papilla rows (every node
+       an equally low "base", half a ridge pitch wide), keeps a trapezoid apex, and cuts a
+       waffle-like lowest level (intermediate ridges along z joined by flat gaps between
+       papillae, unflanked across x) into the ridge pieces beside each papilla.
+    4. *Sites on a piece.* The narrow candidates linked through mesh cells with heights within
+       ``noise`` of each other form pieces. A piece's site is its node nearest the piece's
+       centre (middle of its x and z extents; ties to smaller x, then z). A piece longer along
+       z than one ``pitch_z`` (a ridge that runs along z unbroken, e.g. the intermediate ridges
+       and the papilla ridges of a 2-D ridged model) gets one site per ``pitch_z``, centred on
+       its length.
     5. *Edges.* Unless ``keep_edge``, a site is dropped when there is no interface node on
        one of its sides (x below, x above, z below or z above) within one pitch: it lies on
        the boundary of the interface (a papilla or ridge cut by the block's side face).
@@ -288,9 +345,8 @@ def interface_sites(
     7. *Ranges.* Sites outside ``x_range`` / ``z_range`` are dropped last, so windows near
        the range ends still see their whole neighbourhood.
 
-    Why a window search and not fixed grid cells: it needs no grid phase (origin), does not
-    return an extreme on the flank of a papilla cut by a cell boundary, finds papillae and
-    ridges that are off the nominal grid, and returns nothing where the interface is flat.
+    A window search, not fixed grid cells: no grid phase to guess, no extreme on the flank of
+    a papilla cut by a cell boundary, and papillae and ridges off the nominal grid are found.
 
     Parameters
     ----------
@@ -320,6 +376,12 @@ def interface_sites(
     min_prominence : float, default=10e-6
         Smallest height in m by which a site must stand out from the opposite extreme of its
         window; keep it above the height noise and below the papilla or ridge height.
+    max_flat : float, optional
+        Widest flat apex across x in m that still holds a site. Default: ``pitch_x / 2`` for
+        tips (a papilla top 0.16 mm wide across the ridges still counts; a floor stretching
+        between papilla rows does not) and ``pitch_x / 4`` for bases (an intermediate ridge's
+        trapezoid apex is narrow; a flat base half a ridge pitch wide between papilla rows,
+        as in a model without intermediate ridges, is not a ridge base).
     keep_edge : bool, default=False
         Keep extremes on the boundary of the interface (cut papillae and ridges).
     tol : float, default=20e-6
@@ -339,7 +401,7 @@ def interface_sites(
     TypeError, ValueError
         Bad shapes, types, ``kind`` or ranges; materials absent or not touching; no site found
         (the message gives the interface's extent, to spot points in mm instead of m, and the
-        flat stretches refused).
+        flat stretches refused, with ``max_flat``).
 
     See Also
     --------
@@ -363,9 +425,13 @@ def interface_sites(
     noise = check_positive("noise", noise, unit="m", strict=False)
     min_prominence = check_positive("min_prominence", min_prominence, unit="m", strict=False)
     tol = check_positive("tol", tol, unit="m")
+    if max_flat is None:
+        max_flat = pitch_x * (0.5 if kind == "tips" else 0.25)
+    max_flat = check_positive("max_flat", max_flat, unit="m", strict=False)
     ranges = [None if r is None else _check_range(name, r) for name, r in (("x_range", x_range), ("z_range", z_range))]
     nodes = interface_nodes(points, cells, cell_material, upper=upper, lower=lower, noise=noise)
-    pts = np.asarray(points, dtype=float)[nodes]
+    pts_all = np.asarray(points, dtype=float)
+    pts = pts_all[nodes]
     x, y, z = pts.T
     h = y if kind == "tips" else -y
     # Chebyshev distance 1 in these scaled coordinates = the window's edge.
@@ -378,15 +444,16 @@ def interface_sites(
     np.maximum.at(w_max, a, h[b])
     np.minimum.at(w_min, a, h[b])
     candidate = (h >= w_max - noise) & (h - w_min >= max(min_prominence, np.finfo(float).tiny))
-    sites, floors = [], []
-    if candidate.any():
-        rows = _cell_nodes(cells, np.asarray(points).shape[0])[0]
-        for top in _tops(_interface_graph(rows, nodes, np.asarray(points).shape[0]), h, candidate, noise):
-            width = np.ptp(x[top])
-            if width > 0.5 * pitch_x + noise:
-                floors.append((width, float(y[top].mean())))
-            else:
-                sites.append(_sites_on_top(top, x, z, pitch_z, noise))
+    cand = np.flatnonzero(candidate)
+    width = _flat_widths(cand, x, h, z, pitch_x, noise, max(min_prominence, np.finfo(float).tiny),
+                         sides=1 if keep_edge else 2)
+    narrow, wide = _apexes(cand, width, h, max_flat, noise)
+    refused = None if narrow.size or not wide.size else (
+        cand.size, float(width[wide].min()), float(y[cand[wide][np.argmin(width[wide])]]), max_flat)
+    sites = []
+    if narrow.size:
+        graph = _interface_graph(_cell_nodes(cells, pts_all.shape[0])[0], nodes, pts_all.shape[0])
+        sites = [_sites_on_top(piece, x, z, pitch_z, noise) for piece in _segments(graph, narrow, h, noise)]
     sites = np.concatenate(sites) if sites else np.zeros(0, int)
     if not keep_edge:
         sites = _interior(sites, x, z, pitch_x, pitch_z, noise)
@@ -402,7 +469,7 @@ def interface_sites(
             c = pts[found, axis]
             found = found[(c >= rng[0] - noise) & (c <= rng[1] + noise)]
     if found.size == 0:
-        raise _no_sites_error(kind, upper, lower, min_prominence, pitch_x, pitch_z, ranges, pts, floors)
+        raise _no_sites_error(kind, upper, lower, min_prominence, pitch_x, pitch_z, ranges, pts, refused)
     site_pts = pts[found]
     lon, _ = group_coordinates(site_pts[:, 0], tol)
     crs, _ = group_coordinates(site_pts[:, 2], tol)
@@ -454,7 +521,7 @@ def sites_from_export(
         Papilla tips (RA-I sites) or intermediate-ridge bases (SA-I sites).
     **kwargs
         Passed to :func:`interface_sites`: ``pitch_x``, ``pitch_z``, ``x_range``, ``z_range``,
-        ``noise``, ``min_prominence``, ``keep_edge``, ``tol`` (lengths in m).
+        ``noise``, ``min_prominence``, ``max_flat``, ``keep_edge``, ``tol`` (lengths in m).
 
     Returns
     -------

@@ -229,7 +229,26 @@ def _outputs(scene: Scene, err):
     name = scene.info.name or (Path(scene.source).stem if scene.source else "scene")
     info = replace(scene.info, name=name)
     out = replace(out, dir=out.dir or os.path.abspath(os.path.join("results", name)), format=out.format or "netcdf")
-    return info, out
+    return info, _hotspot_keys(scene, out, err)
+
+
+def _hotspot_keys(scene: Scene, out, err):
+    """[outputs] hotspot_*: only with want 'hotspots'; threshold default 0.6, within 0..1; one second map at most."""
+    keys = ("hotspot_threshold", "hotspot_beside", "hotspot_beside_file")
+    if "hotspots" not in out.want:
+        given = [_given(scene, "outputs", k) for k in keys if getattr(out, k) is not None]
+        if given:
+            raise err("outputs", given[0], f"[outputs] {given[0]!r} applies to want = [..., 'hotspots'], which is not "
+                      f"requested (want = {list(out.want)!r}).")
+        return out
+    if out.hotspot_beside is not None and out.hotspot_beside_file is not None:
+        raise err("outputs", "hotspot_beside_file", "[outputs] give at most one of 'hotspot_beside' (sites found on "
+                  "the export) and 'hotspot_beside_file' (a site CSV) for the second hot-spot map; got both.")
+    t = 0.6 if out.hotspot_threshold is None else out.hotspot_threshold
+    if not 0.0 <= t <= 1.0:
+        raise err("outputs", "hotspot_threshold", f"[outputs] 'hotspot_threshold' is a normalised SED and must be "
+                  f"within 0..1; got {t!r} instead.")
+    return replace(out, hotspot_threshold=float(t))
 
 
 def class_overrides(scene: Scene) -> list:

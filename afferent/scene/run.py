@@ -3,6 +3,9 @@
 :func:`run_scene` is the only function that runs the pipeline for a scene, whether it came
 from a TOML file or from the options of ``afferent run EXPORT``. Each stage is one function
 below, over a :class:`_Run` that carries the results and the record entries so far.
+
+Size: just over 600 lines once the hot-spot maps, the zones branching and the afferent classes
+are all in: one executor, one function per stage; the route branch moves stages out of it.
 """
 
 from __future__ import annotations
@@ -19,7 +22,7 @@ from .planning import plan, skip_reasons
 from .record import _QUIET_CATEGORIES, build_record, reemit, summary_lines
 from .defaults import class_record, resolve
 from .schema import _LIF_FIELDS, Scene, SceneError, _plain_json
-from .stages import (_branching, _crop, _hash_all, _layout_before_reading, _layout_from_field, _params, _restrict,
+from .stages import (_beside_scene, _branching, _crop, _hash_all, _layout_before_reading, _layout_from_field, _params, _restrict,
                      _trim, _waveform)
 
 @dataclass(frozen=True)
@@ -193,6 +196,13 @@ def _compute(run: _Run, *, cache_dir, use_cache: bool, progress: bool) -> None:
     exp_files, hashes = _hash_inputs(run)
     sed = _receptor_sed(run, exp_files, hashes, cache_dir=cache_dir, use_cache=use_cache, progress=progress)
     _compute_downstream(run, sed)
+    run.out["hotspot_threshold"] = scene.outputs.hotspot_threshold
+    beside = _beside_scene(scene)
+    if beside is not None:  # the second hot-spot map: its sites sampled as the scene's are (region, cache)
+        sub = _Run(beside, run.planned, {}, run.steps, inputs=run.inputs)
+        run.out["sed_beside"] = _receptor_sed(sub, exp_files, hashes, cache_dir=cache_dir, use_cache=use_cache,
+                                              progress=progress)
+        run.record["hotspots_beside"] = {k: sub.record.get(k) for k in ("receptors", "cache", "sampling")}
 
 
 def _compute_downstream(run: _Run, sed) -> None:
@@ -227,7 +237,7 @@ def _hash_inputs(run: _Run):
                 raise FileNotFoundError(f"SED file {p!r}{' ([export] file)' if scene.source else ''} not found.")
         hashes = _hash_all({p: None for p in exp_files})
         run.inputs.update(hashes)
-        extra_files = [ex.coordinates, scene.receptors.file]
+        extra_files = [ex.coordinates, scene.receptors.file, scene.outputs.hotspot_beside_file]
         if "synthesis" in planned and scene.synthesis.kind == "map":
             extra_files.append(scene.synthesis.map)
         if "comparison" in planned:

@@ -17,7 +17,7 @@ from ..exceptions import AfferentError
 from ..io import FORMATS
 
 #: What a scene can ask for (``[outputs] want``).
-OUTPUTS = ("sed_map", "currents", "profiles", "fit", "spikes", "plots", "vtu", "nwb")
+OUTPUTS = ("sed_map", "currents", "profiles", "fit", "spikes", "plots", "vtu", "nwb", "hotspots")
 
 #: Spiking engines (mirrors :data:`afferent.spiking.ENGINES`, kept here so that checking a
 #: scene does not import the spiking module).
@@ -365,6 +365,11 @@ class OutputSpec:
     want: tuple | None = _f("outputs", choices=OUTPUTS)
     dir: str | None = _f("path")
     format: str | None = _f("choice", "netcdf", choices=("netcdf", "csv"))
+    hotspot_threshold: float | None = _f("number", 0.6, doc="hotspots: hot spots are normalised SED >= this (0..1)")
+    hotspot_beside: str | None = _f("choice", choices=("tips", "bases"),
+                                    doc="hotspots: a second map beside [receptors]' sites, of the sites found on the export")
+    hotspot_beside_file: str | None = _f("path", doc="hotspots: a second map, of the sites of this CSV "
+                                                     "(unit: [receptors] length_unit, else [export] length_unit)")
 
 
 #: TOML table -> Scene field
@@ -436,6 +441,7 @@ class Scene:
         """Every file the scene names (its own file, exports, coordinates, receptors, calibration, map,
         waveform, observed profile, zone map): an output may not be, hold or lie inside one of them."""
         paths = (self.source, *(self.export.files or ()), self.export.coordinates, self.receptors.file,
+                 self.outputs.hotspot_beside_file,
                  self.transduction.calibration, self.synthesis.map, self.stimulus.file, self.fit.observed,
                  self.spikes.zone_map)
         return tuple(p for p in paths if p)

@@ -5,10 +5,11 @@ parameters, the waveform and the branching. Pure functions of the resolved scene
 from __future__ import annotations
 
 import json
+from dataclasses import replace
 import os
 import warnings
 
-from .schema import RegionSpec, Scene, SceneError
+from .schema import _GRID_DEFAULTS, ReceptorSpec, RegionSpec, Scene, SceneError
 
 
 def _in_region(layout, region: RegionSpec):
@@ -52,6 +53,23 @@ def _layout_before_reading(scene: Scene):
         return grid_layout(x_range=rec.x_range_m, z_range=rec.z_range_m, y=rec.y_m, pitch_x=rec.pitch_x_m,
                            pitch_z=rec.pitch_z_m, origin=rec.origin_m, kind=rec.rows or "tips")
     return None
+
+
+def _beside_scene(scene: Scene):
+    """The scene whose ``[receptors]`` are the second hot-spot map's sites (``hotspot_beside[_file]``), or None.
+
+    ``hotspot_beside_file``: a site CSV in ``[receptors] length_unit`` (else ``[export] length_unit``);
+    ``hotspot_beside``: 'tips' or 'bases' found on the export with ``[receptors]``' materials and pitches.
+    """
+    out, rec = scene.outputs, scene.receptors
+    if "hotspots" not in (out.want or ()) or (out.hotspot_beside is None and out.hotspot_beside_file is None):
+        return None
+    if out.hotspot_beside_file is not None:
+        new = ReceptorSpec(file=out.hotspot_beside_file, length_unit=rec.length_unit or scene.export.length_unit)
+    else:
+        keys = {k: getattr(rec, k) if getattr(rec, k) is not None else v for k, v in _GRID_DEFAULTS.items()}
+        new = ReceptorSpec(grid=out.hotspot_beside, **keys)
+    return replace(scene, receptors=new)
 
 
 def _layout_from_field(scene: Scene, field):
