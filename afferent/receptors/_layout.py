@@ -114,7 +114,7 @@ class ReceptorLayout:
     source : str, optional
         The receptor file the sites were read from (named in error messages), or None.
     site : {'file', 'RA-I', 'SA-I'}, default='file'
-        What the sites are (:data:`SITE_KINDS`): ``'RA-I'`` dermal-papilla tips (Meissner
+        What the sites are (``SITE_KINDS``): ``'RA-I'`` dermal-papilla tips (Meissner
         corpuscles; :func:`interface_sites` ``kind='tips'``, :func:`grid_layout` papilla rows),
         ``'SA-I'`` bases of the intermediate ridges (Merkel cells; ``kind='bases'``), ``'file'``
         positions taken as given (a receptor file or an array) with no anatomical rule.
