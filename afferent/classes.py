@@ -72,7 +72,7 @@ class AfferentClass:
         return {k: getattr(self, k) for k in keys if getattr(self, k) is not None}
 
     def record(self, overridden=()) -> dict:
-        """The class as run.json records it; ``overridden``: [spikes] keys the scene set itself."""
+        """The class as run.json records it; ``overridden``: the [spikes] keys whose value in the run is not the class's."""
         return {"name": self.name, "sites": self.sites, "transduction": self.transduction,
                 "spikes": self.spikes_defaults(), "sources": list(self.sources), "overridden": sorted(overridden)}
 

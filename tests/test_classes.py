@@ -117,6 +117,9 @@ def test_ra_i_preset_is_the_schema_defaults_so_default_runs_are_unchanged():
     sa1 = afferent_class("SA-I")
     assert (sa1.input, sa1.lif_preset, sa1.tau_s, sa1.drive, sa1.branching) == ("slowly-adapting", "sa1", 8e-3,
                                                                                 "rheobase", "sum")
+    from afferent.cli._run import CLASSES
+
+    assert CLASSES == tuple(AFFERENT_CLASSES)  # the command line's choices, kept without importing the package
     with pytest.raises(ValueError, match=re.escape("Allowed values are 'RA-I' and 'SA-I', but got 'SA-X' instead.")):
         afferent_class("SA-X")
 

@@ -47,6 +47,7 @@ from ._options import add_input_options, add_output_options, add_quiet, add_rece
 SYNTHESES = ("longitudinal", "cross", "map:FILE", "random:N")  # afferent.pipeline.SYNTHESES
 METHODS = ("linear", "nearest")  # afferent.sampling.METHODS
 STUDY_ROWS = ("start", "longitudinal", "cross")  # the keys of afferent.transduction.STUDY_PARAMS
+CLASSES = ("RA-I", "SA-I")  # the keys of afferent.classes.AFFERENT_CLASSES
 
 
 def add_args(parser: argparse.ArgumentParser) -> None:
@@ -85,7 +86,7 @@ def add_args(parser: argparse.ArgumentParser) -> None:
                    help="spiking engine: exact (default; event-driven, exact spike times, no time step), fast (on the "
                         "--dt-ms grid) or brian2 (the grid reference; same spikes as fast)")
     g.add_argument("--dt-ms", type=float, default=0.1, help="LIF time step of the grid engines fast and brian2, ms (default 0.1; exact has none)")
-    g.add_argument("--class", dest="afferent_class", choices=("RA-I", "SA-I"),
+    g.add_argument("--class", dest="afferent_class", choices=CLASSES,
                    help="afferent class (afferent.classes; default RA-I, the study's): a preset of the options below "
                         "that are not given; also with a SCENE.toml, replacing its [afferent] class")
     g.add_argument("--lif-preset", help="LIF parameter set (afferent.spiking.LIF_PRESETS; default: the class's, 'ra')")

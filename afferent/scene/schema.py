@@ -13,6 +13,7 @@ import re
 from dataclasses import dataclass, field, fields, replace
 from pathlib import Path
 
+from ..classes import AFFERENT_CLASSES, DEFAULT_CLASS
 from ..exceptions import AfferentError
 from ..io import FORMATS
 
@@ -343,7 +344,7 @@ class AfferentSpec:
     """``[afferent]``: the afferent class (``class = "SA-I"``), a preset of the ``[spikes]`` keys the
     scene leaves out (:mod:`afferent.classes`)."""
 
-    afferent_class: str | None = _f("choice", "RA-I", choices=("RA-I", "SA-I"), aliases=("class",))
+    afferent_class: str | None = _f("choice", DEFAULT_CLASS, choices=tuple(AFFERENT_CLASSES), aliases=("class",))
 
 
 @dataclass(frozen=True)
