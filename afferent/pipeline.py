@@ -146,7 +146,8 @@ def run_pipeline(
 def run_spikes(result: PipelineResult, lif, *, dt: float, engine: str = "auto", input: str = "static",
                gain: float | None = None, tau: float | None = None, duration: float | None = None,
                drive: str = "resistance", rheobase_multiple: float = 2.0,
-               reference_current: float | None = None, zones=None) -> PipelineResult:
+               reference_current: float | None = None, static_gain: float | None = None,
+               zones=None) -> PipelineResult:
     """Add spikes to a pipeline result: input current -> leaky integrate-and-fire
     (:func:`afferent.spiking.spike_afferents` on the result's currents and branching).
 
@@ -155,7 +156,7 @@ def run_spikes(result: PipelineResult, lif, *, dt: float, engine: str = "auto", 
     result : PipelineResult
         From :func:`run_pipeline`.
     lif : afferent.spiking.LIFParams
-    dt, engine, input, gain, tau, duration, drive, rheobase_multiple, reference_current
+    dt, engine, input, gain, tau, duration, drive, rheobase_multiple, reference_current, static_gain
         As :func:`afferent.spiking.spike_afferents` (``dt``, ``gain``, ``tau``, ``duration`` in
         s; ``reference_current`` in A).
     zones : afferent.zones.Zones, optional
@@ -163,6 +164,8 @@ def run_spikes(result: PipelineResult, lif, *, dt: float, engine: str = "auto", 
         ``result.branching``): the input is synthesized per zone and each zone drives its own
         LIF; the afferent fires when one of its zones does, and all reset
         (:func:`afferent.spiking.simulate_lif`). Default None: the ``sum`` model, the study's.
+    static_gain : float, optional
+        With ``input='slowly-adapting'``: the dimensionless gain on the static current (default 1).
 
     Returns
     -------
@@ -184,7 +187,8 @@ def run_spikes(result: PipelineResult, lif, *, dt: float, engine: str = "auto", 
 
     stage = spike_afferents(result.afferent, lif, dt=dt, engine=engine, input=input, current=result.current,
                             branching=result.branching, gain=gain, tau=tau, duration=duration, drive=drive,
-                            rheobase_multiple=rheobase_multiple, reference_current=reference_current, zones=zones)
+                            rheobase_multiple=rheobase_multiple, reference_current=reference_current,
+                            static_gain=static_gain, zones=zones)
     return replace(result, input=stage.input, spikes=stage.spikes, timings={**result.timings, **stage.seconds},
                    drive=stage.drive, zones=zones)
 

@@ -364,7 +364,7 @@ def test_adapting_input_errors_and_warnings():
             "rate-sensitive. Pass the static current it came from (its .source).")):
         adapting_input(rate, gain=0.1)
     with pytest.raises(ValueError, match=re.escape("Invalid value for the 'mode' parameter. Allowed values are "
-                                                   "'rectified-rate', but got 'velocity' instead.")):
+                                                   "'rectified-rate' and 'static-plus-rate', but got 'velocity' instead.")):
         adapting_input(cur, gain=0.1, mode="velocity")
     with pytest.raises(ValueError, match=re.escape("'tau' must be > 0 s; got 0.0 instead.")):
         adapting_input(cur, gain=0.1, tau=0.0)

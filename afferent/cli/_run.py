@@ -47,6 +47,7 @@ from ._options import add_input_options, add_output_options, add_quiet, add_rece
 SYNTHESES = ("longitudinal", "cross", "map:FILE", "random:N")  # afferent.synthesis.SYNTHESES
 METHODS = ("linear", "nearest")  # afferent.sampling.METHODS
 STUDY_ROWS = ("start", "longitudinal", "cross")  # the keys of afferent.transduction.STUDY_PARAMS
+CLASSES = ("RA-I", "SA-I")  # the keys of afferent.classes.AFFERENT_CLASSES
 
 
 def add_args(parser: argparse.ArgumentParser) -> None:
@@ -85,19 +86,24 @@ def add_args(parser: argparse.ArgumentParser) -> None:
                    help="spiking engine: exact (default; event-driven, exact spike times, no time step), fast (on the "
                         "--dt-ms grid) or brian2 (the grid reference; same spikes as fast)")
     g.add_argument("--dt-ms", type=float, default=0.1, help="LIF time step of the grid engines fast and brian2, ms (default 0.1; exact has none)")
-    g.add_argument("--lif-preset", default="ra", help="LIF parameter set (afferent.spiking.LIF_PRESETS; default 'ra')")
-    g.add_argument("--input", choices=("static", "rate-sensitive"), default="static",
-                   help="static: the sigmoid current (the study; fires through a hold); rate-sensitive: RA-I adaptation, "
-                        "fires at onset and offset (needs --gain-s)")
-    g.add_argument("--gain-s", type=float, help="gain of the rate-sensitive input, s (A of input per A/s)")
-    g.add_argument("--tau-ms", type=float, help="time constant of the rate-sensitive input, ms (default 5)")
-    g.add_argument("--drive", choices=("resistance", "rheobase"), default="resistance",
+    g.add_argument("--class", dest="afferent_class", choices=CLASSES,
+                   help="afferent class (afferent.classes; default RA-I, the study's): a preset of the options below "
+                        "that are not given; also with a SCENE.toml, replacing its [afferent] class")
+    g.add_argument("--lif-preset", help="LIF parameter set (afferent.spiking.LIF_PRESETS; default: the class's, 'ra')")
+    g.add_argument("--input", choices=("static", "rate-sensitive", "slowly-adapting"),
+                   help="static: the sigmoid current (the study, the default; fires through a hold); rate-sensitive: "
+                        "RA-I adaptation, fires at onset and offset (needs --gain-s); slowly-adapting: SA-I static "
+                        "plus rate (the SA-I class's)")
+    g.add_argument("--gain-s", type=float, help="gain of the rate term of an adapting input, s (A of input per A/s)")
+    g.add_argument("--tau-ms", type=float, help="time constant of the rate term, ms (default 5; SA-I class 8)")
+    g.add_argument("--static-gain", type=float, help="slowly-adapting input: gain on the static current (default 1)")
+    g.add_argument("--drive", choices=("resistance", "rheobase"),
                    help="current -> membrane: through the preset's r_m as is (default), or rescaled so that the largest "
-                        "input current is --rheobase-multiple x the rheobase")
-    g.add_argument("--rheobase-multiple", type=float, default=2.0, metavar="K",
-                   help="with --drive rheobase: the largest current becomes K x the rheobase (default 2)")
+                        "input current is --rheobase-multiple x the rheobase (the SA-I class's)")
+    g.add_argument("--rheobase-multiple", type=float, metavar="K",
+                   help="with --drive rheobase: the largest current becomes K x the rheobase (default 2; SA-I class 10)")
     g.add_argument("--duration-s", type=float, help="simulated time, s (default: the stimulus; 1 s for a static export)")
-    g.add_argument("--branching", choices=("sum", "zones"), default="sum",
+    g.add_argument("--branching", choices=("sum", "zones"),
                    help="sum: an afferent's receptor currents summed into one LIF (the study; default); zones: one LIF "
                         "per spike-initiation zone, the first at threshold fires the afferent and resets all its zones")
     g.add_argument("--zones-per-afferent", type=int, metavar="K",
@@ -170,7 +176,7 @@ def _stimulus_table(args) -> dict | None:
 
 
 def _receptors_table(args) -> dict:
-    """[receptors] from --receptors / --grid tips|y=H; lengths carry their unit in the key, as in a scene file."""
+    """[receptors] from --receptors / --grid tips|bases|y=H; lengths carry their unit in the key, as in a scene file."""
     if args.receptors is not None:
         unit = args.receptor_unit or args.length_unit
         if unit is None:
@@ -179,8 +185,8 @@ def _receptors_table(args) -> dict:
         return {"file": args.receptors, "length_unit": unit}
     spec = args.grid.strip()
     pitch = {"pitch_x_mm": args.pitch_x_mm, "pitch_z_mm": args.pitch_z_mm}
-    if spec == "tips":
-        return {"grid": "tips", "material_array": args.material_array, "upper": args.upper, "lower": args.lower, **pitch}
+    if spec in ("tips", "bases"):
+        return {"grid": spec, "material_array": args.material_array, "upper": args.upper, "lower": args.lower, **pitch}
     if spec.startswith("y="):
         try:
             y = float(spec[2:])
@@ -194,7 +200,7 @@ def _receptors_table(args) -> dict:
 
             y, unit = y * length_factor(unit), "m"
         return {"grid": "regular", f"y_{unit}": y, **pitch}
-    raise ValueError(f"--grid must be 'tips' or 'y=H'; got {args.grid!r} instead.")
+    raise ValueError(f"--grid must be 'tips', 'bases' or 'y=H'; got {args.grid!r} instead.")
 
 
 def _synthesis_table(args) -> dict:
@@ -211,9 +217,9 @@ def _synthesis_table(args) -> dict:
 
 def _spikes_table(args) -> dict | None:
     if not args.spikes:
-        if args.input == "rate-sensitive":
-            raise ValueError("--input rate-sensitive applies to spikes: add --spikes.")
-        if args.branching != "sum" or args.zones_per_afferent is not None or args.zone_map is not None:
+        if args.input not in (None, "static"):
+            raise ValueError(f"--input {args.input} applies to spikes: add --spikes.")
+        if args.branching not in (None, "sum") or args.zones_per_afferent is not None or args.zone_map is not None:
             raise ValueError("--branching, --zones-per-afferent and --zone-map apply to spikes: add --spikes.")
         return None
     if args.input == "rate-sensitive" and args.gain_s is None:
@@ -221,8 +227,9 @@ def _spikes_table(args) -> dict | None:
     for flag, value in (("--zones-per-afferent", args.zones_per_afferent), ("--zone-map", args.zone_map)):
         if value is not None and args.branching != "zones":
             raise ValueError(f"{flag} applies to --branching zones; add --branching zones.")
+    # options not given stay out: the afferent class (--class) or the scene defaults fill them
     return {"engine": args.engine, "dt_ms": args.dt_ms, "lif_preset": args.lif_preset, "input": args.input,
-            "gain_s": args.gain_s, "tau_ms": args.tau_ms, "drive": args.drive,
+            "gain_s": args.gain_s, "tau_ms": args.tau_ms, "static_gain": args.static_gain, "drive": args.drive,
             "rheobase_multiple": args.rheobase_multiple, "duration_s": args.duration_s, "branching": args.branching,
             "zones_per_afferent": args.zones_per_afferent, "zone_map": args.zone_map}
 
@@ -235,7 +242,8 @@ _FLAGS = {
     ("stimulus", "d_ref_mm"): "--d-ref-mm", ("stimulus", "reference_step"): "--reference-step",
     ("stimulus", "series_depths_mm"): "--series-depths-mm", ("stimulus", "dt_ms"): "--waveform-dt-ms",
     ("spikes", "lif_preset"): "--lif-preset", ("spikes", "dt_ms"): "--dt-ms", ("spikes", "duration_s"): "--duration-s",
-    ("spikes", "gain_s"): "--gain-s", ("spikes", "tau_ms"): "--tau-ms", ("fit", "observed"): "--observed",
+    ("spikes", "gain_s"): "--gain-s", ("spikes", "tau_ms"): "--tau-ms", ("spikes", "static_gain"): "--static-gain",
+    ("afferent", "class"): "--class", ("fit", "observed"): "--observed",
     ("spikes", "zones_per_afferent"): "--zones-per-afferent", ("spikes", "branching"): "--branching",
     ("spikes", "zone_map"): "--zone-map",
     ("fit", "length_unit"): "--observed-unit",
@@ -291,7 +299,8 @@ def scene_from_args(args):
     want = ["currents", "profiles", "sed_map", "vtu"]
     tables = {"scene": {"name": os.path.basename(os.path.normpath(args.output))}, "export": export,
               "receptors": _receptors_table(args), "sampling": {"method": args.method, "on_outside": args.on_outside},
-              "transduction": _transduction_table(args), "synthesis": _synthesis_table(args)}
+              "transduction": _transduction_table(args), "synthesis": _synthesis_table(args),
+              "afferent": {"class": args.afferent_class}}
     stimulus, spikes = _stimulus_table(args), _spikes_table(args)
     if stimulus is not None:
         tables["stimulus"] = stimulus
@@ -320,13 +329,17 @@ def run(args: argparse.Namespace) -> int:
     command = None if argv is None else "afferent " + shlex.join(argv)
     if len(args.exports) == 1 and args.exports[0].lower().endswith(".toml"):
         scene = args.exports[0]
-        if getattr(args, "results_format", None) is not None:
+        if getattr(args, "results_format", None) is not None or getattr(args, "afferent_class", None) is not None:
             from dataclasses import replace
 
-            from ..scene import load_scene
+            from ..scene import load_scene, resolve
 
-            scene = load_scene(scene)
-            scene = replace(scene, outputs=replace(scene.outputs, format=args.results_format))
+            scene = load_scene(scene, resolve_defaults=False)
+            if args.results_format is not None:
+                scene = replace(scene, outputs=replace(scene.outputs, format=args.results_format))
+            if args.afferent_class is not None:
+                scene = replace(scene, afferent=replace(scene.afferent, afferent_class=args.afferent_class))
+            scene = resolve(scene)
         return run_scene_cli(scene, output=args.output, overwrite=args.overwrite, quiet=args.quiet,
                              use_cache=not args.no_cache, command=command)
     from ._main import _WORDS, speak_cli

@@ -3,6 +3,9 @@
 :func:`run_scene` is the only function that runs the pipeline for a scene, whether it came
 from a TOML file or from the options of ``afferent run EXPORT``. Each stage is one function
 below, over a :class:`_Run` that carries the results and the record entries so far.
+
+Size: just over 600 lines once the hot-spot maps, the zones branching and the afferent classes
+are all in: one executor, one function per stage; the route branch moves stages out of it.
 """
 
 from __future__ import annotations
@@ -17,9 +20,9 @@ from dataclasses import dataclass, field, replace
 from ..export import profile_step_record
 from .planning import plan, skip_reasons
 from .record import _QUIET_CATEGORIES, build_record, reemit, summary_lines
-from .defaults import resolve
+from .defaults import class_record, resolve
 from .schema import _LIF_FIELDS, Scene, SceneError, _plain_json
-from .stages import (_branching, _crop, _hash_all, _layout_before_reading, _layout_from_field, _params, _restrict,
+from .stages import (_beside_scene, _branching, _crop, _hash_all, _layout_before_reading, _layout_from_field, _params, _restrict,
                      _trim, _waveform)
 
 @dataclass(frozen=True)
@@ -170,8 +173,6 @@ def run_scene(scene: Scene, *, overwrite: bool = False, cache_dir=None, progress
     )
 
 
-
-
 @dataclass
 class _Run:
     """The state of one execution: the scene, its plan, results so far and the record entries."""
@@ -195,12 +196,20 @@ def _compute(run: _Run, *, cache_dir, use_cache: bool, progress: bool) -> None:
     exp_files, hashes = _hash_inputs(run)
     sed = _receptor_sed(run, exp_files, hashes, cache_dir=cache_dir, use_cache=use_cache, progress=progress)
     _compute_downstream(run, sed)
+    run.out["hotspot_threshold"] = scene.outputs.hotspot_threshold
+    beside = _beside_scene(scene)
+    if beside is not None:  # the second hot-spot map: its sites sampled as the scene's are (region, cache)
+        sub = _Run(beside, run.planned, {}, run.steps, inputs=run.inputs)
+        run.out["sed_beside"] = _receptor_sed(sub, exp_files, hashes, cache_dir=cache_dir, use_cache=use_cache,
+                                              progress=progress)
+        run.record["hotspots_beside"] = {k: sub.record.get(k) for k in ("receptors", "cache", "sampling")}
 
 
 def _compute_downstream(run: _Run, sed) -> None:
     """The planned stages after sampling, from SED at the region's receptors (J/m^3); also :mod:`afferent.sweep`'s tasks."""
     run.out.update(sed_static=sed, sed=sed, current=None, branching=None, afferent=None, fit=None, waveform=None,
                    spikes=None, profile_index=-1)
+    run.record["afferent_class"] = class_record(run.scene, getattr(sed.layout, "site", None))
     if "transduction" not in run.planned:
         return
     sed_t = _stimulus(run, sed) if "stimulus" in run.planned else sed
@@ -228,7 +237,7 @@ def _hash_inputs(run: _Run):
                 raise FileNotFoundError(f"SED file {p!r}{' ([export] file)' if scene.source else ''} not found.")
         hashes = _hash_all({p: None for p in exp_files})
         run.inputs.update(hashes)
-        extra_files = [ex.coordinates, scene.receptors.file]
+        extra_files = [ex.coordinates, scene.receptors.file, scene.outputs.hotspot_beside_file]
         if "synthesis" in planned and scene.synthesis.kind == "map":
             extra_files.append(scene.synthesis.map)
         if "comparison" in planned:
@@ -258,7 +267,7 @@ def _cache_key(run: _Run, layout, exp_files, hashes) -> str:
         rkey = {"positions_sha256": positions_digest(layout.positions), "n": int(layout.n_receptors)}
     else:
         rkey = {"found_on_export": {k: _plain_json(getattr(rec, k)) for k in
-                                    ("grid", "y_m", "pitch_x_m", "pitch_z_m", "x_range_m", "z_range_m", "origin_m",
+                                    ("grid", "rows", "y_m", "pitch_x_m", "pitch_z_m", "x_range_m", "z_range_m", "origin_m",
                                      "material_array", "upper", "lower")},
                 "region": {"x_range_m": _plain_json(scene.region.x_range_m),
                            "z_range_m": _plain_json(scene.region.z_range_m)}}
@@ -296,7 +305,9 @@ def _receptor_sed(run: _Run, exp_files, hashes, *, cache_dir, use_cache: bool, p
         sed = _read_sample_store(run, layout, key, cache, cache_info, progress=progress)
     run.record["cache"] = cache_info
     run.region_info["n_receptors_sampled"] = int(sed.layout.n_receptors)
-    run.record["receptors"] = {"source": scene.receptors.file or f"grid = {scene.receptors.grid!r}", **run.region_info}
+    rec = scene.receptors
+    source = rec.file or f"grid = {rec.grid!r}" + (f", rows = {rec.rows!r}" if rec.grid == "regular" else "")
+    run.record["receptors"] = {"source": source, "site": sed.layout.site, **run.region_info}
     return sed
 
 
@@ -522,7 +533,8 @@ def _spike(run: _Run) -> None:
                  else split_zones(out["branching"], out["current"].layout, sp.zones_per_afferent))
     pr = spike_afferents(out["afferent"], lif, dt=sp.dt_s, engine=sp.engine, input=sp.input, current=out["current"],
                          branching=out["branching"], gain=sp.gain_s, tau=sp.tau_s, duration=duration, drive=sp.drive,
-                         rheobase_multiple=sp.rheobase_multiple, reference_current=sp.reference_current_a, zones=zones)
+                         rheobase_multiple=sp.rheobase_multiple, reference_current=sp.reference_current_a, static_gain=sp.static_gain,
+                         zones=zones)
     run.steps.seconds.update(pr.seconds)
     spikes = pr.spikes
     out.update(spikes=spikes, drive=pr.input)
@@ -530,6 +542,7 @@ def _spike(run: _Run) -> None:
     run.record["spikes"] = {
         "engine": spikes.engine, "backend": getattr(spikes, "backend", None), "dt_s": spikes.dt,
         "duration_s": spikes.duration, "input": getattr(pr.input, "kind", None),
+        "input_params": {k: getattr(pr.input, k, None) for k in ("mode", "tau", "gain", "off_gain", "static_gain")},
         "branching": sp.branching, **({"zones": zones.record()} if zones is not None else {}),
         "n_afferents": int(spikes.n_afferents), "n_spikes": int(sum(len(t) for t in spikes.spike_times)),
         "silent_skipped": [str(spikes.afferent_ids[i]) for i in spikes.silent_skipped],

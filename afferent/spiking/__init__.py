@@ -123,7 +123,8 @@ sibling version of the file has 1.667 GOhm), ``REFRACTORY_PERIOD = 1 ms``; volta
 from rest (V_rest = V_reset = 0). So ``tau_m = R C = 150 ms`` and the rheobase is 6 pA. These
 values were read from that code, not checked against the papers' tables. With the study's
 currents (>= 10 nA) every afferent would sit at the 1 / t_ref ceiling: this set expects
-pA-scale generator currents.
+pA-scale generator currents. The SA-I afferent class (:mod:`afferent.classes`) uses it with
+the rheobase drive (the Afferent classes page, docs/classes.md).
 
 Where the parts live: :func:`simulate_lif` and :data:`ENGINES` here; ``_params.py`` the
 parameters, presets and brian2's step arithmetic; ``_input.py`` reading the current;

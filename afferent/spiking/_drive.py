@@ -90,8 +90,11 @@ def drive_report(input_values, lif: LIFParams, spikes: SpikeTrains) -> dict:
 
 
 
-#: What the LIF is given (:func:`spike_afferents`): the afferent current itself, or the rate-sensitive input.
-INPUTS = ("static", "rate-sensitive")
+#: What the LIF is given (:func:`spike_afferents`): the afferent current itself, the rate-sensitive input
+#: (RA-I), or the slowly adapting static-plus-rate input (SA-I; docs/classes.md).
+INPUTS = ("static", "rate-sensitive", "slowly-adapting")
+#: input -> mode of :func:`afferent.stimulus.adapting_input`
+_ADAPTATION_OF_INPUT = {"rate-sensitive": "rectified-rate", "slowly-adapting": "static-plus-rate"}
 
 
 @dataclass(frozen=True)
@@ -122,7 +125,8 @@ class SpikeStage:
 def spike_afferents(afferent, lif: LIFParams, *, dt: float, engine: str = "auto", input: str = "static",
                     current=None, branching=None, gain: float | None = None, tau: float | None = None,
                     duration: float | None = None, drive: str = "resistance", rheobase_multiple: float = 2.0,
-                    reference_current: float | None = None, zones=None) -> SpikeStage:
+                    reference_current: float | None = None, static_gain: float | None = None,
+                   zones=None) -> SpikeStage:
     """The stages 'input' and 'spiking': the input current -> its drive mapping -> leaky integrate-and-fire.
 
     Parameters
@@ -138,15 +142,17 @@ def spike_afferents(afferent, lif: LIFParams, *, dt: float, engine: str = "auto"
         ``'static'``: the afferent current itself (the study's sigmoid of SED; fires through a
         hold). ``'rate-sensitive'``: each receptor's current adapts on its own
         (:func:`afferent.stimulus.adapting_input`, rectified rate of change, fires at onset
-        and offset), then the inputs are summed into afferents.
+        and offset), then the inputs are summed into afferents. ``'slowly-adapting'``: the
+        same per receptor with the SA-I static-plus-rate input (mode ``'static-plus-rate'``:
+        fires through a hold, faster during the ramp; docs/classes.md).
     current : afferent.transduction.ReceptorCurrent, optional
-        Receptor currents in A (required for the rate-sensitive input and for ``zones``).
+        Receptor currents in A (required for the adapting inputs and for ``zones``).
     branching : afferent.synthesis.Branching, optional
         The grouping that made ``afferent`` (required for the rate-sensitive input).
     gain : float, optional
-        Gain of the rate-sensitive input in s (required for it).
+        Gain of the rate term in s (required for both adapting inputs).
     tau : float, optional
-        Time constant of the rate-sensitive input in s (default that of ``adapting_input``).
+        Time constant of the rate in s (default that of ``adapting_input``).
     duration : float, optional
         Simulated time in s; default: to the last sample (``dt`` past it for a single sample).
     drive : {'resistance', 'rheobase'}, default='resistance'
@@ -159,6 +165,9 @@ def spike_afferents(afferent, lif: LIFParams, *, dt: float, engine: str = "auto"
         With ``drive='rheobase'``: the reference current in A (default the run's largest
         afferent current; with ``zones``, the largest sum of an afferent's zone currents, so that
         ``sum`` and ``zones`` runs of the same scene share one scale).
+    static_gain : float, optional
+        With ``input='slowly-adapting'``: the gain of the static term (dimensionless; default
+        that of ``adapting_input``).
     zones : afferent.zones.Zones, optional
         The ``zones`` branching model (:func:`afferent.zones.split_zones` of ``branching``): the
         input is synthesized per zone and each zone drives its own LIF; the afferent fires when
@@ -190,9 +199,12 @@ def spike_afferents(afferent, lif: LIFParams, *, dt: float, engine: str = "auto"
         drive_current = stimulus.static_input(afferent if zones is None else synthesize(current, target))
     else:
         if gain is None:
-            raise ValueError("input='rate-sensitive' needs gain= (s): how much input current (A) per A/s of rate.")
+            raise ValueError(f"input={input!r} needs gain= (s): how much input current (A) per A/s of rate.")
         kw = {} if tau is None else {"tau": tau}
-        drive_current = stimulus.adapting_input(current, gain=gain, **kw).synthesize(target)
+        if static_gain is not None:
+            kw["static_gain"] = static_gain
+        drive_current = stimulus.adapting_input(current, gain=gain, mode=_ADAPTATION_OF_INPUT[input],
+                                                **kw).synthesize(target)
     check_option("drive", drive, DRIVE_MAPPINGS)
     mapping = {"mapping": drive, "r_m_ohm": lif.r_m, "rheobase_a": lif.rheobase}
     if drive == "rheobase":

@@ -1,4 +1,4 @@
-"""RA-I rate-sensitive input: :class:`InputCurrent`, :func:`static_input`, :func:`adapting_input`.
+"""Rate-sensitive inputs: :class:`InputCurrent`, :func:`static_input`, :func:`adapting_input` (RA-I and SA-I modes).
 
 The model is given in :mod:`afferent.stimulus` and on the Method page (:ref:`method-spikes`).
 """
@@ -15,9 +15,10 @@ from ..exceptions import AfferentWarning
 
 
 # Modes of adapting_input (documented in afferent.stimulus, where the API reference shows it).
-ADAPTATION_MODES = ("rectified-rate",)
-#: Input kinds recorded on an :class:`InputCurrent`.
-INPUT_KINDS = ("static", "rate-sensitive")
+ADAPTATION_MODES = ("rectified-rate", "static-plus-rate")
+#: Input kinds recorded on an :class:`InputCurrent` (the kind each adaptation mode gives: _KIND_OF_MODE).
+INPUT_KINDS = ("static", "rate-sensitive", "slowly-adapting")
+_KIND_OF_MODE = {"rectified-rate": "rate-sensitive", "static-plus-rate": "slowly-adapting"}
 # Default low-pass time constant of the rate in s (documented in afferent.stimulus).
 DEFAULT_TAU = 5e-3
 
@@ -41,16 +42,17 @@ class InputCurrent:
         Input current in A (n_columns = n_receptors or n_afferents).
     times : ndarray of shape (n_times,)
         Sample times in s.
-    kind : {'static', 'rate-sensitive'}
+    kind : {'static', 'rate-sensitive', 'slowly-adapting'}
         ``'static'``: the sigmoid current itself (the study's input). ``'rate-sensitive'``:
-        the output of :func:`adapting_input`.
+        the output of :func:`adapting_input` in mode ``'rectified-rate'`` (RA-I);
+        ``'slowly-adapting'``: in mode ``'static-plus-rate'`` (SA-I).
     level : {'receptor', 'afferent'}
         Whether the columns are receptors or afferents.
     source : ReceptorCurrent or AfferentCurrent
         The static current it was derived from (for afferent level after
         :meth:`synthesize`, the synthesised afferent current of the adapted receptor input).
     mode : str or None
-        The adaptation mode (``'rectified-rate'``) or None for static input.
+        The adaptation mode (``'rectified-rate'``, ``'static-plus-rate'``) or None for static input.
     tau : float or None
         Low-pass time constant of the rate in s.
     gain : float or None
@@ -59,6 +61,8 @@ class InputCurrent:
         Gain ``k_off`` on the falling rate in s.
     notes : tuple of str
         Remarks (coarse sampling, ...).
+    static_gain : float or None
+        Mode ``'static-plus-rate'``: the dimensionless gain ``k_s`` on the static current.
     """
 
     values: np.ndarray
@@ -71,6 +75,7 @@ class InputCurrent:
     gain: float | None = None
     off_gain: float | None = None
     notes: tuple = ()
+    static_gain: float | None = None
 
     def __post_init__(self):
         from ..transduction import _check_values_times
@@ -138,7 +143,7 @@ class InputCurrent:
         rc = ReceptorCurrent(self.values, self.times, self.layout, getattr(self.source, "params", None))
         aff = synthesize(rc, branching)
         return InputCurrent(aff.values, aff.times, self.kind, "afferent", aff, self.mode, self.tau, self.gain,
-                            self.off_gain, self.notes)
+                            self.off_gain, self.notes, self.static_gain)
 
     def __array__(self, dtype=None, copy=None):
         if copy:
@@ -147,6 +152,7 @@ class InputCurrent:
 
     def __repr__(self) -> str:
         extra = "" if self.kind == "static" else f", {self.mode}, tau={self.tau:g} s, gain={self.gain:g} s"
+        extra += "" if self.static_gain is None else f", static_gain={self.static_gain:g}"
         return (
             f"<InputCurrent {self.kind!r} ({self.level} level{extra}): {self.values.shape[0]} steps x "
             f"{self.values.shape[1]}, I in [{self.values.min():.4g}, {self.values.max():.4g}] A>"
@@ -241,13 +247,29 @@ def _lowpass_rate(values: np.ndarray, times: np.ndarray, tau: float) -> np.ndarr
 
 
 def adapting_input(current, *, gain: float, tau: float = DEFAULT_TAU, off_gain: float | None = None,
-                   mode: str = "rectified-rate") -> InputCurrent:
-    """Rate-sensitive (rapidly adapting) input from a static current: fires at onset and offset.
+                   mode: str = "rectified-rate", static_gain: float | None = None) -> InputCurrent:
+    """Rate-sensitive input from a static current: RA-I (onset and offset) or SA-I (static plus rate).
 
-    Mode ``'rectified-rate'``::
+    Mode ``'rectified-rate'`` (RA-I, rapidly adapting; ``kind='rate-sensitive'``)::
 
         tau dr/dt = -r + dI/dt                           r in A/s, first-order low-pass of the rate
         I_in(t)   = k_on max(r, 0) + k_off max(-r, 0)    k in s, so I_in is in A
+
+    Mode ``'static-plus-rate'`` (SA-I, slowly adapting; ``kind='slowly-adapting'``)::
+
+        I_in(t)   = max(k_s (I - I_rest) + k_d r, 0)     k_s dimensionless, k_d = gain in s
+
+    ``I_rest`` is the current of unloaded skin: the sigmoid at zero SED for a receptor current
+    that carries its sigmoid parameters (``alpha / (1 + exp(gamma lambda))``, 0.2 alpha for the
+    study's start row, which would otherwise fire SA-I afferents at rest), 0 for a current
+    without them (taken as measured from rest); the returned ``notes`` say which.
+
+    A step ``dI`` then gives ``k_s dI + k_d dI / tau`` at once, decaying with ``tau`` to the
+    sustained ``k_s dI``: the neuron fires through a hold, faster during the ramp, and a
+    falling current lowers the input (to 0 at most, no offset burst). This is one component
+    of the SA-I generator function of the Gerling group (the Closing table of the Afferent
+    classes page, docs/classes.md): ``K int [k1 exp(-(t - s) / tau) + 1 - k1] dI(s)`` is
+    ``K (1 - k1) I + K k1 tau r``, so ``k_s = K (1 - k1)`` and ``k_d = K k1 tau``.
 
     ``I`` is the static (sigmoid) receptor or afferent current. During a hold ``dI/dt = 0``,
     so ``r`` decays to 0 within a few ``tau`` and the neuron falls silent. Both the rising
@@ -260,7 +282,8 @@ def adapting_input(current, *, gain: float, tau: float = DEFAULT_TAU, off_gain: 
     Parameters
     ----------
     current : ReceptorCurrent, AfferentCurrent or InputCurrent of kind 'static'
-        Static current in A with sample times in s (at least two samples). Between samples
+        Static current in A with sample times in s (at least two samples; mode
+        ``'static-plus-rate'`` takes one as a constant current, rate 0). Between samples
         the current is taken as linear. Receptor level: each receptor adapts on its own;
         sum afterwards with :meth:`InputCurrent.synthesize`. Afferent level: the summed
         current adapts.
@@ -276,14 +299,18 @@ def adapting_input(current, *, gain: float, tau: float = DEFAULT_TAU, off_gain: 
         ``k_off``, the gain on the falling rate (offset response) in s, >= 0. Default:
         ``gain`` (symmetric on and off responses). RA-I off responses are often weaker than
         on responses; a smaller ``off_gain`` models that.
-    mode : {'rectified-rate'}, default='rectified-rate'
-        The transform (the only one so far).
+    mode : {'rectified-rate', 'static-plus-rate'}, default='rectified-rate'
+        The transform: RA-I or SA-I (above).
+    static_gain : float, optional
+        Mode ``'static-plus-rate'`` only: ``k_s``, the dimensionless gain on the static
+        current, >= 0; default 1 (the sigmoid current itself is the sustained input).
 
     Returns
     -------
     InputCurrent
-        ``kind='rate-sensitive'``, values of shape (n_times, n_columns) in A at the same
-        times, with ``mode``, ``tau``, ``gain`` and ``off_gain`` recorded.
+        ``kind='rate-sensitive'`` or ``'slowly-adapting'``, values of shape (n_times,
+        n_columns) in A at the same times, with ``mode``, ``tau``, ``gain``, ``off_gain`` and
+        ``static_gain`` recorded.
 
     Raises
     ------
@@ -348,9 +375,15 @@ def adapting_input(current, *, gain: float, tau: float = DEFAULT_TAU, off_gain: 
     check_option("mode", mode, ADAPTATION_MODES)
     gain = check_positive("gain", gain, unit="s", strict=False)
     tau = check_positive("tau", tau, unit="s")
-    off_gain = gain if off_gain is None else check_positive("off_gain", off_gain, unit="s", strict=False)
+    static_gain, off_gain = _mode_gains(mode, gain, off_gain, static_gain)
     values, times, level, source = _unwrap_current(current)
     values = np.asarray(values, dtype=np.float64)
+    if values.shape[0] == 1 and mode == "static-plus-rate":
+        # one sample: a current constant for all time (a static export), whose rate is 0
+        rest, note = _rest_current(source)
+        return InputCurrent(np.maximum(static_gain * (values - rest), 0.0), np.asarray(times, dtype=np.float64),
+                            _KIND_OF_MODE[mode], level, source, mode, tau, gain, None,
+                            (note, "one sample: the current is constant, so the rate term is 0"), static_gain)
     if values.shape[0] < 2:
         raise ValueError(
             f"'current' must have at least 2 time samples to take a rate; got {values.shape[0]} instead. "
@@ -367,8 +400,39 @@ def adapting_input(current, *, gain: float, tau: float = DEFAULT_TAU, off_gain: 
         warnings.warn(msg, AfferentWarning, stacklevel=2)
         notes.append(msg)
     r = _lowpass_rate(values, times, tau)
-    out = gain * np.maximum(r, 0.0) + off_gain * np.maximum(-r, 0.0)
-    # Rates that are pure float noise on a constant current (|dI| ~ 1e-16 I) must not drive anything.
-    scale = float(np.abs(values).max()) if values.size else 0.0
-    out[out <= 1e-12 * scale * max(gain, off_gain) / tau] = 0.0
-    return InputCurrent(out, times, "rate-sensitive", level, source, mode, tau, gain, off_gain, tuple(notes))
+    if mode == "static-plus-rate":
+        rest, note = _rest_current(source)
+        notes.append(note)
+        out = np.maximum(static_gain * (values - rest) + gain * r, 0.0)
+    else:
+        out = gain * np.maximum(r, 0.0) + off_gain * np.maximum(-r, 0.0)
+        # Rates that are pure float noise on a constant current (|dI| ~ 1e-16 I) must not drive anything.
+        scale = float(np.abs(values).max()) if values.size else 0.0
+        out[out <= 1e-12 * scale * max(gain, off_gain) / tau] = 0.0
+    return InputCurrent(out, times, _KIND_OF_MODE[mode], level, source, mode, tau, gain, off_gain, tuple(notes),
+                        static_gain)
+
+
+def _rest_current(source) -> tuple:
+    """(current of unloaded skin in A, a note saying so) for the static term of mode 'static-plus-rate'."""
+    params = getattr(source, "params", None)
+    if params is None:
+        return 0.0, "static term: the current as given (no sigmoid parameters to find its value at zero SED)"
+    from ..transduction import sigmoid
+
+    rest = float(sigmoid(np.zeros(1), params)[0])
+    return rest, f"static term measured from the sigmoid's current at zero SED, {rest:.4g} A"
+
+
+def _mode_gains(mode: str, gain: float, off_gain, static_gain) -> tuple:
+    """(static_gain, off_gain) of ``mode``, checked: each applies to one mode only."""
+    if mode == "static-plus-rate":
+        if off_gain is not None:
+            raise ValueError(f"'off_gain' applies to mode='rectified-rate', not {mode!r} (a falling current lowers "
+                             f"the SA-I input through k_d r); got off_gain={off_gain!r} instead.")
+        static_gain = 1.0 if static_gain is None else check_positive("static_gain", static_gain, strict=False)
+        return static_gain, None
+    if static_gain is not None:
+        raise ValueError(f"'static_gain' applies to mode='static-plus-rate', not {mode!r}; "
+                         f"got static_gain={static_gain!r} instead.")
+    return None, (gain if off_gain is None else check_positive("off_gain", off_gain, unit="s", strict=False))
