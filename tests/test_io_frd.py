@@ -265,10 +265,12 @@ def test_a_single_material_model_gets_no_material_array():
     assert "material" not in read_raw(CCX / "block_c3d8.frd").arrays
 
 
-def test_papilla_like_tips_are_found_on_the_interface_of_a_calculix_model(tmp_path):
-    """The 13 interior maxima of the relief (both cosines +1 or both -1), nothing else; SED symmetric as the model."""
-    out = tmp_path / "tips.csv"
-    code = main(["sample", str(CCX / "block_layers.frd"), "--length-unit", "mm", "--sed-unit", "MPa", "--grid", "tips",
+@pytest.mark.parametrize("kind", ["tips", "bases"])
+def test_tips_and_bases_are_found_on_the_interface_of_a_calculix_model(tmp_path, kind):
+    """Tips: the 13 interior maxima of the relief (both cosines +1 or both -1); bases: its 12 interior minima
+    (the cosines of opposite signs); nothing else; SED symmetric as the model."""
+    out = tmp_path / "sites.csv"
+    code = main(["sample", str(CCX / "block_layers.frd"), "--length-unit", "mm", "--sed-unit", "MPa", "--grid", kind,
                  "--material-array", "material", "--upper", "1", "--lower", "2", "-q", "-o", str(out)])
     assert code == 0
     import pandas as pd
@@ -277,9 +279,10 @@ def test_papilla_like_tips_are_found_on_the_interface_of_a_calculix_model(tmp_pa
     x, z = df["x_m"].to_numpy() * 1e3, df["z_m"].to_numpy() * 1e3
     found = sorted(zip(np.round(x, 6), np.round(z, 6)))
     plus, minus = (0.5, 1.0), (0.25, 0.75, 1.25)
-    expected = sorted([(a, b) for a in plus for b in plus] + [(a, b) for a in minus for b in minus])
+    pairs = ((plus, plus), (minus, minus)) if kind == "tips" else ((plus, minus), (minus, plus))
+    expected = sorted((a, b) for xs, zs in pairs for a in xs for b in zs)
     assert found == expected
-    assert np.allclose(df["y_m"] * 1e3, 0.58)  # 0.5 + 0.08
+    assert np.allclose(df["y_m"] * 1e3, 0.58 if kind == "tips" else 0.42)  # 0.5 +- 0.08
     sed = dict(zip(found, df.sort_values(["x_m", "z_m"])["sed_pa"]))
     for (a, b), value in sed.items():  # mirror x, mirror z, swap x and z: the model's symmetries
         for twin in ((1.5 - a, b), (a, 1.5 - b), (b, a)):
