@@ -22,11 +22,11 @@ import math
 import warnings
 
 import numpy as np
-from scipy.special import expit
 
 from ..exceptions import AfferentWarning
 from ..profiles import NEARLY_CONSTANT_RTOL, ProfileFit, compare_profiles, observed_on
 from ..synthesis import synthesize
+from ..transduction import _expit as expit  # the one sigmoid of the package (scipy.special.expit's formula)
 from ..transduction import transduce
 from .design import vector_to_params
 
