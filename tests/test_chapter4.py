@@ -63,3 +63,37 @@ def test_site_finder_finds_every_tabled_site_on_the_3d_export():
         assert np.abs(off[:, 1]).max() < 1e-9, kind                     # same height: on the top / apex
         assert np.abs(off[:, 0]).max() <= half_flat + 1e-9, (kind, np.abs(off[:, 0]).max())
         assert np.abs(off[:, 2]).max() <= 0.04e-3 + 1e-9, (kind, np.abs(off[:, 2]).max())
+
+
+def test_hotspots_beside_bases_found_on_the_export(tmp_path, monkeypatch):
+    """``hotspot_beside = "bases"``: the second map's sites are the SA-I apexes the finder gives (run.json says SA-I)."""
+    import pandas as pd
+
+    from afferent.scene import load_scene, run_scene
+
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "s.toml").write_text(f"""
+[export]
+file = {str(CH4 / "ridged3d" / "bar.vtu")!r}
+length_unit = "mm"
+sed_unit = "MPa"
+
+[receptors]
+file = {str(CH4 / "ridged3d" / "ra_sites.csv")!r}
+
+[region]
+x_range_mm = [0.4, 4.45]
+z_range_mm = [0.4, 4.45]
+
+[outputs]
+want = ["hotspots"]
+hotspot_beside = "bases"
+""")
+    res = run_scene(load_scene(tmp_path / "s.toml"), cache_dir=tmp_path / "cache")
+    t = pd.read_csv(tmp_path / "results" / "s" / "hotspots.csv")
+    sa = t[t["map"] == "SA-I"]
+    assert res.record["hotspots_beside"]["receptors"]["site"] == "SA-I" and len(sa) > 90
+    # every found base lies on an apex line x = 2.42 + k 0.44 mm (within the 0.04 mm half-apex)
+    k = (sa["x_m"] * 1e3 - 2.42) / 0.44
+    assert np.abs(k - np.round(k)).max() * 0.44 <= 0.04 + 1e-9
+    assert sa["normalised"].min() == 0.0 and sa["normalised"].max() == 1.0
