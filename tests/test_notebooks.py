@@ -14,9 +14,9 @@ import pytest
 ROOT = Path(__file__).resolve().parents[1]
 NOTEBOOKS = sorted((ROOT / "notebooks").glob("*.ipynb"))
 SAMPLE = ROOT / "sample_sed" / "block4" / "receptors.csv"
-#: The six topics; a renamed or lost notebook fails here rather than silently leaving the list.
+#: The seven topics; a renamed or lost notebook fails here rather than silently leaving the list.
 EXPECTED = ["01_read_fe_export", "02_receptors_and_sampling", "03_transduction_and_synthesis", "04_calibration",
-            "05_spikes", "06_speed_vs_accuracy"]
+            "05_spikes", "06_speed_vs_accuracy", "07_chapter4"]
 #: A private name of the package: ``afferent._x``, ``afferent.io._csv``, ``from afferent.cli._info import``.
 PRIVATE = re.compile(r"\bafferent(\.\w+)*\._\w+|from\s+\.?_\w+\s+import")
 
@@ -44,7 +44,7 @@ def _leaks(nb) -> list[str]:
     return out
 
 
-def test_the_six_notebooks_are_there():
+def test_the_seven_notebooks_are_there():
     assert [p.stem for p in NOTEBOOKS] == EXPECTED
 
 
