@@ -16,7 +16,7 @@ NOTEBOOKS = sorted((ROOT / "notebooks").glob("*.ipynb"))
 SAMPLE = ROOT / "sample_sed" / "block4" / "receptors.csv"
 #: The topics; a renamed or lost notebook fails here rather than silently leaving the list.
 EXPECTED = ["01_read_fe_export", "02_receptors_and_sampling", "03_transduction_and_synthesis", "04_calibration",
-            "05_spikes", "06_speed_vs_accuracy", "08_sa1"]
+            "05_spikes", "06_speed_vs_accuracy", "07_chapter4", "08_sa1"]
 #: A private name of the package: ``afferent._x``, ``afferent.io._csv``, ``from afferent.cli._info import``.
 PRIVATE = re.compile(r"\bafferent(\.\w+)*\._\w+|from\s+\.?_\w+\s+import")
 

@@ -16,14 +16,23 @@ a lattice node, so the finder must return exactly those nodes.
 
 from __future__ import annotations
 
+import json
 import re
+from pathlib import Path
 
 import meshio
 import numpy as np
 import pytest
 
 from afferent.io import read_raw
-from afferent.receptors import grid_layout, interface_nodes, interface_sites, interface_tips, sites_from_export
+from afferent.receptors import (
+    grid_layout,
+    interface_nodes,
+    interface_sites,
+    interface_tips,
+    read_receptors,
+    sites_from_export,
+)
 
 H = 0.0275                       # mm: lattice step in x and z (16 per ridge pitch, 8 per papilla pitch)
 X_OFF, Z_OFF = 0.0113, 0.0071    # mm: non-terminating offsets
@@ -236,3 +245,59 @@ def test_info_grid_says_the_site_kind_and_refuses_bases_on_a_flat_base(tmp_path,
                                                "materials --upper 1 and --lower 2 must have intermediate-ridge bases")
     assert main(["info", str(path), "--grid", "base", *unit]) == 2
     assert "--grid must be 'tips', 'bases' or 'y=H'; got 'base' instead." in capsys.readouterr().err
+
+
+# --------------------------------------------------------------------------------------
+# A real FE export with intermediate ridges: the chapter-4 blocks (sample_sed/make_chapter4.py)
+# --------------------------------------------------------------------------------------
+CHAPTER4 = Path(__file__).resolve().parents[1] / "sample_sed" / "chapter4"
+C4_CENTRE, C4_APEX_Y, C4_TIP_Y, C4_TOP_HALF_X = 2.42, 2.35, 2.50, 0.08  # mm, sample_sed/README.md "Chapter 4"
+
+
+@pytest.mark.parametrize("model", ["ridged3d", "ridged2d"])
+def test_chapter4_export_sites_are_the_generators(model):
+    """Every intermediate-ridge apex and papilla tip of the solved block is found, at the generator's positions:
+    bases on the ridges x = c + k 0.44 mm, tips on the papilla rows x = c + (k + 1/2) 0.44 mm, both at the papilla
+    pitch z = c + j 0.22 mm (c = 2.42 mm, the block's centre), and the site tables the chapter-4 scenes map
+    (sa_sites.csv, ra_sites.csv) among them."""
+    vtu = CHAPTER4 / model / "bar.vtu"
+    if not vtu.is_file():
+        pytest.skip(f"{vtu} not generated (python sample_sed/make_chapter4.py)")
+    bases = sites_from_export(vtu, length_unit="mm", upper=1, lower=2, kind="bases")
+    tips = sites_from_export(vtu, length_unit="mm", upper=1, lower=2, kind="tips")
+    for found, y, offset, n_x in ((bases, C4_APEX_Y, 0.0, 11), (tips, C4_TIP_Y, 0.5, 10)):
+        pos = found.positions * 1e3  # mm
+        np.testing.assert_allclose(pos[:, 1], y, rtol=0, atol=1e-9)
+        k = (pos[:, 2] - C4_CENTRE) / 0.22
+        np.testing.assert_allclose(k, np.round(k), rtol=0, atol=1e-6)  # on the papilla rows along z
+        assert found.n_receptors == n_x * 21  # every ridge (row) the block holds, 21 sites along each
+        dx = np.abs((pos[:, 0] - C4_CENTRE) / 0.44 - offset - np.round((pos[:, 0] - C4_CENTRE) / 0.44 - offset))
+        assert np.all(dx * 0.44 <= C4_TOP_HALF_X + 1e-9)  # on the ridge's apex / the papilla's flat top
+    assert np.all(np.isclose(bases.positions[:, 0] * 1e3 - C4_CENTRE, np.round((bases.positions[:, 0] * 1e3 - C4_CENTRE)
+                                                                              / 0.44) * 0.44, rtol=0, atol=1e-9))
+    for found, csv in ((bases, "sa_sites.csv"), (tips, "ra_sites.csv")):
+        table = read_receptors(CHAPTER4 / model / csv, length_unit="mm").positions
+        gap = np.min(np.linalg.norm(table[:, None, :] - found.positions[None, :, :], axis=2), axis=1)
+        if csv == "sa_sites.csv":
+            np.testing.assert_array_less(gap, 1e-12)  # every table base found exactly
+        else:  # a papilla top 2 nodes wide (the mesh's x-lines thin out near the faces): its first node
+            assert np.sum(gap < 1e-12) >= 90 and np.all(gap <= C4_TOP_HALF_X * 1e-3 + 1e-12)
+
+
+def test_a_sweep_over_the_site_kind_records_it_per_task(tmp_path):
+    """Sweeps inherit the site kind through the scene: receptors.grid = tips | bases, each task says which."""
+    from afferent._sweep import sweep
+
+    vtu = CHAPTER4 / "ridged3d" / "bar.vtu"
+    if not vtu.is_file():
+        pytest.skip(f"{vtu} not generated (python sample_sed/make_chapter4.py)")
+    src = tmp_path / "s.toml"
+    src.write_text(f'[export]\nfile = {str(vtu)!r}\nlength_unit = "mm"\nsed_unit = "MPa"\n[receptors]\ngrid = "tips"\n'
+                   '[transduction]\nparams = "start"\n[outputs]\nwant = ["currents"]\n'
+                   '[sweep]\n"receptors.grid" = ["tips", "bases"]\n')
+    out = sweep(src, tmp_path / "out", scheduler="serial", use_cache=False)
+    recs = [json.loads(line) for f in (tmp_path / "out" / "tasks").glob("*.jsonl") for line in f.read_text().splitlines()]
+    sites = {r["params"]["receptors.grid"]: r["record"]["receptors"] for r in recs}
+    assert sites["tips"]["site"] == "RA-I" and sites["tips"]["n_receptors_total"] == 210
+    assert sites["bases"]["site"] == "SA-I" and sites["bases"]["n_receptors_total"] == 231
+    assert set(out.table["receptors.grid"]) == {"tips", "bases"}

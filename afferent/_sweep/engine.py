@@ -116,6 +116,7 @@ def run_task(task, sampled: Sampled) -> dict:
                     stage=next((s for s in run.planned if s not in done and s not in ("reading", "sampling")), None),
                     traceback=traceback.format_exc(limit=-4), seconds=time.perf_counter() - t0)
     record = {k: v for k, v in run.record.items() if k not in sampled.record}
+    record["receptors"] = sampled.record.get("receptors")  # which sites (site kind 'RA-I', 'SA-I', 'file'), how many
     return dict(rec, status="ok", plan=run.planned, stages=dict(run.steps.seconds), record=record, inputs=run.inputs,
                 warnings=list(sampled.warnings) + _messages(caught), seconds=time.perf_counter() - t0, rows=rows)
 
