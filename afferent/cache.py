@@ -227,10 +227,10 @@ class CachedSED:
     files: dict = field(default_factory=dict)
 
     def layout(self):
-        """The receptor sites as a :class:`~afferent.receptors.ReceptorLayout`."""
+        """The receptor sites as a :class:`~afferent.receptors.ReceptorLayout` (with the site kind they were stored with)."""
         from .receptors import ReceptorLayout
 
-        return ReceptorLayout(self.positions, self.ids, self.longitudinal, self.cross)
+        return ReceptorLayout(self.positions, self.ids, self.longitudinal, self.cross, site=self.meta.get("site", "file"))
 
     def to_receptor_sed(self, layout=None):
         """The entry as a :class:`~afferent.sampling.ReceptorSED` (on ``layout`` if given: same positions)."""
@@ -347,7 +347,7 @@ class SEDCache:
         lay = sed.layout
         info = dict(meta or {})
         info.update({"key": key, "cache_version": CACHE_VERSION, "method": sed.method,
-                     "placement": getattr(sed, "placement", ""), "files": list(files),
+                     "placement": getattr(sed, "placement", ""), "files": list(files), "site": lay.site,
                      "base": None if base is None else os.path.abspath(base)})
         fd, tmp = tempfile.mkstemp(prefix=f".{key[:16]}.", suffix=".part", dir=path.parent)
         try:

@@ -24,6 +24,8 @@ profiles ``profiles.csv`` (afferent, position_m, time_s,    ``profiles_x.png``, 
 fit      ``fit.csv``, ``profile_fit.csv``                   ``fit.png``
 spikes   ``spikes.csv``, ``spike_summary.csv``              ``raster.png``, ``rates.png``, ``psth.png``
 vtu      ``receptors.vtu`` (sed_pa [, current_a], sections)
+hotspots ``hotspots.csv`` (site_kind, site, x_m, z_m,       ``hotspots.png`` (study fig. 4-9; a second
+         time_s, sed_pa, normalised, hot)                   site set beside: :mod:`afferent.hotspots`)
 ======== ================================================== ===========================================
 
 With a stimulus waveform, ``waveform.csv`` (and ``waveform.png``) too; with spikes and pynwb
@@ -243,7 +245,8 @@ def write_json(path: str, data: dict) -> None:
 
 def write_outputs(folder: str, *, want, plots: bool, sed_static, sed, current=None, branching=None, afferent=None,
                   fit=None, waveform=None, spikes=None, drive=None, saturation=None,
-                  profile_index: int = -1, results_format: str = "netcdf") -> list[str]:
+                  profile_index: int = -1, results_format: str = "netcdf", sed_beside=None,
+                  hotspot_threshold: float = 0.6) -> list[str]:
     """Write the tables and figures of ``want`` into ``folder``; returns the file names written.
 
     Parameters
@@ -267,6 +270,10 @@ def write_outputs(folder: str, *, want, plots: bool, sed_static, sed, current=No
     results_format : {'netcdf', 'csv'}, default='netcdf'
         The time courses of ``currents``: ``currents.nc`` (:func:`results_dataset`) or the long
         tables ``receptors.csv`` and ``afferents.csv``.
+    sed_beside : ReceptorSED, optional
+        ``hotspots``: SED at a second site set (J/m^3), mapped beside ``sed_static``'s sites.
+    hotspot_threshold : float, default=0.6
+        ``hotspots``: normalised SED from which a site is a hot spot.
     """
     written: list[str] = []
 
@@ -305,6 +312,10 @@ def write_outputs(folder: str, *, want, plots: bool, sed_static, sed, current=No
         else:  # SED only: its own step of the largest total SED
             write_receptor_vtu(path("receptors.vtu"), sed_static,
                                time_index=int(np.argmax(np.nansum(np.asarray(sed_static.values), axis=1))))
+    if "hotspots" in want:
+        from .hotspots import write_hotspots
+
+        write_hotspots(path, sed_static, sed_beside, threshold=hotspot_threshold, plots=plots)
     if waveform is not None:
         waveform.to_dataframe().to_csv(path("waveform.csv"), index=False)
     if plots:

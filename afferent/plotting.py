@@ -11,6 +11,7 @@ import numpy as np
 __all__ = [
     "plot_sed_map", "plot_sed_profile", "plot_section_profiles", "plot_fit",
     "plot_raster", "plot_rates", "rate_table", "plot_psth", "plot_waveform", "save_figure", "legend_beside",
+    "plot_hotspots", "plot_hotspot_maps", "plot_hotspot_summary", "plot_distance_table",
 ]
 
 
@@ -67,6 +68,90 @@ def plot_sed_map(sed, *, time_index: int = -1, ax=None, normalise: bool = False,
     ax.set_aspect("equal")
     t = sed.times[time_index]
     ax.set_title(title or f"SED at receptor sites, t = {t:g} s")
+    return ax
+
+
+def plot_hotspots(table, *, threshold: float, ax=None, title: str | None = None):
+    """A hot-spot map (the study's fig. 4-9): every site a grey dot, the hot ones coloured by normalised SED.
+
+    ``table``: :func:`afferent.hotspots.hotspot_table` (x_m, z_m, normalised); ``threshold``: the
+    colour scale starts there (normalised SED 0..1). Seen from above: x across the ridges, z along them.
+    """
+    ax = _axes(ax, figsize=(4.2, 4.0))
+    x, z = table["x_m"].to_numpy() * 1e3, table["z_m"].to_numpy() * 1e3
+    v = table["normalised"].to_numpy()
+    hot = v >= threshold
+    ax.scatter(x, z, s=8, c="0.8", edgecolors="none")
+    sc = ax.scatter(x[hot], z[hot], c=v[hot], s=46, cmap="inferno_r", vmin=threshold, vmax=1.0, edgecolors="k",
+                    linewidths=0.3)
+    ax.figure.colorbar(sc, ax=ax, label=f"normalised SED (>= {threshold:g})", shrink=0.8)
+    ax.set_xlabel("x, across ridges (mm)")
+    ax.set_ylabel("z, along ridges (mm)")
+    ax.set_aspect("equal")
+    ax.set_title(title or f"hot spots: {int(hot.sum())} of {len(v)} sites")
+    return ax
+
+
+def plot_hotspot_maps(tables, *, threshold: float, title: str = ""):
+    """The ``hotspots.png`` figure: one hot-spot map per table, side by side (e.g. RA-I beside SA-I)."""
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(1, len(tables), figsize=(4.4 * len(tables), 4.2), layout="constrained", squeeze=False)
+    for ax, t in zip(axes[0], tables):
+        n_hot = int(t["hot"].sum())
+        plot_hotspots(t, threshold=threshold, ax=ax,
+                      title=f"{t['map'].iloc[0]}: {n_hot} of {len(t)} sites >= {threshold:g}")
+    if title:
+        fig.suptitle(title)
+    return fig
+
+
+def plot_hotspot_summary(runs: dict, groups: dict, *, threshold: float):
+    """Every run's hot-spot maps on one page: a row per group and site set (``map``), a column per run of the group.
+
+    ``runs``: {label: hotspots.csv table}; ``groups``: {group: [labels]} (:func:`afferent.hotspots.group_runs`).
+    """
+    import matplotlib.pyplot as plt
+
+    rows = [(g, k, labels) for g, labels in groups.items()
+            for k in dict.fromkeys(k for lb in labels for k in runs[lb]["map"])]
+    n_col = max(len(labels) for _, _, labels in rows)
+    fig, axes = plt.subplots(len(rows), n_col, figsize=(3.3 * n_col, 3.0 * len(rows)), layout="constrained",
+                             squeeze=False)
+    for r, (g, kind, labels) in enumerate(rows):
+        for c in range(n_col):
+            ax = axes[r, c]
+            t = runs[labels[c]] if c < len(labels) else None
+            if t is None or kind not in set(t["map"]):
+                ax.set_axis_off()
+                continue
+            t = t[t["map"] == kind]
+            hot = t["normalised"].to_numpy() >= threshold
+            ax.scatter(t["x_m"] * 1e3, t["z_m"] * 1e3, s=4, c="0.8", edgecolors="none")
+            sc = ax.scatter(t["x_m"][hot] * 1e3, t["z_m"][hot] * 1e3, c=t["normalised"][hot], s=22, cmap="inferno_r",
+                            vmin=threshold, vmax=1.0, edgecolors="k", linewidths=0.2)
+            ax.set_aspect("equal")
+            ax.set_title(f"{labels[c]}\n{kind}: {int(hot.sum())} >= {threshold:g}", fontsize="small")
+            ax.tick_params(labelsize="x-small")
+        axes[r, 0].set_ylabel(f"{g}: z (mm)", fontsize="small")
+    fig.colorbar(sc, ax=axes, label=f"normalised SED (>= {threshold:g}); x across ridges (mm)", shrink=0.5)
+    return fig
+
+
+def plot_distance_table(table, *, ax=None, title: str | None = None):
+    """A square table of map distances (1 - r, 0..2) as a labelled colour matrix with the values written in."""
+    ax = _axes(ax, figsize=(4.6, 4.0))
+    d = table.to_numpy(dtype=float)
+    im = ax.imshow(d, cmap="magma_r", vmin=0.0, vmax=max(1.0, float(np.nanmax(d))))
+    labels = [str(v) for v in table.index]
+    ax.set_xticks(range(len(labels)), labels, rotation=45, ha="right", fontsize="small")
+    ax.set_yticks(range(len(labels)), labels, fontsize="small")
+    for i in range(d.shape[0]):
+        for j in range(d.shape[1]):
+            ax.text(j, i, f"{d[i, j]:.2f}", ha="center", va="center", fontsize="x-small",
+                    color="w" if d[i, j] > 0.6 * max(1.0, float(np.nanmax(d))) else "k")
+    ax.figure.colorbar(im, ax=ax, label="1 - r (map distance)", shrink=0.8)
+    ax.set_title(title or "map distance")
     return ax
 
 

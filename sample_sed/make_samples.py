@@ -237,14 +237,15 @@ def subdivide(a: np.ndarray, r: int) -> np.ndarray:
     return np.concatenate([(a[:-1, None] + np.diff(a)[:, None] * f[None, :]).ravel(), a[-1:]])
 
 
-def build_mesh(spec: MeshSpec) -> SkinMesh:
-    L = spec.length
-    xc = zc = 0.5 * L
-    req = sorted({xc + s * 0.5 * w for w in spec.widths for s in (-1, 1)})
-    xl = axis_lines(L, xc, PAP_PITCH_X, PAP_HALF_X, spec.fine_rows_x,
-                    spec.n_half_in_x, spec.n_gap_x, req)
-    zl = axis_lines(L, zc, PAP_PITCH_Z, PAP_HALF_Z, spec.fine_rows_z,
-                    spec.n_half_in_z, spec.n_gap_z, req)
+def layered_mesh(spec: MeshSpec, xl: np.ndarray, zl: np.ndarray, interface, xc: float, zc: float) -> SkinMesh:
+    """Structured hexahedral mesh on the grid lines ``xl`` x ``zl`` (mm), layered in y.
+
+    Each column's nodes lie between the bottom (y = 0), the dermis bottom, the
+    epidermis/dermis interface ``interface(x, z)`` (mm) and the ridged surface ``surface_y``, so
+    the layer interfaces and the surface are node surfaces and each element lies in one layer.
+    ``spec`` gives the element layers per tissue layer, their grading and ``refine``. The
+    receptor tips (``tips``, ``tip_nodes``) are left for the caller to set.
+    """
     r = spec.refine
     xl, zl = subdivide(xl, r), subdivide(zl, r)
     ny = r * (spec.n_sub + spec.n_derm + spec.n_epi)
@@ -252,7 +253,7 @@ def build_mesh(spec: MeshSpec) -> SkinMesh:
     p = m0.p.copy()
     j = np.rint(p[1]).astype(int)
     x, z = p[0], p[2]
-    y_int = interface_y(x, z, xc, zc)
+    y_int = interface(x, z)
     y_srf = surface_y(x, xc)
     s_sub = subdivide(np.linspace(0.0, 1.0, spec.n_sub + 1), r)
     s_derm = subdivide(graded(spec.n_derm, spec.derm_ratio, "down"), r)   # finest at the interface
@@ -269,7 +270,27 @@ def build_mesh(spec: MeshSpec) -> SkinMesh:
     mesh = MeshHex(p, m0.t)
     jb = j[mesh.t].min(axis=0)
     layer = np.where(jb < j1, LAYER_SUBCUTIS, np.where(jb < j2, LAYER_DERMIS, LAYER_EPIDERMIS))
-    sm = SkinMesh(spec, mesh, layer.astype(np.int32), j, j2, ny, xc, zc, xl, zl)
+    return SkinMesh(spec, mesh, layer.astype(np.int32), j, j2, ny, xc, zc, xl, zl)
+
+
+def interface_nodes(sm: SkinMesh, x, z) -> np.ndarray:
+    """Index of the epidermis/dermis interface node at each (x, z) (mm); KeyError if not a node."""
+    p = sm.mesh.p
+    iface = np.flatnonzero(sm.node_j == sm.j_interface)
+    key = {(round(p[0, n], 7), round(p[2, n], 7)): n for n in iface}
+    return np.array([key[(round(a_, 7), round(b_, 7))] for a_, b_ in zip(x, z)], dtype=np.int64)
+
+
+def build_mesh(spec: MeshSpec) -> SkinMesh:
+    L = spec.length
+    xc = zc = 0.5 * L
+    req = sorted({xc + s * 0.5 * w for w in spec.widths for s in (-1, 1)})
+    xl = axis_lines(L, xc, PAP_PITCH_X, PAP_HALF_X, spec.fine_rows_x,
+                    spec.n_half_in_x, spec.n_gap_x, req)
+    zl = axis_lines(L, zc, PAP_PITCH_Z, PAP_HALF_Z, spec.fine_rows_z,
+                    spec.n_half_in_z, spec.n_gap_z, req)
+    sm = layered_mesh(spec, xl, zl, lambda x, z: interface_y(x, z, xc, zc), xc, zc)
+    p = sm.mesh.p
     # papilla tips (receptor sites) at least one pitch from the side faces
     kx = np.arange(-int(L / PAP_PITCH_X) - 1, int(L / PAP_PITCH_X) + 2)
     kz = np.arange(-int(L / PAP_PITCH_Z) - 1, int(L / PAP_PITCH_Z) + 2)
@@ -279,9 +300,7 @@ def build_mesh(spec: MeshSpec) -> SkinMesh:
     tz = tz[(tz >= PAP_PITCH_Z - TOL) & (tz <= L - PAP_PITCH_Z + TOL)]
     TX, TZ = np.meshgrid(tx, tz, indexing="ij")        # ordered by x, then z
     TX, TZ = TX.ravel(), TZ.ravel()
-    iface = np.flatnonzero(j == j2)
-    key = {(round(p[0, n], 7), round(p[2, n], 7)): n for n in iface}
-    nodes = np.array([key[(round(a_, 7), round(b_, 7))] for a_, b_ in zip(TX, TZ)])
+    nodes = interface_nodes(sm, TX, TZ)
     sm.tips = p[:, nodes].T.copy()
     sm.tip_nodes = nodes
     assert np.allclose(sm.tips[:, 1], Y_INTERFACE + PAP_HEIGHT)
@@ -376,6 +395,12 @@ def stiffness(mesh, element, mu, kappa, integration: str = "sri"):
     return K
 
 
+def square_footprint(width: float):
+    """Footprint of the centred square punch of side ``width`` (mm), edges included."""
+    h = 0.5 * width + TOL
+    return lambda dx, dz: (np.abs(dx) <= h) & (np.abs(dz) <= h)
+
+
 class Problem:
     """Stiffness matrix and AMG-CG solver of one mesh.
 
@@ -438,12 +463,14 @@ class Problem:
         self._ml_cache = {}
         log(f"  assembled K: {self.ndof} dofs, nnz {self.K.nnz}, {self.t_assemble:.1f} s")
 
+    def top_dofs_in(self, footprint):
+        """y-dofs of the surface nodes inside ``footprint(dx, dz)`` (mm from the block centre, boolean)."""
+        X = self.dofloc[:, self.top_ydofs]
+        return self.top_ydofs[footprint(X[0] - self.sm.xc, X[2] - self.sm.zc)]
+
     def top_dofs_in_square(self, width: float):
         """y-dofs of surface dofs whose (x, z) lies inside the centred square (inclusive)."""
-        X = self.dofloc[:, self.top_ydofs]
-        h = 0.5 * width + TOL
-        inside = (np.abs(X[0] - self.sm.xc) <= h) & (np.abs(X[2] - self.sm.zc) <= h)
-        return self.top_ydofs[inside]
+        return self.top_dofs_in(square_footprint(width))
 
     def _amg_solve(self, A, b, start, key):
         """CG with smoothed-aggregation AMG on the eliminated system; the hierarchy of the last
@@ -499,14 +526,16 @@ class Problem:
         B[c == 2, 5], B[c == 0, 5] = -x[c == 2], z[c == 0]
         return B
 
-    def solve(self, width: float, depth: float, f=None, guess=None):
-        """Punch of `width` pressed `depth`: returns (u, info).
+    def solve(self, width: float, depth: float, footprint=None, f=None, guess=None):
+        """Punch of `width` (mm) pressed `depth` (mm): returns (u, info).
 
-        ``f``: optional nodal force vector (N) on the free dofs (the viscoelastic history force of
-        make_vibration.py); ``guess``: optional start vector of the CG (its prescribed dofs are reset).
+        ``footprint(dx, dz)`` (boolean, mm from the block centre) gives the indenter's shape; by
+        default the centred square of side ``width``. ``f``: optional nodal force vector (N) on the
+        free dofs (the viscoelastic history force of make_vibration.py); ``guess``: optional start
+        vector of the CG (its prescribed dofs are reset).
         """
         t0 = time.perf_counter()
-        top = self.top_dofs_in_square(width)
+        top = self.top_dofs_in(footprint or square_footprint(width))
         y_top = self.dofloc[1, top]
         y_crest = float(surface_y(np.array([self.sm.xc]), self.sm.xc)[0])  # highest ridge top
         plane = y_crest - depth

@@ -1,8 +1,9 @@
 #!/usr/bin/env python
 """Regenerate the viscoelastic vibration series in ``sample_sed/vibration/`` (the study's figs. 4-10/4-11).
 
-The block of ``make_samples.py`` (same layers, moduli, ridges, bottom-edge restraint, mesh builder,
-stiffness assembly and AMG-CG solver, imported, not copied) with the dermis and the subcutis made
+The chapter-4 ridged blocks of ``make_chapter4.py`` (3-D and 2-D ridged; its geometry imported) with
+the layers, moduli, bottom-edge restraint, stiffness assembly and solver of ``make_samples.py``
+(imported, not copied), pressed by the 2 x 2 mm plane, with the dermis and the subcutis made
 **linear viscoelastic**: a Prony series on the shear modulus,
 
     G(t) = G0 (1 - sum_i g_i (1 - exp(-t / tau_i))),
@@ -53,6 +54,7 @@ import meshio  # noqa: E402
 import numpy as np  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
+import make_chapter4 as mc  # noqa: E402  (the chapter-4 ridged geometry and indenters)
 import make_samples as ms  # noqa: E402
 
 # --------------------------------------------------------------------------------------
@@ -192,7 +194,7 @@ class ViscoPunch:
         info = {}
 
         def solve(f):
-            u, info_ = self.prob.solve(width, depth, f=f, guess=self.u)
+            u, info_ = self.prob.solve(width, depth, footprint=FOOTPRINT, f=f, guess=self.u)
             info.update(info_)
             return u
 
@@ -222,7 +224,8 @@ def centroid_sed(bc, u, us, mu0, kappa, visco) -> np.ndarray:
 # The samples
 # --------------------------------------------------------------------------------------
 AMPLITUDE = 0.5                    # mm: deepest point of every cycle
-WIDTH = 2.0                        # mm: the 2 x 2 mm plane
+WIDTH = 2.0                        # mm: the 2 x 2 mm plane (make_chapter4's "bar" footprint)
+FOOTPRINT = mc.INDENTERS["bar"][0]
 FREQUENCIES = (20.0, 30.0, 50.0, 80.0)   # Hz
 STEPS_PER_PERIOD = 20
 CYCLES = 3
@@ -234,23 +237,12 @@ def depth(t, f: float) -> np.ndarray:
     return AMPLITUDE * 0.5 * (1.0 - np.cos(2.0 * np.pi * f * np.asarray(t, dtype=float)))
 
 
-def interface_2d(x, z, xc, zc):
-    """The 2-D ridged interface: the papilla cross-section of make_samples.interface_y, even along z
-    (a continuous intermediate ridge under each surface ridge, crest 2.45 mm)."""
-    dx = np.mod(x - xc + 0.5 * ms.PAP_PITCH_X, ms.PAP_PITCH_X) - 0.5 * ms.PAP_PITCH_X
-    return ms.Y_INTERFACE + ms.PAP_HEIGHT * ms.bump(dx / ms.PAP_HALF_X) + 0.0 * z
-
-
-MODELS = {"3d": ms.interface_y, "2d": interface_2d}
-
-
-def mesh_spec(quick: bool) -> ms.MeshSpec:
-    """block4 with the 2 mm plane only; coarser than the static sample (many time steps)."""
-    if quick:
-        return ms.MeshSpec("block4", 4.0, (WIDTH,), fine_rows_x=3, fine_rows_z=5, n_half_in_x=1, n_gap_x=1,
-                           n_half_in_z=1, n_gap_z=1, n_sub=1, n_derm=3, n_epi=3, derm_ratio=1.8, epi_ratio=1.3)
-    return ms.MeshSpec("block4", 4.0, (WIDTH,), fine_rows_x=3, fine_rows_z=5, n_half_in_x=2, n_gap_x=1,
-                       n_half_in_z=1, n_gap_z=1, n_sub=1, n_derm=4, n_epi=4, derm_ratio=1.6, epi_ratio=1.25)
+def build_model(model: str, quick: bool):
+    """The chapter-4 ridged block "3d" or "2d" of make_chapter4.py (its geometry, imported), on its
+    coarse grid (``make_chapter4.build_ch4_mesh(model, quick=True)``: the many time steps of four
+    frequencies and two models had to fit a shared 2-core machine). ``quick`` changes nothing
+    here: the quick run takes fewer cycles and frequencies instead."""
+    return mc.build_ch4_mesh(model, quick=True)
 
 
 def quadrant(sm):
@@ -328,7 +320,7 @@ def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--quick", action="store_true", help="coarse mesh, 2 cycles at 20 and 80 Hz, into a temp dir")
     ap.add_argument("--out", type=Path, default=None, help="output folder (default sample_sed/vibration)")
-    ap.add_argument("--models", nargs="+", choices=sorted(MODELS), default=["3d", "2d"])
+    ap.add_argument("--models", nargs="+", choices=mc.MODELS, default=list(mc.MODELS))
     ap.add_argument("--frequencies", nargs="+", type=float, default=None, help="Hz")
     args = ap.parse_args(argv)
     here = Path(__file__).resolve().parent
@@ -339,7 +331,7 @@ def main(argv=None):
     info = run_info(args.quick, freqs, cycles)
     for model in args.models:
         t0 = time.perf_counter()
-        sm = quadrant(ms.build_mesh(mesh_spec(args.quick), interface=MODELS[model]))
+        sm = quadrant(build_model(model, args.quick))
         if model == args.models[0]:
             ms.write_receptors(out / "receptors.csv", sm)
         vp = ViscoPunch(sm, SKIN)
@@ -357,6 +349,10 @@ def main(argv=None):
                   f"{', '.join(f'{v:.1f}' for v in d['site_SED_Pa'])} Pa; min force {d['min_force_N']:.4f} N",
                   flush=True)
         info["models"][model] = binfo
+    old = out / "build_info.json"
+    if old.is_file():   # a run of the other model into the same folder: keep its record
+        for k, v in json.loads(old.read_text()).get("models", {}).items():
+            info["models"].setdefault(k, v)
     info["files"] = {p.relative_to(out).as_posix(): p.stat().st_size for p in sorted(out.rglob("*"))
                      if p.is_file() and p.suffix in (".vtu", ".pvd", ".csv")}
     info["total_size_MB"] = round(sum(info["files"].values()) / 1e6, 2)

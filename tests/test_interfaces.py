@@ -173,6 +173,7 @@ def test_info_says_copies_materials_and_what_the_side_does(capsys):
     assert "coincident   3,072 points are 567 nodes (up to 8 copies at one place" in out
     assert "materials    'material_id' (point data constant per cell): 1 (128 cells), 2 (256 cells)" in out
     assert "25 on an interface (materials 1/2: 25), 2 not" in out
+    assert f"receptor sites: 27 sites as given (a receptor file: no site rule) from {RECEPTORS}; x [" in out
     assert re.search(r"--side 1: 25 receptors change, by a median \+1\d\.\d+ %", out)
     assert re.search(r"--side 2: 25 receptors change, by a median -1\d\.\d+ %", out)
     code, out, _ = run(capsys, "info", PACKAGED / "indent_0p88mm.vtu")

@@ -17,6 +17,7 @@ import pytest
 
 from afferent.cache import SEDCache, clear_cache
 from afferent.exceptions import AfferentWarning, OutputExistsError
+from afferent.receptors import grid_layout
 from afferent.scene import (
     OUTPUTS,
     STAGES,
@@ -165,7 +166,7 @@ def test_wrong_type_names_key_and_line(tmp_path):
     ('[spike]\na = 1\n', "line 1: unknown table [spike]; known tables are [scene], [export], "),
     ('[outputs]\nwant = [\n  "sed_map",\n  "spiks",\n]\n',
      "line 2: [outputs] 'want' must list outputs among 'sed_map', 'currents', 'profiles', 'fit', 'spikes', 'plots', "
-     "'vtu', 'nwb'; got 'spiks' instead. Did you mean 'spikes'?"),
+     "'vtu', 'nwb', 'hotspots'; got 'spiks' instead. Did you mean 'spikes'?"),
     ('\n[sampling]\nmethod = "cubic"\n', "line 3: [sampling] 'method' must be one of 'linear', 'nearest'; got 'cubic' instead."),
     ('[sampling]\nside = "dermis"\n',
      "line 2: [sampling] 'side' must be 'average' or a material id (an integer); got 'dermis' (a string) instead."),
@@ -198,6 +199,67 @@ def test_requirements_are_checked(tmp_path, extra, message):
         load_scene(path)
 
 
+@needs_sample
+def test_bases_on_the_sample_are_refused_naming_the_export(tmp_path):
+    """The sample's interface is a flat base with papilla bumps: no intermediate ridges, a clear error."""
+    scene = load_scene(write_scene(tmp_path, f"""
+        [export]
+        file = {str(EXPORT)!r}
+        length_unit = "mm"
+        sed_unit = "MPa"
+        [receptors]
+        grid = "bases"
+        [outputs]
+        want = ["sed_map"]
+        """))
+    assert scene.receptors.upper == 1 and scene.receptors.lower == 2
+    with pytest.raises(ValueError, match=re.escape(
+            f"Export {str(EXPORT)!r}: The interface between materials upper=1 and lower=2 must have intermediate-ridge "
+            "bases (lows sinking >= 1e-05 m within pitch 0.00044 x 0.00022 m windows); got none on its 2773 nodes")):
+        run_scene(scene.with_output(tmp_path / "out"), cache_dir=None)
+
+
+@needs_sample
+def test_regular_grid_of_ridge_base_rows_is_recorded_as_sa_i(tmp_path):
+    scene = load_scene(write_scene(tmp_path, f"""
+        [export]
+        file = {str(EXPORT)!r}
+        length_unit = "mm"
+        sed_unit = "MPa"
+        [receptors]
+        grid = "regular"
+        rows = "bases"
+        y_mm = 2.3
+        x_range_mm = [1.0, 3.0]
+        z_range_mm = [1.0, 3.0]
+        [outputs]
+        want = ["sed_map"]
+        """))
+    res = run_scene(scene.with_output(tmp_path / "out"), cache_dir=None)
+    assert res.record["receptors"]["site"] == res.sed.layout.site == "SA-I"
+    assert res.record["receptors"]["source"] == "grid = 'regular', rows = 'bases'"
+    tips_x = np.unique(grid_layout(x_range=(1e-3, 3e-3), z_range=(1e-3, 3e-3), y=2.3e-3).positions[:, 0])
+    np.testing.assert_allclose(np.unique(res.sed.layout.positions[:, 0]), tips_x[:-1] + 0.22e-3, rtol=1e-12)
+    written = json.loads((tmp_path / "out" / "run.json").read_text())
+    assert written["receptors"]["site"] == "SA-I"
+
+
+def test_rows_apply_to_a_regular_grid_only(tmp_path):
+    path = write_scene(tmp_path, """\
+        [export]
+        file = "x.vtu"
+        length_unit = "mm"
+        [receptors]
+        grid = "tips"
+        rows = "bases"
+        [outputs]
+        want = ["sed_map"]
+        """)
+    with pytest.raises(SceneError, match=re.escape(
+            "line 6: [receptors] 'rows' applies to grid = 'regular', not 'tips' (use [region] to restrict the tips).")):
+        load_scene(path)
+
+
 def test_receptor_file_xor_grid(tmp_path):
     path = write_scene(tmp_path, """\
         [export]
@@ -210,7 +272,7 @@ def test_receptor_file_xor_grid(tmp_path):
         want = ["sed_map"]
         """)
     with pytest.raises(SceneError, match=re.escape(
-            "line 4: [receptors] must give exactly one of 'file' (a receptor CSV) and 'grid' ('tips' or 'regular'); "
+            "line 4: [receptors] must give exactly one of 'file' (a receptor CSV) and 'grid' ('tips', 'bases' or 'regular'); "
             "got both instead.")):
         load_scene(path)
 
@@ -463,6 +525,7 @@ def test_tips_found_on_the_export_are_restricted_and_cached(tmp_path):
     second = run_scene(scene.with_output(tmp_path / "b"), cache_dir=tmp_path / "c")
     assert first.cache_hit is False and second.cache_hit is True and "reading" not in second.stages
     assert second.record["receptors"]["n_receptors_total"] == 153
+    assert rec["site"] == second.record["receptors"]["site"] == second.sed.layout.site == "RA-I"  # kept in the cache
     np.testing.assert_array_equal(second.sed.layout.positions, first.sed.layout.positions)
     np.testing.assert_array_equal(second.sed.layout.ids, first.sed.layout.ids)
     np.testing.assert_array_equal(second.sed.values, first.sed.values)

@@ -3,14 +3,16 @@
 Points, cells, arrays and their components, time steps, bounds, SED range, the columns
 afferent recognises, the units it would use (and whether the file states them), coincident
 points and material ids, and a hint when magnitudes look like another unit. With
-``--receptors``: which materials meet at the receptors and what the side choice
-(``afferent sample --side``) does to their SED (the export is then read: declare its units).
+``--receptors`` or ``--grid tips|bases|y=H``: what the sites are (RA-I papilla tips, SA-I
+ridge bases, or as given in a file), which materials meet at the receptors and what the side
+choice (``afferent sample --side``) does to their SED (the export is then read: declare its units).
 
 Example::
 
     $ afferent info sample_sed/block4/indent_0p88mm.vtu
     $ afferent info tests/data/dealii/indent_block.vtu --receptors tests/data/dealii/receptors.csv \\
           --length-unit mm --sed-unit MPa
+    $ afferent info sample_sed/block4/indent_0p88mm.vtu --grid tips
 """
 
 from __future__ import annotations
@@ -18,16 +20,14 @@ from __future__ import annotations
 import argparse
 
 from ..io import describe_raw, read_raw
-from ._options import add_input_options, add_quiet, input_kwargs, show_progress
+from ._options import add_input_options, add_quiet, add_receptor_options, input_kwargs, layout_from_args, show_progress
 
 describe = describe_raw  # the name notebooks/01_read_fe_export.ipynb imports
 
 
 def add_args(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("exports", nargs="+", metavar="EXPORT", help="FE export file(s); several files are one time step each")
-    parser.add_argument("--receptors", metavar="R.csv",
-                        help="receptor sites (x, y, z): say which materials meet there and what --side does to their SED")
-    parser.add_argument("--receptor-unit", metavar="U", help="length unit of R.csv (default: the export's length unit)")
+    add_receptor_options(parser, required=False)  # say what the sites are, which materials meet there, what --side does
     parser.add_argument("--method", choices=("linear", "nearest"), default="linear", help="sampling method for --receptors")
     add_input_options(parser)
     add_quiet(parser)
@@ -37,12 +37,13 @@ def run(args: argparse.Namespace) -> int:
     source = args.exports if len(args.exports) > 1 else args.exports[0]
     raw = read_raw(source, format=args.format, progress=show_progress(args))
     print("\n".join(describe_raw(raw)))
-    if args.receptors is not None:
+    if args.receptors is not None or args.grid is not None:
         from .._interfaces import interface_lines
         from ..io import read_sed
-        from ..receptors import read_receptors
+        from ..receptors import describe_sites
 
         field = read_sed(source, **input_kwargs(args))
-        layout = read_receptors(args.receptors, length_unit=args.receptor_unit or field.provenance.units.get("length"))
+        layout = layout_from_args(args, field)
+        print(describe_sites(layout))
         print("\n".join(interface_lines(field, layout, method=args.method)))
     return 0

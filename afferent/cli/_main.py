@@ -20,7 +20,7 @@ from ..exceptions import AfferentError
 #: from the module's docstring.
 COMMANDS = {"info": "afferent.cli._info", "sample": "afferent.cli._sample", "run": "afferent.cli._run",
             "calibrate": "afferent.cli._calibrate", "demo": "afferent.cli._demo",
-            "report": "afferent.cli._report", "sweep": "afferent.cli._sweep"}
+            "report": "afferent.cli._report", "sweep": "afferent.cli._sweep", "hotspots": "afferent.cli._hotspots"}
 
 
 def _module(name: str):

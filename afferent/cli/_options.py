@@ -94,13 +94,14 @@ def add_receptor_options(parser: argparse.ArgumentParser, *, required: bool = Tr
     m = g.add_mutually_exclusive_group(required=required)
     m.add_argument("--receptors", metavar="R.csv", help="receptor sites: columns x, y, z (optional id, longitudinal, cross)")
     m.add_argument("--grid", metavar="SPEC",
-                   help="generate the sites: 'tips' = papilla tips found on the export's epidermis/dermis interface "
-                        "(cell array --material-array, ids --upper/--lower); 'y=H' = a ridge/papilla grid at height H "
+                   help="generate the sites: 'tips' = papilla tips (RA-I) found on the export's epidermis/dermis "
+                        "interface (cell array --material-array, ids --upper/--lower); 'bases' = the intermediate-ridge "
+                        "bases (SA-I) found there; 'y=H' = a ridge/papilla grid of papilla rows at height H "
                         "(export length unit) over the export's x-z extent")
     g.add_argument("--receptor-unit", metavar="U", help="length unit of R.csv (default: the export's length unit)")
     g.add_argument("--pitch-x-mm", type=positive_number, default=0.44, help="grid pitch across the ridges, mm (default 0.44)")
     g.add_argument("--pitch-z-mm", type=positive_number, default=0.22, help="grid pitch along the ridges, mm (default 0.22)")
-    g.add_argument("--material-array", default="layer", help="cell array of material/layer ids for --grid tips (default 'layer')")
+    g.add_argument("--material-array", default="layer", help="cell array of material/layer ids for --grid tips|bases (default 'layer')")
     g.add_argument("--upper", type=int, default=1, help="material id above the interface (epidermis; default 1)")
     g.add_argument("--lower", type=int, default=2, help="material id below the interface (dermis; default 2)")
 
@@ -118,7 +119,7 @@ def positive_number(text: str) -> float:
 
 def layout_from_args(args: argparse.Namespace, field):
     """The :class:`ReceptorLayout` the options ask for, in m."""
-    from ..receptors import grid_layout, read_receptors, tips_from_export
+    from ..receptors import grid_layout, read_receptors, sites_from_export
     from ..units import length_factor
 
     unit = field.provenance.units.get("length")
@@ -126,12 +127,12 @@ def layout_from_args(args: argparse.Namespace, field):
     if args.receptors is not None:
         return read_receptors(args.receptors, length_unit=args.receptor_unit or unit)
     spec = args.grid.strip()
-    if spec == "tips":
+    if spec in ("tips", "bases"):
         source = field.provenance.files[0]
         if source.lower().endswith(".pvd"):
             source = field.provenance.files[1]
-        return tips_from_export(source, length_unit=unit, material_array=args.material_array,
-                                upper=args.upper, lower=args.lower, **pitch)
+        return sites_from_export(source, length_unit=unit, material_array=args.material_array,
+                                 upper=args.upper, lower=args.lower, kind=spec, **pitch)
     if spec.startswith("y="):
         try:
             y = float(spec[2:]) * length_factor(unit)
@@ -140,4 +141,4 @@ def layout_from_args(args: argparse.Namespace, field):
         lo, hi = field.bounds
         inset_x, inset_z = pitch["pitch_x"] / 2, pitch["pitch_z"] / 2
         return grid_layout(x_range=(lo[0] + inset_x, hi[0] - inset_x), z_range=(lo[2] + inset_z, hi[2] - inset_z), y=y, **pitch)
-    raise ValueError(f"--grid must be 'tips' or 'y=H'; got {args.grid!r} instead.")
+    raise ValueError(f"--grid must be 'tips', 'bases' or 'y=H'; got {args.grid!r} instead.")

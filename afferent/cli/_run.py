@@ -162,7 +162,7 @@ def _stimulus_table(args) -> dict | None:
 
 
 def _receptors_table(args) -> dict:
-    """[receptors] from --receptors / --grid tips|y=H; lengths carry their unit in the key, as in a scene file."""
+    """[receptors] from --receptors / --grid tips|bases|y=H; lengths carry their unit in the key, as in a scene file."""
     if args.receptors is not None:
         unit = args.receptor_unit or args.length_unit
         if unit is None:
@@ -171,8 +171,8 @@ def _receptors_table(args) -> dict:
         return {"file": args.receptors, "length_unit": unit}
     spec = args.grid.strip()
     pitch = {"pitch_x_mm": args.pitch_x_mm, "pitch_z_mm": args.pitch_z_mm}
-    if spec == "tips":
-        return {"grid": "tips", "material_array": args.material_array, "upper": args.upper, "lower": args.lower, **pitch}
+    if spec in ("tips", "bases"):
+        return {"grid": spec, "material_array": args.material_array, "upper": args.upper, "lower": args.lower, **pitch}
     if spec.startswith("y="):
         try:
             y = float(spec[2:])
@@ -186,7 +186,7 @@ def _receptors_table(args) -> dict:
 
             y, unit = y * length_factor(unit), "m"
         return {"grid": "regular", f"y_{unit}": y, **pitch}
-    raise ValueError(f"--grid must be 'tips' or 'y=H'; got {args.grid!r} instead.")
+    raise ValueError(f"--grid must be 'tips', 'bases' or 'y=H'; got {args.grid!r} instead.")
 
 
 def _synthesis_table(args) -> dict:

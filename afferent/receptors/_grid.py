@@ -1,4 +1,5 @@
-"""A regular receptor grid: one papilla row per fingerprint ridge (:func:`grid_layout`), positions in m.
+"""A regular receptor grid: one papilla row (RA-I) or one ridge-base row (SA-I) per fingerprint ridge
+(:func:`grid_layout`), positions in m.
 """
 
 from __future__ import annotations
@@ -8,7 +9,7 @@ import numbers
 import numpy as np
 
 from .._validation import check_positive, plain
-from ._layout import ReceptorLayout
+from ._layout import SITE_OF_KIND, ReceptorLayout
 
 # --------------------------------------------------------------------------------------
 # Layout generators: a regular ridge/papilla grid, and papilla tips found on an FE mesh
@@ -84,12 +85,20 @@ def grid_layout(
     pitch_x: float = RIDGE_PITCH_M,
     pitch_z: float = PAPILLA_PITCH_M,
     origin=None,
+    kind: str = "tips",
 ) -> ReceptorLayout:
-    """Receptors on the study's regular ridge/papilla grid (:ref:`method-fe-model`).
+    """Receptors on the study's regular ridge/papilla grid (:ref:`method-receptor-sites`).
 
-    Receptor (i, j) sits at ``x = x0 + i * pitch_x`` (i-th papilla row, one per fingerprint
-    ridge) and ``z = z0 + j * pitch_z`` (j-th papilla along the ridge), for every grid point
-    inside ``x_range`` x ``z_range``, at height ``y``.
+    The grid is the lattice of papilla tips: point (i, j) at ``x = x0 + i * pitch_x`` (i-th
+    papilla row, one per fingerprint ridge) and ``z = z0 + j * pitch_z`` (j-th papilla along
+    the ridge). ``kind`` says which sites are placed on it, for every point inside
+    ``x_range`` x ``z_range``, at height ``y``:
+
+    * ``'tips'`` (RA-I): at the lattice points, ``x = x0 + i * pitch_x``;
+    * ``'bases'`` (SA-I): on the intermediate ridges, which lie under the surface ridges with
+      the papilla rows beside them, half a ridge pitch across x from the papilla rows:
+      ``x = x0 + (i + 1/2) * pitch_x``, at the same z as the papillae (one base site opposite
+      each papilla).
 
     Parameters
     ----------
@@ -107,13 +116,17 @@ def grid_layout(
     pitch_z : float, default=0.22e-3
         Grid pitch along z in m (papilla pitch along a ridge).
     origin : tuple of float, optional
-        ``(x0, z0)`` in m: a point of the grid, which fixes its phase. Default: the grid is
-        centred on the ranges (as many points as fit, with equal margins at both ends).
+        ``(x0, z0)`` in m: a point of the papilla-tip lattice, which fixes its phase (for
+        ``kind='bases'`` too: the base rows are then at ``x0 + pitch_x / 2 + i * pitch_x``).
+        Default: the tip lattice is centred on the ranges (as many points as fit, with equal
+        margins at both ends), and the base rows are half a pitch from its rows.
+    kind : {'tips', 'bases'}, default='tips'
+        Papilla tips (RA-I sites) or intermediate-ridge bases (SA-I sites).
 
     Returns
     -------
     ReceptorLayout
-        Receptors ordered by i (x) then j (z). Section labels are the grid indices:
+        Receptors ordered by i (x) then j (z), ``site`` 'RA-I' (tips) or 'SA-I' (bases). Section labels are the grid indices:
         ``longitudinal = i`` (the line at one x, parallel to the ridges) and ``cross = j``,
         both counted from 0 at the smallest x and z inside the ranges. Ids are
         ``'L{i}C{j}'`` with i and j zero-padded to a common width, e.g. ``'L3C07'`` is the
@@ -131,7 +144,7 @@ def grid_layout(
 
     See Also
     --------
-    interface_tips : the papilla tips of an FE mesh, where the model put them.
+    interface_sites : the papilla tips or ridge bases of an FE mesh, where the model put them.
     read_receptors : receptor sites from a CSV file.
 
     Examples
@@ -143,7 +156,12 @@ def grid_layout(
     ['L0C0', 'L0C1', 'L0C2', 'L1C0']
     >>> layout.positions[4] * 1e3  # mm
     array([0.44, 2.45, 0.22])
+    >>> bases = grid_layout(x_range=(0.0, 0.88e-3), z_range=(0.0, 0.44e-3), y=2.3e-3, kind="bases")
+    >>> bases.site, (bases.positions[:, 0] * 1e3).round(2).tolist()[::3]
+    ('SA-I', [0.22, 0.66])
     """
+    if kind not in SITE_OF_KIND:
+        raise ValueError(f"'kind' must be 'tips' or 'bases'; got {kind!r} instead.")
     xlo, xhi = _check_range("x_range", x_range)
     zlo, zhi = _check_range("z_range", z_range)
     pitch_x = check_positive("pitch_x", pitch_x, unit="m")
@@ -172,7 +190,12 @@ def grid_layout(
             f"{float(pitch_z)!r} m, about {n_x * n_z:.3g} points, "
             "instead. Ranges and pitches are in m: pass 4e-3, not 4, for 4 mm."
         )
-    xs = _axis_lines("x", xlo, xhi, pitch_x, x0)
+    if kind == "bases" and x0 is not None:  # the ridge rows: half a ridge pitch from the papilla rows
+        xs = _axis_lines("x", xlo, xhi, pitch_x, x0 + 0.5 * pitch_x)
+    else:
+        xs = _axis_lines("x", xlo, xhi, pitch_x, x0)
+        if kind == "bases":
+            xs = _axis_lines("x", xlo, xhi, pitch_x, xs[0] - 0.5 * pitch_x)
     zs = _axis_lines("z", zlo, zhi, pitch_z, z0)
     ii, jj = (a.ravel() for a in np.meshgrid(np.arange(xs.size), np.arange(zs.size), indexing="ij"))
     x, z = xs[ii], zs[jj]
@@ -193,4 +216,4 @@ def grid_layout(
     else:
         heights = np.full(x.shape, float(y))
     positions = np.column_stack([x, heights, z])
-    return ReceptorLayout(positions, _grid_ids(ii, jj), longitudinal=ii, cross=jj)
+    return ReceptorLayout(positions, _grid_ids(ii, jj), longitudinal=ii, cross=jj, site=SITE_OF_KIND[kind])

@@ -22,6 +22,25 @@ from ..units import length_factor
 SECTION_TOLERANCE_M = 20e-6
 
 
+#: What receptor sites can be (:attr:`ReceptorLayout.site`): dermal-papilla tips (RA-I,
+#: Meissner corpuscles), bases of the intermediate ridges (SA-I, Merkel cells), or positions
+#: as given (a receptor file or an array). See :ref:`method-receptor-sites`.
+SITE_KINDS = ("RA-I", "SA-I", "file")
+#: The site kind of each ``kind`` of :func:`interface_sites` and :func:`grid_layout`.
+SITE_OF_KIND = {"tips": "RA-I", "bases": "SA-I"}
+_SITE_WORDS = {"RA-I": "RA-I sites (dermal-papilla tips, Meissner corpuscles)",
+               "SA-I": "SA-I sites (intermediate-ridge bases, Merkel cells)",
+               "file": "sites as given (a receptor file: no site rule)"}
+
+
+def describe_sites(layout: "ReceptorLayout") -> str:
+    """One line: how many sites, what they are, where (mm), e.g. for ``afferent info --receptors``."""
+    lo, hi = layout.positions.min(axis=0) * 1e3, layout.positions.max(axis=0) * 1e3
+    src = f" from {layout.source}" if layout.source else ""
+    return (f"receptor sites: {layout.n_receptors} {_SITE_WORDS[layout.site]}{src}; x [{lo[0]:.4g}, {hi[0]:.4g}], "
+            f"y [{lo[1]:.4g}, {hi[1]:.4g}], z [{lo[2]:.4g}, {hi[2]:.4g}] mm")
+
+
 #: Largest section label: labels index arrays of ``max label + 1`` entries
 #: (:meth:`ReceptorLayout.section_positions`), and no fingertip has a million ridges.
 MAX_SECTION_LABEL = 999_999
@@ -94,6 +113,12 @@ class ReceptorLayout:
         Grouping tolerance in m used when sections are computed.
     source : str, optional
         The receptor file the sites were read from (named in error messages), or None.
+    site : {'file', 'RA-I', 'SA-I'}, default='file'
+        What the sites are (:data:`SITE_KINDS`): ``'RA-I'`` dermal-papilla tips (Meissner
+        corpuscles; :func:`interface_sites` ``kind='tips'``, :func:`grid_layout` papilla rows),
+        ``'SA-I'`` bases of the intermediate ridges (Merkel cells; ``kind='bases'``), ``'file'``
+        positions taken as given (a receptor file or an array) with no anatomical rule.
+        Recorded in run.json and shown by ``afferent info --receptors``.
     """
 
     positions: np.ndarray
@@ -102,8 +127,11 @@ class ReceptorLayout:
     cross: np.ndarray | None = None
     tol: float = SECTION_TOLERANCE_M
     source: str | None = None
+    site: str = "file"
 
     def __post_init__(self):
+        if self.site not in SITE_KINDS:
+            raise ValueError(f"'site' must be one of {', '.join(map(repr, SITE_KINDS))}; got {self.site!r} instead.")
         pos = check_finite_array("positions", self.positions, ndim=2, shape_doc="(n_receptors, 3) in metres")
         if pos.shape[1] != 3:
             raise ValueError(
@@ -156,7 +184,8 @@ class ReceptorLayout:
         """The layout restricted to ``mask`` (bool array or indices); section labels are kept."""
         idx = np.arange(self.n_receptors)[mask]
         return ReceptorLayout(
-            self.positions[idx], self.ids[idx], self.longitudinal[idx], self.cross[idx], tol=self.tol, source=self.source
+            self.positions[idx], self.ids[idx], self.longitudinal[idx], self.cross[idx], tol=self.tol, source=self.source,
+            site=self.site,
         )
 
     def __len__(self) -> int:
@@ -164,7 +193,7 @@ class ReceptorLayout:
 
     def __repr__(self) -> str:
         return (
-            f"<ReceptorLayout: {self.n_receptors} receptors, "
+            f"<ReceptorLayout: {self.n_receptors} {self.site} sites, "
             f"{len(np.unique(self.longitudinal))} longitudinal sections, {len(np.unique(self.cross))} cross-sections>"
         )
 

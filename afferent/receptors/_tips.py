@@ -1,6 +1,9 @@
-"""Papilla tips found on an FE mesh: the dermis-epidermis interface and its local maxima (:func:`interface_tips`).
+"""Receptor sites found on an FE mesh: the epidermis/dermis interface and its local extremes (:func:`interface_sites`).
 
-:func:`tips_from_export` reads the mesh from an FE export first. Positions in m.
+Papilla tips (RA-I) are its local maxima, intermediate-ridge bases (SA-I) its local minima:
+one window search with a direction (``kind``). :func:`sites_from_export` reads the mesh from an
+FE export first; :func:`interface_tips` and :func:`tips_from_export` are the ``kind='tips'``
+forms. Positions in m.
 """
 
 from __future__ import annotations
@@ -14,13 +17,14 @@ from .._validation import check_finite_array, check_positive, plain, suggest
 from ..exceptions import SEDFormatError
 from ..units import length_factor
 from ._grid import PAPILLA_PITCH_M, RIDGE_PITCH_M, _check_range, _grid_ids
-from ._layout import SECTION_TOLERANCE_M, ReceptorLayout, group_coordinates
+from ._layout import SECTION_TOLERANCE_M, SITE_OF_KIND, ReceptorLayout, group_coordinates
 
 #: Default coordinate noise in m tolerated by :func:`interface_tips` (exported coordinates
 #: rounded to a few digits, jittered node positions): 1 um, 1/220 of the papilla pitch.
 COORDINATE_NOISE_M = 1e-6
 #: Default smallest height in m by which a papilla tip must rise above the lowest interface
-#: node of its window: 10 um, a tenth of a 0.1 mm papilla and ten times the default noise.
+#: node of its window (a ridge base sink below the highest): 10 um, a tenth of a 0.1 mm
+#: papilla and ten times the default noise.
 MIN_PROMINENCE_M = 10e-6
 
 
@@ -40,7 +44,11 @@ def _cell_nodes(cells, n_points: int):
     from ..field import Cells
 
     if isinstance(cells, Cells):
-        return cells.tetra, cells.parent, cells.n_cells
+        if not cells.nodes:
+            return cells.tetra, cells.parent, cells.n_cells
+        width = max(n.shape[1] for n in cells.nodes)  # full connectivity: quadratic cells' midside nodes count
+        rows = np.vstack([np.pad(n, ((0, 0), (0, width - n.shape[1])), constant_values=-1) for n in cells.nodes])
+        return rows, np.arange(cells.n_cells), cells.n_cells
     conn = np.asarray(cells)
     if conn.ndim != 2 or conn.shape[0] == 0 or not np.issubdtype(conn.dtype, np.integer):
         raise TypeError(
@@ -135,13 +143,108 @@ def interface_nodes(points, cells, cell_material, *, upper, lower, noise: float 
     return nodes
 
 
-def interface_tips(
+#: The two kinds of site :func:`interface_sites` finds, and the extreme each is.
+SITE_KINDS_ON_MESH = {"tips": "papilla tips", "bases": "intermediate-ridge bases"}
+
+
+def _interface_graph(rows, nodes: np.ndarray, n_points: int):
+    """Sparse symmetric adjacency of the interface nodes (local indices): two nodes are linked when a cell holds both."""
+    from scipy.sparse import coo_matrix
+
+    local = np.full(n_points + 1, -1)
+    local[nodes] = np.arange(nodes.size)
+    loc = local[np.where(rows >= 0, rows, n_points)]
+    loc = loc[(loc >= 0).sum(axis=1) >= 2]
+    a, b = [], []
+    for i in range(loc.shape[1]):
+        for j in range(i + 1, loc.shape[1]):
+            ok = (loc[:, i] >= 0) & (loc[:, j] >= 0) & (loc[:, i] != loc[:, j])
+            a.append(loc[ok, i])
+            b.append(loc[ok, j])
+    a, b = np.concatenate(a + [np.zeros(0, int)]), np.concatenate(b + [np.zeros(0, int)])
+    m = nodes.size
+    return coo_matrix((np.ones(2 * a.size, bool), (np.r_[a, b], np.r_[b, a])), shape=(m, m)).tocsr()
+
+
+def _tops(graph, h: np.ndarray, candidate: np.ndarray, noise: float) -> list[np.ndarray]:
+    """The flat tops holding candidates: groups of nodes linked by mesh neighbours within ``noise`` of each other's
+    height ``h`` (m), cut to the nodes within ``noise`` of the group's extreme; local indices, extreme groups first."""
+    from scipy.sparse.csgraph import connected_components
+
+    coo = graph.tocoo()
+    level = np.abs(h[coo.row] - h[coo.col]) <= noise
+    flat = graph.__class__((np.ones(level.sum(), bool), (coo.row[level], coo.col[level])), shape=graph.shape)
+    _, label = connected_components(flat, directed=False)
+    peak = np.full(label.max() + 1, -np.inf)
+    np.maximum.at(peak, label, h)
+    in_top = h >= peak[label] - noise
+    wanted = np.unique(label[candidate & in_top])
+    idx = np.flatnonzero(in_top & np.isin(label, wanted))
+    idx = idx[np.lexsort((idx, label[idx]))]
+    groups = np.split(idx, np.flatnonzero(np.diff(label[idx])) + 1) if idx.size else []
+    return sorted(groups, key=lambda g: -peak[label[g[0]]])
+
+
+def _sites_on_top(top: np.ndarray, x, z, pitch_z: float, noise: float) -> np.ndarray:
+    """Site nodes on one flat top (local indices): its centre across x; along z one site, or one per ``pitch_z``
+    (m) centred on the top's length when the top is a ridge line; each the top node nearest the aimed point."""
+    xc = 0.5 * (x[top].min() + x[top].max())
+    z0, z1 = z[top].min(), z[top].max()
+    n = int(np.floor((z1 - z0) / pitch_z + 1e-9)) + 1
+    aims = 0.5 * (z0 + z1) + (np.arange(n) - 0.5 * (n - 1)) * pitch_z
+    picked = []
+    for zt in aims:
+        dist = np.hypot(x[top] - xc, z[top] - zt)
+        near = top[dist <= dist.min() + noise]
+        picked.append(near[np.lexsort((z[near], x[near]))[0]])  # ties: smaller x, then z
+    return np.unique(picked)
+
+
+def _interior(sites: np.ndarray, x, z, pitch_x: float, pitch_z: float, noise: float) -> np.ndarray:
+    """``sites`` with an interface node on each side (x below, x above, z below, z above) within one pitch."""
+    from scipy.spatial import cKDTree
+
+    if sites.size == 0:
+        return sites
+    reach = np.column_stack([x / (pitch_x + noise), z / (pitch_z + noise)])
+    near = cKDTree(reach).query_ball_point(reach[sites], 1.0, p=np.inf)
+    keep = np.ones(sites.size, bool)
+    for k, (n, nb) in enumerate(zip(sites, near)):
+        dx, dz = x[nb] - x[n], z[nb] - z[n]
+        keep[k] = (dx < -noise).any() and (dx > noise).any() and (dz < -noise).any() and (dz > noise).any()
+    return sites[keep]
+
+
+def _no_sites_error(kind, upper, lower, min_prominence, pitch_x, pitch_z, ranges, pts, floors) -> ValueError:
+    """The error for an interface without sites: what was asked, the interface's extent, the flat tops refused."""
+    lo, hi = pts.min(axis=0), pts.max(axis=0)
+    what = "highs rising" if kind == "tips" else "lows sinking"
+    msg = (
+        f"The interface between materials upper={upper!r} and lower={lower!r} must have {SITE_KINDS_ON_MESH[kind]} "
+        f"({what} >= {min_prominence!r} m within pitch {pitch_x!r} x {pitch_z!r} m windows"
+        f"{' inside the given ranges' if any(r is not None for r in ranges) else ''}); got none on its "
+        f"{pts.shape[0]} nodes, spanning x [{lo[0]:.4g}, {hi[0]:.4g}], y [{lo[1]:.4g}, {hi[1]:.4g}], "
+        f"z [{lo[2]:.4g}, {hi[2]:.4g}] m, instead."
+    )
+    if floors:
+        width, y = max(floors)
+        side = ("highest", "top") if kind == "tips" else ("lowest", "base")
+        msg += (
+            f" Its {side[0]} nodes form {len(floors)} flat stretch(es) wider across x than half the ridge pitch "
+            f"({0.5 * pitch_x!r} m; the widest {width:.4g} m, at y = {y:.4g} m): a flat {side[1]}, not "
+            f"{SITE_KINDS_ON_MESH[kind]}."
+        )
+    return ValueError(msg + " Points must be in m.")
+
+
+def interface_sites(
     points,
     cells,
     cell_material,
     *,
     upper,
     lower,
+    kind: str = "tips",
     pitch_x: float = RIDGE_PITCH_M,
     pitch_z: float = PAPILLA_PITCH_M,
     x_range=None,
@@ -151,34 +254,43 @@ def interface_tips(
     keep_edge: bool = False,
     tol: float = SECTION_TOLERANCE_M,
 ) -> ReceptorLayout:
-    """Find the dermal-papilla tips (RA-I sites) on the epidermis/dermis interface of an FE mesh.
+    """Find receptor sites on the epidermis/dermis interface of an FE mesh: papilla tips or ridge bases.
 
     The interface is the set of nodes shared by an ``upper`` (epidermis) cell and a
-    ``lower`` (dermis) cell (see :func:`interface_nodes`). A papilla tip is a local high
-    (largest y) of that surface:
+    ``lower`` (dermis) cell (see :func:`interface_nodes`). ``kind`` says which extreme of
+    that surface is sought (see :ref:`method-receptor-sites`):
+
+    * ``'tips'``: the dermal-papilla tips, local highs (largest y), the RA-I (Meissner) sites;
+    * ``'bases'``: the bases of the intermediate ridges, local lows (smallest y; the epidermis
+      reaching deepest into the dermis under each fingerprint ridge), the SA-I (Merkel) sites.
+
+    Below, "height" is y for tips and -y for bases; the search is otherwise the same:
 
     1. *Window.* Every interface node n gets the window ``|x - x_n| <= pitch_x / 2 + noise``,
-       ``|z - z_n| <= pitch_z / 2 + noise`` of half the papilla pitch each way.
-    2. *Local high.* n is a candidate when no interface node in its window is higher than
-       ``y_n + noise`` and n rises at least ``min_prominence`` above the lowest node of its
-       window (flat stretches and isolated nodes are not highs).
-    3. *One tip per papilla.* Candidates are taken from the highest down; one is kept unless
-       an already-kept tip lies in its window (non-maximum suppression), which merges a
-       flat-topped papilla or noise-level ties into a single node.
-    4. *Edges.* Unless ``keep_edge``, a tip is dropped when there is no interface node on
+       ``|z - z_n| <= pitch_z / 2 + noise`` of half the pitch each way.
+    2. *Local extreme.* n is a candidate when no interface node in its window is higher than
+       its height + ``noise`` and n rises at least ``min_prominence`` above the lowest node of
+       its window (isolated nodes, and flat stretches far from any relief, are not extremes).
+    3. *Flat tops.* Interface nodes linked through mesh cells with heights within ``noise`` of
+       each other form a flat group; its *top* is the nodes within ``noise`` of the group's
+       highest. A top wider across x than half the ridge pitch (``pitch_x / 2``) is a flat
+       floor (or ceiling), not an apex: it gives no site. This refuses, e.g., a flat base
+       between papilla bumps, where every node is an equally low "base".
+    4. *Sites on a top.* The site is the top node nearest the top's centre (middle of its x
+       and z extents; ties to smaller x, then z). A top longer along z than one ``pitch_z`` (a
+       ridge that runs along z, e.g. a trapezoid-apexed intermediate ridge, or the papilla
+       ridges of a 2-D ridged model) gets one site per ``pitch_z``, centred on its length.
+    5. *Edges.* Unless ``keep_edge``, a site is dropped when there is no interface node on
        one of its sides (x below, x above, z below or z above) within one pitch: it lies on
-       the boundary of the interface, and is the high of a papilla cut by the block's side
-       face, not an apex. (One pitch, not half: a coarse mesh may have no node within half a
-       pitch on one side of an interior tip.)
-    5. *Ranges.* Tips outside ``x_range`` / ``z_range`` are dropped last, so windows near
+       the boundary of the interface (a papilla or ridge cut by the block's side face).
+    6. *One site per window.* Sites are taken from the highest down; one is kept unless an
+       already-kept site lies in its window (noise-level ties of separate tops).
+    7. *Ranges.* Sites outside ``x_range`` / ``z_range`` are dropped last, so windows near
        the range ends still see their whole neighbourhood.
 
     Why a window search and not fixed grid cells: it needs no grid phase (origin), does not
-    return a "high" on the flank of a papilla cut by a cell boundary, finds papillae that
-    are off the nominal grid, and returns nothing where the interface is flat. With tips on
-    a grid of the given pitches, a window of half a pitch is the smallest that contains,
-    for every node, the apex of its own papilla, and the largest that never contains two
-    apexes; so the result is exactly the apexes.
+    return an extreme on the flank of a papilla cut by a cell boundary, finds papillae and
+    ridges that are off the nominal grid, and returns nothing where the interface is flat.
 
     Parameters
     ----------
@@ -187,57 +299,65 @@ def interface_tips(
         the ridges.
     cells : Cells or ndarray of shape (n_cells, n_nodes_per_cell), int
         The mesh's volume cells: an :class:`afferent.field.Cells` (the cells of a read
-        export: the nodes of FE cell c are those of the tetrahedra whose ``parent`` is c) or a
-        plain connectivity array with one row of point indices per FE cell (negative entries
-        are padding, for mixed cell types).
+        export; its full connectivity, midside nodes included, when it has one) or a plain
+        connectivity array with one row of point indices per FE cell (negative entries are
+        padding, for mixed cell types).
     cell_material : array_like of shape (n_cells,)
         Material (layer) id of each FE cell.
     upper, lower : int or sequence of int
         Material id(s) above the interface (epidermis) and below it (dermis).
+    kind : {'tips', 'bases'}, default='tips'
+        Papilla tips (RA-I sites) or intermediate-ridge bases (SA-I sites).
     pitch_x : float, default=0.44e-3
-        Papilla pitch along x in m (one row per fingerprint ridge).
+        Ridge pitch along x in m (one papilla row and one intermediate ridge per fingerprint ridge).
     pitch_z : float, default=0.22e-3
-        Papilla pitch along z in m.
+        Papilla pitch along z in m; also the spacing of sites along a ridge line.
     x_range, z_range : tuple of float, optional
-        ``(min, max)`` in m: keep only tips inside (ends included, to ``noise``).
+        ``(min, max)`` in m: keep only sites inside (ends included, to ``noise``).
     noise : float, default=1e-6
         Coordinate noise in m: heights within ``noise`` are ties, window edges are widened by
         it, duplicated interface nodes within it are merged.
     min_prominence : float, default=10e-6
-        Smallest height in m by which a tip must rise above the lowest interface node of its
-        window; keep it above the height noise and below the papilla height.
+        Smallest height in m by which a site must stand out from the opposite extreme of its
+        window; keep it above the height noise and below the papilla or ridge height.
     keep_edge : bool, default=False
-        Keep highs on the boundary of the interface (cut papillae).
+        Keep extremes on the boundary of the interface (cut papillae and ridges).
     tol : float, default=20e-6
         Section-grouping tolerance in m (:func:`group_coordinates`).
 
     Returns
     -------
     ReceptorLayout
-        Tip positions (the interface nodes' coordinates, m), ordered by longitudinal section
-        then cross-section. Sections are grouped from the coordinates with ``tol``
-        (longitudinal by x, cross by z, numbered from 0 in increasing coordinate); ids are
-        ``'L{longitudinal}C{cross}'`` as in :func:`grid_layout` (a second tip with the same pair,
-        possible only for irregular tips, gets ``'.1'``).
+        Site positions (the interface nodes' coordinates, m), ordered by longitudinal section
+        then cross-section, with ``site`` 'RA-I' (tips) or 'SA-I' (bases). Sections are grouped
+        from the coordinates with ``tol`` (longitudinal by x, cross by z, numbered from 0 in
+        increasing coordinate); ids are ``'L{longitudinal}C{cross}'`` as in :func:`grid_layout`
+        (a second site with the same pair, possible only for irregular sites, gets ``'.1'``).
 
     Raises
     ------
     TypeError, ValueError
-        Bad shapes, types or ranges; materials absent or not touching; no tip found (the
-        message gives the interface's extent, to spot points in mm instead of m).
+        Bad shapes, types, ``kind`` or ranges; materials absent or not touching; no site found
+        (the message gives the interface's extent, to spot points in mm instead of m, and the
+        flat stretches refused).
 
     See Also
     --------
-    tips_from_export : the same, reading the mesh and its material ids from an export file.
+    interface_tips : the same with ``kind='tips'``.
+    sites_from_export : the same, reading the mesh and its material ids from an export file.
     grid_layout : a regular grid of receptors, without a mesh.
 
     Examples
     --------
-    >>> layout = interface_tips(field_points, raw.cells, layer, upper=1, lower=2)  # doctest: +SKIP
+    >>> bases = interface_sites(field_points, raw.cells, layer, upper=1, lower=2, kind="bases")  # doctest: +SKIP
+    >>> bases.site  # doctest: +SKIP
+    'SA-I'
     """
     from scipy.sparse import coo_matrix
     from scipy.spatial import cKDTree
 
+    if kind not in SITE_OF_KIND:
+        raise ValueError(f"'kind' must be 'tips' or 'bases'; got {kind!r} instead.")
     pitch_x = check_positive("pitch_x", pitch_x, unit="m")
     pitch_z = check_positive("pitch_z", pitch_z, unit="m")
     noise = check_positive("noise", noise, unit="m", strict=False)
@@ -247,68 +367,76 @@ def interface_tips(
     nodes = interface_nodes(points, cells, cell_material, upper=upper, lower=lower, noise=noise)
     pts = np.asarray(points, dtype=float)[nodes]
     x, y, z = pts.T
+    h = y if kind == "tips" else -y
     # Chebyshev distance 1 in these scaled coordinates = the window's edge.
     scaled = np.column_stack([x / (0.5 * pitch_x + noise), z / (0.5 * pitch_z + noise)])
     pairs = cKDTree(scaled).query_pairs(1.0, p=np.inf, output_type="ndarray")
     a = np.concatenate([pairs[:, 0], pairs[:, 1]])
     b = np.concatenate([pairs[:, 1], pairs[:, 0]])  # b is in the window of a
     m = nodes.size
-    w_max = np.full(m, -np.inf)
-    w_min = np.full(m, np.inf)
-    np.maximum.at(w_max, a, y[b])
-    np.minimum.at(w_min, a, y[b])
-    candidate = (y >= w_max - noise) & (y - w_min >= max(min_prominence, np.finfo(float).tiny))
-    cand = np.flatnonzero(candidate)
-    if not keep_edge and cand.size:
-        # On the boundary of the interface: no interface node on one side within one pitch.
-        reach = np.column_stack([x / (pitch_x + noise), z / (pitch_z + noise)])
-        near = cKDTree(reach).query_ball_point(reach[cand], 1.0, p=np.inf)
-        interior = np.ones(cand.size, bool)
-        for k, (n, nb) in enumerate(zip(cand, near)):
-            dx, dz = x[nb] - x[n], z[nb] - z[n]
-            interior[k] = (dx < -noise).any() and (dx > noise).any() and (dz < -noise).any() and (dz > noise).any()
-        cand = cand[interior]
-    cand = cand[np.lexsort((z[cand], x[cand], -y[cand]))]  # highest first; ties by x, then z
+    w_max, w_min = np.full(m, -np.inf), np.full(m, np.inf)
+    np.maximum.at(w_max, a, h[b])
+    np.minimum.at(w_min, a, h[b])
+    candidate = (h >= w_max - noise) & (h - w_min >= max(min_prominence, np.finfo(float).tiny))
+    sites, floors = [], []
+    if candidate.any():
+        rows = _cell_nodes(cells, np.asarray(points).shape[0])[0]
+        for top in _tops(_interface_graph(rows, nodes, np.asarray(points).shape[0]), h, candidate, noise):
+            width = np.ptp(x[top])
+            if width > 0.5 * pitch_x + noise:
+                floors.append((width, float(y[top].mean())))
+            else:
+                sites.append(_sites_on_top(top, x, z, pitch_z, noise))
+    sites = np.concatenate(sites) if sites else np.zeros(0, int)
+    if not keep_edge:
+        sites = _interior(sites, x, z, pitch_x, pitch_z, noise)
+    sites = sites[np.lexsort((z[sites], x[sites], -h[sites]))]  # highest first; ties by x, then z
     window = coo_matrix((np.ones(a.size, bool), (a, b)), shape=(m, m)).tocsr()
     kept = np.zeros(m, bool)
-    for n in cand:
+    for n in sites:
         if not kept[window.indices[window.indptr[n]:window.indptr[n + 1]]].any():
             kept[n] = True
-    tips = np.flatnonzero(kept)
+    found = np.flatnonzero(kept)
     for axis, rng in zip((0, 2), ranges):
         if rng is not None:
-            c = pts[tips, axis]
-            tips = tips[(c >= rng[0] - noise) & (c <= rng[1] + noise)]
-    if tips.size == 0:
-        lo, hi = pts.min(axis=0), pts.max(axis=0)
-        raise ValueError(
-            f"The interface between materials upper={upper!r} and lower={lower!r} must have papilla tips "
-            f"(highs rising >= {min_prominence!r} m within pitch {pitch_x!r} x {pitch_z!r} m windows"
-            f"{' inside the given ranges' if any(r is not None for r in ranges) else ''}); got none on its "
-            f"{nodes.size} nodes, spanning x [{lo[0]:.4g}, {hi[0]:.4g}], y [{lo[1]:.4g}, {hi[1]:.4g}], "
-            f"z [{lo[2]:.4g}, {hi[2]:.4g}] m, instead. Points must be in m."
-        )
-    tip_pts = pts[tips]
-    lon, _ = group_coordinates(tip_pts[:, 0], tol)
-    crs, _ = group_coordinates(tip_pts[:, 2], tol)
-    order = np.lexsort((tip_pts[:, 2], tip_pts[:, 0], crs, lon))
-    lon, crs, tip_pts = lon[order], crs[order], tip_pts[order]
-    return ReceptorLayout(tip_pts, _grid_ids(lon, crs), longitudinal=lon, cross=crs, tol=tol)
+            c = pts[found, axis]
+            found = found[(c >= rng[0] - noise) & (c <= rng[1] + noise)]
+    if found.size == 0:
+        raise _no_sites_error(kind, upper, lower, min_prominence, pitch_x, pitch_z, ranges, pts, floors)
+    site_pts = pts[found]
+    lon, _ = group_coordinates(site_pts[:, 0], tol)
+    crs, _ = group_coordinates(site_pts[:, 2], tol)
+    order = np.lexsort((site_pts[:, 2], site_pts[:, 0], crs, lon))
+    lon, crs, site_pts = lon[order], crs[order], site_pts[order]
+    return ReceptorLayout(site_pts, _grid_ids(lon, crs), longitudinal=lon, cross=crs, tol=tol, site=SITE_OF_KIND[kind])
 
 
-def tips_from_export(
+def interface_tips(points, cells, cell_material, *, upper, lower, **kwargs) -> ReceptorLayout:
+    """The dermal-papilla tips (RA-I sites) of an FE mesh: :func:`interface_sites` with ``kind='tips'``.
+
+    Parameters and result as :func:`interface_sites` (positions in m; ``site`` is 'RA-I').
+
+    Examples
+    --------
+    >>> layout = interface_tips(field_points, raw.cells, layer, upper=1, lower=2)  # doctest: +SKIP
+    """
+    return interface_sites(points, cells, cell_material, upper=upper, lower=lower, kind="tips", **kwargs)
+
+
+def sites_from_export(
     path,
     *,
     length_unit: str,
     material_array: str = "layer",
     upper,
     lower,
+    kind: str = "tips",
     **kwargs,
 ) -> ReceptorLayout:
-    """Papilla tips (RA-I sites) of an FE export whose cells carry material (layer) ids.
+    """Papilla tips (RA-I) or intermediate-ridge bases (SA-I) of an FE export whose cells carry material ids.
 
     Reads the mesh with :func:`afferent.io.read_raw`, converts its points to m and calls
-    :func:`interface_tips`.
+    :func:`interface_sites`; a ``ValueError`` from it (no site found, materials absent) names the file.
 
     Parameters
     ----------
@@ -322,8 +450,10 @@ def tips_from_export(
     upper, lower : int or sequence of int
         Material id(s) above (epidermis) and below (dermis) the interface, e.g. ``upper=1,
         lower=2`` for the sample exports (1 epidermis, 2 dermis, 3 subcutis).
+    kind : {'tips', 'bases'}, default='tips'
+        Papilla tips (RA-I sites) or intermediate-ridge bases (SA-I sites).
     **kwargs
-        Passed to :func:`interface_tips`: ``pitch_x``, ``pitch_z``, ``x_range``, ``z_range``,
+        Passed to :func:`interface_sites`: ``pitch_x``, ``pitch_z``, ``x_range``, ``z_range``,
         ``noise``, ``min_prominence``, ``keep_edge``, ``tol`` (lengths in m).
 
     Returns
@@ -341,14 +471,15 @@ def tips_from_export(
     UnitError
         If ``length_unit`` is unknown or contradicts the unit the file states.
     ValueError
-        See :func:`interface_tips`.
+        See :func:`interface_sites`; the message starts with ``Export '<path>':``.
 
     Examples
     --------
-    >>> tips = tips_from_export("sample_sed/block4/indent_0p88mm.vtu", length_unit="mm",
+    >>> tips = sites_from_export("sample_sed/block4/indent_0p88mm.vtu", length_unit="mm",
     ...                         upper=1, lower=2)  # doctest: +SKIP
     >>> tips.n_receptors  # doctest: +SKIP
     153
+    >>> sites_from_export("ridged.vtu", length_unit="mm", upper=1, lower=2, kind="bases")  # doctest: +SKIP
     """
     from ..exceptions import UnitError
     from ..io import read_raw
@@ -363,7 +494,8 @@ def tips_from_export(
         )
     if raw.cells is None or raw.points is None:
         raise SEDFormatError(
-            f"Export {path!r} must have volume cells to find papilla tips on; got none (a point table?) instead."
+            f"Export {path!r} must have volume cells to find {SITE_KINDS_ON_MESH.get(kind, 'receptor sites')} on; "
+            "got none (a point table?) instead."
         )
     cell_arrays = {arr.name: arr for arr in raw.arrays.values() if arr.location == "cell"}
     if material_array not in cell_arrays:
@@ -380,4 +512,21 @@ def tips_from_export(
         )
     if values.shape[0] > 1 and not np.all(values == values[:1]):
         raise SEDFormatError(f"Export {path!r}: cell array {material_array!r} must not change between time steps.")
-    return interface_tips(raw.points * factor, raw.cells, values[0], upper=upper, lower=lower, **kwargs)
+    try:
+        return interface_sites(raw.points * factor, raw.cells, values[0], upper=upper, lower=lower, kind=kind, **kwargs)
+    except ValueError as err:
+        raise ValueError(f"Export {path!r}: {err}") from err
+
+
+def tips_from_export(path, *, length_unit: str, material_array: str = "layer", upper, lower, **kwargs) -> ReceptorLayout:
+    """Papilla tips (RA-I sites) of an FE export: :func:`sites_from_export` with ``kind='tips'``.
+
+    Parameters and result as :func:`sites_from_export` (positions in m).
+
+    Examples
+    --------
+    >>> tips = tips_from_export("sample_sed/block4/indent_0p88mm.vtu", length_unit="mm",
+    ...                         upper=1, lower=2)  # doctest: +SKIP
+    """
+    return sites_from_export(path, length_unit=length_unit, material_array=material_array, upper=upper,
+                             lower=lower, kind="tips", **kwargs)

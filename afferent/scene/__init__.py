@@ -26,10 +26,12 @@ A full example, every key with its default (``#`` marks optional keys)::
     [receptors]                   # exactly one of file / grid
     file = "../block4/receptors.csv"
     length_unit = "mm"            # default: [export] length_unit
-    # grid = "tips"               # papilla tips on the export's epidermis/dermis interface
+    # grid = "tips"               # RA-I: papilla tips on the export's epidermis/dermis interface
     #   material_array = "layer", upper = 1, lower = 2, pitch_x_mm = 0.44, pitch_z_mm = 0.22
+    # grid = "bases"              # SA-I: intermediate-ridge bases on that interface (same keys)
     # grid = "regular"            # ridge/papilla grid at height y (x/z extent: the export's)
-    #   y_mm = 2.45, pitch_x_mm = 0.44, pitch_z_mm = 0.22, x_range_mm = [..], z_range_mm = [..], origin_mm = [x0, z0]
+    #   y_mm = 2.45, pitch_x_mm = 0.44, pitch_z_mm = 0.22, x_range_mm = [..], z_range_mm = [..], origin_mm = [x0, z0],
+    #   rows = "tips"             # papilla rows (RA-I), or "bases": ridge-base rows half a pitch across x (SA-I)
 
     [sampling]
     method = "linear"             # or "nearest"

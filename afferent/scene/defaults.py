@@ -8,7 +8,7 @@ from pathlib import Path
 
 from .._validation import suggest
 from .schema import (_FILE_KEYS, _GRID_DEFAULTS, _GRID_KEYS, _RAMP_DEFAULTS, _RAMP_KEYS, _SINE_KEYS, _TABLES,
-                     _TIPS_KEYS, OUTPUTS, Scene)
+                     _TIPS_KEYS, MESH_GRIDS, OUTPUTS, Scene)
 
 # -------------------------------------------------------------------------- resolving
 def _given(scene: Scene, table: str, name: str) -> str:
@@ -89,9 +89,9 @@ def _receptors(scene: Scene, o, err, ex):
     rec = _fill(raw)
     if (rec.file is None) == (rec.grid is None):
         raise err("receptors", None, "[receptors] must give exactly one of 'file' (a receptor CSV) and 'grid' "
-                  f"('tips' or 'regular'); got {'both' if rec.file else 'neither'} instead.")
+                  f"('tips', 'bases' or 'regular'); got {'both' if rec.file else 'neither'} instead.")
     if rec.file is not None:
-        extra = [_given(scene, "receptors", k) for k in _GRID_KEYS + _TIPS_KEYS if getattr(raw, k) is not None]
+        extra = [_given(scene, "receptors", k) for k in _GRID_KEYS + _TIPS_KEYS + ("rows",) if getattr(raw, k) is not None]
         if extra:
             raise err("receptors", extra[0], f"[receptors] {extra[0]!r} applies to a generated grid, not to a receptor "
                       "file; remove it or use grid = ... instead of file.")
@@ -106,18 +106,19 @@ def _receptors(scene: Scene, o, err, ex):
             raise err("receptors", "grid", "[receptors] grid = 'regular' needs the receptors' height: y_mm = H (or y_m).")
         bad = [_given(scene, "receptors", k) for k in _TIPS_KEYS if getattr(raw, k) is not None]
         if bad:
-            raise err("receptors", bad[0], f"[receptors] {bad[0]!r} applies to grid = 'tips', not 'regular'.")
-    else:  # tips
-        bad = [_given(scene, "receptors", k) for k in _GRID_KEYS[:4] if getattr(raw, k) is not None]
+            raise err("receptors", bad[0], f"[receptors] {bad[0]!r} applies to grid = 'tips' or 'bases', not 'regular'.")
+        rec = replace(rec, rows=rec.rows or "tips")
+    else:  # tips, bases: found on the export
+        bad = [_given(scene, "receptors", k) for k in _GRID_KEYS[:4] + ("rows",) if getattr(raw, k) is not None]
         if bad:
-            raise err("receptors", bad[0], f"[receptors] {bad[0]!r} applies to grid = 'regular', not 'tips' "
-                      "(use [region] to restrict the tips).")
+            raise err("receptors", bad[0], f"[receptors] {bad[0]!r} applies to grid = 'regular', not {rec.grid!r} "
+                      f"(use [region] to restrict the {rec.grid}).")
     if rec.grid is not None and raw.length_unit is not None:
         raise err("receptors", "length_unit", "[receptors] 'length_unit' applies to a receptor file; a grid takes "
                   "lengths with their unit in the key (y_mm, pitch_x_mm).")
     if rec.grid is not None:
         rec = replace(rec, **{k: _GRID_DEFAULTS[k] for k in ("pitch_x_m", "pitch_z_m") if getattr(rec, k) is None})
-    if rec.grid == "tips":
+    if rec.grid in MESH_GRIDS:
         rec = replace(rec, **{k: v for k, v in _GRID_DEFAULTS.items() if getattr(rec, k) is None})
     for name in ("pitch_x_m", "pitch_z_m"):
         if getattr(rec, name) is not None and getattr(rec, name) <= 0:
@@ -227,7 +228,26 @@ def _outputs(scene: Scene, err):
     name = scene.info.name or (Path(scene.source).stem if scene.source else "scene")
     info = replace(scene.info, name=name)
     out = replace(out, dir=out.dir or os.path.abspath(os.path.join("results", name)), format=out.format or "netcdf")
-    return info, out
+    return info, _hotspot_keys(scene, out, err)
+
+
+def _hotspot_keys(scene: Scene, out, err):
+    """[outputs] hotspot_*: only with want 'hotspots'; threshold default 0.6, within 0..1; one second map at most."""
+    keys = ("hotspot_threshold", "hotspot_beside", "hotspot_beside_file")
+    if "hotspots" not in out.want:
+        given = [_given(scene, "outputs", k) for k in keys if getattr(out, k) is not None]
+        if given:
+            raise err("outputs", given[0], f"[outputs] {given[0]!r} applies to want = [..., 'hotspots'], which is not "
+                      f"requested (want = {list(out.want)!r}).")
+        return out
+    if out.hotspot_beside is not None and out.hotspot_beside_file is not None:
+        raise err("outputs", "hotspot_beside_file", "[outputs] give at most one of 'hotspot_beside' (sites found on "
+                  "the export) and 'hotspot_beside_file' (a site CSV) for the second hot-spot map; got both.")
+    t = 0.6 if out.hotspot_threshold is None else out.hotspot_threshold
+    if not 0.0 <= t <= 1.0:
+        raise err("outputs", "hotspot_threshold", f"[outputs] 'hotspot_threshold' is a normalised SED and must be "
+                  f"within 0..1; got {t!r} instead.")
+    return replace(out, hotspot_threshold=float(t))
 
 
 def _spikes(scene: Scene, err, out):

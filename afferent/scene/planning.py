@@ -19,6 +19,7 @@ NEEDS = {
     "spikes": _CURRENT_STAGES + ("input", "spiking"),
     "plots": (),
     "nwb": _CURRENT_STAGES + ("input", "spiking"),
+    "hotspots": ("reading", "sampling"),
 }
 
 # ---------------------------------------------------------------------------- planning

@@ -19,7 +19,7 @@ from .planning import plan, skip_reasons
 from .record import _QUIET_CATEGORIES, build_record, reemit, summary_lines
 from .defaults import resolve
 from .schema import _LIF_FIELDS, Scene, SceneError, _plain_json
-from .stages import (_branching, _crop, _hash_all, _layout_before_reading, _layout_from_field, _params, _restrict,
+from .stages import (_beside_scene, _branching, _crop, _hash_all, _layout_before_reading, _layout_from_field, _params, _restrict,
                      _trim, _waveform)
 
 @dataclass(frozen=True)
@@ -195,6 +195,13 @@ def _compute(run: _Run, *, cache_dir, use_cache: bool, progress: bool) -> None:
     exp_files, hashes = _hash_inputs(run)
     sed = _receptor_sed(run, exp_files, hashes, cache_dir=cache_dir, use_cache=use_cache, progress=progress)
     _compute_downstream(run, sed)
+    run.out["hotspot_threshold"] = scene.outputs.hotspot_threshold
+    beside = _beside_scene(scene)
+    if beside is not None:  # the second hot-spot map: its sites sampled as the scene's are (region, cache)
+        sub = _Run(beside, run.planned, {}, run.steps, inputs=run.inputs)
+        run.out["sed_beside"] = _receptor_sed(sub, exp_files, hashes, cache_dir=cache_dir, use_cache=use_cache,
+                                              progress=progress)
+        run.record["hotspots_beside"] = {k: sub.record.get(k) for k in ("receptors", "cache", "sampling")}
 
 
 def _compute_downstream(run: _Run, sed) -> None:
@@ -228,7 +235,7 @@ def _hash_inputs(run: _Run):
                 raise FileNotFoundError(f"SED file {p!r}{' ([export] file)' if scene.source else ''} not found.")
         hashes = _hash_all({p: None for p in exp_files})
         run.inputs.update(hashes)
-        extra_files = [ex.coordinates, scene.receptors.file]
+        extra_files = [ex.coordinates, scene.receptors.file, scene.outputs.hotspot_beside_file]
         if "synthesis" in planned and scene.synthesis.kind == "map":
             extra_files.append(scene.synthesis.map)
         if "comparison" in planned:
@@ -256,7 +263,7 @@ def _cache_key(run: _Run, layout, exp_files, hashes) -> str:
         rkey = {"positions_sha256": positions_digest(layout.positions), "n": int(layout.n_receptors)}
     else:
         rkey = {"found_on_export": {k: _plain_json(getattr(rec, k)) for k in
-                                    ("grid", "y_m", "pitch_x_m", "pitch_z_m", "x_range_m", "z_range_m", "origin_m",
+                                    ("grid", "rows", "y_m", "pitch_x_m", "pitch_z_m", "x_range_m", "z_range_m", "origin_m",
                                      "material_array", "upper", "lower")},
                 "region": {"x_range_m": _plain_json(scene.region.x_range_m),
                            "z_range_m": _plain_json(scene.region.z_range_m)}}
@@ -294,7 +301,9 @@ def _receptor_sed(run: _Run, exp_files, hashes, *, cache_dir, use_cache: bool, p
         sed = _read_sample_store(run, layout, key, cache, cache_info, progress=progress)
     run.record["cache"] = cache_info
     run.region_info["n_receptors_sampled"] = int(sed.layout.n_receptors)
-    run.record["receptors"] = {"source": scene.receptors.file or f"grid = {scene.receptors.grid!r}", **run.region_info}
+    rec = scene.receptors
+    source = rec.file or f"grid = {rec.grid!r}" + (f", rows = {rec.rows!r}" if rec.grid == "regular" else "")
+    run.record["receptors"] = {"source": source, "site": sed.layout.site, **run.region_info}
     return sed
 
 

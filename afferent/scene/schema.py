@@ -17,7 +17,7 @@ from ..exceptions import AfferentError
 from ..io import FORMATS
 
 #: What a scene can ask for (``[outputs] want``).
-OUTPUTS = ("sed_map", "currents", "profiles", "fit", "spikes", "plots", "vtu", "nwb")
+OUTPUTS = ("sed_map", "currents", "profiles", "fit", "spikes", "plots", "vtu", "nwb", "hotspots")
 
 #: Spiking engines (mirrors :data:`afferent.spiking.ENGINES`, kept here so that checking a
 #: scene does not import the spiking module).
@@ -204,24 +204,29 @@ class ExportSpec:
 _GRID_KEYS = ("y_m", "x_range_m", "z_range_m", "origin_m", "pitch_x_m", "pitch_z_m")
 _GRID_DEFAULTS = {"pitch_x_m": 0.44e-3, "pitch_z_m": 0.22e-3, "material_array": "layer", "upper": 1, "lower": 2}
 _TIPS_KEYS = ("material_array", "upper", "lower")
+#: grid values whose sites are found on the export's interface (:func:`afferent.receptors.sites_from_export` kind)
+MESH_GRIDS = ("tips", "bases")
 
 
 @dataclass(frozen=True)
 class ReceptorSpec:
-    """``[receptors]``: a receptor CSV (``file``) or a generated ``grid`` ('tips' or 'regular')."""
+    """``[receptors]``: a receptor CSV (``file``) or generated sites: ``grid`` = 'tips' (RA-I papilla tips) or
+    'bases' (SA-I intermediate-ridge bases) found on the export, or 'regular' (a grid of papilla or ridge-base rows)."""
 
     file: str | None = _f("path")
     length_unit: str | None = _f("str", doc="unit of the CSV's x, y, z; default [export] length_unit")
-    grid: str | None = _f("choice", choices=("tips", "regular"))
+    grid: str | None = _f("choice", choices=("tips", "bases", "regular"))
+    rows: str | None = _f("choice", choices=("tips", "bases"),
+                          doc="regular grid: papilla rows (RA-I, default 'tips') or ridge-base rows ('bases', SA-I)")
     y_m: float | None = _f("number", quantity="length")
     pitch_x_m: float | None = _f("number", quantity="length", doc="grids; default 0.44 mm (ridge pitch)")
     pitch_z_m: float | None = _f("number", quantity="length", doc="grids; default 0.22 mm (papilla pitch)")
     x_range_m: tuple | None = _f("pair", quantity="length")
     z_range_m: tuple | None = _f("pair", quantity="length")
     origin_m: tuple | None = _f("pair", quantity="length", doc="(x0, z0): a point of a regular grid")
-    material_array: str | None = _f("str", doc="tips; default 'layer'")
-    upper: object = _f("int_or_ints", doc="tips; default 1 (epidermis)")
-    lower: object = _f("int_or_ints", doc="tips; default 2 (dermis)")
+    material_array: str | None = _f("str", doc="tips, bases; default 'layer'")
+    upper: object = _f("int_or_ints", doc="tips, bases; default 1 (epidermis)")
+    lower: object = _f("int_or_ints", doc="tips, bases; default 2 (dermis)")
 
 
 @dataclass(frozen=True)
@@ -344,6 +349,11 @@ class OutputSpec:
     want: tuple | None = _f("outputs", choices=OUTPUTS)
     dir: str | None = _f("path")
     format: str | None = _f("choice", "netcdf", choices=("netcdf", "csv"))
+    hotspot_threshold: float | None = _f("number", 0.6, doc="hotspots: hot spots are normalised SED >= this (0..1)")
+    hotspot_beside: str | None = _f("choice", choices=("tips", "bases"),
+                                    doc="hotspots: a second map beside [receptors]' sites, of the sites found on the export")
+    hotspot_beside_file: str | None = _f("path", doc="hotspots: a second map, of the sites of this CSV "
+                                                     "(unit: [receptors] length_unit, else [export] length_unit)")
 
 
 #: TOML table -> Scene field
@@ -413,6 +423,7 @@ class Scene:
         """Every file the scene names (its own file, exports, coordinates, receptors, calibration, map,
         waveform, observed profile): an output may not be, hold or lie inside one of them."""
         paths = (self.source, *(self.export.files or ()), self.export.coordinates, self.receptors.file,
+                 self.outputs.hotspot_beside_file,
                  self.transduction.calibration, self.synthesis.map, self.stimulus.file, self.fit.observed)
         return tuple(p for p in paths if p)
 

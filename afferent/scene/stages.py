@@ -5,10 +5,11 @@ parameters, the waveform and the branching. Pure functions of the resolved scene
 from __future__ import annotations
 
 import json
+from dataclasses import replace
 import os
 import warnings
 
-from .schema import RegionSpec, Scene, SceneError
+from .schema import _GRID_DEFAULTS, ReceptorSpec, RegionSpec, Scene, SceneError
 
 
 def _in_region(layout, region: RegionSpec):
@@ -50,28 +51,45 @@ def _layout_before_reading(scene: Scene):
         from ..receptors import grid_layout
 
         return grid_layout(x_range=rec.x_range_m, z_range=rec.z_range_m, y=rec.y_m, pitch_x=rec.pitch_x_m,
-                           pitch_z=rec.pitch_z_m, origin=rec.origin_m)
+                           pitch_z=rec.pitch_z_m, origin=rec.origin_m, kind=rec.rows or "tips")
     return None
 
 
+def _beside_scene(scene: Scene):
+    """The scene whose ``[receptors]`` are the second hot-spot map's sites (``hotspot_beside[_file]``), or None.
+
+    ``hotspot_beside_file``: a site CSV in ``[receptors] length_unit`` (else ``[export] length_unit``);
+    ``hotspot_beside``: 'tips' or 'bases' found on the export with ``[receptors]``' materials and pitches.
+    """
+    out, rec = scene.outputs, scene.receptors
+    if "hotspots" not in (out.want or ()) or (out.hotspot_beside is None and out.hotspot_beside_file is None):
+        return None
+    if out.hotspot_beside_file is not None:
+        new = ReceptorSpec(file=out.hotspot_beside_file, length_unit=rec.length_unit or scene.export.length_unit)
+    else:
+        keys = {k: getattr(rec, k) if getattr(rec, k) is not None else v for k, v in _GRID_DEFAULTS.items()}
+        new = ReceptorSpec(grid=out.hotspot_beside, **keys)
+    return replace(scene, receptors=new)
+
+
 def _layout_from_field(scene: Scene, field):
-    """Receptors found on the export: papilla tips, or a regular grid over the export's extent."""
+    """Receptors found on the export: papilla tips or ridge bases, or a regular grid over the export's extent."""
     rec = scene.receptors
     pitch = dict(pitch_x=rec.pitch_x_m, pitch_z=rec.pitch_z_m)
-    if rec.grid == "tips":
-        from ..receptors import tips_from_export
+    if rec.grid in ("tips", "bases"):
+        from ..receptors import sites_from_export
 
         files = [f for f in field.provenance.files if not f.lower().endswith(".pvd")] or list(field.provenance.files)
         unit = field.provenance.units.get("length")
         # the region is applied afterwards (as interface_tips' own ranges would be: last), to count what it leaves out
-        return tips_from_export(files[0], length_unit=unit, material_array=rec.material_array, upper=rec.upper,
-                                lower=rec.lower, **pitch)
+        return sites_from_export(files[0], length_unit=unit, material_array=rec.material_array, upper=rec.upper,
+                                 lower=rec.lower, kind=rec.grid, **pitch)
     from ..receptors import grid_layout
 
     lo, hi = field.bounds
     x_range = rec.x_range_m or (lo[0] + rec.pitch_x_m / 2, hi[0] - rec.pitch_x_m / 2)
     z_range = rec.z_range_m or (lo[2] + rec.pitch_z_m / 2, hi[2] - rec.pitch_z_m / 2)
-    return grid_layout(x_range=x_range, z_range=z_range, y=rec.y_m, origin=rec.origin_m, **pitch)
+    return grid_layout(x_range=x_range, z_range=z_range, y=rec.y_m, origin=rec.origin_m, kind=rec.rows or "tips", **pitch)
 
 
 def _crop(field, positions, method: str):
