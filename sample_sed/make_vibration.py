@@ -202,22 +202,34 @@ class ViscoPunch:
         return self.u, info
 
     def cell_sed(self) -> np.ndarray:
-        """1/2 sigma:eps at every element centroid (MPa), sigma = 2 G0 dev eps(shear field) + K tr(eps) I."""
-        return centroid_sed(self.post.bc, self.u, self.step_rule.shear_field(self.H, self.u),
-                            self.mu0, self.kappa, self.visco)
+        """Stored (recoverable) strain energy density at every element centroid (MPa): see :func:`stored_sed`."""
+        return stored_sed(self.post.bc, self.u, self.H, self.prony, self.mu0, self.kappa, self.visco)
 
 
-def centroid_sed(bc, u, us, mu0, kappa, visco) -> np.ndarray:
-    """1/2 sigma:eps (MPa) at the one-point basis ``bc``; shear stress from ``us`` where ``visco``."""
+def _dev_sq(bc, v) -> np.ndarray:
+    """|dev eps(v)|^2 and tr eps(v) at the one-point basis ``bc`` (one value per element)."""
     from skfem.helpers import sym_grad
 
-    eps = sym_grad(bc.interpolate(u))[:, :, :, 0]                 # (3, 3, nel)
-    eps_s = sym_grad(bc.interpolate(us))[:, :, :, 0]
-    eps_s = np.where(visco[None, None, :], eps_s, eps)
-    tr, tr_s = np.trace(eps), np.trace(eps_s)
-    dev_s = eps_s - tr_s / 3.0 * np.eye(3)[:, :, None]
-    sig = 2.0 * mu0 * dev_s + kappa * tr * np.eye(3)[:, :, None]
-    return 0.5 * np.einsum("ijk,ijk->k", sig, eps)
+    e = sym_grad(bc.interpolate(v))[:, :, :, 0]                   # (3, 3, nel)
+    tr = np.trace(e)
+    dev = e - tr / 3.0 * np.eye(3)[:, :, None]
+    return np.einsum("ijk,ijk->k", dev, dev), tr
+
+
+def stored_sed(bc, u, H, prony: Prony, mu0, kappa, visco) -> np.ndarray:
+    """Strain energy density stored in the springs (MPa), at the one-point basis ``bc``.
+
+    Viscoelastic layers (the generalized Maxwell model of the Prony series, arm i with the elastic
+    deviatoric strain e(H_i)): W = K tr(eps)^2 / 2 + G0 (g_inf |dev eps|^2 + sum_i g_i |dev e(H_i)|^2),
+    the recoverable energy (Abaqus' SENER for viscoelastic materials); >= 0, unlike 1/2 sigma:eps,
+    which turns negative where the relaxed stress opposes the strain while unloading. Elastic
+    layers: W = 1/2 sigma:eps = G |dev eps|^2 + K tr(eps)^2 / 2.
+    """
+    d2, tr = _dev_sq(bc, u)
+    dev_w = np.where(visco, prony.g_inf, 1.0) * d2
+    for g, Hi in zip(prony.g, H):
+        dev_w = dev_w + np.where(visco, g * _dev_sq(bc, Hi)[0], 0.0)
+    return 0.5 * kappa * tr ** 2 + mu0 * dev_w
 
 
 # --------------------------------------------------------------------------------------
@@ -382,7 +394,8 @@ def run_info(quick: bool, freqs, cycles: int) -> dict:
                      "abs_G_star_over_G0": {f"{f:g}Hz": float(abs(g)) for f, g in zip(freqs, gs)},
                      "loss_angle_deg": {f"{f:g}Hz": float(np.degrees(np.angle(g))) for f, g in zip(freqs, gs)}},
         "waveform": WAVEFORM, "width_mm": WIDTH, "steps_per_period": STEPS_PER_PERIOD, "cycles": cycles,
-        "sed": "1/2 sigma:eps at the element centroid with the viscoelastic stress, averaged to the nodes "
+        "sed": "stored (recoverable) strain energy density at the element centroid (stored_sed: springs of "
+               "the generalized Maxwell model; 1/2 sigma:eps in the elastic epidermis), averaged to the nodes "
                "(volume-weighted, as make_samples.py); point data SED float32 in MPa",
         "crop": "hexahedra with a receptor (papilla-tip) node among their corners (make_samples.crop_to_receptors)",
         "site": "the edge tip (within 0.22 mm of the plane's outline) with the largest SED at the last deepest point",

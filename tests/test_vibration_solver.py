@@ -42,14 +42,14 @@ def block(n=2):
     return mesh, basis, bc, K_rest, Kv
 
 
-def run(rule, K_rest, Kv, D, prescribed, n_steps):
+def run(rule, K_rest, Kv, D, prescribed, n_steps, keep_history=False):
     """Step from rest; ``prescribed(k)`` gives the values of the dofs ``D`` at step k (mm)."""
     K = (K_rest + rule.algorithmic * Kv).tocsr()
     n = K.shape[0]
     free = np.setdiff1d(np.arange(n), D)
     lu = sla.splu(K[free][:, free].tocsc())
     H, u = np.zeros((len(rule.prony.g), n)), np.zeros(n)
-    out = []
+    out, hist = [], []
     for k in range(1, n_steps + 1):
         x = np.zeros(n)
         x[D] = prescribed(k)
@@ -61,7 +61,8 @@ def run(rule, K_rest, Kv, D, prescribed, n_steps):
 
         u, H = mv.hereditary_step(rule, Kv, H, u, solve)
         out.append((u, rule.shear_field(H, u)))
-    return out
+        hist.append(H)
+    return (out, hist) if keep_history else out
 
 
 def stress(bc, u, us):
@@ -81,7 +82,7 @@ def test_simple_shear_relaxes_as_the_prony_series():
     comp = np.zeros(basis.N, int)
     comp[basis.nodal_dofs[1]], comp[basis.nodal_dofs[2]] = 1, 2
     target = np.where(comp[D] == 0, gamma * X[1, D], 0.0)
-    steps = run(rule, K_rest, Kv, D, lambda k: target, 400)
+    steps, Hs = run(rule, K_rest, Kv, D, lambda k: target, 400, keep_history=True)
     t = dt * np.arange(1, 401)
     tau_xy = np.array([stress(bc, u, us)[0, 1].mean() for u, us in steps])
     # the ramp over the first step, then held: (1/dt) int_0^dt G(t - s) ds, exactly
@@ -92,6 +93,14 @@ def test_simple_shear_relaxes_as_the_prony_series():
     # and that is G(t) of the Prony series, shifted by half a step
     np.testing.assert_allclose(tau_xy, G0 * gamma * mv.relaxation(PRONY, t - dt / 2), rtol=2e-3)
     assert tau_xy[-1] == pytest.approx(G0 * gamma * PRONY.g_inf, rel=1e-3)   # t = 10 tau_2
+    # the stored energy: G0 gamma^2 / 2 (g_inf + sum g_i b_i^2) after the ramp, G0 g_inf gamma^2 / 2 relaxed
+    nel = mesh.t.shape[1]
+    sed = [mv.stored_sed(bc, u, H, PRONY, np.full(nel, G0), np.full(nel, KAPPA), np.ones(nel, bool))
+           for (u, _), H in zip(steps, Hs)]
+    w0 = G0 * gamma ** 2 / 2 * (PRONY.g_inf + np.sum(np.asarray(PRONY.g) * rule.b ** 2))
+    np.testing.assert_allclose(sed[0], w0, rtol=1e-9)
+    np.testing.assert_allclose(sed[-1], G0 * PRONY.g_inf * gamma ** 2 / 2, rtol=1e-3)
+    assert min(s.min() for s in sed) >= 0
 
 
 def test_sinusoidal_uniaxial_stress_follows_the_complex_modulus():
