@@ -60,12 +60,20 @@ def test_the_vibration_sweep_lists_the_eight_scenes():
     from afferent._sweep.spec import load_sweep
 
     spec = load_sweep(str(SCENES / "sweep_vibration.toml"))
-    assert sorted(t.label for t in spec.tasks()) == sorted(f"ridged{t}" for t in SERIES)
+    assert sorted(t.label for t in spec.tasks) == sorted(f"ridged{t}" for t in SERIES)
 
 
 @pytest.mark.slow
-def test_a_vibration_scene_runs_to_spikes(tmp_path):
+def test_a_vibration_scene_runs_to_spikes(tmp_path, info):
     res = run_scene(load_scene(SCENES / "vibration" / "ridged3d_80Hz.toml").with_output(tmp_path / "r"),
                     cache_dir=tmp_path / "c")
-    assert res.record["skipped"]["stimulus"].startswith("the scene has no [stimulus] waveform")
+    skipped = {s["stage"]: s["reason"] for s in res.record["skipped"]}
+    assert skipped["stimulus"].startswith("the scene has no [stimulus] waveform")
     assert (tmp_path / "r" / "spike_summary.csv").is_file()
+    # its sed_map.csv holds the SED at the edge site at the deepest points that build_info records
+    import pandas as pd
+
+    d = info["models"]["3d"]["series"]["3d_80Hz"]["deepest"]
+    m = pd.read_csv(tmp_path / "r" / "sed_map.csv")
+    at = m[(abs(m.x_m - d["site"]["x"] * 1e-3) < 1e-9) & (abs(m.z_m - d["site"]["z"] * 1e-3) < 1e-9)]
+    np.testing.assert_allclose(at.sort_values("time_s").sed_pa.to_numpy()[[10, 30, 50]], d["site_SED_Pa"], rtol=1e-6)
