@@ -90,6 +90,7 @@ SERIES_TIMES = np.round(np.arange(6) * 0.02, 10)        # s
 SERIES_DEPTHS = np.round(SERIES_TIMES / 0.1 * DEPTH, 10)  # 0, 0.1, ..., 0.5 mm
 
 CG_TOL = 1e-10            # relative residual of the preconditioned CG
+LU_CACHE = 6              # sparse LU factorizations kept (solver='lu')
 TOL = 1e-9                # geometric tolerance (mm)
 CENTROID_RULE = (np.full((3, 1), 0.5), np.array([1.0]))   # skfem's reference hex is [0, 1]^3
 
@@ -363,6 +364,37 @@ def elasticity_vol(u, v, w):
     return w.kappa * trace(sym_grad(u)) * trace(sym_grad(v))
 
 
+def stiffness(mesh, element, mu, kappa, integration: str = "sri"):
+    """Stiffness matrix (CSR, N/mm) of ``mesh`` with per-element shear modulus ``mu`` and bulk modulus
+    ``kappa`` (MPa, arrays of n_elements): deviatoric 2x2x2 Gauss, volumetric one point (``sri``) or
+    the whole form with 2x2x2 Gauss (``full``, where lambda = kappa - 2 mu / 3).
+
+    The one assembly of the elasticity form in the sample generators, assembled in element chunks to
+    bound the memory of the COO triplets.
+    """
+    mu, kappa = np.asarray(mu, dtype=float), np.asarray(kappa, dtype=float)
+    nel = mesh.t.shape[1]
+    nbfun = Basis(mesh, element, elements=np.arange(1), intorder=2).Nbfun
+    chunk = max(1, int(2.0e7 // nbfun ** 2))
+    K = None
+    for c0 in range(0, nel, chunk):
+        idx = np.arange(c0, min(nel, c0 + chunk))
+        b2 = Basis(mesh, element, elements=idx, intorder=2)
+        n2 = b2.X.shape[-1]
+        if integration == "full":
+            lam = kappa - 2.0 * mu / 3.0
+            Kc = elasticity.assemble(b2, lam=np.repeat(lam[idx, None], n2, 1),
+                                     mu=np.repeat(mu[idx, None], n2, 1))
+        elif integration == "sri":
+            b1 = Basis(mesh, element, elements=idx, quadrature=CENTROID_RULE)
+            Kc = elasticity_dev.assemble(b2, mu=np.repeat(mu[idx, None], n2, 1)) + \
+                elasticity_vol.assemble(b1, kappa=kappa[idx, None])
+        else:
+            raise ValueError(integration)
+        K = Kc.tocsr() if K is None else K + Kc.tocsr()
+    return K
+
+
 def square_footprint(width: float):
     """Footprint of the centred square punch of side ``width`` (mm), edges included."""
     h = 0.5 * width + TOL
@@ -379,7 +411,14 @@ class Problem:
     integration='full': plain 2x2x2 Gauss integration of the whole form (for comparison).
     """
 
-    def __init__(self, sm: SkinMesh, integration: str = "sri", log=print, bottom: str = "edges"):
+    def __init__(self, sm: SkinMesh, integration: str = "sri", log=print, bottom: str = "edges",
+                 moduli=None, solver: str = "amg"):
+        """``moduli``: optional per-element (mu, kappa) in MPa replacing the layers' elastic values
+        (the viscoelastic generator, make_vibration.py, passes its own); ``solver``: 'amg' (CG with
+        AMG, the static samples) or 'lu' (sparse LU kept per Dirichlet set, many steps on a small mesh)."""
+        if solver not in ("amg", "lu"):
+            raise ValueError(f"solver: expected 'amg' or 'lu', got {solver!r}")
+        self.solver = solver
         self.sm = sm
         self.log = log
         self.integration = integration
@@ -390,25 +429,11 @@ class Problem:
         lam, mu = lame(sm.layer)
         self.lam, self.mu = lam, mu
         kappa = lam + 2.0 * mu / 3.0
-        # assemble in element chunks to bound the memory of the COO triplets
-        nel = sm.mesh.t.shape[1]
-        chunk = max(1, int(2.0e7 // self.basis.Nbfun ** 2))
-        K = None
-        for c0 in range(0, nel, chunk):
-            idx = np.arange(c0, min(nel, c0 + chunk))
-            b2 = Basis(sm.mesh, self.element, elements=idx, intorder=2)
-            n2 = b2.X.shape[-1]
-            if integration == "full":
-                Kc = elasticity.assemble(b2, lam=np.repeat(lam[idx, None], n2, 1),
-                                         mu=np.repeat(mu[idx, None], n2, 1))
-            elif integration == "sri":
-                b1 = Basis(sm.mesh, self.element, elements=idx, quadrature=CENTROID_RULE)
-                Kc = elasticity_dev.assemble(b2, mu=np.repeat(mu[idx, None], n2, 1)) + \
-                    elasticity_vol.assemble(b1, kappa=kappa[idx, None])
-            else:
-                raise ValueError(integration)
-            K = Kc.tocsr() if K is None else K + Kc.tocsr()
-        self.K = K
+        if moduli is not None:
+            mu_k, kappa_k = moduli
+        else:
+            mu_k, kappa_k = mu, kappa
+        self.K = stiffness(sm.mesh, self.element, mu_k, kappa_k, integration)
         self.t_assemble = time.perf_counter() - t0
         self.ndof = self.K.shape[0]
         nd = self.basis.nodal_dofs                 # (3, n_nodes) vertex dofs
@@ -447,6 +472,47 @@ class Problem:
         """y-dofs of surface dofs whose (x, z) lies inside the centred square (inclusive)."""
         return self.top_dofs_in(square_footprint(width))
 
+    def _amg_solve(self, A, b, start, key):
+        """CG with smoothed-aggregation AMG on the eliminated system; the hierarchy of the last
+        Dirichlet set is kept. Returns (u, CG iterations, setup seconds)."""
+        t1 = time.perf_counter()
+        if key in self._ml_cache:
+            ml = self._ml_cache[key]
+            t_setup = 0.0
+        else:
+            # pyamg estimates spectral radii from np.random start vectors: seed it so
+            # that every solve is reproducible bit for bit, whatever ran before
+            np.random.seed(20240521)
+            ml = pyamg.smoothed_aggregation_solver(
+                A.tobsr(blocksize=(3, 3)), B=self.rigid_body_modes(np.arange(self.ndof)),
+                symmetry="symmetric", smooth="energy", max_coarse=1000)
+            self._ml_cache = {key: ml}
+            t_setup = time.perf_counter() - t1
+        res = []
+        u = ml.solve(b, x0=start, tol=CG_TOL, accel="cg", maxiter=3000, residuals=res)
+        return u, len(res) - 1, t_setup
+
+    def _lu_solve(self, mask, b, x0, key):
+        """Sparse LU (SuperLU, COLAMD) of the free-dof block, kept for the last LU_CACHE Dirichlet
+        sets (the many time steps of make_vibration.py on a small mesh). Returns (u, 0, factor seconds)."""
+        t1 = time.perf_counter()
+        free = np.flatnonzero(~mask)
+        lu = self._ml_cache.get(key)
+        if lu is None:
+            lu = sp.linalg.splu(self.K[free][:, free].tocsc(), permc_spec="COLAMD")
+            while len(self._ml_cache) >= LU_CACHE:
+                self._ml_cache.pop(next(iter(self._ml_cache)))
+            self._ml_cache[key] = lu
+        t_setup = time.perf_counter() - t1
+        u = x0.copy()
+        u[free] = lu.solve(b[free])
+        return u, 0, t_setup
+
+    def set_stiffness(self, K):
+        """Replace the stiffness matrix (same mesh and dofs) and forget the cached solvers."""
+        self.K = K
+        self._ml_cache = {}
+
     def rigid_body_modes(self, idx):
         X = self.dofloc[:, idx] - np.array([[self.sm.xc], [Y_SURFACE / 2], [self.sm.zc]])
         c = self.comp[idx]
@@ -460,11 +526,13 @@ class Problem:
         B[c == 2, 5], B[c == 0, 5] = -x[c == 2], z[c == 0]
         return B
 
-    def solve(self, width: float, depth: float, footprint=None):
+    def solve(self, width: float, depth: float, footprint=None, f=None, guess=None):
         """Punch of `width` (mm) pressed `depth` (mm): returns (u, info).
 
         ``footprint(dx, dz)`` (boolean, mm from the block centre) gives the indenter's shape; by
-        default the centred square of side ``width``.
+        default the centred square of side ``width``. ``f``: optional nodal force vector (N) on the
+        free dofs (the viscoelastic history force of make_vibration.py); ``guess``: optional start
+        vector of the CG (its prescribed dofs are reset).
         """
         t0 = time.perf_counter()
         top = self.top_dofs_in(footprint or square_footprint(width))
@@ -478,39 +546,31 @@ class Problem:
         D = np.concatenate([self.bottom_dofs, top])
         x0 = np.zeros(self.ndof)
         x0[top] = plane - y_top
+        f = np.zeros(self.ndof) if f is None else f
         key = tuple(np.sort(D))
         u = x0.copy()
         iters = 0
-        if np.any(x0 != 0.0):
+        if np.any(x0 != 0.0) or np.any(f != 0.0):
             # symmetric elimination of the Dirichlet dofs, keeping the 3x3 nodal block
             # structure (dofs of a node are consecutive) so that AMG aggregates nodes
             mask = np.zeros(self.ndof, bool)
             mask[D] = True
             keep = sp.diags((~mask).astype(float))
             A = (keep @ self.K @ keep + sp.diags(mask.astype(float))).tocsr()
-            b = -(self.K @ x0)
+            b = f - self.K @ x0
             b[mask] = x0[mask]
-            t1 = time.perf_counter()
-            if key in self._ml_cache:
-                ml = self._ml_cache[key]
-                t_setup = 0.0
+            start = x0.copy()
+            if guess is not None:
+                start[~mask] = guess[~mask]
+            if self.solver == "lu":
+                u, iters, t_setup = self._lu_solve(mask, b, x0, key)
             else:
-                # pyamg estimates spectral radii from np.random start vectors: seed it so
-                # that every solve is reproducible bit for bit, whatever ran before
-                np.random.seed(20240521)
-                ml = pyamg.smoothed_aggregation_solver(
-                    A.tobsr(blocksize=(3, 3)), B=self.rigid_body_modes(np.arange(self.ndof)),
-                    symmetry="symmetric", smooth="energy", max_coarse=1000)
-                self._ml_cache = {key: ml}
-                t_setup = time.perf_counter() - t1
-            res = []
-            u = ml.solve(b, x0=x0, tol=CG_TOL, accel="cg", maxiter=3000, residuals=res)
-            iters = len(res) - 1
+                u, iters, t_setup = self._amg_solve(A, b, start, key)
             relres = float(np.linalg.norm(A @ u - b) / np.linalg.norm(b))
             u[mask] = x0[mask]
         else:
             t_setup, relres = 0.0, 0.0
-        r = self.K @ u                               # reaction forces (N)
+        r = self.K @ u - f                           # reaction forces (N)
         info = {
             "width_mm": width, "depth_mm": depth, "plane_y_mm": plane,
             "n_contact_nodes": int(len(top)),
@@ -735,8 +795,7 @@ def patch_test():
     lam = E * NU / ((1 + NU) * (1 - 2 * NU))
     mu = E / (2 * (1 + NU))
     kappa = lam + 2 * mu / 3
-    K = (elasticity_dev.assemble(basis, mu=mu)
-         + elasticity_vol.assemble(Basis(m, e, quadrature=CENTROID_RULE), kappa=kappa)).tocsr()
+    K = stiffness(m, e, np.full(m.t.shape[1], mu), np.full(m.t.shape[1], kappa))
     nd = basis.nodal_dofs
     D = np.concatenate([nd[0, p[0] < 1e-9], nd[1, p[1] < 1e-9], nd[2, p[2] < 1e-9],
                         nd[1, p[1] > 1 - 1e-9]])
