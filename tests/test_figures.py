@@ -171,6 +171,7 @@ def test_one_folder_names_its_two_clocks(tmp_path, monkeypatch):
     (tmp_path / "s.toml").write_text(text)
     titles = {}
     original = Figure.savefig
+    monkeypatch.setenv("AFFERENT_PLOT_PROCESSES", "1")  # every savefig in this process, where it is recorded
     monkeypatch.setattr(Figure, "savefig", lambda self, f, *a, **k: (
         titles.setdefault(str(f), [ax.get_title() for ax in self.axes]), original(self, f, *a, **k))[1])
     run_scene(load_scene(tmp_path / "s.toml").with_output(tmp_path / "out"), cache_dir=tmp_path / "c")
@@ -192,3 +193,83 @@ def test_demo_summary_figure_is_readable(tmp_path, monkeypatch):
     _plot_indenters(profiles, findings, str(tmp_path / "indenters_x.png"))
     assert set(found) == {"indenters_x.png"}
     _readable(found)
+
+
+def _figures_that_draw(tmp_path, draw):
+    """Three one-Axes figures whose drawing calls ``draw()`` (in whichever process renders them)."""
+    import matplotlib.pyplot as plt
+    from matplotlib.artist import Artist
+
+    class Probe(Artist):
+        def draw(self, renderer):
+            draw()
+
+    out = []
+    for k in range(3):
+        fig, ax = plt.subplots(figsize=(2, 2), layout="constrained")
+        ax.plot([0, 1], [k, 1])
+        ax.set_title(f"figure {k}")
+        ax.add_artist(Probe())
+        out.append((ax, str(tmp_path / f"f{k}.png")))
+    return out
+
+
+@pytest.mark.skipif(not hasattr(__import__("os"), "fork"), reason="no os.fork")
+def test_save_figures_renders_in_two_processes_and_passes_on_the_child_s_warnings(tmp_path, monkeypatch):
+    """The run's PNGs are rendered two at a time (a forked child takes about half); a warning raised
+    while the child draws must reach this process (run.json records warnings), every file must be whole."""
+    import os
+    import warnings
+
+    from afferent import plotting
+    from afferent.exceptions import AfferentWarning
+
+    monkeypatch.delenv("AFFERENT_PLOT_PROCESSES", raising=False)
+    monkeypatch.setattr(os, "sched_getaffinity", lambda pid: {0, 1})  # two cores, as on the machine measured
+    figures = _figures_that_draw(tmp_path, lambda: warnings.warn(f"drawn by {os.getpid()}", AfferentWarning))
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        written = plotting.save_figures(figures)
+    assert written == [p for _, p in figures] and all(os.path.getsize(p) > 1000 for p in written)
+    drawn_by = {str(w.message) for w in caught if w.category is AfferentWarning}
+    assert len(drawn_by) == 2 and f"drawn by {os.getpid()}" in drawn_by, drawn_by  # here and in the child
+    assert sorted(os.listdir(tmp_path)) == ["f0.png", "f1.png", "f2.png"]
+
+
+@pytest.mark.skipif(not hasattr(__import__("os"), "fork"), reason="no os.fork")
+def test_save_figures_renders_here_what_the_child_failed_to(tmp_path, monkeypatch):
+    """A child that fails (here: any drawing outside this process raises) leaves no file or temporary
+    behind that this process does not finish: its figures are rendered here instead."""
+    import os
+
+    from afferent import plotting
+
+    monkeypatch.delenv("AFFERENT_PLOT_PROCESSES", raising=False)
+    monkeypatch.setattr(os, "sched_getaffinity", lambda pid: {0, 1})
+    me = os.getpid()
+
+    def draw():
+        if os.getpid() != me:
+            raise RuntimeError("the child fails")
+
+    figures = _figures_that_draw(tmp_path, draw)
+    plotting.save_figures(figures)
+    assert sorted(os.listdir(tmp_path)) == ["f0.png", "f1.png", "f2.png"]
+    assert all(os.path.getsize(tmp_path / f"f{k}.png") > 1000 for k in range(3))
+
+
+def test_save_figures_in_one_process_when_asked(tmp_path, monkeypatch):
+    """``AFFERENT_PLOT_PROCESSES=1`` (what the figure checks set): every figure drawn in this process."""
+    import os
+    import warnings
+
+    from afferent import plotting
+
+    monkeypatch.setenv("AFFERENT_PLOT_PROCESSES", "1")
+    monkeypatch.setattr(os, "sched_getaffinity", lambda pid: {0, 1})
+    figures = _figures_that_draw(tmp_path, lambda: warnings.warn(f"drawn by {os.getpid()}", UserWarning))
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        plotting.save_figures(figures)
+    assert {str(w.message) for w in caught} == {f"drawn by {os.getpid()}"} and len(caught) >= 3
+    assert sorted(os.listdir(tmp_path)) == ["f0.png", "f1.png", "f2.png"]
