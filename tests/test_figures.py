@@ -145,10 +145,7 @@ def test_report_spiking_figure_keeps_units_apart_and_names_the_points_a_log_axis
     results = json.loads((ROOT / "tests" / "data" / "report" / "tiny_results.json").read_text())
     fast = [r for r in results["spiking"] if r["engine"] == "fast" and r.get("wall_s") is not None]
     fast[0]["rate_err_median"] = 0.0  # e.g. dt = 0.001 ms: the same rates as the exact engine
-    figures = []
-    monkeypatch.setattr("afferent.plotting.save_figure", lambda fig, path: figures.append(fig) or path)
-    rep._plot_spiking(results, str(tmp_path))
-    fig = figures[0]
+    fig, _ = rep._plot_spiking(results, str(tmp_path))
     assert f"zero, not drawn: rate at dt = {fast[0]['dt_s'] * 1e3:g} ms" in fig.legends[0].get_title().get_text()
     for ax in fig.axes:  # one unit per y axis: seconds never beside a relative error
         labels = [ln.get_label() for ln in ax.get_lines()]
