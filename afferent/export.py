@@ -542,10 +542,8 @@ def write_spikes_nwb(path: str, spikes, afferent) -> None:
 
 
 def _figures(path, want, *, sed_static, sed, current, branching, afferent, fit, waveform, spikes, profile_index):
-    """Draw the figures of ``want``, then save them together (:func:`afferent.plotting.save_figures`)."""
     from . import plotting
 
-    figures = []  # (figure or Axes, path)
     if "sed_map" in want:
         import matplotlib.pyplot as plt
 
@@ -560,7 +558,7 @@ def _figures(path, want, *, sed_static, sed, current, branching, afferent, fit, 
         plotting.plot_sed_map(sed_static, ax=axes[0], time_index=k, title=step_title("SED at receptor sites", times, k, n_t, **kw))
         plotting.plot_sed_map(sed_static, ax=axes[1], normalise=True, threshold=0.6, time_index=k,
                               title=step_title("normalised SED, hot spots >= 0.6", times, k, n_t, **kw))
-        figures.append((fig, path("sed_map.png")))
+        plotting.save_figure(fig, path("sed_map.png"))
     if "profiles" in want:
         from .synthesis import Branching, synthesize
 
@@ -571,14 +569,13 @@ def _figures(path, want, *, sed_static, sed, current, branching, afferent, fit, 
             ax = plotting.plot_section_profiles(sed, current, aff, axis=axis, time_index=profile_index,
                                                 title=step_title(f"Profiles along {axis}", sed.times, profile_index,
                                                                  sed.values.shape[0]))
-            figures.append((ax, path(name)))
+            plotting.save_figure(ax, path(name))
     if "fit" in want and fit is not None:
-        figures.append((plotting.plot_fit(fit), path("fit.png")))
+        plotting.save_figure(plotting.plot_fit(fit), path("fit.png"))
     if waveform is not None:
-        figures.append((plotting.plot_waveform(waveform), path("waveform.png")))
+        plotting.save_figure(plotting.plot_waveform(waveform), path("waveform.png"))
     if "spikes" in want and spikes is not None:
-        figures.append((plotting.plot_raster(spikes), path("raster.png")))
-        figures.append((plotting.plot_rates(spikes, positions=afferent, waveform=waveform), path("rates.png")))
+        plotting.save_figure(plotting.plot_raster(spikes), path("raster.png"))
+        plotting.save_figure(plotting.plot_rates(spikes, positions=afferent, waveform=waveform), path("rates.png"))
         bin_width = max(spikes.duration / 50, spikes.dt)
-        figures.append((plotting.plot_psth(spikes, bin_width), path("psth.png")))
-    plotting.save_figures(figures)
+        plotting.save_figure(plotting.plot_psth(spikes, bin_width), path("psth.png"))

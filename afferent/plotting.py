@@ -6,18 +6,11 @@ shown in mm and SED in Pa (= J/m^3) on the axes; the data stay SI.
 
 from __future__ import annotations
 
-import glob
-import json
-import os
-import sys
-import warnings
-
 import numpy as np
 
 __all__ = [
     "plot_sed_map", "plot_sed_profile", "plot_section_profiles", "plot_fit",
-    "plot_raster", "plot_rates", "rate_table", "plot_psth", "plot_waveform", "save_figure", "save_figures",
-    "legend_beside",
+    "plot_raster", "plot_rates", "rate_table", "plot_psth", "plot_waveform", "save_figure", "legend_beside",
 ]
 
 
@@ -139,97 +132,15 @@ def save_figure(ax_or_fig, path: str, *, overwrite: bool = False, dpi: int = 150
     fig = getattr(ax_or_fig, "figure", ax_or_fig)
     engine = fig.get_layout_engine()
     if engine is not None:
-        fig.set_dpi(dpi)              # the layout depends on the text's pixel sizes
+        fig.set_dpi(dpi)  # the layout depends on the text's pixel sizes
         engine.execute(fig)
-        fig.set_layout_engine("none")  # keep the positions just computed: savefig draws once
+        fig.set_layout_engine(None)  # keep the positions just computed: savefig draws once
+        if fig.get_layout_engine() is not None:  # rcParams ask every figure for a layout: savefig's own way
+            fig.set_layout_engine(engine)
     with atomic_file(path, overwrite=overwrite) as tmp:
         fig.savefig(tmp, dpi=dpi, format="png")
     plt.close(fig)
     return path
-
-
-def _processes() -> int:
-    """Processes that render figures: 2 on Linux with two cores or more, unless ``$AFFERENT_PLOT_PROCESSES`` is 1."""
-    if os.environ.get("AFFERENT_PLOT_PROCESSES", "").strip() == "1" or not sys.platform.startswith("linux"):
-        return 1
-    try:
-        return min(2, len(os.sched_getaffinity(0)))
-    except (AttributeError, OSError):
-        return min(2, os.cpu_count() or 1)
-
-
-def save_figures(figures, *, overwrite: bool = False, dpi: int = 150) -> list[str]:
-    """Save ``[(figure or Axes, path), ...]`` as :func:`save_figure` does, two at a time on Linux.
-
-    Rendering a figure is about 0.1 s of single-threaded Python per figure, and the PNGs of a run
-    are independent: with more than one core (and ``os.fork``, Linux only) a forked child
-    renders about half of them (balanced by their Axes) while this process renders the rest,
-    which about halves the wall time on two idle cores (the CPU time stays the same).
-    ``AFFERENT_PLOT_PROCESSES=1`` in the environment renders them all in this process. The child reports its warnings
-    back to be re-emitted here (so run.json records them); if it fails in any way, this process
-    renders the child's figures itself, raising what they raise. Returns the paths written.
-    """
-    import matplotlib.pyplot as plt
-
-    items = [(getattr(f, "figure", f), p) for f, p in figures]
-    if len(items) < 2 or _processes() < 2:
-        return [save_figure(f, p, overwrite=overwrite, dpi=dpi) for f, p in items]
-    mine, theirs, load = [], [], [0, 0]
-    for f, p in sorted(items, key=lambda item: -len(item[0].axes)):  # about even: the cost goes with the Axes
-        side = int(load[1] < load[0])
-        (mine, theirs)[side].append((f, p))
-        load[side] += len(f.axes) + 1
-    read_end, write_end = os.pipe()
-    pid = os.fork()
-    if pid == 0:  # the child: its half, then its warnings down the pipe; never returns
-        _save_in_child(theirs, write_end, overwrite=overwrite, dpi=dpi)
-    os.close(write_end)
-    try:
-        for f, p in mine:
-            save_figure(f, p, overwrite=overwrite, dpi=dpi)
-    finally:
-        with os.fdopen(read_end, "rb") as pipe:
-            report = pipe.read()
-        _, status = os.waitpid(pid, 0)
-    if os.waitstatus_to_exitcode(status) == 0 and report.startswith(b"ok\n"):
-        for message in json.loads(report[3:]):
-            warnings.warn(message["message"], _warning_category(message["category"]), stacklevel=2)
-        for f, _ in theirs:
-            plt.close(f)
-    else:  # the child failed (or was killed): render its figures here, raising what they raise
-        for f, p in theirs:
-            folder, base = os.path.split(os.path.abspath(p))
-            for part in glob.glob(os.path.join(glob.escape(folder), f".{glob.escape(base)}.*.part")):
-                os.remove(part)  # a temporary file of the child's (atomic_file's name), left by a kill
-            if overwrite or not os.path.exists(p):  # else the child renamed it into place, whole
-                save_figure(f, p, overwrite=overwrite, dpi=dpi)
-    return [p for _, p in items]
-
-
-def _warning_category(name: str):
-    import builtins
-
-    from . import exceptions
-
-    found = getattr(exceptions, name, None) or getattr(builtins, name, None)
-    return found if isinstance(found, type) and issubclass(found, Warning) else UserWarning
-
-
-def _save_in_child(items, fd: int, *, overwrite: bool, dpi: int):
-    """Save ``items`` in a forked child, write ``ok`` and its warnings (JSON) to ``fd``, and exit."""
-    code = 1
-    try:
-        with warnings.catch_warnings(record=True) as caught:
-            warnings.simplefilter("always")
-            for f, p in items:
-                save_figure(f, p, overwrite=overwrite, dpi=dpi)
-        report = [{"message": str(w.message), "category": w.category.__name__} for w in caught]
-        os.write(fd, b"ok\n" + json.dumps(report).encode())
-        code = 0
-    except BaseException:  # noqa: BLE001 - the parent renders these figures again and raises
-        pass
-    finally:
-        os._exit(code)
 
 
 def _central_line(layout, axis: str):

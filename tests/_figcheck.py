@@ -181,6 +181,4 @@ def collect_figure_problems(monkeypatch) -> dict:
         return original(self, fname, *args, **kwargs)
 
     monkeypatch.setattr(Figure, "savefig", savefig)
-    # every figure in this process, where the check records what it finds (not in save_figures' forked child)
-    monkeypatch.setenv("AFFERENT_PLOT_PROCESSES", "1")
     return found

@@ -145,7 +145,10 @@ def test_report_spiking_figure_keeps_units_apart_and_names_the_points_a_log_axis
     results = json.loads((ROOT / "tests" / "data" / "report" / "tiny_results.json").read_text())
     fast = [r for r in results["spiking"] if r["engine"] == "fast" and r.get("wall_s") is not None]
     fast[0]["rate_err_median"] = 0.0  # e.g. dt = 0.001 ms: the same rates as the exact engine
-    fig, _ = rep._plot_spiking(results, str(tmp_path))
+    figures = []
+    monkeypatch.setattr("afferent.plotting.save_figure", lambda fig, path: figures.append(fig) or path)
+    rep._plot_spiking(results, str(tmp_path))
+    fig = figures[0]
     assert f"zero, not drawn: rate at dt = {fast[0]['dt_s'] * 1e3:g} ms" in fig.legends[0].get_title().get_text()
     for ax in fig.axes:  # one unit per y axis: seconds never beside a relative error
         labels = [ln.get_label() for ln in ax.get_lines()]
@@ -168,7 +171,6 @@ def test_one_folder_names_its_two_clocks(tmp_path, monkeypatch):
     (tmp_path / "s.toml").write_text(text)
     titles = {}
     original = Figure.savefig
-    monkeypatch.setenv("AFFERENT_PLOT_PROCESSES", "1")  # every savefig in this process, where it is recorded
     monkeypatch.setattr(Figure, "savefig", lambda self, f, *a, **k: (
         titles.setdefault(str(f), [ax.get_title() for ax in self.axes]), original(self, f, *a, **k))[1])
     run_scene(load_scene(tmp_path / "s.toml").with_output(tmp_path / "out"), cache_dir=tmp_path / "c")
@@ -192,81 +194,29 @@ def test_demo_summary_figure_is_readable(tmp_path, monkeypatch):
     _readable(found)
 
 
-def _figures_that_draw(tmp_path, draw):
-    """Three one-Axes figures whose drawing calls ``draw()`` (in whichever process renders them)."""
+def test_save_figure_lays_out_and_draws_once_with_the_pixels_savefig_gives(tmp_path, monkeypatch):
+    """savefig of a laid-out figure drew it twice (a layout pass drawing nothing, then the render):
+    save_figure lays it out once at the saved dpi and draws once, and the PNG must not change."""
     import matplotlib.pyplot as plt
-    from matplotlib.artist import Artist
+    from matplotlib.figure import Figure
+    from PIL import Image
 
-    class Probe(Artist):
-        def draw(self, renderer):
-            draw()
+    from afferent.plotting import legend_beside, save_figure
 
-    out = []
-    for k in range(3):
-        fig, ax = plt.subplots(figsize=(2, 2), layout="constrained")
-        ax.plot([0, 1], [k, 1])
-        ax.set_title(f"figure {k}")
-        ax.add_artist(Probe())
-        out.append((ax, str(tmp_path / f"f{k}.png")))
-    return out
+    def figure():
+        fig, ax = plt.subplots(figsize=(4, 3), layout="constrained")
+        ax.plot([0, 1, 2], [0, 1, 0], label="a curve with a long name")
+        ax.set(xlabel="x (mm)", ylabel="SED (Pa = J/m³)", title="a title")
+        legend_beside(ax)
+        return fig
 
-
-@pytest.mark.skipif(not hasattr(__import__("os"), "fork"), reason="no os.fork")
-def test_save_figures_renders_in_two_processes_and_passes_on_the_child_s_warnings(tmp_path, monkeypatch):
-    """The run's PNGs are rendered two at a time (a forked child takes about half); a warning raised
-    while the child draws must reach this process (run.json records warnings), every file must be whole."""
-    import os
-    import warnings
-
-    from afferent import plotting
-    from afferent.exceptions import AfferentWarning
-
-    monkeypatch.delenv("AFFERENT_PLOT_PROCESSES", raising=False)
-    monkeypatch.setattr(os, "sched_getaffinity", lambda pid: {0, 1})  # two cores, as on the machine measured
-    figures = _figures_that_draw(tmp_path, lambda: warnings.warn(f"drawn by {os.getpid()}", AfferentWarning))
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always")
-        written = plotting.save_figures(figures)
-    assert written == [p for _, p in figures] and all(os.path.getsize(p) > 1000 for p in written)
-    drawn_by = {str(w.message) for w in caught if w.category is AfferentWarning}
-    assert len(drawn_by) == 2 and f"drawn by {os.getpid()}" in drawn_by, drawn_by  # here and in the child
-    assert sorted(os.listdir(tmp_path)) == ["f0.png", "f1.png", "f2.png"]
-
-
-@pytest.mark.skipif(not hasattr(__import__("os"), "fork"), reason="no os.fork")
-def test_save_figures_renders_here_what_the_child_failed_to(tmp_path, monkeypatch):
-    """A child that fails (here: any drawing outside this process raises) leaves no file or temporary
-    behind that this process does not finish: its figures are rendered here instead."""
-    import os
-
-    from afferent import plotting
-
-    monkeypatch.delenv("AFFERENT_PLOT_PROCESSES", raising=False)
-    monkeypatch.setattr(os, "sched_getaffinity", lambda pid: {0, 1})
-    me = os.getpid()
-
-    def draw():
-        if os.getpid() != me:
-            raise RuntimeError("the child fails")
-
-    figures = _figures_that_draw(tmp_path, draw)
-    plotting.save_figures(figures)
-    assert sorted(os.listdir(tmp_path)) == ["f0.png", "f1.png", "f2.png"]
-    assert all(os.path.getsize(tmp_path / f"f{k}.png") > 1000 for k in range(3))
-
-
-def test_save_figures_in_one_process_when_asked(tmp_path, monkeypatch):
-    """``AFFERENT_PLOT_PROCESSES=1`` (what the figure checks set): every figure drawn in this process."""
-    import os
-    import warnings
-
-    from afferent import plotting
-
-    monkeypatch.setenv("AFFERENT_PLOT_PROCESSES", "1")
-    monkeypatch.setattr(os, "sched_getaffinity", lambda pid: {0, 1})
-    figures = _figures_that_draw(tmp_path, lambda: warnings.warn(f"drawn by {os.getpid()}", UserWarning))
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always")
-        plotting.save_figures(figures)
-    assert {str(w.message) for w in caught} == {f"drawn by {os.getpid()}"} and len(caught) >= 3
-    assert sorted(os.listdir(tmp_path)) == ["f0.png", "f1.png", "f2.png"]
+    reference = figure()
+    reference.savefig(tmp_path / "savefig.png", dpi=150, format="png")
+    plt.close(reference)
+    draws = []
+    original = Figure.draw
+    monkeypatch.setattr(Figure, "draw", lambda self, renderer: (draws.append(1), original(self, renderer))[1])
+    save_figure(figure(), str(tmp_path / "save_figure.png"))
+    assert len(draws) == 1
+    a, b = (np.asarray(Image.open(tmp_path / f)) for f in ("savefig.png", "save_figure.png"))
+    assert a.shape == b.shape and np.array_equal(a, b)

@@ -70,9 +70,9 @@ def _subplots(height: float):
     return fig, fig.subplots(1, 2)
 
 
-def _plot_sampling(results: dict, folder: str) -> tuple:
-    """The sampling figure, to be saved into ``folder``: (Figure, path)."""
-    from ..plotting import legend_beside
+def _plot_sampling(results: dict, folder: str) -> str:
+    """The sampling figure, saved into ``folder``; returns its path."""
+    from ..plotting import legend_beside, save_figure
 
     rows = results["sampling"]
     fig, (ax_e, ax_t) = _subplots(3.4)
@@ -90,12 +90,12 @@ def _plot_sampling(results: dict, folder: str) -> tuple:
     ax_t.set_ylabel("time (ms)")
     legend_beside(ax_t)
     fig.suptitle("Sampling the SED at receptor sites: error and time per method")
-    return fig, os.path.join(folder, "sampling.png")
+    return save_figure(fig, os.path.join(folder, "sampling.png"))
 
 
-def _plot_spiking(results: dict, folder: str) -> tuple:
-    """The spiking figure, to be saved into ``folder``: (Figure, path)."""
-    from ..plotting import legend_beside
+def _plot_spiking(results: dict, folder: str) -> str:
+    """The spiking figure, saved into ``folder``; returns its path."""
+    from ..plotting import legend_beside, save_figure
 
     rows = [r for r in results["spiking"] if r.get("wall_s") is not None]
     exact = rows[0]
@@ -124,12 +124,12 @@ def _plot_spiking(results: dict, folder: str) -> tuple:
     # a zero error has no place on a log axis: say which points are not drawn
     legend_beside(ax_e, title=("zero, not drawn: " + "; ".join(hidden)) if hidden else None)
     fig.suptitle("Spiking engines: wall time and error against the exact engine, by time step")
-    return fig, os.path.join(folder, "spiking.png")
+    return save_figure(fig, os.path.join(folder, "spiking.png"))
 
 
-def _plot_receptors(results: dict, folder: str) -> tuple:
-    """The receptors figure, to be saved into ``folder``: (Figure, path)."""
-    from ..plotting import legend_beside
+def _plot_receptors(results: dict, folder: str) -> str:
+    """The receptors figure, saved into ``folder``; returns its path."""
+    from ..plotting import legend_beside, save_figure
 
     rows = results["receptors"]
     fig, (ax_t, ax_e) = _subplots(3.4)
@@ -147,11 +147,13 @@ def _plot_receptors(results: dict, folder: str) -> tuple:
     ax_e.set_ylabel(f"max error vs {rows[-1]['per_papilla']} per papilla")
     legend_beside(ax_e)
     fig.suptitle("Receptor density: time and error against the densest layout")
-    return fig, os.path.join(folder, "receptors.png")
+    return save_figure(fig, os.path.join(folder, "receptors.png"))
 
 
-def _plot_calibration(results: dict, folder: str) -> tuple:
-    """The calibration figure, to be saved into ``folder``: (Figure, path)."""
+def _plot_calibration(results: dict, folder: str) -> str:
+    """The calibration figure, saved into ``folder``; returns its path."""
+    from ..plotting import save_figure
+
     rows = results["calibration"]
     fig, (ax_n, ax_e) = _subplots(4.2)
     methods = list(dict.fromkeys(r["method"] for r in rows))
@@ -171,12 +173,12 @@ def _plot_calibration(results: dict, folder: str) -> tuple:
     ax_e.set_ylabel("largest relative parameter error")
     fig.legend(*ax_n.get_legend_handles_labels(), loc="outside lower center", ncols=2, fontsize="small")
     fig.suptitle("Calibration methods: cost and recovered parameters")
-    return fig, os.path.join(folder, "calibration.png")
+    return save_figure(fig, os.path.join(folder, "calibration.png"))
 
 
-def _plot_series(results: dict, folder: str) -> tuple:
-    """The series figure, to be saved into ``folder``: (Figure, path)."""
-    from ..plotting import legend_beside
+def _plot_series(results: dict, folder: str) -> str:
+    """The series figure, saved into ``folder``; returns its path."""
+    from ..plotting import legend_beside, save_figure
 
     rows = results["series"]
     fig, (ax_t, ax_m) = _subplots(3.4)
@@ -191,18 +193,14 @@ def _plot_series(results: dict, folder: str) -> tuple:
         ax.set_ylim(bottom=0)
         legend_beside(ax)
     fig.suptitle("Time series: whole read against streamed read")
-    return fig, os.path.join(folder, "series.png")
+    return save_figure(fig, os.path.join(folder, "series.png"))
 
 
 def _plots(results: dict, folder: str) -> dict:
-    """Every knob's figure, saved together (:func:`afferent.plotting.save_figures`): ``{knob: PNG file name}``."""
-    from ..plotting import save_figures
-
+    """Every knob's figure: ``{knob: PNG file name}``."""
     draw = {"sampling": _plot_sampling, "spiking": _plot_spiking, "receptors": _plot_receptors,
             "calibration": _plot_calibration, "series": _plot_series}
-    figures = {k: f(results, folder) for k, f in draw.items()}
-    save_figures(figures.values())
-    return {k: os.path.basename(path) for k, (_, path) in figures.items()}
+    return {k: os.path.basename(f(results, folder)) for k, f in draw.items()}
 
 
 #: The report's sections, in order: (key, title).
