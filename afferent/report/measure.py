@@ -500,7 +500,7 @@ def write_series(folder, n_points: int, n_steps: int) -> list[str]:
     meshio writes the first file; the others are that file with its SED array's text replaced by
     the step's, encoded as meshio encodes it (the mesh, 92 % of the bytes, is compressed once
     instead of once per step): the same bytes as ``meshio.write`` of each step, about ten times
-    sooner. When meshio's text of the first step is not what :func:`_zlib_text` gives (another
+    sooner. When meshio's text of the first step is not what ``_zlib_text`` gives (another
     meshio), every step is written by meshio."""
     import meshio
 
