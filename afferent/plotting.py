@@ -50,7 +50,7 @@ def plot_sed_map(sed, *, time_index: int = -1, ax=None, normalise: bool = False,
     ax = _axes(ax)
     v = np.asarray(sed.values[time_index], dtype=float)
     pos_mm = sed.layout.positions * 1e3
-    label = "SED (Pa = J/m$^3$)"
+    label = "SED (Pa = J/m³)"
     if normalise:
         span = np.nanmax(v) - np.nanmin(v)
         v = (v - np.nanmin(v)) / span if span > 0 else np.zeros_like(v)
@@ -211,12 +211,24 @@ def legend_beside(ax, *, title: str | None = None):
 
 
 def save_figure(ax_or_fig, path: str, *, overwrite: bool = False, dpi: int = 150) -> str:
-    """Save a figure as PNG atomically (temporary name, then renamed) and close it."""
+    """Save a figure as PNG atomically (temporary name, then renamed) and close it.
+
+    The figure is laid out once, at ``dpi`` (dots per inch), and drawn once: matplotlib's
+    ``savefig`` on a laid-out figure draws it twice (once to lay it out, drawing nothing,
+    then to render), which costs ~10 % more CPU for the same pixels.
+    """
     import matplotlib.pyplot as plt
 
     from ._output import atomic_file
 
     fig = getattr(ax_or_fig, "figure", ax_or_fig)
+    engine = fig.get_layout_engine()
+    if engine is not None:
+        fig.set_dpi(dpi)  # the layout depends on the text's pixel sizes
+        engine.execute(fig)
+        fig.set_layout_engine(None)  # keep the positions just computed: savefig draws once
+        if fig.get_layout_engine() is not None:  # rcParams ask every figure for a layout: savefig's own way
+            fig.set_layout_engine(engine)
     with atomic_file(path, overwrite=overwrite) as tmp:
         fig.savefig(tmp, dpi=dpi, format="png")
     plt.close(fig)
@@ -303,7 +315,7 @@ def plot_fit(fit, *, ax=None, title=None):
     ax.plot(x, fit.predicted, "-", lw=2, label="predicted")
     ax.set_xlabel("afferent position (mm)" if fit.positions is not None else "afferent")
     ax.set_ylabel("response (normalised)" if fit.normalise != "neither" else "response")
-    ax.set_title(title or f"R$^2$ (study) = {fit.r2_study:.3f}, R$^2$ = {fit.r2:.3f}, ssd = {fit.ssd:.3g}")
+    ax.set_title(title or f"R² (study) = {fit.r2_study:.3f}, R² = {fit.r2:.3f}, ssd = {fit.ssd:.3g}")
     legend_beside(ax, title=_stretch_note(fit))
     return ax
 
@@ -316,7 +328,7 @@ def _stretch_note(fit) -> str | None:
     if not small:
         return None
     return ("min-max normalised; before that\n" + ", ".join(f"{k} varies by {100 * v:.2g} %" for k, v in small.items())
-            + "\n(stretched to 0..1, R$^2$ with it)")
+            + "\n(stretched to 0..1, R² with it)")
 
 
 # ---- spikes and stimuli -------------------------------------------------------------------

@@ -237,12 +237,19 @@ def r2(d, e) -> float:
     >>> r2([0.0, 1.0, 0.5], [0.0, 1.0, 0.5])
     1.0
     """
-    from sklearn.metrics import r2_score
-
     d, e = _pair(d, e)
     if d.size < 2:
         raise ValueError(f"r2 needs at least 2 samples; got {d.size} instead.")
-    return float(r2_score(d, e))
+    # scikit-learn's arithmetic, operation for operation (one output column, uniform weights), so the
+    # value is its bit for bit (tests/test_profiles.py) without its checks: 0.4 ms a call, and 1 s to import
+    t, p = d.astype(float).reshape(-1, 1), e.astype(float).reshape(-1, 1)
+    numerator = np.sum(1.0 * (t - p) ** 2, axis=0)
+    denominator = np.sum(1.0 * (t - np.average(t, axis=0)) ** 2, axis=0)
+    score = np.ones(1)
+    valid = (numerator != 0) & (denominator != 0)
+    score[valid] = 1 - numerator[valid] / denominator[valid]
+    score[(numerator != 0) & (denominator == 0)] = 0.0
+    return float(np.average(score))
 
 
 def ssd(d, e) -> float:

@@ -275,3 +275,30 @@ def test_calibration_figures_keep_their_legends_beside():
              (("profile.png", plot_calibrated_profile), ("ssd.png", plot_ssd_history))}
     _readable(found)
 
+
+def test_save_figure_lays_out_and_draws_once_with_the_pixels_savefig_gives(tmp_path, monkeypatch):
+    """savefig of a laid-out figure drew it twice (a layout pass drawing nothing, then the render):
+    save_figure lays it out once at the saved dpi and draws once, and the PNG must not change."""
+    import matplotlib.pyplot as plt
+    from matplotlib.figure import Figure
+    from PIL import Image
+
+    from afferent.plotting import legend_beside, save_figure
+
+    def figure():
+        fig, ax = plt.subplots(figsize=(4, 3), layout="constrained")
+        ax.plot([0, 1, 2], [0, 1, 0], label="a curve with a long name")
+        ax.set(xlabel="x (mm)", ylabel="SED (Pa = J/m³)", title="a title")
+        legend_beside(ax)
+        return fig
+
+    reference = figure()
+    reference.savefig(tmp_path / "savefig.png", dpi=150, format="png")
+    plt.close(reference)
+    draws = []
+    original = Figure.draw
+    monkeypatch.setattr(Figure, "draw", lambda self, renderer: (draws.append(1), original(self, renderer))[1])
+    save_figure(figure(), str(tmp_path / "save_figure.png"))
+    assert len(draws) == 1
+    a, b = (np.asarray(Image.open(tmp_path / f)) for f in ("savefig.png", "save_figure.png"))
+    assert a.shape == b.shape and np.array_equal(a, b)

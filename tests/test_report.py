@@ -122,3 +122,28 @@ def test_report_renders_without_brian2(report, tmp_path):
     png = rep._plots(results, str(tmp_path))
     md = rep._markdown(results, SIZES["tiny"], png, "afferent report -o x")
     assert "| brian2 | - | none | - | - | skipped: brian2 does not import |" in md
+
+
+def test_series_files_are_meshios_bytes_with_one_meshio_write(tmp_path, monkeypatch):
+    """The report's generated series (45 VTUs of 101k nodes, quick size) took meshio's zlib compression of
+    the same mesh once per step; now the mesh is compressed once and each step's SED array spliced in.
+    The files must be exactly what meshio.write gives for every step."""
+    import meshio
+
+    from afferent.report import write_series
+    from afferent.report.measure import block_dims, manufactured_sed
+
+    calls = []
+    original = meshio.write
+    monkeypatch.setattr(meshio, "write", lambda *a, **k: (calls.append(a[0]), original(*a, **k))[1])
+    paths = write_series(tmp_path, 3_000, 4)
+    assert len(calls) == 1 and len(paths) == 4
+    monkeypatch.setattr(meshio, "write", original)
+    points, hexes = hex_block(*block_dims(3_000))
+    base = manufactured_sed(points * 1e-3 + [0.0, 2.45e-3 - 3.1e-3, 0.0]) / 1e6
+    for k, path in enumerate(paths):
+        expected = tmp_path / f"meshio_{k}.vtu"
+        meshio.write(expected, meshio.Mesh(points, [("hexahedron", hexes)], point_data={"SED": (k + 1) / 4 * base}),
+                     binary=True, compression="zlib")
+        assert expected.read_bytes() == open(path, "rb").read(), path
+        np.testing.assert_array_equal(meshio.read(path).point_data["SED"], (k + 1) / 4 * base)

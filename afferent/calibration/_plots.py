@@ -49,7 +49,7 @@ def plot_calibrated_profile(result, *, ax=None, title=None):
     ax.set_ylabel("response (normalised)" if norm else "response")
     p = result.params
     ax.set_title(title or (
-        f"{result.method}, {result.synthesis}: ssd {result.ssd:.3g}, R$^2$ (study) {result.r2_study:.3f}\n"
+        f"{result.method}, {result.synthesis}: ssd {result.ssd:.3g}, R² (study) {result.r2_study:.3f}\n"
         f"alpha {p.alpha:.3g} A, gamma {p.gamma:.3g} 1/Pa, lambda {p.lambda_:.4g} Pa"
     ), fontsize="small")
     legend_beside(ax)  # beside the Axes, never over a point
