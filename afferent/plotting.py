@@ -134,7 +134,8 @@ def plot_hotspot_summary(runs: dict, groups: dict, *, threshold: float):
             ax.set_title(f"{labels[c]}\n{kind}: {int(hot.sum())} >= {threshold:g}", fontsize="small")
             ax.tick_params(labelsize="x-small")
         axes[r, 0].set_ylabel(f"{g}: z (mm)", fontsize="small")
-    fig.colorbar(sc, ax=axes, label=f"normalised SED (>= {threshold:g}); x across ridges (mm)", shrink=0.5)
+    fig.colorbar(sc, ax=axes, label=f"normalised SED (>= {threshold:g})", shrink=0.5)
+    fig.supxlabel("x, across the ridges (mm)", fontsize="small")
     return fig
 
 

@@ -126,4 +126,6 @@ def test_notebook_runs(path, monkeypatch):
     # no error, no warning the notebook does not catch and explain itself, no figure the layout checker flags
     assert not _leaks(nb)
     shown = sum("image/png" in o.get("data", {}) for c in _code_cells(nb) for o in c.outputs)
-    assert nb.cells[-1].outputs[0]["text"] == f"figures checked: {shown}\n" and shown
+    # every figure shown was checked (figures the package saves as PNG, e.g. a scene's plots, are checked too)
+    checked = int(nb.cells[-1].outputs[0]["text"].removeprefix("figures checked:"))
+    assert shown and checked >= shown, (checked, shown)
