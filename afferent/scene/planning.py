@@ -20,6 +20,7 @@ NEEDS = {
     "plots": (),
     "nwb": _CURRENT_STAGES + ("input", "spiking"),
     "hotspots": ("reading", "sampling"),
+    "cycles": ("reading", "sampling"),
 }
 
 # ---------------------------------------------------------------------------- planning

@@ -211,7 +211,7 @@ def _compute_downstream(run: _Run, sed) -> None:
                    spikes=None, profile_index=-1)
     run.record["afferent_class"] = class_record(run.scene, getattr(sed.layout, "site", None))
     if "transduction" not in run.planned:
-        return
+        return _cycles(run)
     sed_t = _stimulus(run, sed) if "stimulus" in run.planned else sed
     _transduce_and_synthesize(run, sed_t)
     if "comparison" in run.planned:
@@ -220,6 +220,20 @@ def _compute_downstream(run: _Run, sed) -> None:
         _spike(run)
     if run.span:
         run.record["time_span"] = run.span
+    _cycles(run)
+
+
+def _cycles(run: _Run) -> None:
+    """The ``cycles`` output's table and record (:func:`afferent.cycles.receptor_cycles`), on the export's SED."""
+    o = run.scene.outputs
+    if "cycles" not in (o.want or ()):
+        return
+    from ..cycles import receptor_cycles
+
+    run.out["cycles"], run.record["cycles"] = receptor_cycles(
+        run.out["sed_static"], o.cycles_frequency_hz, x_range_m=o.cycles_x_range_m, z_range_m=o.cycles_z_range_m,
+        edge_m=o.cycles_edge_m, spikes=run.out.get("spikes"))
+    run.record["cycles"]["frequency_from"] = "the scene's [outputs] cycles_frequency_hz"
 
 
 def _hash_inputs(run: _Run):

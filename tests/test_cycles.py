@@ -1,0 +1,120 @@
+"""The 'cycles' output (afferent.cycles) and ``afferent cycles``: per-cycle deepest points, the site rule, SED and
+rate vs frequency (the study's figs. 4-11/4-12) on a closed-form series and on the bundled vibration runs."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from afferent.cycles import cycle_bounds, cycle_table, edge_sites, frequency_summary
+
+ROOT = Path(__file__).resolve().parents[1]
+VIB = ROOT / "sample_sed" / "scenes" / "vibration"
+needs_sample = pytest.mark.skipif(not VIB.is_dir(), reason="bundled vibration sample not present")
+
+
+def _series(f=20.0, cycles=3, steps=20, phase=0.0):
+    """SED_i(t) = a_i (1 - cos(2 pi f t)) / 2 + b_i t: deepest (largest total) at t = (k + 1/2) / f when b = 0."""
+    t = np.arange(cycles * steps + 1) / (steps * f) + phase
+    a = np.array([1.0, 3.0, 2.0])
+    return t, a[None, :] * (1 - np.cos(2 * np.pi * f * (t[:, None] - phase))) / 2
+
+
+def test_deepest_points_of_a_closed_form_series():
+    t, v = _series()
+    table, site = cycle_table(t, v, 20.0)
+    assert table["deepest_time_s"].tolist() == pytest.approx([0.025, 0.075, 0.125], abs=1e-12)
+    assert table["deepest_step"].tolist() == [10, 30, 50]
+    assert site == 1 and table["sed_pa"].tolist() == pytest.approx([3.0, 3.0, 3.0])
+    assert table["t_start_s"].tolist() == pytest.approx([0.0, 0.05, 0.1])
+    assert np.isnan(table["rate_hz"]).all()
+    # a series starting at 1 s: cycles counted from the first step
+    t2, v2 = _series(phase=1.0)
+    assert cycle_table(t2, v2, 20.0)[0]["deepest_time_s"].tolist() == pytest.approx([1.025, 1.075, 1.125])
+
+
+def test_site_rule_edge_band_and_spikes_per_cycle():
+    t, v = _series()
+    pos = np.array([[0.0, 0, 0.0], [5e-3, 0, 5e-3], [1.1e-3, 0, 0.5e-3]])  # site 1 (largest) far from the outline
+    near = edge_sites(pos, (0.0, 1e-3), (0.0, 1e-3), 0.2e-3)
+    assert near.tolist() == [True, False, True]
+    spikes = np.array([0.01, 0.02, 0.06, 0.149, 0.15, 0.2])  # 2, 1, 2 (the end of the last cycle counts), 0.2 out
+    table, site = cycle_table(t, v, 20.0, positions_m=pos, ids=["a", "b", "c"], candidates=near, spike_times=spikes,
+                              n_afferents=2)
+    assert site == 2 and set(table["site"]) == {"c"} and table["sed_pa"].tolist() == pytest.approx([2.0] * 3)
+    assert table["spikes"].tolist() == [2, 1, 2]
+    assert table["rate_hz"].tolist() == pytest.approx([20.0, 10.0, 20.0])  # spikes / (2 afferents x 0.05 s)
+
+
+def test_cycle_errors_are_pinned():
+    t, v = _series()
+    with pytest.raises(ValueError, match=r"cycle frequency must be a number > 0 Hz; got -1"):
+        cycle_bounds(t, -1)
+    with pytest.raises(ValueError, match=r"a 5 Hz cycle lasts 0.2 s but the series spans 0.15 s .*not one whole cycle"):
+        cycle_table(t, v, 5.0)
+    with pytest.raises(ValueError, match=r"no site near the indenter's edge among the 3 sites; widen the band"):
+        cycle_table(t, v, 20.0, candidates=[False] * 3)
+
+
+def test_scene_keys_are_checked():
+    from afferent.scene import SceneError, parse_scene, resolve
+
+    base = '[export]\nfile = "x.vtu"\n[receptors]\ngrid = "tips"\n[outputs]\n'
+    with pytest.raises(SceneError, match=r"want 'cycles' needs the periodic input's frequency 'cycles_frequency_hz'"):
+        resolve(parse_scene(base + 'want = ["cycles"]\n'))
+    with pytest.raises(SceneError, match=r"'cycles_frequency_hz' applies to want = \[..., 'cycles'\]"):
+        resolve(parse_scene(base + 'want = ["sed_map"]\ncycles_frequency_hz = 20\n'))
+    with pytest.raises(SceneError, match=r"outline for 'cycles' needs all of .* missing 'cycles_edge_m'"):
+        resolve(parse_scene(base + 'want = ["cycles"]\ncycles_frequency_hz = 20\ncycles_x_range_mm = [1, 2]\n'
+                            'cycles_z_range_mm = [1, 2]\n'))
+
+
+def _build_info():
+    return json.loads((ROOT / "sample_sed" / "vibration" / "build_info.json").read_text())
+
+
+@needs_sample
+def test_command_on_the_vibration_runs_gives_build_info_numbers(tmp_path, capsys):
+    from afferent.cli._main import main
+    from afferent.scene import load_scene, run_scene
+
+    runs = []
+    for s in sorted(VIB.glob("*.toml")):
+        res = run_scene(load_scene(s).with_output(tmp_path / s.stem), cache_dir=tmp_path / "c")
+        runs.append(str(tmp_path / s.stem))
+        assert res.record["cycles"]["site"] == "18" and res.record["cycles"]["candidates"] == ["13", "14", "15", "18", "23"]
+        spikes = np.loadtxt(tmp_path / s.stem / "spikes.csv", delimiter=",", skiprows=1, usecols=1, ndmin=1)
+        cyc = np.genfromtxt(tmp_path / s.stem / "cycles.csv", delimiter=",", names=True)
+        assert cyc["spikes"].sum() == np.sum(spikes <= 3 / cyc["frequency_hz"][0] + 1e-12)
+    assert main(["cycles", *runs, "-o", str(tmp_path / "freq"), "--group", "3d=ridged3d_*",
+                 "--group", "2d=ridged2d_*"]) == 0
+    import pandas as pd
+
+    summ = pd.read_csv(tmp_path / "freq" / "frequency.csv")
+    assert (tmp_path / "freq" / "frequency.png").stat().st_size > 10_000
+    info = _build_info()["models"]
+    for row in summ.itertuples():
+        deep = info[row.group]["series"][f"{row.group}_{int(row.frequency_hz)}Hz"]["deepest"]
+        assert deep["site"]["index"] == 17
+        assert row.sed_first_pa == pytest.approx(deep["site_SED_Pa"][0], rel=1e-6)
+        assert row.sed_last_pa == pytest.approx(deep["site_SED_Pa"][-1], rel=1e-6)
+    # sample_sed/README.md's table, 80 / 20 Hz at the third deepest point: 1.159 (3-D), 1.162 (2-D)
+    last = summ[summ.frequency_hz == 80].set_index("group")["last_vs_lowest"]
+    assert round(last["3d"], 3) == 1.159 and round(last["2d"], 3) == 1.162
+    assert main(["cycles", runs[0], str(tmp_path / "freq"), "-o", str(tmp_path / "x")]) == 2
+    assert "no cycles.csv; expected the output folder of a run whose scene wants 'cycles'" in capsys.readouterr().err
+
+
+def test_two_runs_at_one_frequency_in_a_group_is_an_error():
+    import pandas as pd
+
+    t, v = _series()
+    tab = cycle_table(t, v, 20.0)[0]
+    with pytest.raises(ValueError, match=r"group 'all': runs 'a' and 'b' are both at 20 Hz"):
+        frequency_summary({"a": tab, "b": tab}, {"all": ["a", "b"]})
+    with pytest.raises(ValueError, match=r"run 'a': cycles.csv lacks \['rate_hz'\]"):
+        frequency_summary({"a": tab.drop(columns="rate_hz")}, {"all": ["a"]})
+    assert isinstance(frequency_summary({"a": tab}, {"all": ["a"]}), pd.DataFrame)
