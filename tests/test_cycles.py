@@ -118,3 +118,29 @@ def test_two_runs_at_one_frequency_in_a_group_is_an_error():
     with pytest.raises(ValueError, match=r"run 'a': cycles.csv lacks \['rate_hz'\]"):
         frequency_summary({"a": tab.drop(columns="rate_hz")}, {"all": ["a"]})
     assert isinstance(frequency_summary({"a": tab}, {"all": ["a"]}), pd.DataFrame)
+
+
+@needs_sample
+def test_a_sine_stimulus_gives_its_frequency_and_closed_form_deepest_points(tmp_path):
+    """d(t) = 0.25 + 0.25 sin(2 pi 40 t) mm on the 0.88 mm export solved at 0.5 mm: SED = (d / 0.5)^2 x the export's,
+    deepest at t = (k + 1/4) / 40 s with the export's own SED there."""
+    from afferent.scene import parse_scene, run_scene
+
+    sed_map = ROOT / "sample_sed" / "scenes" / "sed_map.toml"
+    text = (f'[export]\nfile = "{ROOT}/sample_sed/block4/indent_0p88mm.vtu"\nlength_unit = "mm"\nsed_unit = "MPa"\n'
+            f'[receptors]\nfile = "{ROOT}/sample_sed/block4/receptors.csv"\n'
+            '[stimulus]\nwaveform = "sine"\nd_ref_mm = 0.5\nfrequency_hz = 40\namplitude_mm = 0.25\noffset_mm = 0.25\n'
+            'duration_s = 0.075\ndt_ms = 0.25\n[outputs]\nwant = ["cycles", "currents"]\n')
+    assert sed_map.is_file()
+    res = run_scene(parse_scene(text).with_output(tmp_path / "sine"), cache_dir=tmp_path / "c")
+    rec = res.record["cycles"]
+    assert rec["frequency_hz"] == 40.0 and rec["frequency_from"] == "the scene's [stimulus] sine frequency_hz"
+    cyc = np.genfromtxt(tmp_path / "sine" / "cycles.csv", delimiter=",", names=True, dtype=None, encoding=None)
+    assert cyc["deepest_time_s"].tolist() == pytest.approx([0.00625, 0.03125, 0.05625], abs=1e-9)
+    static = np.asarray(res.sed.values)[-1]
+    assert cyc["sed_pa"] == pytest.approx([np.nanmax(static)] * 3, rel=1e-9)
+    assert rec["site_rule"] == "the site with the largest SED at the last cycle's deepest point"
+    alone = run_scene(parse_scene(text.replace('"cycles", "currents"', '"cycles"')).with_output(tmp_path / "alone"),
+                      cache_dir=tmp_path / "c")  # SED only: the stimulus stage still runs for the cycles
+    assert alone.stages.keys() >= {"stimulus"} and "transduction" not in alone.stages
+    assert alone.record["cycles"]["n_cycles"] == 3

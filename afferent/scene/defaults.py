@@ -252,7 +252,8 @@ def _hotspot_keys(scene: Scene, out, err):
 
 
 def _cycle_keys(scene: Scene, out, err):
-    """[outputs] cycles_*: only with want 'cycles', which needs the frequency (> 0 Hz); the outline all three or none."""
+    """[outputs] cycles_*: only with want 'cycles', which needs the frequency (> 0 Hz; default a [stimulus] sine's);
+    the outline all three or none."""
     keys = ("cycles_frequency_hz", "cycles_x_range_m", "cycles_z_range_m", "cycles_edge_m")
     if "cycles" not in out.want:
         given = [_given(scene, "outputs", k) for k in keys if getattr(out, k) is not None]
@@ -261,9 +262,11 @@ def _cycle_keys(scene: Scene, out, err):
                       f"requested (want = {list(out.want)!r}).")
         return out
     f = out.cycles_frequency_hz
-    if f is None or not f > 0:
-        raise err("outputs", "cycles_frequency_hz", "[outputs] want 'cycles' needs the periodic input's frequency "
-                  f"'cycles_frequency_hz' (> 0 Hz, e.g. cycles_frequency_hz = 20); got {f!r} instead.")
+    sine = scene.stimulus.waveform == "sine" and f is None
+    if not sine and (f is None or not f > 0):
+        raise err("outputs", _given(scene, "outputs", "cycles_frequency_hz"), "[outputs] want 'cycles' needs the "
+                  "periodic input's frequency 'cycles_frequency_hz' (> 0 Hz, e.g. cycles_frequency_hz = 20; a [stimulus] "
+                  f"sine gives its own); got {f!r} instead.")
     outline = [k for k in keys[1:] if getattr(out, k) is not None]
     if outline and len(outline) < 3:
         missing = [_given(scene, "outputs", k) for k in keys[1:] if getattr(out, k) is None]

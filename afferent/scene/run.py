@@ -210,9 +210,9 @@ def _compute_downstream(run: _Run, sed) -> None:
     run.out.update(sed_static=sed, sed=sed, current=None, branching=None, afferent=None, fit=None, waveform=None,
                    spikes=None, profile_index=-1)
     run.record["afferent_class"] = class_record(run.scene, getattr(sed.layout, "site", None))
+    sed_t = _stimulus(run, sed) if "stimulus" in run.planned else sed
     if "transduction" not in run.planned:
         return _cycles(run)
-    sed_t = _stimulus(run, sed) if "stimulus" in run.planned else sed
     _transduce_and_synthesize(run, sed_t)
     if "comparison" in run.planned:
         _compare(run)
@@ -230,10 +230,13 @@ def _cycles(run: _Run) -> None:
         return
     from ..cycles import receptor_cycles
 
-    run.out["cycles"], run.record["cycles"] = receptor_cycles(
-        run.out["sed_static"], o.cycles_frequency_hz, x_range_m=o.cycles_x_range_m, z_range_m=o.cycles_z_range_m,
-        edge_m=o.cycles_edge_m, spikes=run.out.get("spikes"))
-    run.record["cycles"]["frequency_from"] = "the scene's [outputs] cycles_frequency_hz"
+    given = o.cycles_frequency_hz is not None
+    f = o.cycles_frequency_hz if given else run.scene.stimulus.frequency_hz
+    run.out["cycles"], run.record["cycles"] = receptor_cycles(  # SED over the stimulus' times, as the spikes
+        run.out["sed"], f, x_range_m=o.cycles_x_range_m, z_range_m=o.cycles_z_range_m, edge_m=o.cycles_edge_m,
+        spikes=run.out.get("spikes"))
+    run.record["cycles"]["frequency_from"] = ("the scene's [outputs] cycles_frequency_hz" if given else
+                                              "the scene's [stimulus] sine frequency_hz")
 
 
 def _hash_inputs(run: _Run):
