@@ -17,7 +17,7 @@ Spikes (optional) are counted per cycle over all afferents; ``rate_hz`` = spikes
 the mean rate of an afferent over that cycle.
 
 :func:`cycle_table` is a pure function of arrays; :func:`receptor_cycles` applies it to a run's
-ReceptorSED and SpikeTrains (the ``cycles`` output, ``cycles.csv``); :func:`frequency_table`
+ReceptorSED and SpikeTrains (the ``cycles`` output, ``cycles.csv``); :func:`frequency_summary`
 tabulates the ``cycles.csv`` of several runs against frequency for ``afferent cycles``.
 """
 

@@ -27,8 +27,9 @@ spikes   ``spikes.csv``, ``spike_summary.csv``              ``raster.png``, ``ra
 vtu      ``receptors.vtu`` (sed_pa [, current_a], sections)
 hotspots ``hotspots.csv`` (site_kind, site, x_m, z_m,       ``hotspots.png`` (study fig. 4-9; a second
          time_s, sed_pa, normalised, hot)                   site set beside: :mod:`afferent.hotspots`)
-cycles   ``cycles.csv`` (per cycle: deepest point, SED at
-         the chosen site, spikes, rate: :mod:`afferent.cycles`)
+cycles   ``cycles.csv`` (per cycle: deepest point, SED
+         at the chosen site, spikes, rate;
+         :mod:`afferent.cycles`)
 ======== ================================================== ===========================================
 
 With a stimulus waveform, ``waveform.csv`` (and ``waveform.png``) too; with spikes and pynwb

@@ -1,7 +1,7 @@
 """Compare the vibration runs: SED at the RA-I site at each cycle's deepest point, and the mean rate, vs frequency.
 
 RUN_DIR... are output folders of ``afferent run`` whose scenes want ``cycles`` (each holds
-``cycles.csv``: :mod:`afferent.cycles`; the run's label is its scene name, read as ``afferent
+``cycles.csv``, written by afferent.cycles; the run's label is its scene name, read as ``afferent
 hotspots`` reads runs). The frequency of each run is its ``cycles.csv`` column ``frequency_hz``,
 the scene's ``[outputs] cycles_frequency_hz``. Runs are grouped by ``--group NAME=PATTERN`` (a
 shell-style pattern on the labels, repeatable; default one group of all runs), e.g. one per model.
