@@ -148,7 +148,7 @@ def receptor_cycles(sed, frequency_hz: float, *, x_range_m=None, z_range_m=None,
               "site_rule": rule, "site": str(table["site"].iloc[0]), "site_index": site,
               "site_position_m": [float(v) for v in layout.positions[site]],
               "candidates": None if cand is None else [str(i) for i in np.asarray(layout.ids)[cand]],
-              "spikes_counted": spikes is not None}
+              "spikes_counted": spikes is not None, "table": table.to_dict("list")}
     return table, record
 
 

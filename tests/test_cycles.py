@@ -108,8 +108,14 @@ def test_command_on_the_vibration_runs_gives_build_info_numbers(tmp_path, capsys
     assert "no cycles.csv; expected the output folder of a run whose scene wants 'cycles'" in capsys.readouterr().err
 
 
-def test_two_runs_at_one_frequency_in_a_group_is_an_error():
+def test_two_runs_at_one_frequency_in_a_group_is_an_error(tmp_path):
     import pandas as pd
+
+    from afferent.cli._cycles import read_cycle_runs
+
+    (tmp_path / "sweep.json").write_text("{}")
+    with pytest.raises(ValueError, match=r"a sweep with no finished task wanting 'cycles'; add 'cycles'"):
+        read_cycle_runs([str(tmp_path)])
 
     t, v = _series()
     tab = cycle_table(t, v, 20.0)[0]
@@ -144,3 +150,23 @@ def test_a_sine_stimulus_gives_its_frequency_and_closed_form_deepest_points(tmp_
                       cache_dir=tmp_path / "c")  # SED only: the stimulus stage still runs for the cycles
     assert alone.stages.keys() >= {"stimulus"} and "transduction" not in alone.stages
     assert alone.record["cycles"]["n_cycles"] == 3
+
+
+@needs_sample
+def test_command_reads_the_vibration_sweep_as_its_runs(tmp_path):
+    """afferent sweep sample_sed/scenes/sweep_vibration.toml, then afferent cycles on its folder: build_info's SED."""
+    import pandas as pd
+
+    from afferent.cli._main import main
+
+    assert main(["sweep", str(ROOT / "sample_sed" / "scenes" / "sweep_vibration.toml"), "-o", str(tmp_path / "sw"),
+                 "-q"]) == 0
+    assert main(["cycles", str(tmp_path / "sw"), "-o", str(tmp_path / "freq"), "--group", "3d=ridged3d_*",
+                 "--group", "2d=ridged2d_*"]) == 0
+    summ = pd.read_csv(tmp_path / "freq" / "frequency.csv")
+    assert len(summ) == 8 and set(summ["site"].astype(str)) == {"18"}
+    info = _build_info()["models"]
+    for row in summ.itertuples():
+        deep = info[row.group]["series"][f"{row.group}_{int(row.frequency_hz)}Hz"]["deepest"]
+        assert [row.sed_first_pa, row.sed_last_pa] == pytest.approx(deep["site_SED_Pa"][::2], rel=1e-6)
+    assert summ.groupby("group")["rate_hz"].apply(lambda r: r.is_monotonic_increasing).all()
