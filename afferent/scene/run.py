@@ -4,8 +4,8 @@
 from a TOML file or from the options of ``afferent run EXPORT``. Each stage is one function
 below, over a :class:`_Run` that carries the results and the record entries so far.
 
-Size: just over 600 lines once the hot-spot maps, the zones branching and the afferent classes
-are all in: one executor, one function per stage; the route branch moves stages out of it.
+Size: just over 600 lines once the hot-spot maps, the cycles, the zones branching and the afferent
+classes are all in: one executor, one function per stage; the route branch moves stages out of it.
 """
 
 from __future__ import annotations
