@@ -27,6 +27,9 @@ spikes   ``spikes.csv``, ``spike_summary.csv``              ``raster.png``, ``ra
 vtu      ``receptors.vtu`` (sed_pa [, current_a], sections)
 hotspots ``hotspots.csv`` (site_kind, site, x_m, z_m,       ``hotspots.png`` (study fig. 4-9; a second
          time_s, sed_pa, normalised, hot)                   site set beside: :mod:`afferent.hotspots`)
+cycles   ``cycles.csv`` (per cycle: deepest point, SED
+         at the chosen site, spikes, rate;
+         :mod:`afferent.cycles`)
 ======== ================================================== ===========================================
 
 With a stimulus waveform, ``waveform.csv`` (and ``waveform.png``) too; with spikes and pynwb
@@ -173,7 +176,7 @@ def write_json(path: str, data: dict) -> None:
 def write_outputs(folder: str, *, want, plots: bool, sed_static, sed, current=None, branching=None, afferent=None,
                   fit=None, waveform=None, spikes=None, drive=None, saturation=None,
                   profile_index: int = -1, results_format: str = "netcdf", sed_beside=None,
-                  hotspot_threshold: float = 0.6) -> list[str]:
+                  hotspot_threshold: float = 0.6, cycles=None) -> list[str]:
     """Write the tables and figures of ``want`` into ``folder``; returns the file names written.
 
     Parameters
@@ -201,6 +204,8 @@ def write_outputs(folder: str, *, want, plots: bool, sed_static, sed, current=No
         ``hotspots``: SED at a second site set (J/m^3), mapped beside ``sed_static``'s sites.
     hotspot_threshold : float, default=0.6
         ``hotspots``: normalised SED from which a site is a hot spot.
+    cycles : DataFrame, optional
+        ``cycles``: the table of :func:`afferent.cycles.receptor_cycles` (written as ``cycles.csv``).
     """
     written: list[str] = []
 
@@ -242,6 +247,8 @@ def write_outputs(folder: str, *, want, plots: bool, sed_static, sed, current=No
         from .hotspots import write_hotspots
 
         write_hotspots(path, sed_static, sed_beside, threshold=hotspot_threshold, plots=plots)
+    if "cycles" in want and cycles is not None:
+        cycles.to_csv(path("cycles.csv"), index=False)
     if waveform is not None:
         write_table(path("waveform.csv"), waveform.table())
     if plots:

@@ -28,7 +28,7 @@ import numpy as np
 
 __all__ = ["DEFAULT_THRESHOLD", "normalise_map", "hotspot_table", "map_distance", "distance_table",
            "nearest_centroid_accuracy", "receptor_hotspots", "hotspot_maps", "write_hotspots",
-           "read_hotspot_runs", "group_runs", "compare_runs"]
+           "read_hotspot_runs", "read_run_tables", "group_runs", "compare_runs"]
 
 #: The study's hot-spot threshold on the min-max normalised SED (fig. 4-9).
 DEFAULT_THRESHOLD = 0.6
@@ -179,18 +179,24 @@ def write_hotspots(path, sed_static, sed_beside=None, *, threshold: float = DEFA
 
 
 def read_hotspot_runs(folders) -> dict:
-    """{run label: hotspots.csv table} of ``afferent run`` output folders (the label: run.json's scene name,
-    else the folder's name). A folder without ``hotspots.csv`` or two runs of one label are errors naming them."""
+    """{run label: hotspots.csv table} of ``afferent run`` output folders (:func:`read_run_tables`)."""
+    return read_run_tables(folders, "hotspots.csv", "hotspots")
+
+
+def read_run_tables(folders, filename: str, want: str) -> dict:
+    """{run label: the table ``filename``} of ``afferent run`` output folders whose scenes want ``want`` (the label:
+    run.json's scene name, else the folder's name); ``afferent hotspots`` and ``afferent cycles`` read runs so.
+    A folder without the table or two runs of one label are errors naming them."""
     import json
 
     import pandas as pd
 
     runs = {}
     for folder in folders:
-        csv = os.path.join(folder, "hotspots.csv")
+        csv = os.path.join(folder, filename)
         if not os.path.isfile(csv):
-            raise FileNotFoundError(f"{folder!r}: no hotspots.csv; expected the output folder of a run whose scene "
-                                    "wants 'hotspots'.")
+            raise FileNotFoundError(f"{folder!r}: no {filename}; expected the output folder of a run whose scene "
+                                    f"wants {want!r}.")
         label = os.path.basename(os.path.normpath(folder))
         meta = os.path.join(folder, "run.json")
         if os.path.isfile(meta):

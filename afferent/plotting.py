@@ -12,6 +12,7 @@ __all__ = [
     "plot_sed_map", "plot_sed_profile", "plot_section_profiles", "plot_fit",
     "plot_raster", "plot_rates", "rate_table", "plot_psth", "plot_waveform", "save_figure", "legend_beside",
     "plot_hotspots", "plot_hotspot_maps", "plot_hotspot_summary", "plot_distance_table",
+    "plot_frequency",
 ]
 
 
@@ -103,6 +104,36 @@ def plot_hotspot_maps(tables, *, threshold: float, title: str = ""):
                       title=f"{t['map'].iloc[0]}: {n_hot} of {len(t)} sites >= {threshold:g}")
     if title:
         fig.suptitle(title)
+    return fig
+
+
+def plot_frequency(summary, *, title: str | None = None):
+    """The study's fig. 4-11 beside fig. 4-12: SED at the site at the deepest points, and mean rate, vs frequency.
+
+    ``summary``: :func:`afferent.cycles.frequency_summary` (SED in Pa, frequency and rate in Hz); a line per
+    group (model), the first cycle's deepest point dashed, the last's solid. Returns the Figure.
+    """
+    import matplotlib.pyplot as plt
+
+    fig, (ax_sed, ax_rate) = plt.subplots(1, 2, figsize=(10.5, 4.0), layout="constrained")
+    for i, (g, t) in enumerate(summary.groupby("group", sort=False)):
+        color = f"C{i}"
+        ax_sed.plot(t["frequency_hz"], t["sed_first_pa"], "o--", color=color, label=f"{g}, 1st deepest point")
+        ax_sed.plot(t["frequency_hz"], t["sed_last_pa"], "s-", color=color,
+                    label=f"{g}, deepest point {int(t['n_cycles'].max())}")
+        ax_rate.plot(t["frequency_hz"], t["rate_hz"], "o-", color=color, label=g)
+    freqs = sorted(set(summary["frequency_hz"]))
+    for ax in (ax_sed, ax_rate):
+        ax.set_xticks(freqs, [f"{f:g}" for f in freqs])
+        ax.set_xlabel("frequency (Hz)")
+        ax.grid(alpha=0.3)
+    ax_sed.set_ylabel("SED at the site (Pa)")
+    ax_sed.set_title("SED at the RA-I site at the deepest points", fontsize="medium")
+    ax_rate.set_ylabel("mean rate (spikes/s per afferent)")
+    ax_rate.set_title("mean RA-I rate over the cycles", fontsize="medium")
+    legend_beside(ax_sed)
+    legend_beside(ax_rate)
+    fig.suptitle(title or "SED and rate vs frequency")
     return fig
 
 

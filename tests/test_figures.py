@@ -302,3 +302,23 @@ def test_save_figure_lays_out_and_draws_once_with_the_pixels_savefig_gives(tmp_p
     assert len(draws) == 1
     a, b = (np.asarray(Image.open(tmp_path / f)) for f in ("savefig.png", "save_figure.png"))
     assert a.shape == b.shape and np.array_equal(a, b)
+
+
+
+@needs_sample
+def test_frequency_figure_is_readable(tmp_path, monkeypatch):
+    """frequency.png (afferent cycles): SED at the deepest points and mean rate vs frequency, the legends beside."""
+    import pandas as pd
+
+    from afferent.plotting import plot_frequency, save_figure
+
+    info = json.loads((ROOT / "sample_sed" / "vibration" / "build_info.json").read_text())["models"]
+    rates = {"3d": [86.7, 120.0, 160.0, 192.0], "2d": [84.0, 122.0, 163.3, 186.7]}  # afferent cycles on the sample
+    rows = [{"group": m, "frequency_hz": f, "n_cycles": 3, "rate_hz": rates[m][i],
+             "sed_first_pa": info[m]["series"][f"{m}_{f}Hz"]["deepest"]["site_SED_Pa"][0],
+             "sed_last_pa": info[m]["series"][f"{m}_{f}Hz"]["deepest"]["site_SED_Pa"][-1]}
+            for m in ("3d", "2d") for i, f in enumerate((20, 30, 50, 80))]
+    found = collect_figure_problems(monkeypatch)
+    save_figure(plot_frequency(pd.DataFrame(rows)), str(tmp_path / "frequency.png"))
+    assert set(found) == {"frequency.png"}
+    _readable(found)

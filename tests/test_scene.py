@@ -166,7 +166,7 @@ def test_wrong_type_names_key_and_line(tmp_path):
     ('[spike]\na = 1\n', "line 1: unknown table [spike]; known tables are [scene], [export], "),
     ('[outputs]\nwant = [\n  "sed_map",\n  "spiks",\n]\n',
      "line 2: [outputs] 'want' must list outputs among 'sed_map', 'currents', 'profiles', 'fit', 'spikes', 'plots', "
-     "'vtu', 'nwb', 'hotspots'; got 'spiks' instead. Did you mean 'spikes'?"),
+     "'vtu', 'nwb', 'hotspots', 'cycles'; got 'spiks' instead. Did you mean 'spikes'?"),
     ('\n[sampling]\nmethod = "cubic"\n', "line 3: [sampling] 'method' must be one of 'linear', 'nearest'; got 'cubic' instead."),
     ('[sampling]\nside = "dermis"\n',
      "line 2: [sampling] 'side' must be 'average' or a material id (an integer); got 'dermis' (a string) instead."),
@@ -303,6 +303,8 @@ def test_plan_follows_the_outputs(want, waveform, stages):
         text += '[fit]\nobserved = "obs.csv"\n'
     if "spikes" in want:
         text += '[spikes]\ninput = "static"\n'
+    if "cycles" in want:  # a ramp has no frequency of its own
+        text = text.replace("[outputs]\n", "[outputs]\ncycles_frequency_hz = 20\n")
     assert plan(parse_scene(text)) == stages
 
 

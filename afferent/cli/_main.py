@@ -20,7 +20,8 @@ from ..exceptions import AfferentError
 #: from the module's docstring.
 COMMANDS = {"info": "afferent.cli._info", "sample": "afferent.cli._sample", "run": "afferent.cli._run",
             "calibrate": "afferent.cli._calibrate", "demo": "afferent.cli._demo",
-            "report": "afferent.cli._report", "sweep": "afferent.cli._sweep", "hotspots": "afferent.cli._hotspots"}
+            "report": "afferent.cli._report", "sweep": "afferent.cli._sweep", "hotspots": "afferent.cli._hotspots",
+            "cycles": "afferent.cli._cycles"}
 
 
 def _module(name: str):

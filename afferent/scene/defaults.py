@@ -229,7 +229,7 @@ def _outputs(scene: Scene, err):
     name = scene.info.name or (Path(scene.source).stem if scene.source else "scene")
     info = replace(scene.info, name=name)
     out = replace(out, dir=out.dir or os.path.abspath(os.path.join("results", name)), format=out.format or "netcdf")
-    return info, _hotspot_keys(scene, out, err)
+    return info, _cycle_keys(scene, _hotspot_keys(scene, out, err), err)
 
 
 def _hotspot_keys(scene: Scene, out, err):
@@ -249,6 +249,33 @@ def _hotspot_keys(scene: Scene, out, err):
         raise err("outputs", "hotspot_threshold", f"[outputs] 'hotspot_threshold' is a normalised SED and must be "
                   f"within 0..1; got {t!r} instead.")
     return replace(out, hotspot_threshold=float(t))
+
+
+def _cycle_keys(scene: Scene, out, err):
+    """[outputs] cycles_*: only with want 'cycles', which needs the frequency (> 0 Hz; default a [stimulus] sine's);
+    the outline all three or none."""
+    keys = ("cycles_frequency_hz", "cycles_x_range_m", "cycles_z_range_m", "cycles_edge_m")
+    if "cycles" not in out.want:
+        given = [_given(scene, "outputs", k) for k in keys if getattr(out, k) is not None]
+        if given:
+            raise err("outputs", given[0], f"[outputs] {given[0]!r} applies to want = [..., 'cycles'], which is not "
+                      f"requested (want = {list(out.want)!r}).")
+        return out
+    f = out.cycles_frequency_hz
+    sine = scene.stimulus.waveform == "sine" and f is None
+    if not sine and (f is None or not f > 0):
+        raise err("outputs", _given(scene, "outputs", "cycles_frequency_hz"), "[outputs] want 'cycles' needs the "
+                  "periodic input's frequency 'cycles_frequency_hz' (> 0 Hz, e.g. cycles_frequency_hz = 20; a [stimulus] "
+                  f"sine gives its own); got {f!r} instead.")
+    outline = [k for k in keys[1:] if getattr(out, k) is not None]
+    if outline and len(outline) < 3:
+        missing = [_given(scene, "outputs", k) for k in keys[1:] if getattr(out, k) is None]
+        raise err("outputs", _given(scene, "outputs", outline[0]), "[outputs] the indenter's outline for 'cycles' needs "
+                  f"all of cycles_x_range, cycles_z_range and cycles_edge; missing {', '.join(map(repr, missing))}.")
+    if outline and not out.cycles_edge_m >= 0:
+        raise err("outputs", _given(scene, "outputs", "cycles_edge_m"), "[outputs] 'cycles_edge' is a distance and "
+                  f"must be >= 0; got {out.cycles_edge_m!r} m instead.")
+    return out
 
 
 def class_overrides(scene: Scene) -> list:

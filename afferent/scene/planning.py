@@ -20,6 +20,7 @@ NEEDS = {
     "plots": (),
     "nwb": _CURRENT_STAGES + ("input", "spiking"),
     "hotspots": ("reading", "sampling"),
+    "cycles": ("reading", "sampling", "stimulus"),
 }
 
 # ---------------------------------------------------------------------------- planning
@@ -53,7 +54,7 @@ def skip_reasons(scene: Scene) -> dict[str, str]:
     for s in STAGES:
         if s in planned:
             continue
-        if s == "stimulus" and "transduction" in planned:
+        if s == "stimulus" and ("transduction" in planned or "cycles" in want):
             out[s] = "the scene has no [stimulus] waveform: the export's own time steps are used"
             continue
         users = [w for w, stages in NEEDS.items() if s in stages and w not in ("plots", "nwb")]

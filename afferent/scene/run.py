@@ -4,8 +4,8 @@
 from a TOML file or from the options of ``afferent run EXPORT``. Each stage is one function
 below, over a :class:`_Run` that carries the results and the record entries so far.
 
-Size: just over 600 lines once the hot-spot maps, the zones branching and the afferent classes
-are all in: one executor, one function per stage; the route branch moves stages out of it.
+Size: just over 600 lines once the hot-spot maps, the cycles, the zones branching and the afferent
+classes are all in: one executor, one function per stage; the route branch moves stages out of it.
 """
 
 from __future__ import annotations
@@ -210,9 +210,9 @@ def _compute_downstream(run: _Run, sed) -> None:
     run.out.update(sed_static=sed, sed=sed, current=None, branching=None, afferent=None, fit=None, waveform=None,
                    spikes=None, profile_index=-1)
     run.record["afferent_class"] = class_record(run.scene, getattr(sed.layout, "site", None))
-    if "transduction" not in run.planned:
-        return
     sed_t = _stimulus(run, sed) if "stimulus" in run.planned else sed
+    if "transduction" not in run.planned:
+        return _cycles(run)
     _transduce_and_synthesize(run, sed_t)
     if "comparison" in run.planned:
         _compare(run)
@@ -220,6 +220,23 @@ def _compute_downstream(run: _Run, sed) -> None:
         _spike(run)
     if run.span:
         run.record["time_span"] = run.span
+    _cycles(run)
+
+
+def _cycles(run: _Run) -> None:
+    """The ``cycles`` output's table and record (:func:`afferent.cycles.receptor_cycles`), on the export's SED."""
+    o = run.scene.outputs
+    if "cycles" not in (o.want or ()):
+        return
+    from ..cycles import receptor_cycles
+
+    given = o.cycles_frequency_hz is not None
+    f = o.cycles_frequency_hz if given else run.scene.stimulus.frequency_hz
+    run.out["cycles"], run.record["cycles"] = receptor_cycles(  # SED over the stimulus' times, as the spikes
+        run.out["sed"], f, x_range_m=o.cycles_x_range_m, z_range_m=o.cycles_z_range_m, edge_m=o.cycles_edge_m,
+        spikes=run.out.get("spikes"))
+    run.record["cycles"]["frequency_from"] = ("the scene's [outputs] cycles_frequency_hz" if given else
+                                              "the scene's [stimulus] sine frequency_hz")
 
 
 def _hash_inputs(run: _Run):

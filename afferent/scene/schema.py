@@ -18,7 +18,7 @@ from ..exceptions import AfferentError
 from ..io import FORMATS
 
 #: What a scene can ask for (``[outputs] want``).
-OUTPUTS = ("sed_map", "currents", "profiles", "fit", "spikes", "plots", "vtu", "nwb", "hotspots")
+OUTPUTS = ("sed_map", "currents", "profiles", "fit", "spikes", "plots", "vtu", "nwb", "hotspots", "cycles")
 
 #: Spiking engines (mirrors :data:`afferent.spiking.ENGINES`, kept here so that checking a
 #: scene does not import the spiking module).
@@ -371,6 +371,12 @@ class OutputSpec:
                                     doc="hotspots: a second map beside [receptors]' sites, of the sites found on the export")
     hotspot_beside_file: str | None = _f("path", doc="hotspots: a second map, of the sites of this CSV "
                                                      "(unit: [receptors] length_unit, else [export] length_unit)")
+    cycles_frequency_hz: float | None = _f("number", quantity="frequency",
+                                           doc="cycles: the periodic input's frequency (required with want 'cycles')")
+    cycles_x_range_m: tuple | None = _f("pair", quantity="length", doc="cycles: the indenter's outline in x")
+    cycles_z_range_m: tuple | None = _f("pair", quantity="length", doc="cycles: the indenter's outline in z")
+    cycles_edge_m: float | None = _f("number", quantity="length",
+                                     doc="cycles: sites within this of the outline are near the edge")
 
 
 #: TOML table -> Scene field
