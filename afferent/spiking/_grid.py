@@ -201,6 +201,22 @@ def _run_numba(plan: _Plan, cols: np.ndarray, params: LIFParams, peak: np.ndarra
     return grouped, counts
 
 
+def _drive_terms(current, r: float, mr: float, c0: float, E: float, a: np.ndarray, b: np.ndarray) -> None:
+    """brian2's exact update for a held sample: ``a = r I``, ``b = E (c0 - r I)`` (V), written into ``a``, ``b``."""
+    np.multiply(r, current, out=a)
+    np.multiply(mr, current, out=b)
+    np.add(c0, b, out=b)
+    np.multiply(E, b, out=b)
+
+
+def _step(v: np.ndarray, E: float, a: np.ndarray, b: np.ndarray, v_rest: float, tmp: np.ndarray) -> None:
+    """One time step of every neuron in place: ``v = v_rest + ((a + E v) + b)`` (V), the operations in brian2's order."""
+    np.multiply(E, v, out=tmp)
+    np.add(a, tmp, out=tmp)
+    np.add(tmp, b, out=tmp)
+    np.add(v_rest, tmp, out=v)
+
+
 def _run_numpy(plan: _Plan, cols: np.ndarray, params: LIFParams):
     E, n_ref = _constants(params, plan.dt)
     n = cols.size
@@ -218,16 +234,9 @@ def _run_numpy(plan: _Plan, cols: np.ndarray, params: LIFParams):
     for i in range(plan.n_steps):
         row = plan.idx[i]
         if row != row_now:
-            current = plan.values[row] if all_cols else plan.values[row, cols]
-            np.multiply(r, current, out=a)
-            np.multiply(mr, current, out=b)
-            np.add(c0, b, out=b)
-            np.multiply(E, b, out=b)
+            _drive_terms(plan.values[row] if all_cols else plan.values[row, cols], r, mr, c0, E, a, b)
             row_now = row
-        np.multiply(E, v, out=tmp)
-        np.add(a, tmp, out=tmp)
-        np.add(tmp, b, out=tmp)
-        np.add(v_rest, tmp, out=v)
+        _step(v, E, a, b, v_rest, tmp)
         # Refractory neurons are not integrated: their V stays at v_reset (< v_thresh, so they
         # cannot spike either). Overwriting after the update gives the same state.
         while recent and i - recent[0][0] >= n_ref:

@@ -29,6 +29,7 @@ from collections import deque
 import numpy as np
 
 from ._exact import _exact_consts, _linear_crossing, _Pieces
+from ._grid import _drive_terms, _step
 from ._group import _group_numpy, _numba_available
 from ._params import LIFParams
 
@@ -212,16 +213,9 @@ def _run_fast_zones(plan, aff: np.ndarray, keep: np.ndarray, params: LIFParams, 
     for i in range(plan.n_steps):
         row = plan.idx[i]
         if row != row_now:
-            current = plan.values[row, cols]
-            np.multiply(r, current, out=a)
-            np.multiply(mr, current, out=b)
-            np.add(c0, b, out=b)
-            np.multiply(E, b, out=b)
+            _drive_terms(plan.values[row, cols], r, mr, c0, E, a, b)
             row_now = row
-        np.multiply(E, v, out=tmp)
-        np.add(a, tmp, out=tmp)
-        np.add(tmp, b, out=tmp)
-        np.add(v_rest, tmp, out=v)
+        _step(v, E, a, b, v_rest, tmp)
         while recent and i - recent[0][0] >= n_ref:
             refractory[recent.popleft()[1]] = False
         held = refractory[owner]
