@@ -232,14 +232,20 @@ def _outputs(scene: Scene, err):
     return info, _cycle_keys(scene, _hotspot_keys(scene, out, err), err)
 
 
+def _wanted_for_keys(scene: Scene, out, err, output: str, keys) -> bool:
+    """Whether ``output`` is wanted; if not, none of its [outputs] ``keys`` may be given (the error names the first)."""
+    if output in out.want:
+        return True
+    given = [_given(scene, "outputs", k) for k in keys if getattr(out, k) is not None]
+    if given:
+        raise err("outputs", given[0], f"[outputs] {given[0]!r} applies to want = [..., {output!r}], which is not "
+                  f"requested (want = {list(out.want)!r}).")
+    return False
+
+
 def _hotspot_keys(scene: Scene, out, err):
     """[outputs] hotspot_*: only with want 'hotspots'; threshold default 0.6, within 0..1; one second map at most."""
-    keys = ("hotspot_threshold", "hotspot_beside", "hotspot_beside_file")
-    if "hotspots" not in out.want:
-        given = [_given(scene, "outputs", k) for k in keys if getattr(out, k) is not None]
-        if given:
-            raise err("outputs", given[0], f"[outputs] {given[0]!r} applies to want = [..., 'hotspots'], which is not "
-                      f"requested (want = {list(out.want)!r}).")
+    if not _wanted_for_keys(scene, out, err, "hotspots", ("hotspot_threshold", "hotspot_beside", "hotspot_beside_file")):
         return out
     if out.hotspot_beside is not None and out.hotspot_beside_file is not None:
         raise err("outputs", "hotspot_beside_file", "[outputs] give at most one of 'hotspot_beside' (sites found on "
@@ -255,11 +261,7 @@ def _cycle_keys(scene: Scene, out, err):
     """[outputs] cycles_*: only with want 'cycles', which needs the frequency (> 0 Hz; default a [stimulus] sine's);
     the outline all three or none."""
     keys = ("cycles_frequency_hz", "cycles_x_range_m", "cycles_z_range_m", "cycles_edge_m")
-    if "cycles" not in out.want:
-        given = [_given(scene, "outputs", k) for k in keys if getattr(out, k) is not None]
-        if given:
-            raise err("outputs", given[0], f"[outputs] {given[0]!r} applies to want = [..., 'cycles'], which is not "
-                      f"requested (want = {list(out.want)!r}).")
+    if not _wanted_for_keys(scene, out, err, "cycles", keys):
         return out
     f = out.cycles_frequency_hz
     sine = scene.stimulus.waveform == "sine" and f is None
