@@ -288,15 +288,20 @@ def _numba_exact():
     a later process loads it instead of compiling)."""
     global _NUMBA_EXACT
     if _NUMBA_EXACT is None:
-        import numba
-
-        from numba.extending import register_jitable
-
-        # the per-afferent loop and the crossing search are compiled into the block with its options
-        for step in (_linear_crossing, _exact_afferent):
-            register_jitable(nogil=True, error_model="numpy")(step)
-        _NUMBA_EXACT = numba.njit(cache=True, nogil=True, error_model="numpy")(_exact_block)
+        _NUMBA_EXACT = compile_block(_exact_block, (_linear_crossing, _exact_afferent))
     return _NUMBA_EXACT
+
+
+def compile_block(block, steps):
+    """``block`` compiled by numba (nogil, numpy's error model, cached on disk), with the plain-Python
+    functions ``steps`` it calls (the per-afferent loop, the crossing search) compiled into it."""
+    import numba
+
+    from numba.extending import register_jitable
+
+    for step in steps:
+        register_jitable(nogil=True, error_model="numpy")(step)
+    return numba.njit(cache=True, nogil=True, error_model="numpy")(block)
 
 
 def _exact_consts(params: LIFParams, t_stop: float) -> np.ndarray:

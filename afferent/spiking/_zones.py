@@ -28,7 +28,7 @@ from collections import deque
 
 import numpy as np
 
-from ._exact import _exact_consts, _linear_crossing, _Pieces
+from ._exact import _exact_consts, _linear_crossing, _Pieces, compile_block
 from ._grid import _drive_terms, _step
 from ._group import _group_numpy, _numba_available
 from ._params import LIFParams
@@ -146,13 +146,7 @@ def _numba_zones():
     """The compiled :func:`_zones_block` (numba, cached on disk)."""
     global _NUMBA_ZONES
     if _NUMBA_ZONES is None:
-        import numba
-
-        from numba.extending import register_jitable
-
-        for step in (_linear_crossing, _zones_afferent):
-            register_jitable(nogil=True, error_model="numpy")(step)
-        _NUMBA_ZONES = numba.njit(cache=True, nogil=True, error_model="numpy")(_zones_block)
+        _NUMBA_ZONES = compile_block(_zones_block, (_linear_crossing, _zones_afferent))
     return _NUMBA_ZONES
 
 
