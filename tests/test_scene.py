@@ -598,3 +598,21 @@ def test_a_waveform_on_a_loading_series_needs_its_reference_step_and_measures_th
                        use_cache=False)
     assert static.record["stimulus"]["scaling"]["measured"] is None
     assert static.record["stimulus"]["scaling"]["measured_note"] == "not measured: one static step"
+
+
+@pytest.mark.parametrize("extra, named", [
+    (["--branching", "zones"], "--branching"),
+    (["--dt-ms", "0.5", "--lif-preset", "sa1"], "--dt-ms, --lif-preset"),
+    (["--params", "cross"], "--params"),
+])
+def test_options_a_scene_file_would_ignore_are_refused(tmp_path, capsys, extra, named):
+    """Before: `afferent run SCENE.toml --branching zones` ran the scene's sum model and wrote it, exit 0:
+    the option was silently ignored. Nothing is written."""
+    from afferent.cli import main
+
+    out = tmp_path / "out"
+    assert main(["run", str(SCENES / "spikes_ramp.toml"), *extra, "-o", str(out), "-q"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"afferent: error: afferent run {SCENES / 'spikes_ramp.toml'}: a scene file sets how the run "
+                          f"goes, so {named} would be ignored; set it in the scene file") and err.count("\n") == 1
+    assert not out.exists()

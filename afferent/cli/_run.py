@@ -125,6 +125,7 @@ def add_args(parser: argparse.ArgumentParser) -> None:
     add_output_options(parser, what="output folder (created whole, or not at all); for a scene, overrides its [outputs] dir",
                        required=False)
     add_quiet(parser)
+    parser.set_defaults(_options=parser._actions)
 
 
 def _transduction_table(args) -> dict:
@@ -322,6 +323,23 @@ def scene_from_args(args):
         raise ValueError(_in_cli_words(str(err))) from err
 
 
+#: What ``afferent run SCENE.toml`` takes besides the file: where and how to write, and the two overrides.
+SCENE_FILE_OPTIONS = ("output", "overwrite", "quiet", "no_cache", "results_format", "afferent_class")
+
+
+def _refuse_options_a_scene_sets(args: argparse.Namespace) -> None:
+    """``afferent run SCENE.toml --dt-ms 0.5``: the scene file says how to run, so any option other than
+    :data:`SCENE_FILE_OPTIONS` given with it would be ignored; it is refused instead, named with the key to set."""
+    given = [a for a in getattr(args, "_options", ()) if a.option_strings and a.dest not in SCENE_FILE_OPTIONS
+             and a.dest != "help" and getattr(args, a.dest, a.default) != a.default]
+    if given:
+        flags = ", ".join(max(a.option_strings, key=len) for a in given)
+        raise ValueError(f"afferent run {args.exports[0]}: a scene file sets how the run goes, so {flags} would be "
+                         f"ignored; set it in the scene file (see docs/scenes.md) or run without the file. With a "
+                         f"scene file, afferent run takes -o/--output, --overwrite, --quiet, --no-cache, "
+                         f"--results-format and --class.")
+
+
 def run(args: argparse.Namespace) -> int:
     from ..scene import run_scene_cli
 
@@ -329,6 +347,7 @@ def run(args: argparse.Namespace) -> int:
     command = None if argv is None else "afferent " + shlex.join(argv)
     if len(args.exports) == 1 and args.exports[0].lower().endswith(".toml"):
         scene = args.exports[0]
+        _refuse_options_a_scene_sets(args)
         if getattr(args, "results_format", None) is not None or getattr(args, "afferent_class", None) is not None:
             from dataclasses import replace
 
