@@ -29,13 +29,12 @@ import argparse
 import os
 import sys
 
+from ._options import add_run_comparison_options
+
 
 def add_args(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("runs", nargs="+", metavar="RUN_DIR", help="output folders of runs (or sweeps) wanting 'cycles'")
-    parser.add_argument("-o", "--output", required=True, metavar="OUT", help="output folder (created whole, or not at all)")
-    parser.add_argument("--overwrite", action="store_true", help="replace an existing output folder")
-    parser.add_argument("--group", action="append", metavar="NAME=PATTERN",
-                        help="draw the runs whose label matches PATTERN (fnmatch) as group NAME; repeatable")
+    add_run_comparison_options(parser, verb="draw")
 
 
 def run(args: argparse.Namespace) -> int:

@@ -24,13 +24,12 @@ import argparse
 import os
 import sys
 
+from ._options import add_run_comparison_options
+
 
 def add_args(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("runs", nargs="+", metavar="RUN_DIR", help="output folders of runs wanting 'hotspots'")
-    parser.add_argument("-o", "--output", required=True, metavar="OUT", help="output folder (created whole, or not at all)")
-    parser.add_argument("--overwrite", action="store_true", help="replace an existing output folder")
-    parser.add_argument("--group", action="append", metavar="NAME=PATTERN",
-                        help="compare the runs whose label matches PATTERN (fnmatch) as group NAME; repeatable")
+    add_run_comparison_options(parser, verb="compare")
     parser.add_argument("--noise", default="0.1,0.3,0.5", metavar="S[,S...]",
                         help="classifier noise, standard deviation(s) in normalised SED units (default 0.1,0.3,0.5)")
     parser.add_argument("--trials", type=int, default=2000, metavar="N", help="noisy copies per map (default 2000)")

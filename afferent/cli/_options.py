@@ -79,6 +79,13 @@ def add_output_options(parser: argparse.ArgumentParser, *, what: str, required: 
     parser.add_argument("--overwrite", action="store_true", help="replace an existing output (never done silently)")
 
 
+def add_run_comparison_options(parser: argparse.ArgumentParser, *, verb: str) -> None:
+    """``-o``, ``--overwrite`` and ``--group NAME=PATTERN`` of the commands that compare runs (hotspots, cycles)."""
+    add_output_options(parser, what="output folder (created whole, or not at all)")
+    parser.add_argument("--group", action="append", metavar="NAME=PATTERN",
+                        help=f"{verb} the runs whose label matches PATTERN (fnmatch) as group NAME; repeatable")
+
+
 def add_quiet(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("-q", "--quiet", action="store_true", help="no progress bars or summaries")
 
