@@ -332,19 +332,23 @@ def _exact_threads(n: int) -> int:
 def _run_exact_numba_block(pc: _Pieces, values, cols: np.ndarray, params: LIFParams, peak: np.ndarray):
     """One block of afferents through the compiled loop (runs without the GIL): (spike times
     grouped by afferent, count per afferent)."""
-    block = _numba_exact()
     counts = np.zeros(cols.size, np.int64)
-    consts = _exact_consts(params, pc.t_stop)
-    cap = _exact_capacity(peak, pc, params)
-    parts = []
-    j = 0
-    while j < cols.size:
+    return run_in_buffers(_numba_exact(), values, cols, pc, _exact_consts(params, pc.t_stop), counts,
+                          _exact_capacity(peak, pc, params)), counts
+
+
+def run_in_buffers(block, values, index, pc: _Pieces, consts, counts: np.ndarray, cap: int) -> np.ndarray:
+    """Spike times (s, grouped by afferent) of a compiled or plain block loop over ``counts.size`` afferents,
+    ``block(values, index, pieces..., first, consts, out_t, counts) -> (next afferent, n written)``: it stops
+    when ``out_t`` (``cap`` spikes) is full and resumes from the next afferent with a buffer twice as big."""
+    parts, j = [], 0
+    while j < counts.size:
         out_t = np.empty(cap)
-        j, count = block(values, cols, pc.starts, pc.ends, pc.decay, pc.growth, pc.nxt, pc.inv_h, j, consts, out_t,
+        j, count = block(values, index, pc.starts, pc.ends, pc.decay, pc.growth, pc.nxt, pc.inv_h, j, consts, out_t,
                          counts)
         parts.append(out_t[:count])
         cap *= 2
-    return (parts[0] if len(parts) == 1 else np.concatenate(parts)), counts
+    return parts[0] if len(parts) == 1 else (np.concatenate(parts) if parts else np.empty(0))
 
 
 def _run_exact_numba(pc: _Pieces, cols: np.ndarray, params: LIFParams, peak: np.ndarray):

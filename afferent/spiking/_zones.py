@@ -28,7 +28,7 @@ from collections import deque
 
 import numpy as np
 
-from ._exact import _exact_consts, _linear_crossing, _Pieces, compile_block
+from ._exact import _exact_capacity, _exact_consts, _linear_crossing, _Pieces, compile_block, run_in_buffers
 from ._grid import _drive_terms, _step
 from ._group import _group_numpy, _numba_available
 from ._params import LIFParams
@@ -162,20 +162,9 @@ def run_exact_zones(pc: _Pieces, aff: np.ndarray, keep: np.ndarray, peak: np.nda
     zptr = np.append(np.searchsorted(aff[cols], keep, side="left"), cols.size).astype(np.int64)
     block = _numba_zones() if backend == "numba" else _zones_block
     consts = _exact_consts(params, pc.t_stop)
-    # first buffer: each afferent at the closed-form rate of its strongest zone, twice (grows if short)
-    rate = params.steady_rate(peak)
-    if params.t_ref > 0:
-        rate = np.minimum(rate, 1.0 / params.t_ref)
-    cap = int(min(2.0 * float(rate.sum()) * (pc.t_stop - pc.t_start), 2.0**26)) + 1024
     counts = np.zeros(keep.size, np.int64)
-    parts, a = [], 0
-    while a < keep.size:
-        out_t = np.empty(cap)
-        a, count = block(values, zptr, pc.starts, pc.ends, pc.decay, pc.growth, pc.nxt, pc.inv_h, a, consts, out_t,
-                         counts)
-        parts.append(out_t[:count])
-        cap *= 2
-    return (np.concatenate(parts) if parts else np.empty(0)), counts
+    # first buffer: each afferent at the closed-form rate of its strongest zone (grows if short)
+    return run_in_buffers(block, values, zptr, pc, consts, counts, _exact_capacity(peak, pc, params)), counts
 
 
 def exact_backend(engine: str) -> str:
