@@ -214,3 +214,28 @@ def test_a_streamed_series_searches_its_coincident_copies_once_and_merges_every_
     assert [f.points.shape for f in steps] == [(12, 3)] * 3 and whole.points.shape == (12, 3)
     np.testing.assert_array_equal(np.vstack([f.sed for f in steps]), whole.sed)
     assert all(f.provenance.coincident["n_nodes"] == 12 for f in steps)
+
+
+@pytest.mark.filterwarnings("ignore:SED file .* (SED of|the points span)")
+@pytest.mark.parametrize("path, units", [(PVD, ("mm", "MPa")), (DATA_DIR / "dolfinx" / "block.xdmf", ("m", "Pa"))])
+def test_a_series_mesh_is_checked_once_and_each_step_equals_a_fresh_read(path, units, monkeypatch):
+    """iter_sed's steps share the reader's points and cells: what depends on the mesh alone (the coordinates'
+    check and conversion to m, the span's plausibility, the coincident search, the cells' index range) is done
+    at the first step and reused; every step is bit for bit what a fresh assemble of that step gives."""
+    from afferent.io import _assemble, _raw_steps, _read_options
+
+    opts = _read_options(**{**{n: p.default for n, p in __import__("inspect").signature(afferent.read_sed).parameters.items()
+                                if p.kind is p.KEYWORD_ONLY and n not in ("format", "progress")},
+                            "length_unit": units[0], "sed_unit": units[1]})
+    fresh = [_assemble.assemble(raw, opts) for raw in _raw_steps(str(path), None, False)[1]]
+    spans = []
+    original = _assemble.span_warning
+    monkeypatch.setattr(_assemble, "span_warning", lambda *a, **k: spans.append(1) or original(*a, **k))
+    steps = list(iter_sed(path, length_unit=units[0], sed_unit=units[1]))
+    assert len(steps) == len(fresh) > 1 and len(spans) == 1
+    assert all(s.points is steps[0].points and s.cells is steps[0].cells for s in steps)
+    for s, f in zip(steps, fresh):
+        np.testing.assert_array_equal(s.points, f.points)
+        np.testing.assert_array_equal(s.sed, f.sed)
+        np.testing.assert_array_equal(s.cells.tetra, f.cells.tetra)
+        assert s.provenance.notes == f.provenance.notes and s.cells.index_range == f.cells.index_range

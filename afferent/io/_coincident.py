@@ -104,21 +104,25 @@ def coincident_labels(xyz: np.ndarray, tetra: np.ndarray, rtol: float = COINCIDE
 _LAST: list = []
 
 
-def _labels_of(xyz: np.ndarray, cells: Cells, rtol: float):
+def _labels_of(xyz: np.ndarray, cells: Cells, rtol: float, *, same_mesh: bool = False):
     """:func:`coincident_labels` of each cell's first tetrahedron, remembered for the same Cells and coordinates.
 
     :func:`afferent.io.iter_sed` gives every step of a series the first step's Cells object
     (the mesh read once): the search (0.03 s for 100,000 points, most of it the shortest edge)
     then runs once per series instead of once per step. The coordinates are compared by a
-    BLAKE2 digest of their bytes (~1 ms for 100,000 points); only a weak reference to the
-    Cells is kept, so nothing outlives the series.
+    BLAKE2 digest of their bytes (~1 ms for 100,000 points; 9 ms for 300,000), skipped when
+    the caller knows the coordinates are those of the last call (``same_mesh``: the same points
+    object of a series' reader); only a weak reference to the Cells is kept, so nothing
+    outlives the series.
     """
     import hashlib
     import weakref
 
+    last = _LAST[0] if _LAST else None  # read once: another thread may replace it meanwhile
+    if same_mesh and last is not None and last[0]() is cells and last[1][-1] == rtol:
+        return last[2]
     data = np.ascontiguousarray(xyz)
     key = (data.shape, data.dtype.str, hashlib.blake2b(memoryview(data).cast("B"), digest_size=16).digest(), rtol)
-    last = _LAST[0] if _LAST else None  # read once: another thread may replace it meanwhile
     if last is not None and last[0]() is cells and last[1] == key:
         return last[2]
     found = coincident_labels(xyz, cells.tetra[_first_of_each(cells.parent)], rtol)
@@ -198,7 +202,8 @@ def _first_of_each(parent: np.ndarray) -> np.ndarray:
     return np.unique(parent, return_index=True)[1]
 
 
-def merge_coincident(xyz: np.ndarray, sed: np.ndarray, location: str, cells: Cells, rtol: float = COINCIDENT_RTOL):
+def merge_coincident(xyz: np.ndarray, sed: np.ndarray, location: str, cells: Cells, rtol: float = COINCIDENT_RTOL, *,
+                     same_mesh: bool = False):
     """Merge coincident points into nodes: (xyz, sed, cells, report) or the inputs and None when there are none.
 
     Parameters
@@ -223,8 +228,11 @@ def merge_coincident(xyz: np.ndarray, sed: np.ndarray, location: str, cells: Cel
         ``max_node`` and, with material ids, ``within_material`` (the same among the copies of
         one material: the mesh's own discontinuity, apart from the interface's jump); ``sides`` (:class:`~afferent.field.NodeSides` or None): for point data
         on cells with material ids, the mean of each material's copies where materials meet.
+
+    ``same_mesh``: ``xyz`` are the coordinates of the last call with these ``cells`` (a series' next
+    step, :func:`afferent.io._assemble.assemble`): the coincident points are not searched again.
     """
-    found = _labels_of(xyz, cells, rtol)
+    found = _labels_of(xyz, cells, rtol, same_mesh=same_mesh)
     if found is None:
         return xyz, sed, cells, None, None
     labels, n_nodes, tol = found
