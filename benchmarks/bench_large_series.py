@@ -126,14 +126,21 @@ BARE_XDMF = textwrap.dedent("""
 
 
 def _h5py_alone(path: Path, paths: list[str]) -> int:
-    """Read every dataset of ``paths`` (``file.h5:/name``, mesh first) with h5py alone; returns the values read."""
+    """Read every dataset of ``paths`` (``file.h5:/name``, mesh first) with h5py alone; returns the values read.
+
+    As a stream's consumer does, the mesh is kept and each step's array is held until the next
+    one is read (an array freed at once lets the allocator hand the same pages back for the next
+    step, which a consumer that uses the step does not see).
+    """
     import h5py
 
-    n, files = 0, {}
-    for item in paths:
+    n, files, held = 0, {}, []
+    for k, item in enumerate(paths):
         name, dataset = item.split(":", 1)
         h5 = files.get(name) or files.setdefault(name, h5py.File(path.parent / name, "r"))
-        n += np.asarray(h5[dataset][()]).size
+        values = np.asarray(h5[dataset][()])
+        held = held[:2] + [values]  # the mesh's two arrays, and the last step
+        n += values.size
     for f in files.values():
         f.close()
     return n
