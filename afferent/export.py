@@ -214,7 +214,7 @@ def write_outputs(folder: str, *, want, plots: bool, sed_static, sed, current=No
         return os.path.join(folder, name)
 
     if "sed_map" in want:
-        sed_static.to_dataframe(sections=True).to_csv(path("sed_map.csv"), index=False)
+        write_table(path("sed_map.csv"), sed_static.columns(sections=True))
     if "currents" in want:
         _write_currents(path, sed, current, afferent, results_format)
     if "profiles" in want:
@@ -223,13 +223,12 @@ def write_outputs(folder: str, *, want, plots: bool, sed_static, sed, current=No
                                            "time_s": np.full(len(afferent.positions), t, dtype=float),
                                            "current_a": np.asarray(afferent.values)[profile_index]})
     if "fit" in want and fit is not None:
-        import pandas as pd
-
-        pd.DataFrame([{"synthesis": branching.kind, "normalise": fit.normalise, "r2_study": fit.r2_study, "r2": fit.r2,
-                       "ssd": fit.ssd, "n_afferents": len(fit.predicted), "dropped": fit.dropped, "time_s": fit.time}]
-                     ).to_csv(path("fit.csv"), index=False)
-        pd.DataFrame({"position_m": fit.positions, "predicted": fit.predicted, "observed": fit.observed}).to_csv(
-            path("profile_fit.csv"), index=False)
+        row = {"synthesis": branching.kind, "normalise": fit.normalise, "r2_study": fit.r2_study, "r2": fit.r2,
+               "ssd": fit.ssd, "n_afferents": len(fit.predicted), "dropped": fit.dropped, "time_s": np.nan if fit.time is None else fit.time}
+        write_table(path("fit.csv"), {k: [v] for k, v in row.items()})  # None (unknown) as an empty cell, as pandas
+        positions = np.full(len(fit.predicted), np.nan) if fit.positions is None else fit.positions
+        write_table(path("profile_fit.csv"), {"position_m": positions, "predicted": fit.predicted,
+                                              "observed": fit.observed})
     if "spikes" in want and spikes is not None:
         write_table(path("spikes.csv"), spikes.table())
         summary = spikes.summary_table()

@@ -11,6 +11,7 @@ saying where they came from and which conversion was applied.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import cached_property
 from typing import Literal
 
 import numpy as np
@@ -166,6 +167,14 @@ class Cells:
             mat.setflags(write=False)
             object.__setattr__(self, "materials", mat)
 
+    @cached_property
+    def index_range(self) -> tuple[int, int]:
+        """(lowest, highest) point index the tetrahedra use; (0, -1) without tetrahedra. Computed once
+        per Cells (the arrays are read-only): a series' fields share their mesh's Cells."""
+        if not self.tetra.size:
+            return 0, -1
+        return int(self.tetra.min()), int(self.tetra.max())
+
     def renumbered_nodes(self, new_index: np.ndarray) -> tuple[np.ndarray, ...]:
         """:attr:`nodes` with each point index ``i`` replaced by ``new_index[i]`` (points merged or left out);
         -1 (a node left out) stays -1."""
@@ -270,15 +279,12 @@ class SEDField:
                 f"'times' must be strictly increasing; got {float(times[k])!r} s followed by {float(times[k + 1])!r} s "
                 f"(steps {k} and {k + 1}) instead."
             )
-        if self.cells is not None and self.cells.tetra.size and self.cells.tetra.max() >= points.shape[0]:
+        lowest, highest = self.cells.index_range if self.cells is not None else (0, -1)
+        if highest >= points.shape[0]:
+            raise ValueError(f"'cells' refer to point {highest} but the field has only {points.shape[0]} points.")
+        if lowest < 0:
             raise ValueError(
-                f"'cells' refer to point {int(self.cells.tetra.max())} but the field has only "
-                f"{points.shape[0]} points."
-            )
-        if self.cells is not None and self.cells.tetra.size and self.cells.tetra.min() < 0:
-            raise ValueError(
-                f"'cells' refer to point {int(self.cells.tetra.min())}; point indices must be >= 0 "
-                "(a corrupt connectivity array?)."
+                f"'cells' refer to point {lowest}; point indices must be >= 0 (a corrupt connectivity array?)."
             )
         for name, arr in (("points", points), ("sed", sed), ("times", times)):
             arr.setflags(write=False)

@@ -100,14 +100,13 @@ class ReceptorSED:
     def __array__(self, dtype=None, copy=None):
         return np.asarray(self.values, dtype=dtype)
 
-    def to_dataframe(self, *, sections: bool = False):
-        """Long table, one row per receptor and step.
+    def columns(self, *, sections: bool = False) -> dict:
+        """The long table's columns (name -> 1-D array), one row per receptor and step.
 
-        Columns ``receptor, x_m, y_m, z_m, time_s, sed_pa`` (positions in m, time in s, SED in
-        J/m^3 = Pa); with ``sections=True`` also ``longitudinal`` and ``cross`` section labels.
+        ``receptor, x_m, y_m, z_m, time_s, sed_pa`` (positions in m, time in s, SED in J/m^3 = Pa);
+        with ``sections=True`` also ``longitudinal`` and ``cross`` section labels. What
+        :meth:`to_dataframe` holds and ``sed_map.csv`` is written from (without pandas).
         """
-        import pandas as pd
-
         n_t, n_r = self.values.shape
         pos = self.layout.positions
         cols = {
@@ -121,7 +120,17 @@ class ReceptorSED:
             cols["cross"] = np.tile(self.layout.cross, n_t)
         cols["time_s"] = np.repeat(self.times, n_r)
         cols["sed_pa"] = self.values.reshape(-1)
-        return pd.DataFrame(cols)
+        return cols
+
+    def to_dataframe(self, *, sections: bool = False):
+        """Long table, one row per receptor and step (a pandas DataFrame of :meth:`columns`).
+
+        Columns ``receptor, x_m, y_m, z_m, time_s, sed_pa`` (positions in m, time in s, SED in
+        J/m^3 = Pa); with ``sections=True`` also ``longitudinal`` and ``cross`` section labels.
+        """
+        import pandas as pd
+
+        return pd.DataFrame(self.columns(sections=sections))
 
     def __repr__(self) -> str:
         return (

@@ -20,7 +20,14 @@ in its own process under ``/usr/bin/time`` (wall time, peak resident memory):
   longitudinal afferents, exact spiking).
 
 Targets (issue 14): ``afferent sample`` within 1.2x the bare read; peak memory about one step's
-mesh plus the per-receptor results, the same for 10 and 50 steps. The data is written once into
+mesh plus the per-receptor results, the same for 10 and 50 steps.
+
+``--vs-h5py`` (issue 23: XDMF streaming within 1.1x of h5py): in one process, CPU time, in turn 7
+times each after a warm-up, the XDMF series read step by step by afferent's reader
+(``afferent.io.iter_sed``'s raw steps: the mesh once, then each step's attributes, with every check)
+against h5py alone reading the same datasets (the mesh's two datasets, then each step's), and
+``afferent.io.iter_sed`` (SI units, the checks of each step) beside them; medians and the median of
+the pairwise ratios. Default for this mode: ``--points 300000 --steps 20``. The data is written once into
 ``--data`` (default: a temporary folder; ~1.4 GB at 1e6 points and 50 steps) and reused when the
 folder already holds it.
 """
@@ -118,6 +125,77 @@ BARE_XDMF = textwrap.dedent("""
 """)
 
 
+def _h5py_alone(path: Path, paths: list[str]) -> int:
+    """Read every dataset of ``paths`` (``file.h5:/name``, mesh first) with h5py alone; returns the values read.
+
+    As a stream's consumer does, the mesh is kept and each step's array is held until the next
+    one is read (an array freed at once lets the allocator hand the same pages back for the next
+    step, which a consumer that uses the step does not see).
+    """
+    import h5py
+
+    n, files, held = 0, {}, []
+    for k, item in enumerate(paths):
+        name, dataset = item.split(":", 1)
+        h5 = files.get(name) or files.setdefault(name, h5py.File(path.parent / name, "r"))
+        values = np.asarray(h5[dataset][()])
+        held = held[:2] + [values]  # the mesh's two arrays, and the last step
+        n += values.size
+    for f in files.values():
+        f.close()
+    return n
+
+
+def vs_h5py(folder: Path, steps: int) -> None:
+    """afferent's streamed XDMF read against h5py alone on the same datasets (CPU time, interleaved).
+
+    Each reader runs on the series' first step alone and on all ``steps``: the difference is the
+    streaming of steps 2..N (the mesh and the first step are read in both), printed beside the
+    whole read.
+    """
+    import statistics
+    import xml.etree.ElementTree as ET
+
+    from afferent.io import _raw_steps, iter_sed
+
+    def datasets(export):
+        root = ET.parse(export).getroot()
+        mesh = [i.text.strip() for g in root.iter("Grid") if g.get("Name") == "mesh" for i in g.iter("DataItem")]
+        data = [i.text.strip() for g in root.iter("Grid") if g.get("Name") != "mesh" and g.find("Grid") is None
+                for a in g.iter("Attribute") for i in a.iter("DataItem")]  # the leaf grids: one per step
+        return mesh + data
+
+    def raw(export):
+        _, it = _raw_steps(str(export), None, False)
+        return sum(1 for _ in it)
+
+    def sed(export):
+        return sum(1 for _ in iter_sed(str(export), length_unit="mm", sed_unit="MPa"))
+
+    exports = {1: xdmf(folder, 1), steps: xdmf(folder, steps)}
+    items = {n: datasets(e) for n, e in exports.items()}
+    runs = {(what, n): fn for n, e in exports.items() for what, fn in (
+        ("h5py alone", lambda e=e, n=n: _h5py_alone(e, items[n])), ("afferent raw steps", lambda e=e: raw(e)),
+        ("afferent iter_sed", lambda e=e: sed(e)))}
+    for fn in runs.values():  # warm-up: imports, the page cache
+        fn()
+    times = {k: [] for k in runs}
+    for _ in range(7):
+        for k, fn in runs.items():
+            t = time.process_time()
+            fn()
+            times[k].append(time.process_time() - t)
+    print(f"# {exports[steps].name}: {steps} steps; h5py alone reads the {len(items[steps]) - steps} mesh datasets and "
+          f"the {steps} step datasets; CPU s, medians of 7 rounds")
+    print(f"{'reader':20} {'whole s':>8} {'vs h5py':>8} {'steps 2..N s':>13} {'per step ms':>12} {'vs h5py':>8}")
+    med = {k: statistics.median(v) for k, v in times.items()}
+    for what in ("h5py alone", "afferent raw steps", "afferent iter_sed"):
+        whole, first = med[(what, steps)], med[(what, 1)]
+        rest = whole - first
+        print(f"{what:20} {whole:8.3f} {whole / med[('h5py alone', steps)]:8.2f} {rest:13.3f} "
+              f"{1e3 * rest / (steps - 1):12.2f} {rest / (med[('h5py alone', steps)] - med[('h5py alone', 1)]):8.2f}")
+
+
 def timed(cmd: list[str], env=None) -> tuple[float, float]:
     """(wall s, peak RSS MB) of one command, from /usr/bin/time."""
     out = subprocess.run(["/usr/bin/time", "-f", "%e %M", *cmd], capture_output=True, text=True, env=env)
@@ -161,11 +239,20 @@ want = ["spikes"]
 
 def main(argv=None):
     ap = argparse.ArgumentParser()
-    ap.add_argument("--points", type=int, default=1_000_000)
-    ap.add_argument("--steps", type=int, nargs="+", default=[10, 50])
+    ap.add_argument("--points", type=int, default=None, help="default 1,000,000 (300,000 with --vs-h5py)")
+    ap.add_argument("--steps", type=int, nargs="+", default=None, help="default 10 50 (20 with --vs-h5py)")
+    ap.add_argument("--vs-h5py", action="store_true", help="time the XDMF reader in-process against h5py alone")
     ap.add_argument("--data", type=Path, default=None, help="folder for the generated series (kept)")
     ap.add_argument("--no-scene", action="store_true", help="skip the spikes scene")
     args = ap.parse_args(argv)
+    if args.vs_h5py:
+        args.points, args.steps = args.points or 300_000, args.steps or [20]
+        folder = args.data or Path(tempfile.gettempdir()) / "afferent_large_vs_h5py"
+        print(f"# command: python benchmarks/bench_large_series.py --vs-h5py --points {args.points} --steps "
+              f"{max(args.steps)}{'' if args.data is None else f' --data {args.data}'}; load average {os.getloadavg()}")
+        make_data(folder, args.points, max(args.steps))
+        return vs_h5py(folder, max(args.steps))
+    args.points, args.steps = args.points or 1_000_000, args.steps or [10, 50]
     folder = args.data or Path(tempfile.mkdtemp(prefix="afferent_large_"))
     n_pts, n_cells = make_data(folder, args.points, max(args.steps))
     env = dict(os.environ, MPLBACKEND="Agg")

@@ -214,3 +214,56 @@ def test_a_streamed_series_searches_its_coincident_copies_once_and_merges_every_
     assert [f.points.shape for f in steps] == [(12, 3)] * 3 and whole.points.shape == (12, 3)
     np.testing.assert_array_equal(np.vstack([f.sed for f in steps]), whole.sed)
     assert all(f.provenance.coincident["n_nodes"] == 12 for f in steps)
+
+
+def _discontinuous_series(folder) -> list[str]:
+    """Three steps of four hexahedra in two materials, each cell with its own copies of its nodes (deal.II's
+    DataOut), the copies differing a little: coincident points merged, material sides kept."""
+    unit = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0], [0, 0, 1], [1, 0, 1], [1, 1, 1], [0, 1, 1]], float)
+    points = np.vstack([unit + [i, j, 0.0] for i in (0, 1) for j in (0, 1)])
+    paths = []
+    for k in range(3):
+        sed = (k + 1.0) * (1.0 + points[:, 1]) + np.repeat([0.0, 0.1, 0.0, 0.1], 8)
+        paths.append(str(folder / f"d{k}.vtu"))
+        meshio.write(paths[-1], meshio.Mesh(points, [("hexahedron", np.arange(32).reshape(4, 8))],
+                                            point_data={"SED": sed}, cell_data={"material": [np.array([1, 2, 1, 2])]}))
+    return paths
+
+
+@pytest.mark.filterwarnings("ignore:SED file .* (SED of|the points span|points are)")
+@pytest.mark.parametrize("case", ["pvd", "xdmf", "discontinuous"])
+def test_a_series_mesh_is_checked_once_and_each_step_equals_a_fresh_read(case, tmp_path, monkeypatch):
+    """iter_sed's steps share the reader's points and cells: what depends on the mesh alone (the coordinates'
+    check and conversion to m, the span's plausibility, the coincident search, the merged cells, the copies'
+    weights, the cells' index range) is done at the first step and reused; every step is bit for bit what a
+    fresh assemble of that step gives."""
+    from afferent.io import _assemble, _coincident, _raw_steps, _read_options
+
+    path, units = {"pvd": (PVD, ("mm", "MPa")), "xdmf": (DATA_DIR / "dolfinx" / "block.xdmf", ("m", "Pa")),
+                   "discontinuous": (_discontinuous_series(tmp_path), ("mm", "kPa"))}[case]
+    path = path if isinstance(path, list) else str(path)
+    opts = _read_options(**{**{n: p.default for n, p in __import__("inspect").signature(afferent.read_sed).parameters.items()
+                                if p.kind is p.KEYWORD_ONLY and n not in ("format", "progress")},
+                            "length_unit": units[0], "sed_unit": units[1]})
+    fresh = []
+    for raw in _raw_steps(path, None, False)[1]:
+        _coincident._LAST.clear()  # a fresh search at every step
+        fresh.append(_assemble.assemble(raw, opts))
+    spans, pairs = [], []
+    original, original_pairs = _assemble.span_warning, _coincident._point_cells
+    monkeypatch.setattr(_assemble, "span_warning", lambda *a, **k: spans.append(1) or original(*a, **k))
+    monkeypatch.setattr(_coincident, "_point_cells", lambda *a, **k: pairs.append(1) or original_pairs(*a, **k))
+    steps = list(iter_sed(path, length_unit=units[0], sed_unit=units[1]))
+    assert len(steps) == len(fresh) > 1 and len(spans) == 1 and len(pairs) == (case == "discontinuous")
+    assert all(s.points is steps[0].points and s.cells is steps[0].cells for s in steps)
+    for s, f in zip(steps, fresh):
+        np.testing.assert_array_equal(s.points, f.points)
+        np.testing.assert_array_equal(s.sed, f.sed)
+        np.testing.assert_array_equal(s.cells.tetra, f.cells.tetra)
+        numbered = "The export states no step times"  # iter_sed's own note on a list of VTUs
+        assert [n for n in s.provenance.notes if not n.startswith(numbered)] == list(f.provenance.notes)
+        assert s.cells.index_range == f.cells.index_range and s.provenance.coincident == f.provenance.coincident
+        if case == "discontinuous":
+            assert s.provenance.coincident["n_nodes"] == 18 and s.sides is not None
+            for name in ("nodes", "materials", "sed"):
+                np.testing.assert_array_equal(getattr(s.sides, name), getattr(f.sides, name))

@@ -366,6 +366,7 @@ def iter_sed(path_or_paths, *, format: str | None = None, progress: bool = False
     if opts.times is not None and len(opts.times) != n_steps:
         raise ValueError(f"'times' must have one entry per time step ({n_steps}); got {len(opts.times)} instead.")
     seen: set[str] = set()
+    memo: dict = {}  # what assemble learns from the series' mesh at one step, for the next (the mesh is read once)
     previous = None
     negatives: list = []
     zero = []  # the all-zero warning of each step that gave it: shown only if every step did (a loading series
@@ -378,7 +379,7 @@ def iter_sed(path_or_paths, *, format: str | None = None, progress: bool = False
                 "to set them).",))
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
-            field = assemble(raw, opts if opts.times is None else replace(opts, times=opts.times[k:k + 1]))
+            field = assemble(raw, opts if opts.times is None else replace(opts, times=opts.times[k:k + 1]), memo)
         if numbered:
             units = dict(field.provenance.units, time="step", time_source="none in the file: steps numbered 0, 1, ...")
             field = replace(field, provenance=replace(field.provenance, units=units))

@@ -120,11 +120,15 @@ def _prepared(raw: RawExport, opts: ReadOptions) -> RawExport:
     return raw
 
 
-def _coordinates(raw: RawExport, opts: ReadOptions, rec: _Record):
-    """Coordinates in file units, and the length unit: (xyz, factor to m, unit, where the unit came from)."""
+def _coordinates(raw: RawExport, opts: ReadOptions, rec: _Record, *, checked: bool = False):
+    """Coordinates in file units, and the length unit: (xyz, factor to m, unit, where the unit came from).
+
+    ``checked``: the same points object passed the value check at an earlier step of the series.
+    """
     xyz, coord_names = find_coordinates(raw, opts)
     rec.columns["coordinates"] = list(coord_names)
-    _check_values(raw, xyz[None], f"coordinates ({', '.join(coord_names)})")
+    if not checked:
+        _check_values(raw, xyz[None], f"coordinates ({', '.join(coord_names)})")
     lu, lf, lsrc = _unit(raw, opts.length_unit, raw.length_unit, "length", "length_unit", "the coordinates")
     rec.units.update(length=lu, length_source=lsrc)
     rec.factors["length"] = lf
@@ -296,31 +300,46 @@ def _times(raw: RawExport, opts: ReadOptions, n_times: int, rec: _Record) -> np.
     return times
 
 
-def _plausibility(raw: RawExport, opts: ReadOptions, sed: np.ndarray, xyz_m: np.ndarray, length: str, rec: _Record):
-    """Warn when the SED or the span of the coordinates (m) is implausible for skin: a wrong unit, most likely."""
+def _plausibility(raw: RawExport, opts: ReadOptions, sed: np.ndarray, xyz_m: np.ndarray, length: str, rec: _Record,
+                  span: str | None | bool = False):
+    """Warn when the SED or the span of the coordinates (m) is implausible for skin: a wrong unit, most likely.
+
+    ``span``: the span's warning (or None) already found for these coordinates at an earlier step; False: find it.
+    Returns the span's warning.
+    """
     units = rec.units
     unit_key = "sed_unit" if opts.sed_from == "field" else "stress_unit"
+    if span is False:
+        span = span_warning(xyz_m, what=f"SED file {_where(raw)!r} (length unit {length})", unit_hint="'length_unit'")
     for msg in (
         sed_warning(sed, what=f"SED file {_where(raw)!r} ({units.get('sed', units.get('stress'))} {units.get('sed_source', units.get('stress_source'))})",
                     unit_hint=repr(unit_key)),
-        span_warning(xyz_m, what=f"SED file {_where(raw)!r} (length unit {length})", unit_hint="'length_unit'"),
+        span,
     ):
         if msg:
             rec.notes.append(msg)
             warnings.warn(msg, AfferentWarning, stacklevel=4)  # the caller of assemble's caller, as before the cut
+    return span
 
 
-def _mesh(raw: RawExport, xyz: np.ndarray, sed: np.ndarray, location: str, rec: _Record):
-    """Material ids onto the cells, coincident points merged into nodes: (xyz, sed, cells, report, sides)."""
+def _mesh(raw: RawExport, xyz: np.ndarray, sed: np.ndarray, location: str, rec: _Record, memo: dict):
+    """Material ids onto the cells, coincident points merged into nodes: (xyz, sed, cells, report, sides).
+
+    ``memo`` (a series' steps on one mesh): the cells with the same material ids are the same object
+    from step to step, and the coincident points' search is not repeated.
+    """
     cells = raw.cells
     if cells is None:
         return xyz, sed, None, None, None
     material = find_material_array(raw)
     if material is not None:
-        cells = replace(cells, materials=material[2])
+        same = memo.get("same") and memo.get("materials") is not None and np.array_equal(memo["materials"].materials,
+                                                                                           material[2])
+        cells = memo["materials"] if same else replace(cells, materials=material[2])
+        memo["materials"] = cells
         rec.columns["material"] = material[0]
         rec.columns["material_location"] = material[1]
-    xyz, sed, cells, report, sides = merge_coincident(xyz, sed, location, cells)
+    xyz, sed, cells, report, sides = merge_coincident(xyz, sed, location, cells, same_mesh=memo.get("same", False))
     if report is None:
         return xyz, sed, cells, None, None
     lf = rec.factors["length"]
@@ -341,16 +360,25 @@ def _mesh(raw: RawExport, xyz: np.ndarray, sed: np.ndarray, location: str, rec: 
     return xyz, sed, cells, report, sides
 
 
-def assemble(raw: RawExport, opts: ReadOptions) -> SEDField:
+def assemble(raw: RawExport, opts: ReadOptions, memo: dict | None = None) -> SEDField:
     """Build the SI :class:`SEDField` from a reader's raw export and the user's declarations.
 
     The steps, in order: coordinates, SED (from the field or from the tensors), integration
     points averaged per element, negative SED, step times, duplicate points, material ids and
     coincident points (:mod:`afferent.io._coincident`), plausibility.
+
+    ``memo``: a dict kept by :func:`afferent.io.iter_sed` over a series. A step whose points and
+    cells are the very objects of the step before (the readers decode a series' mesh once) reuses
+    what depends on the mesh alone: the coordinates' check, the coordinates in m, the span's
+    plausibility, the cells with their material ids and the coincident points' search. The
+    numbers are those of a fresh assemble (tests/test_streaming.py).
     """
+    memo = {} if memo is None else memo
+    same = memo.get("points") is raw.points and memo.get("cells") is raw.cells and raw.points is not None
+    memo.update(same=same, points=raw.points, cells=raw.cells)
     raw = _prepared(raw, opts)
     rec = _Record(notes=list(raw.notes))
-    xyz, lf, lu, lsrc = _coordinates(raw, opts, rec)
+    xyz, lf, lu, lsrc = _coordinates(raw, opts, rec, checked=same)
     if opts.sed_from == "field":
         sed, location = _sed_from_field(raw, opts, rec)
     else:
@@ -364,14 +392,17 @@ def assemble(raw: RawExport, opts: ReadOptions) -> SEDField:
         xyz, sed, merged = _merge_duplicate_points(raw, xyz, sed)
         if merged:
             rec.notes.append(f"{merged} point(s) listed twice with the same SED merged (a table written per element?).")
-    xyz, sed, cells, coincident, sides = _mesh(raw, xyz, sed, location, rec)
-    _plausibility(raw, opts, sed, xyz * lf, f"{lu} {lsrc}", rec)
+    xyz, sed, cells, coincident, sides = _mesh(raw, xyz, sed, location, rec, memo)
+    reuse = same and memo.get("xyz_key") == (lf, f"{lu} {lsrc}")
+    xyz_m = memo["xyz_m"] if reuse else xyz * lf
+    memo["span"] = _plausibility(raw, opts, sed, xyz_m, f"{lu} {lsrc}", rec, span=memo["span"] if reuse else False)
+    memo.update(xyz_key=(lf, f"{lu} {lsrc}"), xyz_m=xyz_m)
     prov = Provenance(
         files=raw.files, format=raw.format, sed_from=opts.sed_from, columns=rec.columns, units=rec.units,
         factors=rec.factors, notes=tuple(rec.notes), negative_sed=negative, checks=rec.checks,
         location=location, location_source=_location_source(raw, opts, location), coincident=coincident,
     )
     try:
-        return SEDField(xyz * lf, sed, times, location=location, cells=cells, provenance=prov, sides=sides)
+        return SEDField(xyz_m, sed, times, location=location, cells=cells, provenance=prov, sides=sides)
     except ValueError as err:
         raise SEDFormatError(f"SED file {_where(raw)!r}: {err}") from err
