@@ -1,0 +1,245 @@
+"""A VTU file in one parse, decoded by meshio's own decoder: points, cells, data arrays, component names.
+
+meshio 5.3's ``meshio.vtu.read`` joins the points of a VTU with several ``<Piece>`` elements but
+keeps only the last piece's cells (``_organize_cells`` leaves its loop over the pieces before
+collecting the cells); it splits cell data among the cell blocks without counting it against
+``NumberOfCells``; it drops the DataArrays' ``ComponentName`` attributes; and it refuses VTU
+file version 2.x. :func:`read_vtu` parses the XML once (``xml.etree``, or meshio's
+``_parse_raw_binary`` for raw appended data), decodes each DataArray with meshio's
+``VtuReader.read_data`` (base64, zlib, lzma) and its cells with ``vtk_cells_from_data``, and
+from that one parse returns:
+
+- points, every piece's in turn;
+- cells, each piece's connectivity offset by the points of the pieces before it;
+- point and cell data, joined piece by piece in the cells' order, each counted per piece
+  against ``NumberOfPoints`` / ``NumberOfCells`` (a value too many or too few is an error
+  naming the file, the array, the piece, and both counts);
+- the arrays' ``ComponentName0..`` attributes (ccx2paraview writes ``XX YY ZZ XY YZ ZX``).
+
+Errors are meshio's (``ReadError``, ``ValueError``, ...), which the caller turns into one
+message naming the file, or :class:`VtuCountError`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from xml.etree import ElementTree as ET
+
+import numpy as np
+
+from ..exceptions import SEDFormatError
+
+__all__ = ["VtuContent", "VtuCountError", "read_vtu", "ALL_PARTS"]
+
+#: The parts of a piece :func:`read_vtu` decodes by default; a series' later steps skip "Cells".
+ALL_PARTS = ("Points", "Cells", "PointData", "CellData")
+
+
+class VtuCountError(SEDFormatError):
+    """A VTU that parses but whose pieces' arrays disagree with their counts (or with one another):
+    refused as it is, not handed to VTK's reader (which reads such a file without a word)."""
+
+
+@dataclass(frozen=True)
+class VtuContent:
+    """What one VTU holds, pieces joined; arrays in the file's own dtype and units.
+
+    Attributes
+    ----------
+    points : ndarray of shape (n_points, n_components) or None
+        None when "Points" was not asked for.
+    cells : list of meshio.CellBlock
+        In file order, piece after piece (connectivity indices into ``points``).
+    point_data : dict of str to ndarray
+        Shape (n_points, ...) each.
+    cell_data : dict of str to list of ndarray
+        One array per block of ``cells`` (meshio's layout); empty when "Cells" was not asked for.
+    cell_values : dict of str to ndarray
+        Each cell array over all the file's cells (every type), pieces in order.
+    n_points, n_cells, n_pieces : int
+    components : dict of str to tuple of str
+        ``{array name: (ComponentName0, ...)}`` for the arrays whose tag names each component.
+    """
+
+    points: np.ndarray | None
+    cells: list
+    point_data: dict
+    cell_data: dict
+    cell_values: dict
+    n_points: int
+    n_cells: int
+    n_pieces: int
+    components: dict = field(default_factory=dict)
+
+
+def _root(path: str):
+    """The parsed VTKFile element (meshio's checks of the header), raw appended data re-encoded by meshio."""
+    from meshio import ReadError
+    from meshio.vtu import _vtu
+
+    try:
+        root = ET.parse(path).getroot()
+    except ET.ParseError:
+        root = _vtu._parse_raw_binary(path)
+    if root.tag != "VTKFile":
+        raise ReadError(f"Expected tag 'VTKFile', found {root.tag}")
+    if root.attrib.get("type") != "UnstructuredGrid":
+        raise ReadError(f"Expected type UnstructuredGrid, found {root.attrib.get('type')}")
+    return root
+
+
+def _decoder(root):
+    """meshio's VtuReader set up for ``root``'s encoding (not run: only its ``read_data`` is used)."""
+    from meshio import ReadError
+    from meshio.vtu import _vtu
+
+    reader = _vtu.VtuReader.__new__(_vtu.VtuReader)
+    reader.compression = root.attrib.get("compressor")
+    if reader.compression not in (None, "vtkLZMADataCompressor", "vtkZLibDataCompressor"):
+        raise ReadError(f"Unknown compressor '{reader.compression}'.")
+    reader.header_type = root.attrib.get("header_type", "UInt32")
+    reader.byte_order = root.attrib.get("byte_order")
+    if reader.byte_order not in (None, "LittleEndian", "BigEndian"):
+        raise ReadError(f"Unknown byte order '{reader.byte_order}'.")
+    return reader
+
+
+def _component_names(attrib: dict) -> tuple[str, ...]:
+    """The ``ComponentName0..`` of a DataArray tag when it names every component (else ``()``)."""
+    named = {k[13:]: v for k, v in attrib.items() if k.startswith("ComponentName")}
+    if not named:
+        return ()
+    # the names the tag carries, not range(NumberOfComponents): a corrupt count (9999999999) is no loop
+    comps = [named[str(i)] for i in range(len(named)) if str(i) in named]
+    ok = comps and str(len(comps)) == attrib.get("NumberOfComponents", "").strip()
+    return tuple(comps) if ok else ()
+
+
+class _Piece:
+    """One ``<Piece>`` decoded: its counts, points, raw cells and data arrays."""
+
+    def __init__(self, decoder, piece, parts, components: dict):
+        from meshio import ReadError
+        from meshio._common import warn
+        from meshio._exceptions import CorruptionError
+
+        self.n_points = int(piece.attrib["NumberOfPoints"])
+        self.n_cells = int(piece.attrib["NumberOfCells"])
+        self.points, self.cells, self.point_data, self.cell_data = None, None, {}, {}
+        for child in piece:
+            if child.tag not in ALL_PARTS:
+                raise ReadError(f"Unknown tag '{child.tag}'.")
+            if child.tag not in parts:
+                continue
+            arrays = list(child)
+            if any(a.tag != "DataArray" for a in arrays):
+                raise ReadError()
+            for a in arrays:
+                if a.attrib.get("NumberOfComponents") == "":  # as Firedrake writes it: meshio drops it too
+                    a.attrib.pop("NumberOfComponents")
+            if child.tag == "Points":
+                if len(arrays) != 1:
+                    raise ReadError()
+                self.points = decoder.read_data(arrays[0]).reshape(self.n_points, int(arrays[0].attrib["NumberOfComponents"]))
+            elif child.tag == "Cells":
+                self.cells = {a.attrib["Name"]: decoder.read_data(a) for a in arrays}
+                if len(self.cells["offsets"]) != self.n_cells or len(self.cells["types"]) != self.n_cells:
+                    raise ReadError()
+            else:
+                into = self.point_data if child.tag == "PointData" else self.cell_data
+                for a in arrays:
+                    names = _component_names(a.attrib)
+                    if names:
+                        components[a.attrib["Name"]] = names
+                    try:
+                        into[a.attrib["Name"]] = decoder.read_data(a)
+                    except CorruptionError as err:
+                        if child.tag == "CellData":
+                            raise
+                        warn(err.args[0] + " Skipping.")  # meshio's own words, on stderr as meshio says them
+
+
+def _check_counts(path: str, pieces: list, data: str, many: bool) -> None:
+    """Refuse a cell array (or, with several pieces, a point array) with more or fewer values than its piece has."""
+    count = "n_cells" if data == "cell_data" else "n_points"
+    if data == "point_data" and not many:
+        return  # one piece: meshio.Mesh checks point data (its own message)
+    for k, piece in enumerate(pieces):
+        n = getattr(piece, count)
+        for name, values in getattr(piece, data).items():
+            if values.shape[0] != n:
+                kind, attr = ("cell", "NumberOfCells") if data == "cell_data" else ("point", "NumberOfPoints")
+                where = f" in piece {k} of {len(pieces)}" if many else ""
+                raise VtuCountError(f"SED file {path!r}: {kind} array {name!r} must have one value per {kind}{where} "
+                                     f"({attr} = {n}); got {values.shape[0]} instead.")
+
+
+def _joined(path: str, pieces: list, data: str) -> dict:
+    """Each array of every piece, pieces in order (one piece: no copy)."""
+    first = getattr(pieces[0], data)
+    if len(pieces) == 1:
+        return dict(first)
+    names = [set(getattr(p, data)) for p in pieces]
+    for k, have in enumerate(names):
+        if have != names[0]:
+            kind = "point" if data == "point_data" else "cell"
+            raise VtuCountError(f"SED file {path!r}: piece {k} of {len(pieces)} has the {kind} arrays {sorted(have)}, "
+                                 f"piece 0 has {sorted(names[0])}; every piece must carry the same arrays.")
+    return {name: np.concatenate([getattr(p, data)[name] for p in pieces]) for name in first}
+
+
+def _cells(pieces: list) -> tuple[list, dict]:
+    """meshio cell blocks and per-block cell data of every piece; each piece's connectivity offset
+    by the points before it (meshio 5.3 keeps the last piece's only)."""
+    from meshio._mesh import CellBlock
+    from meshio._vtk_common import vtk_cells_from_data
+    from meshio.vtu import _vtu
+
+    blocks, per_block, offset = [], {name: [] for name in pieces[0].cell_data}, 0
+    for piece in pieces:
+        raw = piece.cells
+        if "faces" in raw or np.any(raw["types"] == 42):  # polyhedra: meshio's own path (refused later, by type)
+            got, data = _vtu._organize_cells([offset], [raw], [piece.cell_data])
+        else:
+            got, data = vtk_cells_from_data(raw["connectivity"].ravel(), raw["offsets"].ravel(), raw["types"].ravel(),
+                                            piece.cell_data)
+            if offset:
+                got = [CellBlock(b.type, b.data + offset) for b in got]
+        blocks.extend(got)
+        for name in per_block:
+            per_block[name].extend(data.get(name, []))
+        offset += piece.n_points
+    return blocks, per_block
+
+
+def read_vtu(path: str, parts=ALL_PARTS) -> VtuContent:
+    """Read a VTU file in one parse: see the module docstring. ``parts``: which of :data:`ALL_PARTS` to decode."""
+    from meshio import ReadError
+    from meshio.vtu import _vtu
+
+    root = _root(path)
+    decoder = _decoder(root)
+    grid, decoder.appended_data = _vtu.get_grid(root)
+    unknown = [c.tag for c in grid if c.tag not in ("Piece", "FieldData")]
+    if unknown:
+        raise ReadError(f"Unknown grid subtag '{unknown[0]}'.")
+    components: dict = {}
+    pieces = [_Piece(decoder, p, parts, components) for p in grid if p.tag == "Piece"]
+    if not pieces:
+        raise ReadError("No Piece found.")
+    many = len(pieces) > 1
+    _check_counts(path, pieces, "cell_data", many)
+    _check_counts(path, pieces, "point_data", many)
+    points = None
+    if "Points" in parts:
+        if any(p.points is None for p in pieces):
+            raise ReadError()
+        points = np.concatenate([p.points for p in pieces]) if many else pieces[0].points
+    point_data, cell_values = _joined(path, pieces, "point_data"), _joined(path, pieces, "cell_data")
+    blocks, per_block = [], {}
+    if "Cells" in parts and any(p.cells is not None for p in pieces):
+        if any(p.cells is None for p in pieces):
+            raise ReadError()
+        blocks, per_block = _cells(pieces)
+    return VtuContent(points, blocks, point_data, per_block, cell_values, sum(p.n_points for p in pieces),
+                      sum(p.n_cells for p in pieces), len(pieces), components)

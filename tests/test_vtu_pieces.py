@@ -1,0 +1,105 @@
+"""VTU files with several ``<Piece>`` elements, as VTK writes them (tests/data/vtk/make_pieces.py).
+
+meshio 5.3.5 joins the pieces' points but keeps only the last piece's cells: afferent read such
+a file with half its cells and no word (point data only) or refused it with "expected one Piece
+in a series step" (with cell data). afferent.io._vtu reads every piece in one parse.
+"""
+
+from __future__ import annotations
+
+import re
+
+import numpy as np
+import pytest
+
+from afferent import read_sed
+from afferent.exceptions import SEDFormatError
+from afferent.io import read_raw
+from afferent.io._meshio import read_vtu_series
+from afferent.receptors import ReceptorLayout
+from afferent.sampling import sample_sed
+
+from conftest import DATA_DIR
+
+PIECES = DATA_DIR / "vtk" / "pieces2.vtu"  # appended raw binary (zlib); SED, S, cell_id
+PIECES_ASCII = DATA_DIR / "vtk" / "pieces2_ascii.vtu"  # ASCII; SED, S (no cell data)
+
+
+def _vtk_read(path):
+    vtk = pytest.importorskip("vtk", reason="the 'vtk' extra reads the file for comparison")
+    from vtk.util.numpy_support import vtk_to_numpy
+
+    reader = vtk.vtkXMLUnstructuredGridReader()
+    reader.SetFileName(str(path))
+    reader.Update()
+    grid = reader.GetOutput()
+    conn = vtk_to_numpy(grid.GetCells().GetConnectivityArray()).reshape(-1, 8)
+    pd, cd = grid.GetPointData(), grid.GetCellData()
+    arrays = {pd.GetArrayName(k): vtk_to_numpy(pd.GetArray(k)) for k in range(pd.GetNumberOfArrays())}
+    arrays.update({cd.GetArrayName(k): vtk_to_numpy(cd.GetArray(k)) for k in range(cd.GetNumberOfArrays())})
+    return vtk_to_numpy(grid.GetPoints().GetData()), conn, arrays
+
+
+@pytest.mark.parametrize("path", [PIECES, PIECES_ASCII], ids=["appended", "ascii"])
+def test_every_piece_is_read_as_vtk_reads_it(path):
+    from afferent.io._vtu import read_vtu
+
+    points, conn, arrays = _vtk_read(path)
+    assert conn.shape == (24, 8) and points.shape == (80, 3)  # two pieces of 40 points and 12 hexahedra
+    content = read_vtu(str(path))
+    assert content.n_pieces == 2
+    np.testing.assert_array_equal(content.points, points)
+    np.testing.assert_array_equal(np.concatenate([b.data for b in content.cells]), conn)
+    raw = read_raw(str(path))
+    assert raw.cells.n_cells == 24
+    np.testing.assert_array_equal(raw.points, points)
+    for name, values in arrays.items():
+        np.testing.assert_array_equal(raw.arrays[name].values[0], values)
+    assert set(raw.arrays) == set(arrays)
+    assert raw.arrays["S"].components == ("XX", "YY", "ZZ", "XY", "YZ", "ZX")
+
+
+@pytest.mark.parametrize("path", [PIECES, PIECES_ASCII], ids=["appended", "ascii"])
+def test_sed_sampled_in_both_pieces_is_the_written_field(path):
+    field = read_sed(path, length_unit="mm", sed_unit="Pa")
+    assert field.cells.n_cells == 24 and field.n_points == 60  # the 20 points on the pieces' shared face merged
+    xyz = np.array([[0.5, 0.5, 0.5], [3.3, 2.2, 0.9], [1.5, 1.5, 1.5], [3.7, 0.4, 1.8], [2.0, 1.0, 1.0]])  # mm
+    got = sample_sed(field, ReceptorLayout(xyz * 1e-3)).values[0]
+    np.testing.assert_allclose(got, 1 + 2 * xyz[:, 0] + 3 * xyz[:, 1] + xyz[:, 2], rtol=1e-12)
+
+
+def test_a_series_of_pieced_steps_reads_every_cell():
+    raw = read_vtu_series([str(PIECES), str(PIECES)])
+    assert raw.n_times == 2 and raw.cells.n_cells == 24
+    np.testing.assert_array_equal(raw.arrays["cell_id"].values, np.tile(np.arange(24.0), (2, 1)))
+
+
+def _with_cell_data(tmp_path, counts):
+    """pieces2_ascii.vtu with a cell array 'E' of counts[k] values in piece k."""
+    text = PIECES_ASCII.read_text()
+    parts = text.split("</Piece>")
+    for k, n in enumerate(counts):
+        values = " ".join(str(float(v)) for v in range(n))
+        parts[k] += f'<CellData><DataArray type="Float64" Name="E" format="ascii">{values}</DataArray></CellData>'
+    path = tmp_path / "pieces_e.vtu"
+    path.write_text("</Piece>".join(parts))
+    return path
+
+
+def test_cell_data_is_counted_piece_by_piece(tmp_path):
+    read_raw(str(_with_cell_data(tmp_path, [12, 12])))  # the right counts read
+    path = _with_cell_data(tmp_path, [13, 11])  # 24 in all, one value in the wrong piece
+    with pytest.raises(SEDFormatError, match=re.escape(
+            f"SED file {str(path)!r}: cell array 'E' must have one value per cell in piece 0 of 2 (NumberOfCells = 12); "
+            "got 13 instead.")):
+        read_raw(str(path))
+
+
+def test_an_empty_number_of_components_is_read_as_one_component(tmp_path):
+    """Firedrake writes NumberOfComponents="" for scalars: meshio drops the attribute, and so does afferent's reader."""
+    text = (DATA_DIR / "bad" / "cell_array_long.vtu").read_text()
+    text = text.split("<CellData>")[0] + text.split("</CellData>")[1]  # the hexahedron and its point SED
+    path = tmp_path / "firedrake.vtu"
+    path.write_text(text.replace('Name="SED" format="ascii"', 'Name="SED" NumberOfComponents="" format="ascii"'))
+    raw = read_raw(str(path))
+    assert raw.arrays["SED"].values.shape == (1, 8) and raw.cells.n_cells == 1
