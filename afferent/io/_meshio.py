@@ -148,8 +148,9 @@ def cells_from_meshio(cells, path: str) -> Cells | None:
         pattern = np.asarray(_TETS[_HIGHER.get(ctype, ctype)])
         n = conn.shape[0]
         # take along axis 1 of the flat pattern: C-ordered, so the reshape is a view (conn[:, pattern]
-        # is laid out otherwise and the reshape copied it: 23 -> 8 ms for 108k hexahedra)
-        tets.append(np.take(conn, pattern.ravel(), axis=1).reshape(-1, 4))
+        # is laid out otherwise and the reshape copied it: 23 -> 8 ms for 108k hexahedra); int64 (what
+        # Cells holds) before the take, on the connectivity, not after it on the larger tetrahedra
+        tets.append(np.take(conn.astype(np.int64, copy=False), pattern.ravel(), axis=1).reshape(-1, 4))
         parents.append(np.repeat(np.arange(offset, offset + n), len(pattern)))
         offset += n
     higher = any(ctype in _HIGHER for _, ctype, _ in blocks)  # linear meshes need no more than their tetrahedra
@@ -355,6 +356,7 @@ def raw_from_mesh(mesh, path: str, fmt: str, components: dict, notes: list, *, r
         raise SEDFormatError(f"SED file {path!r} holds no points.")
     if points.shape[1] == 2:
         points = np.column_stack([points, np.zeros(len(points))])
+    points.setflags(write=False)  # the coincident search remembers read-only coordinates without a digest
     notes = list(notes)
     if cells_obj is None:
         notes.append("No volume cells in the file: the points are treated as scattered samples.")
