@@ -118,15 +118,19 @@ def _component_names(attrib: dict) -> tuple[str, ...]:
 class _Piece:
     """One ``<Piece>`` decoded: its counts, points, raw cells and data arrays."""
 
-    def __init__(self, decoder, piece, parts, components: dict):
+    def __init__(self, decoder, piece, parts, components: dict, index: int):
         from meshio import ReadError
         from meshio._common import warn
         from meshio._exceptions import CorruptionError
 
+        self.index = index  # in the file, from 0
         self.n_points = int(piece.attrib["NumberOfPoints"])
         self.n_cells = int(piece.attrib["NumberOfCells"])
         self.points, self.cells, self.point_data, self.cell_data = None, None, {}, {}
-        for child in piece:
+        #: no points and no cells (a parallel writer's idle rank): nothing to decode (meshio's decoder
+        #: fails on an empty compressed array), left out when the pieces are joined
+        self.empty = self.n_points == 0 and self.n_cells == 0
+        for child in () if self.empty else piece:
             if child.tag not in ALL_PARTS:
                 raise ReadError(f"Unknown tag '{child.tag}'.")
             if child.tag not in parts:
@@ -159,32 +163,34 @@ class _Piece:
                         warn(err.args[0] + " Skipping.")  # meshio's own words, on stderr as meshio says them
 
 
-def _check_counts(path: str, pieces: list, data: str, many: bool) -> None:
+def _check_counts(path: str, pieces: list, data: str, n_pieces: int) -> None:
     """Refuse a cell array (or, with several pieces, a point array) with more or fewer values than its piece has."""
     count = "n_cells" if data == "cell_data" else "n_points"
+    many = n_pieces > 1
     if data == "point_data" and not many:
         return  # one piece: meshio.Mesh checks point data (its own message)
-    for k, piece in enumerate(pieces):
+    for piece in pieces:
         n = getattr(piece, count)
         for name, values in getattr(piece, data).items():
             if values.shape[0] != n:
                 kind, attr = ("cell", "NumberOfCells") if data == "cell_data" else ("point", "NumberOfPoints")
-                where = f" in piece {k} of {len(pieces)}" if many else ""
+                where = f" in piece {piece.index} of {n_pieces}" if many else ""
                 raise VtuCountError(f"SED file {path!r}: {kind} array {name!r} must have one value per {kind}{where} "
                                      f"({attr} = {n}); got {values.shape[0]} instead.")
 
 
-def _joined(path: str, pieces: list, data: str) -> dict:
+def _joined(path: str, pieces: list, data: str, n_pieces: int) -> dict:
     """Each array of every piece, pieces in order (one piece: no copy)."""
     first = getattr(pieces[0], data)
     if len(pieces) == 1:
         return dict(first)
-    names = [set(getattr(p, data)) for p in pieces]
-    for k, have in enumerate(names):
-        if have != names[0]:
+    for piece in pieces[1:]:
+        have = set(getattr(piece, data))
+        if have != set(first):
             kind = "point" if data == "point_data" else "cell"
-            raise VtuCountError(f"SED file {path!r}: piece {k} of {len(pieces)} has the {kind} arrays {sorted(have)}, "
-                                 f"piece 0 has {sorted(names[0])}; every piece must carry the same arrays.")
+            raise VtuCountError(f"SED file {path!r}: piece {piece.index} of {n_pieces} has the {kind} arrays "
+                                f"{sorted(have)}, piece {pieces[0].index} has {sorted(first)}; every piece must carry "
+                                "the same arrays.")
     return {name: np.concatenate([getattr(p, data)[name] for p in pieces]) for name in first}
 
 
@@ -198,6 +204,9 @@ def _cells(pieces: list) -> tuple[list, dict]:
     blocks, per_block, offset = [], {name: [] for name in pieces[0].cell_data}, 0
     for piece in pieces:
         raw = piece.cells
+        if not len(raw["types"]):  # points without cells: meshio's split fails on no cells
+            offset += piece.n_points
+            continue
         if "faces" in raw or np.any(raw["types"] == 42):  # polyhedra: meshio's own path (refused later, by type)
             got, data = _vtu._organize_cells([offset], [raw], [piece.cell_data])
         else:
@@ -224,22 +233,24 @@ def read_vtu(path: str, parts=ALL_PARTS) -> VtuContent:
     if unknown:
         raise ReadError(f"Unknown grid subtag '{unknown[0]}'.")
     components: dict = {}
-    pieces = [_Piece(decoder, p, parts, components) for p in grid if p.tag == "Piece"]
+    pieces = [_Piece(decoder, p, parts, components, k) for k, p in enumerate(c for c in grid if c.tag == "Piece")]
     if not pieces:
         raise ReadError("No Piece found.")
+    n_pieces = len(pieces)
+    pieces = [p for p in pieces if not p.empty] or pieces[:1]
     many = len(pieces) > 1
-    _check_counts(path, pieces, "cell_data", many)
-    _check_counts(path, pieces, "point_data", many)
+    _check_counts(path, pieces, "cell_data", n_pieces)
+    _check_counts(path, pieces, "point_data", n_pieces)
     points = None
     if "Points" in parts:
         if any(p.points is None for p in pieces):
             raise ReadError()
         points = np.concatenate([p.points for p in pieces]) if many else pieces[0].points
-    point_data, cell_values = _joined(path, pieces, "point_data"), _joined(path, pieces, "cell_data")
+    point_data, cell_values = _joined(path, pieces, "point_data", n_pieces), _joined(path, pieces, "cell_data", n_pieces)
     blocks, per_block = [], {}
     if "Cells" in parts and any(p.cells is not None for p in pieces):
         if any(p.cells is None for p in pieces):
             raise ReadError()
         blocks, per_block = _cells(pieces)
     return VtuContent(points, blocks, point_data, per_block, cell_values, sum(p.n_points for p in pieces),
-                      sum(p.n_cells for p in pieces), len(pieces), components)
+                      sum(p.n_cells for p in pieces), n_pieces, components)

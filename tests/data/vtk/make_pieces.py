@@ -15,6 +15,9 @@ the face between the pieces are written twice, once in each), which
 - point ``S``: 6 components named XX YY ZZ XY YZ ZX (``ComponentName0..5``), component k = k + x;
 - cell ``cell_id``: the cell's number in the whole box (0..23), in the writer's order.
 
+``pieces3_empty.vtu``: a 1 x 1 x 2 box streamed in three pieces, the middle one empty (0 points,
+0 cells, as a parallel writer's idle rank leaves it; meshio's decoder fails on its empty zlib arrays).
+
 ``pieces2.vtu``: VTK's default layout (appended raw binary, zlib), all three arrays.
 ``pieces2_ascii.vtu``: ASCII, the point arrays only. meshio 5.3.5 reads both pieces' points
 (80) from each but only the last piece's 12 cells; afferent before its own VTU reader refused
@@ -30,11 +33,10 @@ import vtk
 from vtk.util.numpy_support import numpy_to_vtk
 
 HERE = Path(__file__).resolve().parent
-NX, NY, NZ = 4, 3, 2
 
 
-def box() -> vtk.vtkUnstructuredGrid:
-    """The 4 x 3 x 2 hexahedra box with its arrays (see the module docstring)."""
+def box(NX: int = 4, NY: int = 3, NZ: int = 2) -> vtk.vtkUnstructuredGrid:  # noqa: N803 (the box's cell counts)
+    """The NX x NY x NZ hexahedra box with its arrays (see the module docstring)."""
     idx = np.arange((NX + 1) * (NY + 1) * (NZ + 1)).reshape(NZ + 1, NY + 1, NX + 1)
     z, y, x = np.meshgrid(np.arange(NZ + 1), np.arange(NY + 1), np.arange(NX + 1), indexing="ij")
     pts = np.column_stack([x.ravel(), y.ravel(), z.ravel()]).astype(float)
@@ -62,8 +64,8 @@ def box() -> vtk.vtkUnstructuredGrid:
     return grid
 
 
-def write(name: str, ascii_: bool, cell_data: bool) -> None:
-    grid = box()
+def write(name: str, ascii_: bool, cell_data: bool, size=(4, 3, 2), pieces: int = 2) -> None:
+    grid = box(*size)
     if not cell_data:
         grid.GetCellData().RemoveArray("cell_id")
     split = vtk.vtkExtractUnstructuredGridPiece()
@@ -74,7 +76,7 @@ def write(name: str, ascii_: bool, cell_data: bool) -> None:
     writer = vtk.vtkXMLUnstructuredGridWriter()
     writer.SetInputConnection(used.GetOutputPort())
     writer.SetFileName(str(HERE / name))
-    writer.SetNumberOfPieces(2)
+    writer.SetNumberOfPieces(pieces)
     if ascii_:
         writer.SetDataModeToAscii()
     if not writer.Write():
@@ -84,5 +86,6 @@ def write(name: str, ascii_: bool, cell_data: bool) -> None:
 if __name__ == "__main__":
     write("pieces2.vtu", ascii_=False, cell_data=True)
     write("pieces2_ascii.vtu", ascii_=True, cell_data=False)
-    for name in ("pieces2.vtu", "pieces2_ascii.vtu"):
+    write("pieces3_empty.vtu", ascii_=False, cell_data=True, size=(1, 1, 2), pieces=3)
+    for name in ("pieces2.vtu", "pieces2_ascii.vtu", "pieces3_empty.vtu"):
         print(name, (HERE / name).stat().st_size, "bytes")
