@@ -218,7 +218,27 @@ def _cells(pieces: list) -> tuple[list, dict]:
         for name in per_block:
             per_block[name].extend(data.get(name, []))
         offset += piece.n_points
-    return blocks, per_block
+    return _runs_joined(blocks, per_block) if len(pieces) > 1 else (blocks, per_block)
+
+
+def _runs_joined(blocks: list, per_block: dict) -> tuple[list, dict]:
+    """Adjacent blocks of one cell type and node count (a type running on from one piece into the
+    next) as one block, their cell data likewise: a mesh's blocks do not depend on how it was cut."""
+    from meshio._mesh import CellBlock
+
+    runs: list[list[int]] = []
+    for k, b in enumerate(blocks):
+        last = blocks[runs[-1][0]] if runs else None
+        if (last is not None and last.type == b.type and isinstance(b.data, np.ndarray) and b.data.ndim == 2
+                and isinstance(last.data, np.ndarray) and last.data.shape[1:] == b.data.shape[1:]):
+            runs[-1][1] = k + 1
+        else:
+            runs.append([k, k + 1])
+    if len(runs) == len(blocks):
+        return blocks, per_block
+    out = [blocks[a] if b - a == 1 else CellBlock(blocks[a].type, np.concatenate([c.data for c in blocks[a:b]]))
+           for a, b in runs]
+    return out, {name: [v[a] if b - a == 1 else np.concatenate(v[a:b]) for a, b in runs] for name, v in per_block.items()}
 
 
 def read_vtu(path: str, parts=ALL_PARTS) -> VtuContent:
