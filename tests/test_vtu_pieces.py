@@ -126,3 +126,25 @@ def test_only_an_export_that_may_hold_copies_has_every_cell_measured(sample_sed_
     assert calls == [] and field.provenance.coincident is None
     field = read_sed(PIECES, length_unit="mm", sed_unit="Pa")
     assert calls == [24] and field.provenance.coincident["n_copies_merged"] == 20
+
+
+def test_the_coincident_search_is_remembered_for_the_same_cells_and_coordinates(monkeypatch):
+    """A mesh reader's coordinates are read-only and remembered by reference (no digest of every read);
+    writable ones by a digest, so that coordinates changed in place are searched again."""
+    from afferent.io import _coincident
+
+    raw = read_raw(str(PIECES))
+    assert not raw.points.flags.writeable
+    calls = []
+    original = _coincident.coincident_labels
+    monkeypatch.setattr(_coincident, "coincident_labels", lambda *a, **k: calls.append(1) or original(*a, **k))
+    _coincident._LAST.clear()
+    first = _coincident._labels_of(raw.points, raw.cells, 1e-6)
+    assert _coincident._labels_of(raw.points.copy(), raw.cells, 1e-6) is first and len(calls) == 1  # equal values
+    moved = raw.points.copy()
+    moved[:, 0] *= 2.0
+    assert _coincident._labels_of(moved, raw.cells, 1e-6) is not first and len(calls) == 2
+    assert _coincident._labels_of(moved, raw.cells, 1e-6) is not first and len(calls) == 2  # the digest matches
+    moved[:, 0] *= 2.0  # changed in place
+    _coincident._labels_of(moved, raw.cells, 1e-6)
+    assert len(calls) == 3
