@@ -62,11 +62,14 @@ def _once(path) -> float:
 
 def vs_meshio(path: str) -> None:
     """read_sed against meshio's bare read of the same file, interleaved, CPU time."""
+    import warnings
+
     import meshio
     import numpy as np
 
     import afferent
 
+    warnings.simplefilter("ignore")  # read_sed's warnings on the file (said once each by afferent info) are not timed
     print(f"$ python benchmarks/bench_readers.py --vs-meshio {path}")
     pairs = []
     for k in range(10):

@@ -302,13 +302,13 @@ def test_quadratic_wedges_and_pyramids_load(name, monkeypatch):
 
 @pytest.mark.parametrize("name", ["lagrange_hex27.vtk", "lagrange_hex27.vtu"])
 def test_a_lagrange_hexahedron_of_degree_2_is_a_27_node_hexahedron(name, tmp_path, monkeypatch):
-    # the .vtu is VTK XML version 2.3, which meshio refuses: read from a temporary copy marked 1.0
+    # the .vtu is VTK XML version 2.3, which meshio.vtu.read refuses: afferent's VTU reader reads it, writing nothing
     monkeypatch.setenv("TMPDIR", str(tmp_path))
     import tempfile
 
     monkeypatch.setattr(tempfile, "tempdir", None)
     f = read_sed(VTKDIR / name, length_unit="m", sed_unit="Pa")
-    assert list(tmp_path.iterdir()) == []  # the copy is gone
+    assert list(tmp_path.iterdir()) == []  # no temporary copy (before: one, deleted after reading)
     assert f.cells.cell_types == ("hexahedron27",)
     pos = _inside(f.points, 100, margin=0.3)
     got, s = _sample(f.points, f.cells, f.sed[0], pos)

@@ -1,12 +1,10 @@
 """Mesh-based exports through meshio: VTU/VTK files, PVD collections, XDMF time series.
 
-Each reader returns a :class:`~afferent.io._raw.RawExport` in the file's units. For a time
-series the mesh (points and cells) is decoded once; later steps decode only their data
-arrays (a VTU series is checked to share the first step's points).
-
-Size: just over 600 lines: meshio's cell blocks (linear, quadratic and Lagrange) and its VTU
-version limits are handled next to the readers that meet them; the VTK-library path is
-:mod:`afferent.io._vtk`.
+Each reader returns a :class:`~afferent.io._raw.RawExport` in the file's units. A ``.vtu`` is
+read by :func:`afferent.io._vtu.read_vtu` (one parse, meshio's decoder, every piece), other
+formats by meshio's readers; the VTK-library path is :mod:`afferent.io._vtk`. For a time
+series the mesh (points and cells) is decoded once; later steps decode only their points and
+data arrays (a VTU series is checked to share the first step's points).
 """
 
 from __future__ import annotations
@@ -26,6 +24,7 @@ from ..field import Cells
 from dataclasses import replace
 
 from ._raw import RawArray, RawExport, check_export_file, files_read, stack_steps
+from ._vtu import VtuCountError, read_vtu
 
 __all__ = ["read_mesh_file", "read_vtu_series", "read_pvd", "read_xdmf", "cells_from_meshio"]
 
@@ -149,8 +148,9 @@ def cells_from_meshio(cells, path: str) -> Cells | None:
         pattern = np.asarray(_TETS[_HIGHER.get(ctype, ctype)])
         n = conn.shape[0]
         # take along axis 1 of the flat pattern: C-ordered, so the reshape is a view (conn[:, pattern]
-        # is laid out otherwise and the reshape copied it: 23 -> 8 ms for 108k hexahedra)
-        tets.append(np.take(conn, pattern.ravel(), axis=1).reshape(-1, 4))
+        # is laid out otherwise and the reshape copied it: 23 -> 8 ms for 108k hexahedra); int64 (what
+        # Cells holds) before the take, on the connectivity, not after it on the larger tetrahedra
+        tets.append(np.take(conn.astype(np.int64, copy=False), pattern.ravel(), axis=1).reshape(-1, 4))
         parents.append(np.repeat(np.arange(offset, offset + n), len(pattern)))
         offset += n
     higher = any(ctype in _HIGHER for _, ctype, _ in blocks)  # linear meshes need no more than their tetrahedra
@@ -161,7 +161,9 @@ def cells_from_meshio(cells, path: str) -> Cells | None:
 
 
 def _read_meshio(path: str, opened: list | None = None):
-    """meshio's reader of ``path``'s format; the side files it read are appended to ``opened`` (XDMF)."""
+    """(meshio.Mesh, component names) of ``path``: a .vtu through :func:`afferent.io._vtu.read_vtu` (one
+    parse, every piece), other formats through meshio's reader; the side files read are appended to
+    ``opened`` (XDMF)."""
     import meshio
 
     from ._xdmf import read_single_grid
@@ -169,21 +171,32 @@ def _read_meshio(path: str, opened: list | None = None):
     check_export_file(path)
     # The format's own reader, not meshio.read: its dispatcher prints and calls sys.exit on failure.
     ext = os.path.splitext(path)[1].lower()
+    if ext == ".vtu":
+        _check_vtk_xml_type(path)
+        content = _guarded(path, read_vtu)
+        mesh = _guarded(path, lambda _: meshio.Mesh(content.points, content.cells, point_data=content.point_data,
+                                                     cell_data=content.cell_data))
+        return mesh, content.components
+
     def xdmf(p):
         return read_single_grid(p, [] if opened is None else opened)
 
-    reader = {".vtu": meshio.vtu.read, ".vtk": meshio.vtk.read, ".xdmf": xdmf, ".xmf": xdmf}.get(ext, meshio.read)
-    copy = None
-    if ext == ".vtu":
-        _check_vtk_xml_type(path)
-        if (_vtu_version(path) or (0, 0))[0] == 2:
-            copy = _as_vtu_version_1(path)
+    reader = {".vtk": meshio.vtk.read, ".xdmf": xdmf, ".xmf": xdmf}.get(ext, meshio.read)
+    return _guarded(path, reader), {}
+
+
+def _guarded(path: str, read, *args):
+    """``read(path, *args)`` with meshio's failures as one SEDFormatError naming ``path``, and what
+    meshio prints on stderr (a corrupt array it skips) as one AfferentWarning."""
+    import meshio
+
+    ext = os.path.splitext(path)[1].lower()
     _complete_meshio_dimensions()
     said = io.StringIO()
     try:
         with warnings.catch_warnings(), contextlib.redirect_stderr(said):
             warnings.simplefilter("ignore")  # meshio warns on skipped data; we report what we keep
-            mesh = reader(copy or path)
+            out = read(path, *args)
     except SEDFormatError:
         raise
     except meshio.ReadError as err:
@@ -202,12 +215,9 @@ def _read_meshio(path: str, opened: list | None = None):
             f"SED file {path!r} could not be read as {os.path.splitext(path)[1] or 'a mesh'} "
             f"(truncated or corrupt?): {kind}: {err}"
         ) from err
-    finally:
-        if copy is not None:
-            os.remove(copy)  # the temporary copy afferent wrote
     if said.getvalue().strip():  # meshio prints what it skips (a corrupt array) to stderr: one line of ours instead
-        warnings.warn(f"SED file {path!r}: meshio: {' '.join(said.getvalue().split())}", AfferentWarning, stacklevel=3)
-    return mesh
+        warnings.warn(f"SED file {path!r}: meshio: {' '.join(said.getvalue().split())}", AfferentWarning, stacklevel=4)
+    return out
 
 
 def _well_formed(path: str, ext: str) -> bool:
@@ -268,27 +278,6 @@ def _vtu_version(path: str) -> tuple[int, int] | None:
     return None if m is None else (int(m.group(1)), int(m.group(2)))
 
 
-def _as_vtu_version_1(path: str) -> str:
-    """A temporary copy of a VTU of version 2.x with its version attribute set to 1.0, for meshio.
-
-    meshio 5.3 reads VTU versions 0.1 and 1.0 only; VTK >= 9 writes 2.x (2.1: the VTK 9 numbering
-    of Lagrange hexahedra, 2.2 and later: the same layout for every cell afferent reads). The
-    appended data's offsets count from the start of the appended block, so the header may change
-    length. The caller deletes the copy.
-    """
-    import shutil
-    import tempfile
-
-    with open(path, "rb") as src:
-        head = src.read(4096)
-        head = re.sub(rb'(<VTKFile[^>]*\bversion=")\d+\.\d+(")', rb"\g<1>1.0\g<2>", head, count=1)
-        fd, tmp = tempfile.mkstemp(suffix=".vtu", prefix="afferent-vtu-")
-        with os.fdopen(fd, "wb") as dst:
-            dst.write(head)
-            shutil.copyfileobj(src, dst)
-    return tmp
-
-
 def _arrays_from_mesh(mesh, path: str, cells_obj: Cells | None) -> dict[str, RawArray]:
     arrays: dict[str, RawArray] = {}
     n_points = len(mesh.points)
@@ -333,14 +322,13 @@ def read_mesh_file(path: str) -> RawExport:
         return read_vtk_file(path)
     side: list[str] = []  # the files meshio opened besides path (an XDMF's HDF5 and .bin files)
     try:
-        mesh = _read_meshio(path, side)
+        mesh, names = _read_meshio(path, side)  # names: the arrays' ComponentName attributes (a .vtu's)
     except SEDFormatError as err:
-        if ext not in (".vtk", ".vtu") or not os.path.isfile(path) or os.path.getsize(path) == 0 or _not_unstructured(path):
+        if isinstance(err, VtuCountError) or ext not in (".vtk", ".vtu") or not os.path.isfile(path) or os.path.getsize(path) == 0 or _not_unstructured(path):
             raise
         from ._vtk import read_vtk_file
 
         return read_vtk_file(path, meshio_error=err)
-    names = _vtu_component_names(path) if ext == ".vtu" else {}  # meshio drops the arrays' ComponentName attributes
     return raw_from_mesh(mesh, path, ext.lstrip("."), names, [], reader=f"meshio {meshio.__version__}",
                          files=files_read([path], side))
 
@@ -368,114 +356,16 @@ def raw_from_mesh(mesh, path: str, fmt: str, components: dict, notes: list, *, r
         raise SEDFormatError(f"SED file {path!r} holds no points.")
     if points.shape[1] == 2:
         points = np.column_stack([points, np.zeros(len(points))])
+    points.setflags(write=False)  # the coincident search remembers read-only coordinates without a digest
     notes = list(notes)
     if cells_obj is None:
         notes.append("No volume cells in the file: the points are treated as scattered samples.")
     arrays = _arrays_from_mesh(mesh, path, cells_obj)
-    if path.lower().endswith(".vtu") and reader.startswith("meshio") and any(a.location == "cell" for a in arrays.values()):
-        _check_cell_data_lengths(path)
     arrays = {k: (RawArray(a.name, a.values, a.location, a.unit, components[a.name])
                   if a.name in components and a.values.ndim == 3 and a.values.shape[2] == len(components[a.name]) else a)
               for k, a in arrays.items()}
     return RawExport(files=tuple(files), format=fmt, points=points, arrays=arrays, cells=cells_obj, notes=tuple(notes),
                      reader=reader)
-
-
-_ATTR = re.compile(rb'\b(\w+)="([^"]*)"')  # \b: linear on a long run of letters
-
-
-def _check_cell_data_lengths(path: str) -> None:
-    """Refuse a VTU whose CellData arrays hold more or fewer values than its cells.
-
-    meshio splits cell data among the cell blocks by the blocks' sizes, so a value too many
-    (or too few) would be dropped (or misplaced) without a word: the arrays are decoded once
-    more, as the file has them, and counted.
-    """
-    reader = _VtuDataReader(path, parts=("CellData",))
-    for name, values in reader.cell_data.items():
-        if np.asarray(values).shape[0] != reader.n_cells:
-            raise SEDFormatError(
-                f"SED file {path!r}: cell array {name!r} must have one value per cell (NumberOfCells = "
-                f"{reader.n_cells}); got {np.asarray(values).shape[0]} instead."
-            )
-
-
-def _vtu_component_names(path: str) -> dict[str, tuple[str, ...]]:
-    """``{array name: (ComponentName0, ...)}`` from a VTU's DataArray tags (ccx2paraview writes
-    ``XX YY ZZ XY YZ ZX`` for S and E); arrays without names are left out."""
-    import mmap
-
-    with open(path, "rb") as fh, mmap.mmap(fh.fileno(), 0, access=mmap.ACCESS_READ) as mm:
-        if mm.find(b"ComponentName") < 0:  # most files: one scan of the mapped file, no copy, no tag parsed
-            return {}
-        text = mm[:]
-    first = text.find(b"ComponentName")
-    end = text.find(b"<AppendedData", first)
-    end = len(text) if end < 0 else end
-    out = {}
-    # the tags found by bytes.find, which skips the inline data many times faster than a regex
-    # (10 MB VTU: 8 -> 2 ms)
-    tags, i = [], text.rfind(b"<DataArray", 0, first)
-    while i >= 0:
-        j = text.find(b">", i, end)
-        if j < 0:
-            break
-        if not text[i + 10:i + 11].isalnum():  # <DataArray, not a longer name
-            tags.append(text[i:j + 1])
-        i = text.find(b"<DataArray", j, end)
-    for tag in tags:
-        attrs = {k.decode(): v.decode("utf-8", "replace") for k, v in _ATTR.findall(tag)}
-        # the names the tag carries, not range(NumberOfComponents): a corrupt count (9999999999) is no loop
-        named = {k[len("ComponentName"):]: v for k, v in attrs.items() if k.startswith("ComponentName")}
-        comps = [named[str(i)] for i in range(len(named)) if str(i) in named]
-        if "Name" in attrs and comps and str(len(comps)) == attrs.get("NumberOfComponents", "").strip():
-            out[attrs["Name"]] = tuple(comps)
-    return out
-
-
-class _VtuDataReader:
-    """Decode only the data arrays of a VTU file, with meshio's own decoder.
-
-    meshio re-reads points and connectivity for every file of a series; for step 2..N of a
-    series we parse the XML and decode only Points (to check the mesh is the same) and the
-    PointData / CellData arrays (those of ``parts``).
-    """
-
-    def __init__(self, path: str, parts=("Points", "PointData", "CellData")):
-        from meshio.vtu import _vtu
-
-        self.path = path
-        try:
-            try:
-                root = ET.parse(path).getroot()
-            except ET.ParseError:
-                root = _vtu._parse_raw_binary(path)
-            reader = _vtu.VtuReader.__new__(_vtu.VtuReader)
-            reader.compression = root.attrib.get("compressor")
-            reader.header_type = root.attrib.get("header_type", "UInt32")
-            reader.byte_order = root.attrib.get("byte_order")
-            grid, reader.appended_data = _vtu.get_grid(root)
-            pieces = [c for c in grid if c.tag == "Piece"]
-            if len(pieces) != 1:
-                raise SEDFormatError(f"SED file {path!r}: expected one Piece in a series step; got {len(pieces)}.")
-            piece = pieces[0]
-            self.n_points = int(piece.attrib["NumberOfPoints"])
-            self.n_cells = int(piece.attrib["NumberOfCells"])
-            self.points = None
-            self.point_data, self.cell_data = {}, {}
-            for child in (c for c in piece if c.tag in parts):
-                if child.tag == "Points":
-                    self.points = reader.read_data(child[0]).reshape(self.n_points, -1)
-                elif child.tag == "PointData":
-                    self.point_data = {c.attrib["Name"]: reader.read_data(c) for c in child}
-                elif child.tag == "CellData":
-                    self.cell_data = {c.attrib["Name"]: reader.read_data(c) for c in child}
-        except SEDFormatError:
-            raise
-        except Exception as err:
-            raise SEDFormatError(
-                f"SED file {path!r} could not be read as .vtu (truncated or corrupt?): {type(err).__name__}: {err}"
-            ) from err
 
 
 def iter_vtu_series(paths: list[str], times=None, *, progress: bool = False):
@@ -518,8 +408,8 @@ def iter_vtu_series(paths: list[str], times=None, *, progress: bool = False):
             cd = {a.name: a.values[0] for a in step.arrays.values() if a.location == "cell"}
             pts, npts = step.points, step.points.shape[0]
         else:
-            step = _VtuDataReader(path)
-            pd, cd, pts, npts = step.point_data, step.cell_data, step.points, step.n_points
+            step = _guarded(path, read_vtu, ("Points", "PointData", "CellData"))  # no cells: the first step's
+            pd, cd, pts, npts = step.point_data, step.cell_values, step.points, step.n_points
         if npts != n_points or (pts is not None and not np.array_equal(np.asarray(pts, dtype=float), first.points)):
             raise SEDFormatError(
                 f"SED file {path!r} is not on the same mesh as {paths[0]!r} "

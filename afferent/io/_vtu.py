@@ -1,0 +1,276 @@
+"""A VTU file in one parse, decoded by meshio's own decoder: points, cells, data arrays, component names.
+
+meshio 5.3's ``meshio.vtu.read`` joins the points of a VTU with several ``<Piece>`` elements but
+keeps only the last piece's cells (``_organize_cells`` leaves its loop over the pieces before
+collecting the cells); it splits cell data among the cell blocks without counting it against
+``NumberOfCells``; it drops the DataArrays' ``ComponentName`` attributes; and it refuses VTU
+file version 2.x. :func:`read_vtu` parses the XML once (``xml.etree``, or meshio's
+``_parse_raw_binary`` for raw appended data), decodes each DataArray with meshio's
+``VtuReader.read_data`` (base64, zlib, lzma) and its cells with ``vtk_cells_from_data``, and
+from that one parse returns:
+
+- points, every piece's in turn;
+- cells, each piece's connectivity offset by the points of the pieces before it;
+- point and cell data, joined piece by piece in the cells' order, each counted per piece
+  against ``NumberOfPoints`` / ``NumberOfCells`` (a value too many or too few is an error
+  naming the file, the array, the piece, and both counts);
+- the arrays' ``ComponentName0..`` attributes (ccx2paraview writes ``XX YY ZZ XY YZ ZX``).
+
+Errors are meshio's (``ReadError``, ``ValueError``, ...), which the caller turns into one
+message naming the file, or :class:`VtuCountError`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from xml.etree import ElementTree as ET
+
+import numpy as np
+
+from ..exceptions import SEDFormatError
+
+__all__ = ["VtuContent", "VtuCountError", "read_vtu", "ALL_PARTS"]
+
+#: The parts of a piece :func:`read_vtu` decodes by default; a series' later steps skip "Cells".
+ALL_PARTS = ("Points", "Cells", "PointData", "CellData")
+
+
+class VtuCountError(SEDFormatError):
+    """A VTU that parses but whose pieces' arrays disagree with their counts (or with one another):
+    refused as it is, not handed to VTK's reader (which reads such a file without a word)."""
+
+
+@dataclass(frozen=True)
+class VtuContent:
+    """What one VTU holds, pieces joined; arrays in the file's own dtype and units.
+
+    Attributes
+    ----------
+    points : ndarray of shape (n_points, n_components) or None
+        None when "Points" was not asked for.
+    cells : list of meshio.CellBlock
+        In file order, piece after piece (connectivity indices into ``points``).
+    point_data : dict of str to ndarray
+        Shape (n_points, ...) each.
+    cell_data : dict of str to list of ndarray
+        One array per block of ``cells`` (meshio's layout); empty when "Cells" was not asked for.
+    cell_values : dict of str to ndarray
+        Each cell array over all the file's cells (every type), pieces in order.
+    n_points, n_cells, n_pieces : int
+    components : dict of str to tuple of str
+        ``{array name: (ComponentName0, ...)}`` for the arrays whose tag names each component.
+    """
+
+    points: np.ndarray | None
+    cells: list
+    point_data: dict
+    cell_data: dict
+    cell_values: dict
+    n_points: int
+    n_cells: int
+    n_pieces: int
+    components: dict = field(default_factory=dict)
+
+
+def _root(path: str):
+    """The parsed VTKFile element (meshio's checks of the header), raw appended data re-encoded by meshio."""
+    from meshio import ReadError
+    from meshio.vtu import _vtu
+
+    try:
+        root = ET.parse(path).getroot()
+    except ET.ParseError:
+        root = _vtu._parse_raw_binary(path)
+    if root.tag != "VTKFile":
+        raise ReadError(f"Expected tag 'VTKFile', found {root.tag}")
+    if root.attrib.get("type") != "UnstructuredGrid":
+        raise ReadError(f"Expected type UnstructuredGrid, found {root.attrib.get('type')}")
+    return root
+
+
+def _decoder(root):
+    """meshio's VtuReader set up for ``root``'s encoding (not run: only its ``read_data`` is used)."""
+    from meshio import ReadError
+    from meshio.vtu import _vtu
+
+    reader = _vtu.VtuReader.__new__(_vtu.VtuReader)
+    reader.compression = root.attrib.get("compressor")
+    if reader.compression not in (None, "vtkLZMADataCompressor", "vtkZLibDataCompressor"):
+        raise ReadError(f"Unknown compressor '{reader.compression}'.")
+    reader.header_type = root.attrib.get("header_type", "UInt32")
+    reader.byte_order = root.attrib.get("byte_order")
+    if reader.byte_order not in (None, "LittleEndian", "BigEndian"):
+        raise ReadError(f"Unknown byte order '{reader.byte_order}'.")
+    return reader
+
+
+def _component_names(attrib: dict) -> tuple[str, ...]:
+    """The ``ComponentName0..`` of a DataArray tag when it names every component (else ``()``)."""
+    named = {k[13:]: v for k, v in attrib.items() if k.startswith("ComponentName")}
+    if not named:
+        return ()
+    # the names the tag carries, not range(NumberOfComponents): a corrupt count (9999999999) is no loop
+    comps = [named[str(i)] for i in range(len(named)) if str(i) in named]
+    ok = comps and str(len(comps)) == attrib.get("NumberOfComponents", "").strip()
+    return tuple(comps) if ok else ()
+
+
+class _Piece:
+    """One ``<Piece>`` decoded: its counts, points, raw cells and data arrays."""
+
+    def __init__(self, decoder, piece, parts, components: dict, index: int):
+        from meshio import ReadError
+        from meshio._common import warn
+        from meshio._exceptions import CorruptionError
+
+        self.index = index  # in the file, from 0
+        self.n_points = int(piece.attrib["NumberOfPoints"])
+        self.n_cells = int(piece.attrib["NumberOfCells"])
+        self.points, self.cells, self.point_data, self.cell_data = None, None, {}, {}
+        #: no points and no cells (a parallel writer's idle rank): nothing to decode (meshio's decoder
+        #: fails on an empty compressed array), left out when the pieces are joined
+        self.empty = self.n_points == 0 and self.n_cells == 0
+        for child in () if self.empty else piece:
+            if child.tag not in ALL_PARTS:
+                raise ReadError(f"Unknown tag '{child.tag}'.")
+            if child.tag not in parts:
+                continue
+            arrays = list(child)
+            if any(a.tag != "DataArray" for a in arrays):
+                raise ReadError()
+            for a in arrays:
+                if a.attrib.get("NumberOfComponents") == "":  # as Firedrake writes it: meshio drops it too
+                    a.attrib.pop("NumberOfComponents")
+            if child.tag == "Points":
+                if len(arrays) != 1:
+                    raise ReadError()
+                self.points = decoder.read_data(arrays[0]).reshape(self.n_points, int(arrays[0].attrib["NumberOfComponents"]))
+            elif child.tag == "Cells":
+                self.cells = {a.attrib["Name"]: decoder.read_data(a) for a in arrays}
+                if len(self.cells["offsets"]) != self.n_cells or len(self.cells["types"]) != self.n_cells:
+                    raise ReadError()
+            else:
+                into = self.point_data if child.tag == "PointData" else self.cell_data
+                for a in arrays:
+                    names = _component_names(a.attrib)
+                    if names:
+                        components[a.attrib["Name"]] = names
+                    try:
+                        into[a.attrib["Name"]] = decoder.read_data(a)
+                    except CorruptionError as err:
+                        if child.tag == "CellData":
+                            raise
+                        warn(err.args[0] + " Skipping.")  # meshio's own words, on stderr as meshio says them
+
+
+def _check_counts(path: str, pieces: list, data: str, n_pieces: int) -> None:
+    """Refuse a cell array (or, with several pieces, a point array) with more or fewer values than its piece has."""
+    count = "n_cells" if data == "cell_data" else "n_points"
+    many = n_pieces > 1
+    if data == "point_data" and not many:
+        return  # one piece: meshio.Mesh checks point data (its own message)
+    for piece in pieces:
+        n = getattr(piece, count)
+        for name, values in getattr(piece, data).items():
+            if values.shape[0] != n:
+                kind, attr = ("cell", "NumberOfCells") if data == "cell_data" else ("point", "NumberOfPoints")
+                where = f" in piece {piece.index} of {n_pieces}" if many else ""
+                raise VtuCountError(f"SED file {path!r}: {kind} array {name!r} must have one value per {kind}{where} "
+                                     f"({attr} = {n}); got {values.shape[0]} instead.")
+
+
+def _joined(path: str, pieces: list, data: str, n_pieces: int) -> dict:
+    """Each array of every piece, pieces in order (one piece: no copy)."""
+    first = getattr(pieces[0], data)
+    if len(pieces) == 1:
+        return dict(first)
+    for piece in pieces[1:]:
+        have = set(getattr(piece, data))
+        if have != set(first):
+            kind = "point" if data == "point_data" else "cell"
+            raise VtuCountError(f"SED file {path!r}: piece {piece.index} of {n_pieces} has the {kind} arrays "
+                                f"{sorted(have)}, piece {pieces[0].index} has {sorted(first)}; every piece must carry "
+                                "the same arrays.")
+    return {name: np.concatenate([getattr(p, data)[name] for p in pieces]) for name in first}
+
+
+def _cells(pieces: list) -> tuple[list, dict]:
+    """meshio cell blocks and per-block cell data of every piece; each piece's connectivity offset
+    by the points before it (meshio 5.3 keeps the last piece's only)."""
+    from meshio._mesh import CellBlock
+    from meshio._vtk_common import vtk_cells_from_data
+    from meshio.vtu import _vtu
+
+    blocks, per_block, offset = [], {name: [] for name in pieces[0].cell_data}, 0
+    for piece in pieces:
+        raw = piece.cells
+        if not len(raw["types"]):  # points without cells: meshio's split fails on no cells
+            offset += piece.n_points
+            continue
+        if "faces" in raw or np.any(raw["types"] == 42):  # polyhedra: meshio's own path (refused later, by type)
+            got, data = _vtu._organize_cells([offset], [raw], [piece.cell_data])
+        else:
+            got, data = vtk_cells_from_data(raw["connectivity"].ravel(), raw["offsets"].ravel(), raw["types"].ravel(),
+                                            piece.cell_data)
+            if offset:
+                got = [CellBlock(b.type, b.data + offset) for b in got]
+        blocks.extend(got)
+        for name in per_block:
+            per_block[name].extend(data.get(name, []))
+        offset += piece.n_points
+    return _runs_joined(blocks, per_block) if len(pieces) > 1 else (blocks, per_block)
+
+
+def _runs_joined(blocks: list, per_block: dict) -> tuple[list, dict]:
+    """Adjacent blocks of one cell type and node count (a type running on from one piece into the
+    next) as one block, their cell data likewise: a mesh's blocks do not depend on how it was cut."""
+    from meshio._mesh import CellBlock
+
+    runs: list[list[int]] = []
+    for k, b in enumerate(blocks):
+        last = blocks[runs[-1][0]] if runs else None
+        if (last is not None and last.type == b.type and isinstance(b.data, np.ndarray) and b.data.ndim == 2
+                and isinstance(last.data, np.ndarray) and last.data.shape[1:] == b.data.shape[1:]):
+            runs[-1][1] = k + 1
+        else:
+            runs.append([k, k + 1])
+    if len(runs) == len(blocks):
+        return blocks, per_block
+    out = [blocks[a] if b - a == 1 else CellBlock(blocks[a].type, np.concatenate([c.data for c in blocks[a:b]]))
+           for a, b in runs]
+    return out, {name: [v[a] if b - a == 1 else np.concatenate(v[a:b]) for a, b in runs] for name, v in per_block.items()}
+
+
+def read_vtu(path: str, parts=ALL_PARTS) -> VtuContent:
+    """Read a VTU file in one parse: see the module docstring. ``parts``: which of :data:`ALL_PARTS` to decode."""
+    from meshio import ReadError
+    from meshio.vtu import _vtu
+
+    root = _root(path)
+    decoder = _decoder(root)
+    grid, decoder.appended_data = _vtu.get_grid(root)
+    unknown = [c.tag for c in grid if c.tag not in ("Piece", "FieldData")]
+    if unknown:
+        raise ReadError(f"Unknown grid subtag '{unknown[0]}'.")
+    components: dict = {}
+    pieces = [_Piece(decoder, p, parts, components, k) for k, p in enumerate(c for c in grid if c.tag == "Piece")]
+    if not pieces:
+        raise ReadError("No Piece found.")
+    n_pieces = len(pieces)
+    pieces = [p for p in pieces if not p.empty] or pieces[:1]
+    many = len(pieces) > 1
+    _check_counts(path, pieces, "cell_data", n_pieces)
+    _check_counts(path, pieces, "point_data", n_pieces)
+    points = None
+    if "Points" in parts:
+        if any(p.points is None for p in pieces):
+            raise ReadError()
+        points = np.concatenate([p.points for p in pieces]) if many else pieces[0].points
+    point_data, cell_values = _joined(path, pieces, "point_data", n_pieces), _joined(path, pieces, "cell_data", n_pieces)
+    blocks, per_block = [], {}
+    if "Cells" in parts and any(p.cells is not None for p in pieces):
+        if any(p.cells is None for p in pieces):
+            raise ReadError()
+        blocks, per_block = _cells(pieces)
+    return VtuContent(points, blocks, point_data, per_block, cell_values, sum(p.n_points for p in pieces),
+                      sum(p.n_cells for p in pieces), n_pieces, components)
