@@ -247,7 +247,7 @@ def main(argv=None):
     args = ap.parse_args(argv)
     if args.vs_h5py:
         args.points, args.steps = args.points or 300_000, args.steps or [20]
-        folder = args.data or Path(tempfile.gettempdir()) / "afferent_large_vs_h5py"
+        folder = args.data or Path(tempfile.gettempdir()) / f"afferent_large_vs_h5py_{args.points}_{max(args.steps)}"
         print(f"# command: python benchmarks/bench_large_series.py --vs-h5py --points {args.points} --steps "
               f"{max(args.steps)}{'' if args.data is None else f' --data {args.data}'}; load average {os.getloadavg()}")
         make_data(folder, args.points, max(args.steps))
