@@ -3,7 +3,7 @@
 matplotlib's import and the drawing of a run's seven figures take ~1.3 s of one core (README "Speed
 on the default install"); most of it cannot be made shorter in one process. On a machine with two
 usable cores :func:`afferent.scene.run_scene` therefore starts one child process at the start of a
-run that wants ``plots``: it imports matplotlib (Agg), pandas and :mod:`afferent.plotting` while the
+run that wants ``plots``: it imports matplotlib (Agg) and :mod:`afferent.plotting` while the
 run reads the export; at the writing stage the run hands it the small objects the figures need and
 it draws them with :func:`afferent.export._figures`, the one figure-drawing function (the same code
 draws them in the run's own process otherwise), into the run's temporary output folder, each PNG
@@ -287,10 +287,9 @@ def _serve(conn, parent_pid: int) -> None:
 
 
 def _prepare() -> None:
-    """What drawing needs, loaded before the objects arrive: matplotlib (Agg), pandas, afferent.plotting, the
-    modules of the pickled results, and a first figure drawn to memory (fonts, the Agg renderer)."""
-    import pandas  # noqa: F401  (plot_rates' table)
-
+    """What drawing needs, loaded before the objects arrive: matplotlib (Agg), afferent.plotting, the modules of
+    the pickled results, and a first figure drawn to memory (fonts, the Agg renderer). Not pandas (~0.3 s):
+    no figure needs it."""
     from . import export, plotting, sampling, spiking, stimulus, synthesis, transduction  # noqa: F401
 
     plotting._warm_up()

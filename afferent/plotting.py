@@ -242,8 +242,7 @@ def legend_beside(ax, *, title: str | None = None):
     return ax.legend(handles, labels, loc="upper left", bbox_to_anchor=(1.02, 1.0), borderaxespad=0.0, **style)
 
 
-#: zlib level of the PNGs :func:`save_figure` writes (0-9; 1: fastest that compresses, see there)
-PNG_COMPRESS_LEVEL = 1
+PNG_COMPRESS_LEVEL = 1  #: zlib level of the PNGs :func:`save_figure` writes (0-9)
 
 
 def save_figure(ax_or_fig, path: str, *, overwrite: bool = False, dpi: int = 150) -> str:
@@ -253,11 +252,9 @@ def save_figure(ax_or_fig, path: str, *, overwrite: bool = False, dpi: int = 150
     ``savefig`` on a laid-out figure draws it twice (once to lay it out, drawing nothing,
     then to render), which costs ~10 % more CPU for the same pixels.
 
-    The PNG is compressed at zlib level :data:`PNG_COMPRESS_LEVEL` (1; Pillow's default is 6).
-    Measured on the seven figures of ``afferent run`` on the 117k-node bench export
-    (benchmarks/bench_run.py): encoding 0.12 s instead of 0.18 s, 586 kB instead of 527 kB
-    (+11 %); the same pixels. The figures are on the run's critical path (README "Speed on the
-    default install"), 60 kB are not.
+    zlib level :data:`PNG_COMPRESS_LEVEL` (1, not Pillow's 6): on the 7 figures of
+    benchmarks/bench_run.py, encoding 0.12 s instead of 0.18 s (the run waits for its figures),
+    587 kB instead of 527 kB; the same pixels.
     """
     import matplotlib.pyplot as plt
 
@@ -457,7 +454,13 @@ def rate_table(spikes, waveform=None, positions=None):
     """
     import pandas as pd
 
-    df = pd.DataFrame({"afferent": spikes.afferent_ids})
+    return pd.DataFrame(_rate_columns(spikes, waveform, positions))
+
+
+def _rate_columns(spikes, waveform=None, positions=None) -> dict:
+    """:func:`rate_table`'s columns (name -> array, in order) without pandas: :func:`plot_rates` draws them, and the
+    figure process (:mod:`afferent._figure_process`) need not import pandas (~0.3 s)."""
+    df = {"afferent": np.asarray(spikes.afferent_ids)}
     if positions is not None:
         df["position_m"] = np.asarray(getattr(positions, "positions", positions), dtype=float)
     if waveform is not None:
@@ -470,8 +473,8 @@ def rate_table(spikes, waveform=None, positions=None):
             n = sum(spikes.rates_between(lo, hi) * (hi - lo) for lo, hi in parts)
             total = sum(hi - lo for lo, hi in parts)
             df[f"{name}_hz"] = n / total
-    df["mean_hz"] = spikes.rates()
-    df["peak_instantaneous_hz"] = spikes.peak_rate()
+    df["mean_hz"] = np.asarray(spikes.rates())
+    df["peak_instantaneous_hz"] = np.asarray(spikes.peak_rate())
     return df
 
 
@@ -524,14 +527,14 @@ def plot_rates(spikes, positions=None, ax=None, *, waveform=None, label: str | N
             )
         x = x * 1e3
         ax.set_xlabel(f"{axis or 'position'} (mm)")
-    table = rate_table(spikes, waveform)
+    table = _rate_columns(spikes, waveform)
     order = np.argsort(x)
-    phases = [c for c in table.columns if c.endswith("_hz") and c not in ("mean_hz", "peak_instantaneous_hz")]
+    phases = [c for c in table if c.endswith("_hz") and c not in ("mean_hz", "peak_instantaneous_hz")]
     for j, col in enumerate(phases):  # later phases drawn smaller and dashed: equal rates (0 Hz) stay visible
-        ax.plot(x[order], table[col].to_numpy()[order], "osDv"[j % 4] + ("-" if j == 0 else "--"), mfc="none",
+        ax.plot(x[order], np.asarray(table[col])[order], "osDv"[j % 4] + ("-" if j == 0 else "--"), mfc="none",
                 ms=9 - 1.5 * (j % 4), label=f"{col[:-3]} phase")
-    ax.plot(x[order], table["mean_hz"].to_numpy()[order], "k:", lw=1.5, label=label or "mean over the window")
-    ax.plot(x[order], table["peak_instantaneous_hz"].to_numpy()[order], "^--", ms=4, color="crimson",
+    ax.plot(x[order], table["mean_hz"][order], "k:", lw=1.5, label=label or "mean over the window")
+    ax.plot(x[order], table["peak_instantaneous_hz"][order], "^--", ms=4, color="crimson",
             label="peak instantaneous (1 / shortest ISI)")
     ax.set_ylabel("rate (Hz)")
     legend_beside(ax)
