@@ -48,8 +48,10 @@ want = ["sed_map", "profiles", "spikes", "plots"]
 """
 
 
-def _children() -> list[tuple[int, str]]:
-    """(pid, command line) of this process' live children but multiprocessing's resource tracker (Linux /proc)."""
+def _children(parent: int | None = None) -> list[tuple[int, str]]:
+    """(pid, command line) of the live children of ``parent`` (default: this process) but multiprocessing's resource
+    tracker (Linux /proc)."""
+    parent = os.getpid() if parent is None else parent
     out = []
     for pid in filter(str.isdigit, os.listdir("/proc")):
         try:
@@ -59,7 +61,7 @@ def _children() -> list[tuple[int, str]]:
                 cmd = f.read().replace(b"\0", b" ").decode(errors="replace")
         except OSError:
             continue
-        if int(fields[1]) == os.getpid() and fields[0] != "Z" and "resource_tracker" not in cmd:
+        if int(fields[1]) == parent and fields[0] != "Z" and "resource_tracker" not in cmd:
             out.append((int(pid), cmd))
     return out
 
@@ -270,3 +272,31 @@ def test_the_command_line_runs_under_python_dash_m(tmp_path):
     assert proc.stderr == ""
     record = json.loads((tmp_path / "o" / "run.json").read_text())
     assert record["figures"]["process"] == ("separate" if usable_cores() >= 2 else "same")
+
+
+@needs_two_cores
+@linux_only
+def test_ctrl_c_stops_the_run_and_its_figure_process(tmp_path):
+    """SIGINT to the command's process group (a terminal's Ctrl-C) once the figure process runs: exit 130, one
+    line, no process and no temporary folder left."""
+    import signal
+    import subprocess
+    import time
+
+    env = dict(os.environ, **{ENV: "1"}, MPLBACKEND="Agg")
+    cmd = [sys.executable, "-m", "afferent", "run", str(SAMPLE_DIR / "scenes" / "sed_map.toml"), "-o",
+           str(tmp_path / "o"), "--no-cache"]
+    proc = subprocess.Popen(cmd, env=env, start_new_session=True, stderr=subprocess.PIPE, text=True)
+    kids: list[int] = []
+    for _ in range(1000):  # until the figure process has started
+        kids = [pid for pid, cmd in _children(proc.pid) if "spawn_main" in cmd]
+        if kids or proc.poll() is not None:
+            break
+        time.sleep(0.01)
+    assert kids, "the figure process did not start"
+    os.killpg(proc.pid, signal.SIGINT)
+    assert proc.wait(timeout=30) == 130
+    assert proc.stderr.read() == "afferent: interrupted\n"
+    time.sleep(0.2)
+    assert not [k for k in kids if os.path.exists(f"/proc/{k}")]
+    assert os.listdir(tmp_path) == []
