@@ -2,13 +2,13 @@
 
 matplotlib's import and the drawing of a run's seven figures take ~1.3 s of one core (README "Speed
 on the default install"); most of it cannot be made shorter in one process. On a machine with two
-usable cores :func:`afferent.scene.run_scene` therefore starts one child process at the start of a
-run that wants ``plots``: it imports matplotlib (Agg) and :mod:`afferent.plotting` while the
-run reads the export; at the writing stage the run hands it the small objects the figures need and
-it draws them with :func:`afferent.export._figures`, the one figure-drawing function (the same code
-draws them in the run's own process otherwise), into the run's temporary output folder, each PNG
-written whole through :func:`afferent.plotting.save_figure`. The run waits for it before
-``run.json`` and the folder's rename.
+usable cores :func:`afferent.scene.run_scene` therefore starts one child process as a run that wants
+``plots`` begins to read its export: the child imports matplotlib (Agg) and :mod:`afferent.plotting`
+while the run reads and samples; at the writing stage the run hands it the small objects the
+figures need and it draws them with :func:`afferent.export._figures`, the one figure-drawing
+function (the same code draws them in the run's own process otherwise), into the run's temporary
+output folder, each PNG written whole through :func:`afferent.plotting.save_figure`. The run waits
+for it before ``run.json`` and the folder's rename.
 
 What crosses back: the PNGs' names, the warnings raised while drawing (re-emitted in the run, so
 they land in ``run.json`` as before) and an error, raised again in the run as the same exception
@@ -19,13 +19,16 @@ Lifetime: the child dies with the run (an error, Ctrl-C or a kill of the run sto
 kernel kills it with its parent), ignores Ctrl-C itself (the run stops it), and exits after its one
 drawing.
 
-Where: ``AFFERENT_FIGURE_PROCESS=0`` draws in the run's process; so does a machine with one usable
-core (``os.sched_getaffinity``, else ``os.cpu_count``). multiprocessing's ``spawn`` start (the same
-on Linux, macOS and Windows) starts the child by importing the parent's ``__main__`` module again,
-unless it is a package's ``__main__`` (``python -m afferent``) or guarded by ``if __name__ ==
-"__main__":`` (the ``afferent`` console script); a user's unguarded script would run again. So the
-command line uses the child and the Python API only when asked (``run_scene(...,
-figure_process=True)``).
+When (:func:`choose`): only for an export of :data:`MIN_EXPORT_BYTES` or more, read while the child
+starts; a cache hit or a smaller export draws in the run's own process, as does a machine with
+one usable core (``os.sched_getaffinity``, else ``os.cpu_count``). ``AFFERENT_FIGURE_PROCESS=0``
+draws in the run's own process always, ``1`` in a second process whatever the export.
+
+multiprocessing's ``spawn`` start (the same on Linux, macOS and Windows) starts the child by
+importing the parent's ``__main__`` module again, unless it is a package's ``__main__`` (``python
+-m afferent``) or guarded by ``if __name__ == "__main__":`` (the ``afferent`` console script); a
+user's unguarded script would run again. So the command line uses the child and the Python API
+only when asked (``run_scene(..., figure_process=True)``).
 """
 
 from __future__ import annotations
@@ -36,9 +39,10 @@ import threading
 import time
 import warnings
 
-__all__ = ["ENV", "usable_cores", "choose", "figure_drawer", "FigureProcess", "SameProcess", "die_with_parent"]
+__all__ = ["ENV", "MIN_EXPORT_BYTES", "usable_cores", "choose", "figure_drawer", "FigureProcess", "SameProcess",
+           "die_with_parent"]
 
-#: the environment variable that switches the second process off ("0") or leaves the default ("1")
+#: the environment variable: "0" never a second process, "1" one whatever the export (unset: :func:`choose`)
 ENV = "AFFERENT_FIGURE_PROCESS"
 
 
@@ -50,18 +54,34 @@ def usable_cores() -> int:
         return os.cpu_count() or 1
 
 
-def choose(asked: bool) -> tuple[bool, str]:
+#: an export smaller than this (bytes, its files' sizes summed) is read too soon to hide the second process'
+#: start-up (~0.9 s of imports): its figures are drawn in the run's own process
+MIN_EXPORT_BYTES = 16_000_000
+
+
+def choose(asked: bool, export_bytes: int | None = None) -> tuple[bool, str]:
     """Whether a run draws its figures in a second process, and why (for ``run.json``).
 
     Parameters
     ----------
     asked : bool
         The caller's wish (``run_scene(figure_process=...)``; the command line asks).
+    export_bytes : int, optional
+        The size of the export the run is about to read (its files summed, bytes); None: it reads
+        none (the sampled SED came from the cache).
 
     Raises
     ------
     ValueError
         ``AFFERENT_FIGURE_PROCESS`` is set to something other than 0 or 1.
+
+    Notes
+    -----
+    The second process pays ~0.9 s of CPU to start (Python, numpy, matplotlib, a first figure);
+    only a run that reads a large export meanwhile gains: on ``afferent demo``'s eight small
+    scenes a process each took 12.3 s of CPU instead of 6.9 s, and the bundled sample scenes
+    0.3-0.5 s more CPU each. ``AFFERENT_FIGURE_PROCESS=1`` uses it whatever the export (where
+    asked and with two cores); ``0`` never.
     """
     value = os.environ.get(ENV, "").strip()
     if value not in ("", "0", "1"):
@@ -74,13 +94,20 @@ def choose(asked: bool) -> tuple[bool, str]:
     cores = usable_cores()
     if cores < 2:
         return False, f"{cores} usable core: a second process would only wait for this one"
-    return True, f"{cores} usable cores"
+    if value == "1":
+        return True, f"{ENV}=1; {cores} usable cores"
+    if export_bytes is None:
+        return False, "nothing to read (the sampled SED came from the cache) while a second process starts"
+    if export_bytes < MIN_EXPORT_BYTES:
+        return False, (f"the export ({export_bytes / 1e6:.3g} MB) is read before a second process could start "
+                       f"(under {MIN_EXPORT_BYTES / 1e6:g} MB)")
+    return True, f"{cores} usable cores; started while the export ({export_bytes / 1e6:.3g} MB) was read"
 
 
-def figure_drawer(asked: bool):
+def figure_drawer(asked: bool, export_bytes: int | None = None):
     """The drawer of a run's figures: a :class:`FigureProcess` where :func:`choose` says so, else a
     :class:`SameProcess` (also when the child cannot be started: why is in its ``record``)."""
-    separate, why = choose(asked)
+    separate, why = choose(asked, export_bytes)
     if separate:
         try:
             return FigureProcess(why)

@@ -17,7 +17,7 @@ import sys
 import numpy as np
 import pytest
 
-from afferent._figure_process import ENV, FigureProcess, SameProcess, choose, usable_cores
+from afferent._figure_process import ENV, MIN_EXPORT_BYTES, FigureProcess, SameProcess, choose, usable_cores
 from afferent.cli import main
 from afferent.cli._main import raised_on_purpose
 from conftest import SAMPLE_DIR
@@ -208,6 +208,15 @@ def test_the_switch_and_the_cores_decide(monkeypatch):
         choose(True)
     monkeypatch.setenv(ENV, "1")
     assert choose(False)[0] is False
+    if usable_cores() >= 2:
+        assert choose(True, None)[0] and choose(True, 1000)[0]  # 1: whatever the export
+        monkeypatch.delenv(ENV)  # unset: only an export read while the process starts, and large enough
+        assert choose(True, None) == (False, "nothing to read (the sampled SED came from the cache) while a second "
+                                             "process starts")
+        assert choose(True, 3_900_000) == (False, "the export (3.9 MB) is read before a second process could start "
+                                                  "(under 16 MB)")
+        assert choose(True, MIN_EXPORT_BYTES) == (True, f"{usable_cores()} usable cores; started while the export "
+                                                        "(16 MB) was read")
     monkeypatch.setattr(os, "sched_getaffinity", lambda pid: {0}, raising=False)
     assert choose(True) == (False, "1 usable core: a second process would only wait for this one")
 
@@ -218,6 +227,17 @@ def test_a_bad_switch_is_one_line_from_the_command(capsys, monkeypatch, tmp_path
     assert code == 2
     assert err == f"afferent: error: The environment variable {ENV} must be 0 (draw the figures in the run's own " \
                   "process) or 1 (in a second process where there are 2 cores); got '2' instead.\n"
+
+
+@linux_only
+def test_the_command_draws_a_small_exports_figures_in_its_own_process(tmp_path, capsys, monkeypatch):
+    """Unset switch, the bundled 4 MB sample: a second process would start after the reading is done."""
+    monkeypatch.delenv(ENV)
+    assert main(["run", str(SAMPLE_DIR / "scenes" / "sed_map.toml"), "-o", str(tmp_path / "o"), "-q", "--no-cache"]) == 0
+    figures = json.loads((tmp_path / "o" / "run.json").read_text())["figures"]
+    assert figures["process"] == "same"
+    assert figures["why"].startswith("the export (") or usable_cores() < 2
+    assert _children() == []
 
 
 @linux_only

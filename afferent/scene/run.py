@@ -114,7 +114,8 @@ def run_scene(scene: Scene, *, overwrite: bool = False, cache_dir=None, progress
     record_extra : dict, optional
         More entries for ``run.json`` (e.g. the command line).
     figure_process : bool, default=False
-        Draw the figures (output ``plots``) in a second process started now, while this one reads,
+        Draw the figures (output ``plots``) in a second process, started as the export is read
+        (one of :data:`~afferent._figure_process.MIN_EXPORT_BYTES` or more), while this one reads,
         samples and writes the tables (:mod:`afferent._figure_process`; not with one usable core nor
         with ``AFFERENT_FIGURE_PROCESS=0``). The command line does; from Python, only under ``if
         __name__ == "__main__":`` in a script (the process imports the calling script again).
@@ -158,13 +159,12 @@ def run_scene(scene: Scene, *, overwrite: bool = False, cache_dir=None, progress
     scene = resolve(scene)
     outdir = scene.outputs.dir
     check_writable(outdir, overwrite=overwrite, what="Output folder", inputs=scene.input_files, folder=True)
-    run = _Run(scene, plan(scene), skip_reasons(scene), _Steps())
     want = set(scene.outputs.want)
-    # with plots, the figures' process starts now: it imports matplotlib while this one reads and samples
-    with warnings.catch_warnings(record=True) as caught, (
-            figure_drawer(figure_process) if "plots" in want else nullcontext()) as figures:
+    run = _Run(scene, plan(scene), skip_reasons(scene), _Steps(), figure_process=figure_process and "plots" in want)
+    with warnings.catch_warnings(record=True) as caught, _stopping(run):
         warnings.simplefilter("always")
-        _compute(run, cache_dir=cache_dir, use_cache=use_cache, progress=progress)
+        _compute(run, cache_dir=cache_dir, use_cache=use_cache, progress=progress)  # may start run.figures
+        figures = (run.figures or figure_drawer(figure_process)) if "plots" in want else None
         files: list[str] = []
         with atomic_dir(outdir, overwrite=overwrite, inputs=scene.input_files) as tmp:
             with run.steps("writing"), figures or nullcontext():  # stopped before the folder is removed or renamed
@@ -200,6 +200,29 @@ class _Run:
     out: dict = field(default_factory=dict)  # what the writer gets
     span: dict = field(default_factory=dict)
     full_layout: object = None
+    figure_process: bool = False  # the figures may be drawn in a second process (run_scene's keyword, plots wanted)
+    figures: object = None  # who draws them, once decided (afferent._figure_process): as the export is read
+
+
+@contextmanager
+def _stopping(run: _Run):
+    """Stop the run's figure process, if one started, however the run ends (error, Ctrl-C)."""
+    try:
+        yield
+    finally:
+        if run.figures is not None:
+            run.figures.stop()
+
+
+def _start_figures(run: _Run) -> None:
+    """As the export is about to be read: a second process for the figures, if asked and the export is large
+    enough to hide its start-up (:func:`afferent._figure_process.choose`)."""
+    if not run.figure_process or run.figures is not None:
+        return
+    from .._figure_process import figure_drawer
+
+    size = sum(os.path.getsize(p) for p in run.scene.export.files if os.path.isfile(p))
+    run.figures = figure_drawer(True, size)
 
 
 def _compute(run: _Run, *, cache_dir, use_cache: bool, progress: bool) -> None:
@@ -349,6 +372,7 @@ def _read_sample_store(run: _Run, layout, key: str, cache, cache_info: dict, *, 
     """
     from ..cache import file_records
 
+    _start_figures(run)
     t_read = time.time_ns()
     sed = _read_and_sample(run, layout, progress=progress)
     read = run.record["field"]["files"]
