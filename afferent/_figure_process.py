@@ -20,8 +20,9 @@ kernel kills it with its parent), ignores Ctrl-C itself (the run stops it), and 
 drawing.
 
 When (:func:`choose`): only for an export of :data:`MIN_EXPORT_BYTES` or more, read while the child
-starts; a cache hit or a smaller export draws in the run's own process, as does a machine with
-one usable core (``os.sched_getaffinity``, else ``os.cpu_count``). ``AFFERENT_FIGURE_PROCESS=0``
+starts, and with an idle core; a cache hit, a smaller export or a busy machine draws in the run's
+own process, as does a machine with one usable core (``os.sched_getaffinity``, else
+``os.cpu_count``). ``AFFERENT_FIGURE_PROCESS=0``
 draws in the run's own process always, ``1`` in a second process whatever the export.
 
 multiprocessing's ``spawn`` start (the same on Linux, macOS and Windows) starts the child by
@@ -39,7 +40,7 @@ import threading
 import time
 import warnings
 
-__all__ = ["ENV", "MIN_EXPORT_BYTES", "usable_cores", "choose", "figure_drawer", "FigureProcess", "SameProcess",
+__all__ = ["ENV", "MIN_EXPORT_BYTES", "usable_cores", "runnable", "choose", "figure_drawer", "FigureProcess", "SameProcess",
            "die_with_parent"]
 
 #: the environment variable: "0" never a second process, "1" one whatever the export (unset: :func:`choose`)
@@ -80,8 +81,10 @@ def choose(asked: bool, export_bytes: int | None = None) -> tuple[bool, str]:
     The second process pays ~0.9 s of CPU to start (Python, numpy, matplotlib, a first figure);
     only a run that reads a large export meanwhile gains: on ``afferent demo``'s eight small
     scenes a process each took 12.3 s of CPU instead of 6.9 s, and the bundled sample scenes
-    0.3-0.5 s more CPU each. ``AFFERENT_FIGURE_PROCESS=1`` uses it whatever the export (where
-    asked and with two cores); ``0`` never.
+    0.3-0.5 s more CPU each. Nor does a busy machine: with no idle core the child takes its CPU
+    from the run (measured at a load average of 4-5 on 2 cores, ``afferent run`` on the 31.5 MB
+    bench export took 7.7 s with it, 6.7 s without). ``AFFERENT_FIGURE_PROCESS=1`` uses it
+    whatever the export and the load (where asked and with two cores); ``0`` never.
     """
     value = os.environ.get(ENV, "").strip()
     if value not in ("", "0", "1"):
@@ -101,7 +104,20 @@ def choose(asked: bool, export_bytes: int | None = None) -> tuple[bool, str]:
     if export_bytes < MIN_EXPORT_BYTES:
         return False, (f"the export ({export_bytes / 1e6:.3g} MB) is read before a second process could start "
                        f"(under {MIN_EXPORT_BYTES / 1e6:g} MB)")
+    busy = runnable()
+    if busy is not None and busy >= cores:
+        return False, f"no idle core: {busy} processes ready to run on {cores} cores (/proc/loadavg)"
     return True, f"{cores} usable cores; started while the export ({export_bytes / 1e6:.3g} MB) was read"
+
+
+def runnable() -> int | None:
+    """Processes ready to run at this instant, this one included (``/proc/loadavg``'s fourth field; None where
+    the system has no such file)."""
+    try:
+        with open("/proc/loadavg", encoding="ascii") as f:
+            return int(f.read().split()[3].split("/")[0])
+    except (OSError, ValueError, IndexError):
+        return None
 
 
 def figure_drawer(asked: bool, export_bytes: int | None = None):

@@ -17,6 +17,7 @@ import sys
 import numpy as np
 import pytest
 
+from afferent import _figure_process as figure_process
 from afferent._figure_process import ENV, MIN_EXPORT_BYTES, FigureProcess, SameProcess, choose, usable_cores
 from afferent.cli import main
 from afferent.cli._main import raised_on_purpose
@@ -215,8 +216,12 @@ def test_the_switch_and_the_cores_decide(monkeypatch):
                                              "process starts")
         assert choose(True, 3_900_000) == (False, "the export (3.9 MB) is read before a second process could start "
                                                   "(under 16 MB)")
+        monkeypatch.setattr(figure_process, "runnable", lambda: 1)  # this process alone
         assert choose(True, MIN_EXPORT_BYTES) == (True, f"{usable_cores()} usable cores; started while the export "
                                                         "(16 MB) was read")
+        monkeypatch.setattr(figure_process, "runnable", lambda: usable_cores())  # no idle core
+        assert choose(True, MIN_EXPORT_BYTES) == (False, f"no idle core: {usable_cores()} processes ready to run on "
+                                                         f"{usable_cores()} cores (/proc/loadavg)")
     monkeypatch.setattr(os, "sched_getaffinity", lambda pid: {0}, raising=False)
     assert choose(True) == (False, "1 usable core: a second process would only wait for this one")
 
