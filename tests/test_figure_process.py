@@ -67,6 +67,15 @@ def _children(parent: int | None = None) -> list[tuple[int, str]]:
     return out
 
 
+def _alive(pid: int) -> bool:
+    """The process exists and is not a zombie (an exited child its new parent has not reaped yet)."""
+    try:
+        with open(f"/proc/{pid}/stat") as f:
+            return f.read().rsplit(")", 1)[1].split()[0] != "Z"
+    except OSError:
+        return False
+
+
 linux_only = pytest.mark.skipif(not os.path.isdir("/proc/self"), reason="reads /proc")
 
 
@@ -323,5 +332,5 @@ def test_ctrl_c_stops_the_run_and_its_figure_process(tmp_path):
     assert proc.wait(timeout=30) == 130
     assert proc.stderr.read() == "afferent: interrupted\n"
     time.sleep(0.2)
-    assert not [k for k in kids if os.path.exists(f"/proc/{k}")]
+    assert not [k for k in kids if _alive(k)]
     assert os.listdir(tmp_path) == []
