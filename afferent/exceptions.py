@@ -13,7 +13,7 @@ pattern), so ``except ValueError`` keeps working::
     ├── CalibrationError(AfferentError, RuntimeError)   a calibration that cannot proceed
     └── WorkerLostError(AfferentError, RuntimeError)    a sweep's worker process died (killed)
 
-Only :func:`afferent.cli.main` turns these into exit codes (:func:`raised_on_purpose` tells bad
+Only :func:`afferent.cli.main` turns these into exit codes (``raised_on_purpose`` tells bad
 input, exit code 2, from a bug, 1); the library never exits or prints.
 """
 
@@ -32,7 +32,6 @@ __all__ = [
     "CalibrationError",
     "WorkerLostError",
     "AfferentWarning",
-    "raised_on_purpose",
 ]
 
 
@@ -96,7 +95,7 @@ def raised_on_purpose(err: BaseException) -> bool:
     own sentences). The same types raised from inside numpy, pandas, scipy or a built-in call
     (``float('x')``, ``a.reshape(...)``) carry the library's words, not afferent's: a case
     afferent does not check, so a bug (exit code 1). An error raised again from another process
-    (a run's figure process, :mod:`afferent._figure_process`) carries the judgement made where it
+    (a run's figure process, ``afferent._figure_process``) carries the judgement made where it
     was raised.
     """
     judged = getattr(err, "_afferent_on_purpose", None)

@@ -207,7 +207,7 @@ def write_outputs(folder: str, *, want, plots: bool, sed_static, sed, current=No
     cycles : DataFrame, optional
         ``cycles``: the table of :func:`afferent.cycles.receptor_cycles` (written as ``cycles.csv``).
     figures : FigureProcess or SameProcess, optional
-        Who draws the figures (:mod:`afferent._figure_process`): a second process, handed them before
+        Who draws the figures (``afferent._figure_process``): a second process, handed them before
         the tables are written and waited for after; default: this process, after the tables.
     """
     written: list[str] = []

@@ -252,7 +252,7 @@ def save_figure(ax_or_fig, path: str, *, overwrite: bool = False, dpi: int = 150
     ``savefig`` on a laid-out figure draws it twice (once to lay it out, drawing nothing,
     then to render), which costs ~10 % more CPU for the same pixels.
 
-    zlib level :data:`PNG_COMPRESS_LEVEL` (1, not Pillow's 6): on the 7 figures of
+    zlib level ``PNG_COMPRESS_LEVEL`` (1, not Pillow's 6): on the 7 figures of
     benchmarks/bench_run.py, encoding 0.12 s instead of 0.18 s (the run waits for its figures),
     587 kB instead of 527 kB; the same pixels.
     """
@@ -276,7 +276,7 @@ def save_figure(ax_or_fig, path: str, *, overwrite: bool = False, dpi: int = 150
 
 def _warm_up() -> None:
     """Select the Agg backend, import pyplot and draw a small laid-out figure to memory (fonts, renderer):
-    the figure process (:mod:`afferent._figure_process`) does so while the run reads, before its figures arrive."""
+    the figure process (``afferent._figure_process``) does so while the run reads, before its figures arrive."""
     import io
 
     import matplotlib
@@ -459,7 +459,7 @@ def rate_table(spikes, waveform=None, positions=None):
 
 def _rate_columns(spikes, waveform=None, positions=None) -> dict:
     """:func:`rate_table`'s columns (name -> array, in order) without pandas: :func:`plot_rates` draws them, and the
-    figure process (:mod:`afferent._figure_process`) need not import pandas (~0.3 s)."""
+    figure process (``afferent._figure_process``) need not import pandas (~0.3 s)."""
     df = {"afferent": np.asarray(spikes.afferent_ids)}
     if positions is not None:
         df["position_m"] = np.asarray(getattr(positions, "positions", positions), dtype=float)

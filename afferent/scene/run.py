@@ -115,8 +115,8 @@ def run_scene(scene: Scene, *, overwrite: bool = False, cache_dir=None, progress
         More entries for ``run.json`` (e.g. the command line).
     figure_process : bool, default=False
         Draw the figures (output ``plots``) in a second process, started as the export is read
-        (one of :data:`~afferent._figure_process.MIN_EXPORT_BYTES` or more), while this one reads,
-        samples and writes the tables (:mod:`afferent._figure_process`; not with one usable core nor
+        (one of ``afferent._figure_process.MIN_EXPORT_BYTES``, 16 MB, or more), while this one reads,
+        samples and writes the tables (``afferent._figure_process``; not with one usable core nor
         with ``AFFERENT_FIGURE_PROCESS=0``). The command line does; from Python, only under ``if
         __name__ == "__main__":`` in a script (the process imports the calling script again).
 

@@ -107,7 +107,7 @@ class Waveform:
 
     def __reduce__(self):
         """Pickled as its constructor's arguments (the read-only ``parameters`` view does not pickle itself); the
-        figures of a run are drawn from a pickled copy in a second process (:mod:`afferent._figure_process`)."""
+        figures of a run are drawn from a pickled copy in a second process (``afferent._figure_process``)."""
         return (type(self), (self.times, self.depth, self.kind, dict(self.parameters), self.notes))
 
     @property
