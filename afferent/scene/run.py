@@ -146,9 +146,8 @@ def run_scene(scene: Scene, *, overwrite: bool = False, cache_dir=None, progress
     (with ``plots``: drawn in the ``'same'`` or a ``'separate'`` process, why, seconds),
     ``started_utc`` and ``wall_seconds``.
     """
-    from datetime import datetime, timezone
-
     from contextlib import nullcontext
+    from datetime import datetime, timezone
 
     from .._figure_process import figure_drawer
     from .._output import atomic_dir, check_writable
@@ -164,7 +163,9 @@ def run_scene(scene: Scene, *, overwrite: bool = False, cache_dir=None, progress
     with warnings.catch_warnings(record=True) as caught, _stopping(run):
         warnings.simplefilter("always")
         _compute(run, cache_dir=cache_dir, use_cache=use_cache, progress=progress)  # may start run.figures
-        figures = (run.figures or figure_drawer(figure_process)) if "plots" in want else None
+        if "plots" in want and run.figures is None:  # not started while reading (a cache hit): why, in run.json
+            run.figures = figure_drawer(figure_process)
+        figures = run.figures
         files: list[str] = []
         with atomic_dir(outdir, overwrite=overwrite, inputs=scene.input_files) as tmp:
             with run.steps("writing"), figures or nullcontext():  # stopped before the folder is removed or renamed
