@@ -15,9 +15,6 @@ ROOT = Path(__file__).resolve().parents[1]
 # Runs of the suite never read or fill the user's cache (~/.cache/afferent): each test process
 # gets its own empty one (tests that exercise the cache pass their own cache_dir).
 os.environ["AFFERENT_CACHE_DIR"] = tempfile.mkdtemp(prefix="afferent-test-cache-")
-# The command draws a run's figures in a second process (afferent._figure_process): ~1 s of imports per
-# run, which the suite's many runs of the command would pay each; tests/test_figure_process.py sets it to 1.
-os.environ["AFFERENT_FIGURE_PROCESS"] = "0"
 SAMPLE_DIR = ROOT / "sample_sed"
 DATA_DIR = Path(__file__).resolve().parent / "data"
 

@@ -1,8 +1,8 @@
 """The figures of a run drawn in a second process (afferent._figure_process): the same PNGs, warnings,
 errors and record as drawn in the run's own process; the switch; no process left behind.
 
-The rest of the suite draws in-process (tests/conftest.py sets AFFERENT_FIGURE_PROCESS=0: a child per
-run would add ~1 s of imports to every test that runs the command); the tests here set it to 1.
+The rest of the suite draws in the run's own process: its exports are under 16 MB (MIN_EXPORT_BYTES).
+The tests here set AFFERENT_FIGURE_PROCESS=1 (a second process whatever the export) or 0.
 """
 
 from __future__ import annotations
@@ -220,7 +220,7 @@ def test_the_switch_and_the_cores_decide(monkeypatch):
     assert choose(False)[0] is False
     if usable_cores() >= 2:
         assert choose(True, None)[0] and choose(True, 1000)[0]  # 1: whatever the export
-        monkeypatch.delenv(ENV)  # unset: only an export read while the process starts, and large enough
+        monkeypatch.delenv(ENV, raising=False)  # unset: only an export read while the process starts, and large enough
         assert choose(True, None) == (False, "nothing to read (the sampled SED came from the cache) while a second "
                                              "process starts")
         assert choose(True, 3_900_000) == (False, "the export (3.9 MB) is read before a second process could start "
@@ -246,7 +246,7 @@ def test_a_bad_switch_is_one_line_from_the_command(capsys, monkeypatch, tmp_path
 @linux_only
 def test_the_command_draws_a_small_exports_figures_in_its_own_process(tmp_path, capsys, monkeypatch):
     """Unset switch, the bundled 4 MB sample: a second process would start after the reading is done."""
-    monkeypatch.delenv(ENV)
+    monkeypatch.delenv(ENV, raising=False)
     whys = []
     for out in ("o1", "o2"):  # the second from the sampled-SED cache: nothing read
         assert main(["run", str(SAMPLE_DIR / "scenes" / "sed_map.toml"), "-o", str(tmp_path / out), "-q"]) == 0
