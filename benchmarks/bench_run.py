@@ -29,7 +29,10 @@ every figure and the default outputs (currents.nc, CSV tables, receptors.vtu, ru
 It prints, per repeat, the whole process's wall and CPU time (user + system, from the operating
 system's accounting of the finished child) and the stage timings the run records in run.json
 (``timings_s``), then the medians; and the same command with ``--no-plots`` for the figures'
-share. Target (issue 23): <= 3 s for the whole run with plots, <= 1 s for the plots.
+share. Each row says where the run drew its figures (run.json ``figures``: a second process,
+afferent/_figure_process.py, only with an idle core and an export of 16 MB or more; set
+``AFFERENT_FIGURE_PROCESS=1`` or ``0`` in the environment to force either). Target (issue 23):
+<= 3 s for the whole run with plots, <= 1 s for the plots.
 """
 
 from __future__ import annotations
