@@ -13,10 +13,14 @@ pattern), so ``except ValueError`` keeps working::
     ├── CalibrationError(AfferentError, RuntimeError)   a calibration that cannot proceed
     └── WorkerLostError(AfferentError, RuntimeError)    a sweep's worker process died (killed)
 
-Only :func:`afferent.cli.main` turns these into exit codes; the library never exits or prints.
+Only :func:`afferent.cli.main` turns these into exit codes (``raised_on_purpose`` tells bad
+input, exit code 2, from a bug, 1); the library never exits or prints.
 """
 
 from __future__ import annotations
+
+import dis
+import os
 
 __all__ = [
     "AfferentError",
@@ -63,6 +67,9 @@ class OutputWriteError(AfferentError, OSError):
     def __str__(self) -> str:
         return str(self.args[0])
 
+    def __reduce__(self):  # pickled as its constructor's arguments (a run's figure process sends it back)
+        return (type(self), (self.errno, str(self.args[0]), self.filename))
+
 
 class CalibrationError(AfferentError, RuntimeError):
     """A calibration cannot proceed (singular design, degenerate objective)."""
@@ -74,3 +81,34 @@ class WorkerLostError(AfferentError, RuntimeError):
 
 class AfferentWarning(UserWarning):
     """A recoverable oddity (negative SED clipped, saturated sigmoid, ...)."""
+
+
+_PACKAGE = os.path.dirname(os.path.abspath(__file__)) + os.sep
+
+
+def raised_on_purpose(err: BaseException) -> bool:
+    """Whether ``err`` is one of afferent's own errors: bad input, exit code 2 (:func:`afferent.cli.main`).
+
+    An :class:`AfferentError`, a missing or unreadable file (``FileNotFoundError``,
+    ``PermissionError``, ...), or a ``ValueError`` / ``TypeError`` that a ``raise`` statement in
+    afferent's own code raised (the argument checks of ``afferent._validation`` and the modules'
+    own sentences). The same types raised from inside numpy, pandas, scipy or a built-in call
+    (``float('x')``, ``a.reshape(...)``) carry the library's words, not afferent's: a case
+    afferent does not check, so a bug (exit code 1). An error raised again from another process
+    (a run's figure process, ``afferent._figure_process``) carries the judgement made where it
+    was raised.
+    """
+    judged = getattr(err, "_afferent_on_purpose", None)
+    if judged is not None:
+        return bool(judged)
+    if isinstance(err, AfferentError) or not isinstance(err, (ValueError, TypeError)):
+        return True
+    tb = err.__traceback__
+    if tb is None:
+        return False
+    while tb.tb_next is not None:  # the innermost frame: where the exception was raised
+        tb = tb.tb_next
+    code = tb.tb_frame.f_code
+    if not os.path.abspath(code.co_filename).startswith(_PACKAGE):
+        return False
+    return dis.opname[code.co_code[tb.tb_lasti]] == "RAISE_VARARGS"

@@ -176,7 +176,7 @@ def write_json(path: str, data: dict) -> None:
 def write_outputs(folder: str, *, want, plots: bool, sed_static, sed, current=None, branching=None, afferent=None,
                   fit=None, waveform=None, spikes=None, drive=None, saturation=None,
                   profile_index: int = -1, results_format: str = "netcdf", sed_beside=None,
-                  hotspot_threshold: float = 0.6, cycles=None) -> list[str]:
+                  hotspot_threshold: float = 0.6, cycles=None, figures=None) -> list[str]:
     """Write the tables and figures of ``want`` into ``folder``; returns the file names written.
 
     Parameters
@@ -206,12 +206,23 @@ def write_outputs(folder: str, *, want, plots: bool, sed_static, sed, current=No
         ``hotspots``: normalised SED from which a site is a hot spot.
     cycles : DataFrame, optional
         ``cycles``: the table of :func:`afferent.cycles.receptor_cycles` (written as ``cycles.csv``).
+    figures : FigureProcess or SameProcess, optional
+        Who draws the figures (``afferent._figure_process``): a second process, handed them before
+        the tables are written and waited for after; default: this process, after the tables.
     """
     written: list[str] = []
 
     def path(name: str) -> str:
         written.append(name)
         return os.path.join(folder, name)
+
+    if plots:  # the figures' objects, to a second process now (drawn while the tables are written) or kept
+        from ._figure_process import SameProcess
+
+        figures = SameProcess("write_outputs called without a figure process") if figures is None else figures
+        figures.draw(folder, want, dict(sed_static=sed_static, sed=sed, current=current, branching=branching,
+                                        afferent=afferent, fit=fit, waveform=waveform, spikes=spikes,
+                                        profile_index=profile_index))
 
     if "sed_map" in want:
         write_table(path("sed_map.csv"), sed_static.columns(sections=True))
@@ -251,8 +262,7 @@ def write_outputs(folder: str, *, want, plots: bool, sed_static, sed, current=No
     if waveform is not None:
         write_table(path("waveform.csv"), waveform.table())
     if plots:
-        _figures(path, want, sed_static=sed_static, sed=sed, current=current, branching=branching, afferent=afferent,
-                 fit=fit, waveform=waveform, spikes=spikes, profile_index=profile_index)
+        written += figures.result()
     return written
 
 

@@ -29,7 +29,10 @@ every figure and the default outputs (currents.nc, CSV tables, receptors.vtu, ru
 It prints, per repeat, the whole process's wall and CPU time (user + system, from the operating
 system's accounting of the finished child) and the stage timings the run records in run.json
 (``timings_s``), then the medians; and the same command with ``--no-plots`` for the figures'
-share. Target (issue 23): <= 3 s for the whole run with plots, <= 1 s for the plots.
+share. Each row says where the run drew its figures (run.json ``figures``: a second process,
+afferent/_figure_process.py, only with an idle core and an export of 16 MB or more; set
+``AFFERENT_FIGURE_PROCESS=1`` or ``0`` in the environment to force either). Target (issue 23):
+<= 3 s for the whole run with plots, <= 1 s for the plots.
 """
 
 from __future__ import annotations
@@ -154,8 +157,10 @@ def bench(vtu: Path, repeats: int, plots: bool) -> list[dict]:
         subprocess.run(cmd, env=env, check=True, capture_output=True)  # numba's cache, the OS's file cache
         for _ in range(repeats):
             wall, cpu = _timed(cmd, env)
-            stages = {s["stage"]: s["seconds"] for s in json.loads((out / "run.json").read_text())["stages"]}
-            rows.append({"wall": wall, "cpu": cpu, "stages": stages, "digest": _digest(out)})
+            record = json.loads((out / "run.json").read_text())
+            stages = {s["stage"]: s["seconds"] for s in record["stages"]}
+            rows.append({"wall": wall, "cpu": cpu, "stages": stages, "digest": _digest(out),
+                         "figures": record.get("figures")})
     finally:
         shutil.rmtree(work)
     print(f"# command: PYTHONPATH={ROOT} MPLBACKEND=Agg " + " ".join(cmd).replace(str(out), "OUT"))
@@ -166,8 +171,11 @@ def report(rows: list[dict], label: str) -> None:
     names = list(rows[0]["stages"])
     print(f"{label:<9} {'wall s':>7} {'cpu s':>7}  " + " ".join(f"{n[:9]:>9}" for n in names) + "  outputs")
     for r in rows:
+        fig = r.get("figures") or {}
+        where = "" if not fig else f"  figures: {fig['process']} process, " + ", ".join(
+            f"{k} {fig[k]:.2f} s" for k in ("start_s", "seconds", "waited_s") if k in fig)
         print(f"{'':<9} {r['wall']:7.2f} {r['cpu']:7.2f}  " + " ".join(f"{r['stages'][n]:9.3f}" for n in names)
-              + f"  {r['digest']}")
+              + f"  {r['digest']}{where}")
     med = {n: statistics.median(r["stages"][n] for r in rows) for n in names}
     print(f"{'median':<9} {statistics.median(r['wall'] for r in rows):7.2f} {statistics.median(r['cpu'] for r in rows):7.2f}  "
           + " ".join(f"{med[n]:9.3f}" for n in names))

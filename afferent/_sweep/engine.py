@@ -161,33 +161,10 @@ def batches(tasks, n_slots: int, batch_size: int | None = None) -> list[list]:
 
 
 def worker_init(parent_pid: int) -> None:
-    """Initializer of each 'processes' worker: make it die with the process that started it.
-
-    On Linux the kernel sends the worker SIGKILL when its parent dies (``prctl(PR_SET_PDEATHSIG)``),
-    whether the parent ends normally, by SIGTERM or by SIGKILL; elsewhere a daemon thread checks the
-    parent's process id every second. A parent already gone by then (``os.getppid()`` changed)
-    ends the worker at once. Without this, a killed ``afferent sweep`` left its workers and
-    multiprocessing's resource tracker running for good (~100 MB each).
+    """Initializer of each 'processes' worker: make it die with the process that started it
+    (:func:`afferent._figure_process.die_with_parent`). Without this, a killed ``afferent sweep`` left its
+    workers and multiprocessing's resource tracker running for good (~100 MB each).
     """
-    import signal
+    from .._figure_process import die_with_parent
 
-    armed = False
-    if hasattr(os, "getppid"):
-        try:
-            import ctypes
-
-            libc = ctypes.CDLL(None, use_errno=True)
-            armed = libc.prctl(1, int(signal.SIGKILL), 0, 0, 0) == 0  # 1 = PR_SET_PDEATHSIG
-        except (OSError, AttributeError, TypeError):  # no libc, or no prctl in it (not Linux)
-            armed = False
-        if os.getppid() != parent_pid:  # the parent died before the line above took effect
-            os._exit(1)
-    if not armed:
-        import threading
-
-        def watch():
-            while os.getppid() == parent_pid:
-                time.sleep(1.0)
-            os._exit(1)
-
-        threading.Thread(target=watch, name="afferent-parent-watch", daemon=True).start()
+    die_with_parent(parent_pid)

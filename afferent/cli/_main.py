@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import dis
 import os
 import re
 import sys
@@ -13,7 +12,7 @@ import warnings
 import importlib
 
 from .. import __version__
-from ..exceptions import AfferentError
+from ..exceptions import AfferentError, raised_on_purpose
 
 #: subcommand -> module with add_args(parser) and run(args) -> int (a module, or its name: imported when
 #: needed, so that ``afferent run`` does not pay for the imports of ``afferent calibrate``); help comes
@@ -223,27 +222,3 @@ def _internal_error(err: BaseException) -> int:
     return 1
 
 
-_PACKAGE = os.path.dirname(os.path.dirname(os.path.abspath(__file__))) + os.sep
-
-
-def raised_on_purpose(err: BaseException) -> bool:
-    """Whether ``err`` is one of afferent's own errors: bad input, exit code 2.
-
-    An :class:`~afferent.exceptions.AfferentError`, a missing or unreadable file
-    (``FileNotFoundError``, ``PermissionError``, ...), or a ``ValueError`` / ``TypeError`` that a
-    ``raise`` statement in afferent's own code raised (the argument checks of
-    ``afferent._validation`` and the modules' own sentences). The same types raised from inside
-    numpy, pandas, scipy or a built-in call (``float('x')``, ``a.reshape(...)``) carry the
-    library's words, not afferent's: a case afferent does not check, so a bug (exit code 1).
-    """
-    if isinstance(err, AfferentError) or not isinstance(err, (ValueError, TypeError)):
-        return True
-    tb = err.__traceback__
-    if tb is None:
-        return False
-    while tb.tb_next is not None:  # the innermost frame: where the exception was raised
-        tb = tb.tb_next
-    code = tb.tb_frame.f_code
-    if not os.path.abspath(code.co_filename).startswith(_PACKAGE):
-        return False
-    return dis.opname[code.co_code[tb.tb_lasti]] == "RAISE_VARARGS"

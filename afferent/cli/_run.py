@@ -20,6 +20,10 @@ latency, ISI per afferent), spikes.nwb when pynwb is installed (the nwb extra), 
 rates.png and psth.png; a static export can be driven by
 --waveform (SED scaled by (d/d_ref)^2, valid for linear elasticity with a fixed contact area).
 
+The figures are drawn in a second process while the run reads and writes its tables (with two
+or more usable cores); AFFERENT_FIGURE_PROCESS=0 draws them in the run's own process; run.json
+says which (figures: process same or separate).
+
 Transduction parameters are in SI: --alpha in A (the study's table is in mA:
 2.46e-5 mA = 2.46e-8 A), --gamma in 1/Pa, --lambda in Pa; or --params start|longitudinal|cross
 for the study's table-5.2 rows.

@@ -93,7 +93,7 @@ class _Steps:
 
 # ------------------------------------------------------------------------------- run
 def run_scene(scene: Scene, *, overwrite: bool = False, cache_dir=None, progress: bool = False,
-              use_cache: bool = True, record_extra: dict | None = None) -> SceneResult:
+              use_cache: bool = True, record_extra: dict | None = None, figure_process: bool = False) -> SceneResult:
     """Run a scene: only the stages its outputs need, on the receptors of its region; write outputs and run.json.
 
     Parameters
@@ -113,6 +113,12 @@ def run_scene(scene: Scene, *, overwrite: bool = False, cache_dir=None, progress
         False: neither read nor write the cache.
     record_extra : dict, optional
         More entries for ``run.json`` (e.g. the command line).
+    figure_process : bool, default=False
+        Draw the figures (output ``plots``) in a second process, started as the export is read
+        (one of ``afferent._figure_process.MIN_EXPORT_BYTES``, 16 MB, or more), while this one reads,
+        samples and writes the tables (``afferent._figure_process``; not with one usable core nor
+        with ``AFFERENT_FIGURE_PROCESS=0``). The command line does; from Python, only under ``if
+        __name__ == "__main__":`` in a script (the process imports the calling script again).
 
     Returns
     -------
@@ -136,11 +142,14 @@ def run_scene(scene: Scene, *, overwrite: bool = False, cache_dir=None, progress
     ``inputs`` (every file read, with its sha256), ``versions``, ``stages`` (executed steps
     and wall times in s), ``skipped`` (stage -> why), ``cache``, ``receptors`` (counts in and
     out of the region), ``field`` (the export's provenance), ``transduction``,
-    ``saturation``, ``fit``, ``spikes``, ``time_span``, ``warnings``, ``outputs``,
+    ``saturation``, ``fit``, ``spikes``, ``time_span``, ``warnings``, ``outputs``, ``figures``
+    (with ``plots``: drawn in the ``'same'`` or a ``'separate'`` process, why, seconds),
     ``started_utc`` and ``wall_seconds``.
     """
+    from contextlib import nullcontext
     from datetime import datetime, timezone
 
+    from .._figure_process import figure_drawer
     from .._output import atomic_dir, check_writable
     from ..export import write_json, write_outputs
 
@@ -149,16 +158,21 @@ def run_scene(scene: Scene, *, overwrite: bool = False, cache_dir=None, progress
     scene = resolve(scene)
     outdir = scene.outputs.dir
     check_writable(outdir, overwrite=overwrite, what="Output folder", inputs=scene.input_files, folder=True)
-    run = _Run(scene, plan(scene), skip_reasons(scene), _Steps())
     want = set(scene.outputs.want)
-    with warnings.catch_warnings(record=True) as caught:
+    run = _Run(scene, plan(scene), skip_reasons(scene), _Steps(), figure_process=figure_process and "plots" in want)
+    with warnings.catch_warnings(record=True) as caught, _stopping(run):
         warnings.simplefilter("always")
-        _compute(run, cache_dir=cache_dir, use_cache=use_cache, progress=progress)
+        _compute(run, cache_dir=cache_dir, use_cache=use_cache, progress=progress)  # may start run.figures
+        if "plots" in want and run.figures is None:  # not started while reading (a cache hit): why, in run.json
+            run.figures = figure_drawer(figure_process)
+        figures = run.figures
         files: list[str] = []
         with atomic_dir(outdir, overwrite=overwrite, inputs=scene.input_files) as tmp:
-            with run.steps("writing"):
+            with run.steps("writing"), figures or nullcontext():  # stopped before the folder is removed or renamed
                 files = write_outputs(tmp, want=want, plots="plots" in want, results_format=scene.outputs.format,
-                                      **run.out)
+                                      figures=figures, **run.out)
+            if figures is not None:
+                run.record["figures"] = figures.record
             full = build_record(scene, run.planned, run.skipped, run.steps.seconds, run.record, run.inputs, caught,
                                 files, started, t_run, record_extra)
             write_json(os.path.join(tmp, "run.json"), full)
@@ -187,6 +201,29 @@ class _Run:
     out: dict = field(default_factory=dict)  # what the writer gets
     span: dict = field(default_factory=dict)
     full_layout: object = None
+    figure_process: bool = False  # the figures may be drawn in a second process (run_scene's keyword, plots wanted)
+    figures: object = None  # who draws them, once decided (afferent._figure_process): as the export is read
+
+
+@contextmanager
+def _stopping(run: _Run):
+    """Stop the run's figure process, if one started, however the run ends (error, Ctrl-C)."""
+    try:
+        yield
+    finally:
+        if run.figures is not None:
+            run.figures.stop()
+
+
+def _start_figures(run: _Run) -> None:
+    """As the export is about to be read: a second process for the figures, if asked and the export is large
+    enough to hide its start-up (:func:`afferent._figure_process.choose`)."""
+    if not run.figure_process or run.figures is not None:
+        return
+    from .._figure_process import figure_drawer
+
+    size = sum(os.path.getsize(p) for p in run.scene.export.files if os.path.isfile(p))
+    run.figures = figure_drawer(True, size)
 
 
 def _compute(run: _Run, *, cache_dir, use_cache: bool, progress: bool) -> None:
@@ -336,6 +373,7 @@ def _read_sample_store(run: _Run, layout, key: str, cache, cache_info: dict, *, 
     """
     from ..cache import file_records
 
+    _start_figures(run)
     t_read = time.time_ns()
     sed = _read_and_sample(run, layout, progress=progress)
     read = run.record["field"]["files"]
@@ -571,7 +609,7 @@ def _spike(run: _Run) -> None:
 
 # --------------------------------------------------------------------------------- CLI
 def run_scene_cli(path, *, output=None, overwrite: bool = False, quiet: bool = False, cache_dir=None,
-                  use_cache: bool = True, command: str | None = None, speak=None) -> int:
+                  use_cache: bool = True, command: str | None = None, speak=None, figure_process: bool = True) -> int:
     """``afferent run``: load (or take) a scene, run it, summarise on stderr; returns the exit code (0).
 
     Parameters
@@ -591,6 +629,9 @@ def run_scene_cli(path, *, output=None, overwrite: bool = False, quiet: bool = F
         The command line recorded in run.json; default ``afferent run PATH [-o OUT] [--overwrite]``.
     speak : callable, optional
         Rewrites a warning in the command's words (``afferent.cli._main.speak_cli``).
+    figure_process : bool, default=True
+        Draw the figures in a second process (:func:`run_scene`; the command's default, off with
+        ``AFFERENT_FIGURE_PROCESS=0``).
 
     Raises
     ------
@@ -609,7 +650,8 @@ def run_scene_cli(path, *, output=None, overwrite: bool = False, quiet: bool = F
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         result = run_scene(scene, overwrite=overwrite, cache_dir=cache_dir, use_cache=use_cache,
-                           progress=not quiet and sys.stderr.isatty(), record_extra={"command": command})
+                           progress=not quiet and sys.stderr.isatty(), record_extra={"command": command},
+                           figure_process=figure_process)
     if quiet:
         return 0
     for line in summary_lines(result):

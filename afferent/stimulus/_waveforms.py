@@ -105,6 +105,11 @@ class Waveform:
         object.__setattr__(self, "parameters", MappingProxyType(dict(self.parameters)))
         object.__setattr__(self, "notes", tuple(str(n) for n in self.notes))
 
+    def __reduce__(self):
+        """Pickled as its constructor's arguments (the read-only ``parameters`` view does not pickle itself); the
+        figures of a run are drawn from a pickled copy in a second process (``afferent._figure_process``)."""
+        return (type(self), (self.times, self.depth, self.kind, dict(self.parameters), self.notes))
+
     @property
     def n_times(self) -> int:
         """Number of samples."""
