@@ -42,6 +42,7 @@ the unit system FEBio 4 may record in the header is only quoted in the notes.
 
 from __future__ import annotations
 
+import os
 import struct
 import zlib
 from dataclasses import dataclass
@@ -293,19 +294,25 @@ class _File:
             data += self.fh.read(n - len(data))
         return data
 
-    def chunk(self, what: str):
-        """(id, payload) of the next plain top-level chunk, or None at the end of the file."""
+    def chunk(self, what: str, skip: bool = False):
+        """(id, payload) of the next plain top-level chunk (payload None with ``skip``: not read), or None at the end."""
         head = self.read(8)
         if not head:
             return None
         if len(head) < 8:
             raise _err(self.path, f"the file ends inside the header of {what} ({len(head)} of 8 bytes): truncated .xplt.")
         cid, size = struct.unpack("<II", head)
-        payload = self.read(size)
-        if len(payload) < size:
+        if skip:
+            left = os.fstat(self.fh.fileno()).st_size - self.fh.tell()
+            self.fh.seek(min(size, left), os.SEEK_CUR)
+            payload = None
+        else:
+            payload = memoryview(self.read(size))
+            left = len(payload)
+        if left < size:
             raise _err(self.path, f"{what} (chunk {cid:#010x}) declares {size} bytes but the file ends after "
-                                  f"{len(payload)}: truncated .xplt (was FEBio still writing it?).")
-        return cid, memoryview(payload)
+                                  f"{left}: truncated .xplt (was FEBio still writing it?).")
+        return cid, payload
 
     def inflated(self, what: str):
         """(id, payload) of the next zlib-compressed top-level chunk, or None at the end of the file."""
@@ -562,7 +569,7 @@ def xplt_step_count(path: str) -> int:
     f, model, *_ = _open(path)
     try:
         k = 0
-        while (f.inflated(f"state {k}") if model.compression else f.chunk(f"state {k}")) is not None:
+        while (f.inflated(f"state {k}") if model.compression else f.chunk(f"state {k}", skip=True)) is not None:
             k += 1
         return k
     finally:
@@ -577,6 +584,10 @@ def read_xplt(path: str, *, progress: bool = False) -> RawExport:
     ``progress`` is unused, accepted for a uniform reader signature.
     """
     steps = list(iter_xplt(path))
+    for k, step in enumerate(steps):
+        if set(step.arrays) != set(steps[0].arrays):
+            raise _err(path, f"state {k} (t = {step.times[0]:g}) carries the variables {sorted(step.arrays)}, state 0 "
+                             f"{sorted(steps[0].arrays)}; every state must carry the same ones.")
     if steps:
         return stack_steps(steps)
     f, model, cells, _, notes = _open(path)
