@@ -223,3 +223,11 @@ def test_cli_on_a_truncated_plot_file_prints_one_line_and_exits_2(tmp_path, caps
     assert main(["info", str(cut)]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and err.startswith("afferent: error: SED file ") and "truncated .xplt" in err
+
+
+def test_shell_domains_and_their_variables_are_ignored_and_named():
+    raw = read_raw(FEBIO / "block_hex8_shell.xplt")  # block_hex8 under 16 QUAD4 shells (a third domain)
+    assert raw.cells.n_cells == 48 and raw.arrays["strain energy density"].values.shape == (3, 48)
+    assert "shell thickness" not in raw.arrays
+    assert "ignored domain(s) 3 (QUAD4, 16 elements)" in raw.notes[0]
+    assert "plot variable(s) 'shell thickness' only on ignored domains: not read." in raw.notes
