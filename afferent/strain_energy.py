@@ -70,7 +70,7 @@ PRESETS: dict[str, Convention] = {
     "abaqus": Convention(_VOIGT_ABQ, "engineering", "S11 S22 S33 S12 S13 S23; LE/E engineering shear [3P]"),
     "ansys": Convention(_VOIGT_VTK, "engineering", "X Y Z XY YZ XZ [V, pymapdl-reader]; EPEL engineering shear [3P]"),
     "comsol": Convention(_VOIGT_VTK, "tensor", "solid.eXY etc. Green-Lagrange, tensor shear [V]"),
-    "febio": Convention(_VOIGT_VTK, "tensor", "plotfile xx yy zz xy yz xz; Lagrange strain tensor shear [V]"),
+    "febio": Convention(_VOIGT_VTK, "tensor", "plotfile xx yy zz xy yz xz (implied for .xplt); Lagrange strain tensor shear [V]"),
     "calculix-frd": Convention(("xx", "yy", "zz", "xy", "yz", "zx"), "tensor", ".frd / ccx2paraview XX YY ZZ XY YZ ZX; tensor shear [V]"),
     "calculix-dat": Convention(_VOIGT_ABQ, "tensor", ".dat sxx syy szz sxy sxz syz; tensor shear [V]"),
     "sfepy": Convention(_VOIGT_ABQ, "engineering", "cauchy_strain 11 22 33 12 13 23, shear doubled [V]"),

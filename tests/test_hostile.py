@@ -43,6 +43,8 @@ CASES = [
     ("complex_heavy.xdmf", "SED file {f!r}: dataset '/sed' of attribute 'SED' at t = 0 in 'complex_heavy.h5' holds complex "
                            "values (complex128); afferent reads real numbers (write the real part)."),
     ("nan_timestep.pvd", "SED file {f!r}: DataSet 1 timestep must be a finite number; got 'nan' instead."),
+    ("truncated.xplt", "SED file {f!r}: state 2 (chunk 0x02000000) declares 13388 bytes but the file ends after 13288: "
+                       "truncated .xplt (was FEBio still writing it?)."),
 ]
 
 

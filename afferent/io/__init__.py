@@ -52,6 +52,7 @@ FORMATS: dict[str, tuple[str, ...]] = {
     "exodus": (".e", ".exo", ".ex2", ".g"),
     "rst": (".rst", ".rth"),
     "med": (".med", ".rmed"),
+    "xplt": (".xplt",),
 }
 
 
@@ -128,7 +129,7 @@ def read_raw(path_or_paths, *, format: str | None = None, progress: bool = False
 
         return read_csv(paths if len(paths) > 1 else paths[0], progress=progress, **csv_kwargs)
     if len(paths) > 1:
-        if fmt in ("pvd", "xdmf", "frd", "exodus", "rst", "med"):
+        if fmt in ("pvd", "xdmf", "frd", "exodus", "rst", "med", "xplt"):
             raise SEDFormatError(f"Pass one .{fmt} file, not a list: it lists its own time steps ({paths!r}).")
         return _meshio.read_vtu_series(paths, progress=progress)
     if fmt == "pvd":
@@ -151,6 +152,10 @@ def read_raw(path_or_paths, *, format: str | None = None, progress: bool = False
         from ._med import read_med
 
         return read_med(paths[0], progress=progress)
+    if fmt == "xplt":
+        from ._xplt import read_xplt
+
+        return read_xplt(paths[0], progress=progress)
     return _meshio.read_mesh_file(paths[0])
 
 
@@ -184,7 +189,7 @@ def read_sed(
     path_or_paths : str, path-like or list of them
         One export (``.vtu``, ``.vtk``, ``.pvtu``, ``.vtm``, ``.pvd``, a JSON ``.vtu.series``/``.vtm.series``,
         ``.xdmf``, ``.csv``/``.txt``/``.rpt``, optionally ``.gz``, ``.frd``, Exodus, ``.rst``, MED
-        ``.med``/``.rmed``), or several files of one format, one per time step, in time order.
+        ``.med``/``.rmed``, FEBio ``.xplt``), or several files of one format, one per time step, in time order.
         ``.pvtu`` and ``.vtm`` files, and ``.vtk``/``.vtu`` files meshio refuses, are read through VTK
         (``pip install 'afferent-skin[vtk]'``); a ``.pvtu``'s pieces are joined into one mesh, the nodes
         they share with the same values merged.
@@ -238,7 +243,7 @@ def read_sed(
         set to 0, counted in ``provenance.negative_sed`` and reported with an
         :class:`~afferent.exceptions.AfferentWarning`; anything more negative is refused (a
         wrong column, sign or shear convention).
-    format : {'csv', 'vtu', 'vtk', 'pvtu', 'vtm', 'pvd', 'xdmf', 'frd', 'exodus', 'rst', 'med'}, optional
+    format : {'csv', 'vtu', 'vtk', 'pvtu', 'vtm', 'pvd', 'xdmf', 'frd', 'exodus', 'rst', 'med', 'xplt'}, optional
         Overrides the format deduced from the file name.
     progress : bool, default=False
         Show a progress bar while reading a series.
@@ -314,6 +319,10 @@ def _raw_steps(path_or_paths, fmt: str | None, progress: bool):
 
         if has_collections(paths[0]):
             return step_count(paths[0]), iter_xdmf_collections(paths[0], progress=progress)
+    if kind == "xplt" and len(paths) == 1:
+        from ._xplt import iter_xplt, xplt_step_count
+
+        return xplt_step_count(paths[0]), iter_xplt(paths[0], progress=progress)
     return None
 
 
@@ -322,9 +331,9 @@ def iter_sed(path_or_paths, *, format: str | None = None, progress: bool = False
 
     Takes the same arguments as :func:`read_sed` and yields :class:`SEDField` objects in time
     order whose steps, concatenated, are what :func:`read_sed` returns for a series of
-    steps. A series of VTU files, a ParaView ``.pvd`` and an XDMF time series (FEniCS/DOLFINx,
-    meshio) are read one step at a time: the mesh once, then each step's arrays, and every
-    field shares the first step's cells. Other formats (CSV tables, ``.frd``, Exodus, ``.rst``,
+    steps. A series of VTU files, a ParaView ``.pvd``, an XDMF time series (FEniCS/DOLFINx,
+    meshio) and an FEBio ``.xplt`` are read one step at a time: the mesh once, then each step's
+    arrays, and every field shares the first step's cells. Other formats (CSV tables, ``.frd``, Exodus, ``.rst``,
     MED) are read whole and yielded as one field.
 
     Each step is interpreted and checked on its own (units, the SED or tensor arrays, NaN,

@@ -182,7 +182,8 @@ def _tensor_lines(raw, add) -> None:
     """Stress and strain tensors, and 1/2 sigma:eps against the SED array under each preset."""
     try:
         (s_name, _, s_loc), (e_name, _, _) = find_tensors(raw, ReadOptions(sed_from="exact"), need_convention=False)
-        add("tensors", f"stress {s_name}; strain {e_name} ({s_loc} data): --sed-from exact|equivalent with --preset")
+        how = f"(preset {raw.preset!r} implied by the format)" if raw.preset else "with --preset"
+        add("tensors", f"stress {s_name}; strain {e_name} ({s_loc} data): --sed-from exact|equivalent {how}")
     except (SEDFormatError, ValueError):
         add("tensors", "no complete stress and strain tensors")
     check = tensor_sed_crosscheck(raw, ReadOptions())

@@ -121,6 +121,10 @@ def main():
     (HERE / "good_long_preamble.csv").write_text("".join(f"% preamble line {k}, with, commas\n" for k in 300 * [0])
                                                   + "% x,y,z,SED\n" + rows + "\n")
 
+    # an FEBio plot file cut in its last state (FEBio killed while writing): tests/data/febio/block_hex8.xplt
+    plot = (HERE.parent / "febio" / "block_hex8.xplt").read_bytes()
+    (HERE / "truncated.xplt").write_bytes(plot[:-100])
+
 
 if __name__ == "__main__":
     main()

@@ -1,0 +1,233 @@
+"""FEBio plot files (.xplt) read by afferent's own reader, on files FEBio wrote.
+
+The files in tests/data/febio/ were written by FEBio 4 from the inputs beside them (a two-layer
+skin block pressed on top; make_febio.py, README.md there); ``<name>.reference.npz`` holds what
+the independent parser **pyfebio 0.3.0** reads from each (nodes, element tables, every variable
+at every state; for the compressed file, from the same run written plain): the reference here.
+"""
+
+from __future__ import annotations
+
+import json
+import shutil
+import struct
+
+import numpy as np
+import pytest
+
+from afferent import read_sed
+from afferent.cli import main
+from afferent.exceptions import SEDFormatError
+from afferent.io import format_of, iter_sed, read_raw
+from afferent.io._xplt import _open, xplt_step_count
+
+from conftest import DATA_DIR
+
+FEBIO = DATA_DIR / "febio"
+HEX8 = FEBIO / "block_hex8.xplt"
+TET10 = FEBIO / "block_tet10_z.xplt"  # states zlib-compressed
+PENTA15 = FEBIO / "block_penta15.xplt"
+FILES = [HEX8, TET10, PENTA15]
+UNITS = dict(length_unit="mm", sed_unit="MPa")
+
+
+def _reference(path):
+    with np.load(path.with_suffix(".reference.npz")) as data:
+        return {k: data[k] for k in data.files}
+
+
+def test_xplt_ending_selects_the_febio_reader():
+    assert format_of("model.xplt") == "xplt" and format_of("RUN.XPLT") == "xplt"
+
+
+def _domains(path):
+    f, model, _, volume, _ = _open(str(path))
+    f.close()
+    return model, volume
+
+
+@pytest.mark.parametrize("path", FILES, ids=lambda p: p.stem)
+def test_mesh_and_every_state_as_pyfebio_reads_them(path):
+    ref, raw = _reference(path), read_raw(path)
+    model, volume = _domains(path)
+    np.testing.assert_array_equal(raw.points, ref["nodes"].astype(np.float64))
+    for domain in model.domains:  # pyfebio keys a domain's element table (id, nodes) by its part id
+        np.testing.assert_array_equal(domain.conn, ref[f"domain/{domain.part}"][:, 1:])
+    n_states = raw.times.size
+    np.testing.assert_array_equal(raw.times, [float(ref[f"time/{k}"][0]) for k in range(n_states)])
+    np.testing.assert_allclose(raw.times, [0.0, 0.5, 1.0])
+    names = {key.split("/")[0] for key in ref if key.startswith(("node:", "elem:"))}
+    assert len(names) >= 2
+    for key in names:
+        got = raw.arrays[key.split(":", 1)[1]]
+        for k in range(n_states):
+            if key.startswith("node:"):
+                np.testing.assert_array_equal(got.values[k].reshape(ref[f"{key}/{k}"].shape), ref[f"{key}/{k}"])
+            elif got.location == "cell":  # the element blocks in the domains' order (block id = domain number)
+                expected = np.concatenate([ref[f"{key}/{k}/{d.number}"] for d in volume])
+                np.testing.assert_array_equal(got.values[k].reshape(expected.shape), expected)
+    assert raw.preset == "febio" and raw.files == (str(path),)
+
+
+def test_element_variables_are_cell_data_with_febio_component_names():
+    raw = read_raw(HEX8)
+    assert raw.arrays["strain energy density"].location == "cell"
+    assert raw.arrays["stress"].components == ("xx", "yy", "zz", "xy", "yz", "xz")
+    assert raw.arrays["displacement"].location == "point" and raw.arrays["displacement"].components == ("x", "y", "z")
+    # each layer is a domain of its own part (dermis 2, epidermis 1): the cell array 'material', in cell order
+    _, volume = _domains(HEX8)
+    np.testing.assert_array_equal(raw.arrays["material"].values[0], np.repeat([2.0, 1.0], [32, 16]))
+    assert [d.name for d in volume] == ["dermis", "epidermis"]
+    assert "FEBio plot file version 3.5 (0x0035), written by FEBio 4.11.0" in raw.notes[0]
+
+
+def test_nodal_stress_per_element_node_is_the_mean_of_the_copies_at_each_node():
+    ref, raw = _reference(HEX8), read_raw(HEX8)
+    _, volume = _domains(HEX8)
+    nodal = raw.arrays["nodal stress"]
+    assert nodal.location == "point" and nodal.values.shape == (3, raw.points.shape[0], 6)
+    # pyfebio's element-node values (8 per hexahedron, in connectivity order), averaged at each node here
+    copies = np.concatenate([ref[f"elem:nodal stress/2/{d.number}"] for d in volume])
+    conn = np.concatenate([d.conn for d in volume]).ravel()
+    counts = np.bincount(conn, minlength=raw.points.shape[0])
+    for node in (0, int(np.argmax(counts)), 60, 99):  # a corner (1 copy), an inner node (8 copies), ...
+        expected = copies[conn == node].astype(np.float64).mean(axis=0)
+        np.testing.assert_allclose(nodal.values[2, node], expected, rtol=1e-6)
+    assert counts.max() == 8 and np.isfinite(nodal.values).all()
+
+
+def test_sed_array_read_with_declared_units_in_j_per_m3():
+    raw = read_raw(HEX8)
+    field = read_sed(HEX8, **UNITS)
+    assert field.provenance.columns["sed"] == "strain energy density"
+    np.testing.assert_allclose(field.sed, raw.arrays["strain energy density"].values * 1e6)
+    np.testing.assert_allclose(field.times, [0.0, 0.5, 1.0])
+    assert field.sed[-1].max() > 0 and any("Gauss points" in n for n in field.provenance.notes)
+
+
+def test_sed_from_stress_and_lagrange_strain_with_the_implied_febio_convention():
+    raw = read_raw(TET10)  # no 'strain energy density' plot variable in this file
+    assert "strain energy density" not in raw.arrays
+    assert any("no 'strain energy density' plot variable" in n for n in raw.notes)
+    field = read_sed(TET10, length_unit="mm", stress_unit="MPa", sed_from="exact")
+    assert field.provenance.sed_from == "exact" and field.provenance.columns["stress"] == "stress"
+    assert field.provenance.columns["strain"] == "Lagrange strain"
+    stress, strain = raw.arrays["stress"].values[-1] * 1e6, raw.arrays["Lagrange strain"].values[-1]
+    expected = 0.5 * (stress[:, :3] * strain[:, :3]).sum(1) + (stress[:, 3:] * strain[:, 3:]).sum(1)  # tensor shear
+    np.testing.assert_allclose(field.sed[-1], expected, rtol=1e-12)
+    with pytest.raises(ValueError, match="preset='abaqus' contradicts SED file .*block_tet10_z.xplt', which only 'febio' "
+                                         "writes"):
+        read_sed(TET10, length_unit="mm", stress_unit="MPa", sed_from="exact", preset="abaqus")
+
+
+def test_febio_tensors_pass_the_shear_and_sed_cross_checks():
+    """FEBio's element-averaged Cauchy stress and Lagrange strain, read with tensor shear: deviatoric shear and
+    normal stiffness agree (1 for an isotropic solid; 0.5 or 2 with the wrong convention), and 1/2 sigma:E agrees
+    with FEBio's own element-averaged W best under the tensor-shear presets (a median 0.74 of it on this coarse
+    block: the average of W over the Gauss points exceeds W of the averaged tensors)."""
+    field = read_sed(HEX8, length_unit="mm", stress_unit="MPa", sed_from="exact")
+    shear, versus = field.provenance.checks["shear_convention"], field.provenance.checks["tensor_sed_vs_export_sed"]
+    assert shear["consistent"] and 0.85 < shear["ratio"] < 1.1, shear
+    assert versus["agree"] and versus["by_preset"]["febio"] < versus["by_preset"]["abaqus"], versus
+    w = read_sed(HEX8, **UNITS).sed[-1]
+    big = w > 0.1 * w.max()
+    assert 0.6 < np.median(field.sed[-1][big] / w[big]) < 1.0
+
+
+def test_iter_sed_streams_the_states_as_read_sed_reads_them():
+    whole = read_sed(TET10, length_unit="mm", stress_unit="MPa", sed_from="exact")
+    steps = list(iter_sed(TET10, length_unit="mm", stress_unit="MPa", sed_from="exact"))
+    assert len(steps) == 3 == xplt_step_count(str(TET10))
+    np.testing.assert_array_equal(np.concatenate([s.sed for s in steps]), whole.sed)
+    assert [float(s.times[0]) for s in steps] == list(whole.times)
+
+
+def test_quadratic_cells_keep_their_nodes_in_vtk_order():
+    raw = read_raw(PENTA15)  # two domains (dermis, epidermis): two blocks
+    assert raw.cells.cell_types == ("wedge15", "wedge15") and raw.cells.nodes[0].shape[1] == 15
+    _, volume = _domains(PENTA15)
+    np.testing.assert_array_equal(np.concatenate(raw.cells.nodes), np.concatenate([d.conn for d in volume]))
+    raw = read_raw(TET10)
+    assert set(raw.cells.cell_types) == {"tetra10"} and raw.cells.nodes[0].shape[1] == 10
+
+
+def test_info_describes_a_plot_file(capsys):
+    assert main(["info", str(HEX8)]) == 0
+    out = capsys.readouterr().out
+    for text in ("xplt", "'strain energy density'", "cell", "(xx yy zz xy yz xz)", "'material'", "FEBio 4",
+                 "--sed-from exact|equivalent (preset 'febio' implied by the format)"):
+        assert text in out, text
+
+
+def test_run_end_to_end_on_a_plot_file(tmp_path, capsys):
+    receptors = tmp_path / "receptors.csv"
+    receptors.write_text("id,x,y,z\n" + "".join(f"{k + 1},{x},{y},0.8\n" for k, (x, y) in enumerate(
+        [(1.0, 1.0), (0.75, 1.0), (1.25, 1.0), (1.0, 0.75), (1.0, 1.25), (0.6, 0.6)])))
+    out = tmp_path / "run"
+    code = main(["run", str(HEX8), "--receptors", str(receptors), "--receptor-unit", "mm", "--length-unit", "mm",
+                 "--sed-unit", "MPa", "--params", "start", "--no-plots", "-q", "-o", str(out)])
+    assert code == 0, capsys.readouterr().err
+    record = json.loads((out / "run.json").read_text())
+    assert "block_hex8.xplt" in json.dumps(record)
+    assert "strain energy density" in json.dumps(record)
+
+
+def _state_offset(data: bytes) -> int:
+    """Byte offset of the first state chunk of a plain plot file."""
+    off = 4
+    for _ in range(2):  # root, mesh
+        off += 8 + struct.unpack_from("<I", data, off + 4)[0]
+    return off
+
+
+def test_truncated_and_corrupt_files_are_named(tmp_path):
+    data = HEX8.read_bytes()
+    cut = tmp_path / "cut.xplt"
+    cut.write_bytes(data[:_state_offset(data) + 200])
+    with pytest.raises(SEDFormatError, match=r"cut.xplt'.*state 0 \(chunk 0x02000000\) declares \d+ bytes but the file "
+                                             r"ends after 192: truncated .xplt"):
+        read_raw(cut)
+    mesh_cut = tmp_path / "mesh_cut.xplt"
+    mesh_cut.write_bytes(data[:_state_offset(data) - 10])
+    with pytest.raises(SEDFormatError, match="mesh_cut.xplt'.*the mesh chunk .*declares"):
+        read_raw(mesh_cut)
+    other = tmp_path / "other.xplt"
+    other.write_bytes(b"PK\x03\x04" + data[4:])
+    with pytest.raises(SEDFormatError, match=r"other.xplt' is not an FEBio plot file: it must start with the tag"):
+        read_raw(other)
+    zdata = bytearray(TET10.read_bytes())
+    start = _state_offset(bytes(zdata))
+    zdata[start + 40:start + 60] = b"\xff" * 20
+    broken = tmp_path / "broken_z.xplt"
+    broken.write_bytes(bytes(zdata))
+    with pytest.raises(SEDFormatError, match=r"broken_z.xplt': state 0 is not a valid zlib stream"):
+        read_raw(broken)
+
+
+def test_plot_file_versions_outside_3_0_to_3_5_are_refused(tmp_path):
+    data = bytearray(HEX8.read_bytes())
+    at = data.index(struct.pack("<II", 0x01010001, 4)) + 8
+    for version, why in ((0x0008, "FEBio 2.x's layout"), (0x0036, "newer than the versions this reader knows")):
+        data[at:at + 4] = struct.pack("<I", version)
+        path = tmp_path / f"v{version:x}.xplt"
+        path.write_bytes(bytes(data))
+        with pytest.raises(SEDFormatError, match=rf"plot file version {version:#06x} is not read \({why}\); versions 3.0 "
+                                                 r"to 3.5"):
+            read_raw(path)
+
+
+def test_cli_on_a_truncated_plot_file_prints_one_line_and_exits_2(tmp_path, capsys):
+    cut = tmp_path / "cut.xplt"
+    shutil.copy(HEX8, cut)
+    cut.write_bytes(HEX8.read_bytes()[:-100])
+    assert main(["info", str(cut)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.startswith("afferent: error: SED file ") and "truncated .xplt" in err
+
+
+def test_shell_domains_and_their_variables_are_ignored_and_named():
+    raw = read_raw(FEBIO / "block_hex8_shell.xplt")  # block_hex8 under 16 QUAD4 shells (a third domain)
+    assert raw.cells.n_cells == 48 and raw.arrays["strain energy density"].values.shape == (3, 48)
+    assert "shell thickness" not in raw.arrays
+    assert "ignored domain(s) 3 (QUAD4, 16 elements)" in raw.notes[0]
+    assert "plot variable(s) 'shell thickness' only on ignored domains: not read." in raw.notes
