@@ -716,6 +716,18 @@ def write_abaqus_csv(path: Path, centroid, S, E, sel):
 # --------------------------------------------------------------------------------------
 # Physical checks
 # --------------------------------------------------------------------------------------
+def dermis_side_sed(sm: SkinMesh, post: Post, cell_sed):
+    """At each tip node: the volume-weighted mean SED of the dermis elements touching it (one material's side
+    of the interface, where the nodal value averages epidermis and dermis; MPa)."""
+    tn, t = sm.tip_nodes, sm.mesh.t
+    mask = np.isin(t, tn) & (sm.layer == LAYER_DERMIS)[None, :]
+    e_of = {n: [] for n in tn}
+    cols = np.nonzero(mask)
+    for a, e in zip(t[cols], cols[1]):
+        e_of[a].append(e)
+    return np.array([np.average(cell_sed[e_of[n]], weights=post.vol[e_of[n]]) for n in tn])
+
+
 def receptor_checks(sm: SkinMesh, post: Post, u, cell_sed, node_sed, width):
     tips, tn = sm.tips, sm.tip_nodes
     h = 0.5 * width
@@ -723,15 +735,7 @@ def receptor_checks(sm: SkinMesh, post: Post, u, cell_sed, node_sed, width):
     dze = np.abs(tips[:, 2] - sm.zc) - h
     near = (dxe <= PAP_PITCH_X + TOL) & (dze <= PAP_PITCH_X + TOL)
     sed_pa = node_sed[tn] * 1e6
-    # dermis-side value: volume-weighted mean of the dermis elements touching the tip node
-    t = sm.mesh.t
-    derm = sm.layer == LAYER_DERMIS
-    mask = np.isin(t, tn) & derm[None, :]
-    e_of = {n: [] for n in tn}
-    cols = np.nonzero(mask)
-    for a, e in zip(t[cols], cols[1]):
-        e_of[a].append(e)
-    sed_derm = np.array([np.average(cell_sed[e_of[n]], weights=post.vol[e_of[n]]) for n in tn]) * 1e6
+    sed_derm = dermis_side_sed(sm, post, cell_sed) * 1e6
     i_max = int(np.argmax(np.where(near, sed_pa, -np.inf)))
     out = {
         "n_receptors_near": int(near.sum()),
@@ -1156,6 +1160,15 @@ def main(argv=None):
         write_packaged_sample(out)
 
 
+def normalised_difference(sm, n1, n2):
+    """The tips near the punch (as compare_tips), each mesh's SED over its own largest there: the median and
+    largest |difference| (dimensionless, of 1), and whether the largest is at the same tip."""
+    near = (np.abs(sm.tips[:, 0] - sm.xc) <= 0.88) & (np.abs(sm.tips[:, 2] - sm.zc) <= 0.88)
+    a, b = n1[near] / n1[near].max(), n2[near] / n2[near].max()
+    return {"median_abs_diff": float(np.median(np.abs(a - b))), "max_abs_diff": float(np.abs(a - b).max()),
+            "same_peak_tip": bool(np.argmax(a) == np.argmax(b))}
+
+
 def compare_tips(sm, n1, n2, f1, f2, label1, label2):
     t1, t2 = n1 * 1e6, n2 * 1e6
     near = (np.abs(sm.tips[:, 0] - sm.xc) <= 0.88) & (np.abs(sm.tips[:, 2] - sm.zc) <= 0.88)
@@ -1178,13 +1191,19 @@ def mesh_check(sm, prob1, post1, u1, integration):
     prob2 = Problem(sm2, integration=integration)
     u2, s2 = prob2.solve(SERIES_WIDTH, DEPTH)
     post2 = Post(prob2)
-    n2 = post2.nodal_sed(post2.cell_sed(u2))[sm2.tip_nodes]
-    n1 = post1.nodal_sed(post1.cell_sed(u1))[sm.tip_nodes]
+    c2, c1 = post2.cell_sed(u2), post1.cell_sed(u1)
+    n2, n1 = post2.nodal_sed(c2)[sm2.tip_nodes], post1.nodal_sed(c1)[sm.tip_nodes]
     assert np.allclose(sm.tips, sm2.tips)
     _, s1 = prob1.solve(SERIES_WIDTH, DEPTH)
     res = {"refined_mesh": mesh_stats(sm2), "refined_cg_iterations": s2["cg_iterations"],
            "refined_solve_s": s2["solve_s"],
            **compare_tips(sm, n1, n2, s1["punch_force_N"], s2["punch_force_N"], "mesh", "refined")}
+    # what the study compares: the profiles' shape (each normalised by its own largest value), and one
+    # material's side of the interface (the nodal value averages the two layers over the adjacent elements)
+    d1, d2 = dermis_side_sed(sm, post1, c1), dermis_side_sed(sm2, post2, c2)
+    res["dermis_side"] = compare_tips(sm, d1, d2, s1["punch_force_N"], s2["punch_force_N"], "mesh", "refined")[
+        "receptor_tip_SED_Pa"]
+    res["normalised_tip_SED"] = normalised_difference(sm, n1, n2)
     print("  [check]", json.dumps(res))
     return res
 
