@@ -199,18 +199,15 @@ def _point_cells(cells: Cells, xyz: np.ndarray):
     return point, cell, cell_volumes(cells, xyz)[cell]
 
 
-def node_sides(sed: np.ndarray, labels: np.ndarray, cells: Cells, xyz: np.ndarray, pairs=None) -> NodeSides | None:
-    """Per node and material, the volume-weighted mean of the node's copies in cells of that material.
-
-    Kept only for nodes where several materials meet; None when there are none (or no
-    material ids). ``sed`` is point data of shape (n_times, n_points), any unit; ``pairs``: the
-    mesh's :func:`_point_cells` when already known.
-    """
+def _sides_operator(labels: np.ndarray, cells: Cells, pairs, n_points: int):
+    """What the material sides need of the mesh alone: (averaging operator of shape (n_node_materials, n_points),
+    node of each row, material of each row, rows of nodes where several materials meet), or None when no node
+    has several (or there are no material ids). ``pairs``: :func:`_point_cells`."""
     import scipy.sparse as sp
 
     if cells.materials is None:
         return None
-    point, cell, vol = _point_cells(cells, xyz) if pairs is None else pairs
+    point, cell, vol = pairs
     mats, mat_of = np.unique(cells.materials[cell], return_inverse=True)
     key = labels[point] * mats.size + mat_of.ravel()
     uniq, col = np.unique(key, return_inverse=True)
@@ -218,21 +215,29 @@ def node_sides(sed: np.ndarray, labels: np.ndarray, cells: Cells, xyz: np.ndarra
     several = np.bincount(node, minlength=int(labels.max()) + 1)[node] > 1
     if not several.any():
         return None
-    m = sp.csr_matrix((np.where(vol > 0, vol, 1.0), (col.ravel(), point)), shape=(uniq.size, sed.shape[1]))
-    m = sp.diags(1.0 / np.asarray(m.sum(axis=1)).ravel()) @ m
-    per = np.asarray((m @ sed.T).T)
-    return NodeSides(node[several], mats[mat[several]], per[:, several])
+    m = sp.csr_matrix((np.where(vol > 0, vol, 1.0), (col.ravel(), point)), shape=(uniq.size, n_points))
+    return sp.diags(1.0 / np.asarray(m.sum(axis=1)).ravel()) @ m, node[several], mats[mat[several]], several
 
 
-def _grouped_mean(sed: np.ndarray, group: np.ndarray, n_groups: int, w: np.ndarray) -> np.ndarray:
-    """Weighted mean of the points of each group, (n_times, n_groups); equal weights in a group weighing 0."""
+def _node_sides(sed: np.ndarray, operator) -> NodeSides | None:
+    """Per node and material, the volume-weighted mean of the node's copies in cells of that material, kept only
+    for nodes where several materials meet; ``sed`` point data (n_times, n_points), any unit; ``operator``:
+    :func:`_sides_operator` (None: no sides)."""
+    if operator is None:
+        return None
+    m, nodes, materials, several = operator
+    return NodeSides(nodes, materials, np.asarray((m @ sed.T).T)[:, several])
+
+
+def _mean_operator(group: np.ndarray, n_groups: int, w: np.ndarray):
+    """The weighted mean of the points of each group as a sparse (n_groups, n_points) operator; equal weights in
+    a group weighing 0."""
     import scipy.sparse as sp
 
     alone = np.bincount(group, weights=w, minlength=n_groups) == 0  # copies no cell uses
     w = np.where(alone[group], 1.0, w)
     m = sp.csr_matrix((w, (group, np.arange(group.size))), shape=(n_groups, group.size))
-    m = sp.diags(1.0 / np.asarray(m.sum(axis=1)).ravel()) @ m
-    return np.asarray((m @ sed.T).T)
+    return sp.diags(1.0 / np.asarray(m.sum(axis=1)).ravel()) @ m
 
 
 def _copy_weights(pairs, n_points: int) -> np.ndarray:
@@ -304,19 +309,20 @@ def merge_coincident(xyz: np.ndarray, sed: np.ndarray, location: str, cells: Cel
         counts = np.bincount(labels, minlength=n_nodes)
         first = np.full(n_nodes, n, dtype=np.int64)
         np.minimum.at(first, labels, np.arange(n))
-        mesh.update(counts=counts, first=first, merged=Cells(
+        mesh.update(counts=counts, xyz=xyz[first], merged=Cells(
             labels[cells.tetra], cells.parent, cells.n_cells, cells.cell_types, materials=cells.materials,
             nodes=cells.renumbered_nodes(labels)))
-    counts, first, merged = mesh["counts"], mesh["first"], mesh["merged"]
+    counts, nodes_xyz, merged = mesh["counts"], mesh["xyz"], mesh["merged"]
     report = {"n_points": int(n), "n_nodes": int(n_nodes), "n_copies_merged": int(n - n_nodes),
               "max_copies": int(counts.max()), "tolerance": tol,
               "rule": "volume-weighted mean of the copies (each copy weighs the volume of the cells using it)"}
     if location == "point":
-        if "weights" not in mesh:
+        if "mean" not in mesh:
             mesh["pairs"] = _point_cells(cells, xyz)
             mesh["weights"] = _copy_weights(mesh["pairs"], n)
-        w = mesh["weights"]
-        mean = _grouped_mean(sed, labels, n_nodes, w)
+            mesh["mean"] = _mean_operator(labels, n_nodes, mesh["weights"])
+            mesh["sides"] = _sides_operator(labels, cells, mesh["pairs"], n)
+        mean = np.asarray((mesh["mean"] @ sed.T).T)
         report.update(_disagreement(sed, labels, mean, counts))
         if cells.materials is not None:  # copies of one material: the mesh's own discontinuity, not the interface's
             if "groups" not in mesh:
@@ -324,10 +330,11 @@ def merge_coincident(xyz: np.ndarray, sed: np.ndarray, location: str, cells: Cel
                 mat = np.zeros(n, dtype=np.int64)
                 mat[point] = cells.materials[cell]
                 groups, group = np.unique(labels * (int(mat.max()) + 1) + (mat - mat.min()), return_inverse=True)
-                mesh["groups"] = (groups.size, group.ravel())
-            n_groups, group = mesh["groups"]
-            within = _disagreement(sed, group, _grouped_mean(sed, group, n_groups, w),
-                                   np.bincount(group, minlength=n_groups))
+                group = group.ravel()
+                mesh["groups"] = (group, np.bincount(group, minlength=groups.size),
+                                  _mean_operator(group, groups.size, mesh["weights"]))
+            group, group_counts, group_mean = mesh["groups"]
+            within = _disagreement(sed, group, np.asarray((group_mean @ sed.T).T), group_counts)
             report["within_material"] = {k: within[k] for k in ("median_relative", "max_relative", "nodes_compared")}
-        return xyz[first], mean, merged, report, node_sides(sed, labels, cells, xyz, mesh["pairs"])
-    return xyz[first], sed, merged, report, None
+        return nodes_xyz, mean, merged, report, _node_sides(sed, mesh["sides"])
+    return nodes_xyz, sed, merged, report, None
