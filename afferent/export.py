@@ -235,7 +235,8 @@ def write_outputs(folder: str, *, want, plots: bool, sed_static, sed, current=No
                                            "current_a": np.asarray(afferent.values)[profile_index]})
     if "fit" in want and fit is not None:
         row = {"synthesis": branching.kind, "normalise": fit.normalise, "r2_study": fit.r2_study, "r2": fit.r2,
-               "ssd": fit.ssd, "n_afferents": len(fit.predicted), "dropped": fit.dropped, "time_s": np.nan if fit.time is None else fit.time}
+               "ssd": fit.ssd, "n_afferents": len(fit.predicted), "dropped": fit.dropped,
+               "time_s": np.nan if fit.time is None else fit.time}
         write_table(path("fit.csv"), {k: [v] for k, v in row.items()})  # None (unknown) as an empty cell, as pandas
         positions = np.full(len(fit.predicted), np.nan) if fit.positions is None else fit.positions
         write_table(path("profile_fit.csv"), {"position_m": positions, "predicted": fit.predicted,
