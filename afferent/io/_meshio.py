@@ -23,7 +23,7 @@ from ..exceptions import AfferentWarning, SEDFormatError
 from ..field import Cells
 from dataclasses import replace
 
-from ._raw import RawArray, RawExport, check_export_file, files_read, stack_steps
+from ._raw import Deferred, RawArray, RawExport, check_export_file, files_read, stack_steps
 from ._vtu import VtuCountError, read_vtu
 
 __all__ = ["read_mesh_file", "read_vtu_series", "read_pvd", "read_xdmf", "cells_from_meshio"]
@@ -161,7 +161,7 @@ def cells_from_meshio(cells, path: str) -> Cells | None:
 
 
 def _read_meshio(path: str, opened: list | None = None):
-    """(meshio.Mesh, component names) of ``path``: a .vtu through :func:`afferent.io._vtu.read_vtu` (one
+    """(mesh, component names) of ``path``: a .vtu through :func:`afferent.io._vtu.read_vtu` (one
     parse, every piece), other formats through meshio's reader; the side files read are appended to
     ``opened`` (XDMF)."""
     import meshio
@@ -174,15 +174,31 @@ def _read_meshio(path: str, opened: list | None = None):
     if ext == ".vtu":
         _check_vtk_xml_type(path)
         content = _guarded(path, read_vtu)
-        mesh = _guarded(path, lambda _: meshio.Mesh(content.points, content.cells, point_data=content.point_data,
-                                                     cell_data=content.cell_data))
-        return mesh, content.components
+        return _VtuMesh(content.points, content.cells, content.point_data, content.cell_values), content.components
 
     def xdmf(p):
         return read_single_grid(p, [] if opened is None else opened)
 
     reader = {".vtk": meshio.vtk.read, ".xdmf": xdmf, ".xmf": xdmf}.get(ext, meshio.read)
     return _guarded(path, reader), {}
+
+
+class _VtuMesh:
+    """What :func:`raw_from_mesh` reads of a VTU (:func:`afferent.io._vtu.read_vtu`), in place of a
+    meshio.Mesh: points, cell blocks, point data, and each cell array over all the file's cells in
+    the blocks' order (ndarrays, or :class:`~afferent.io._raw.Deferred` values, decoded when used)."""
+
+    def __init__(self, points, cells, point_data, cell_values):
+        self.points, self.cells, self.point_data, self.cell_values = points, cells, point_data, cell_values
+
+
+def _one_step(path: str, values):
+    """``values`` (n, ...) as one step, float64, shape (1, n, ...); a Deferred stays one, its decoding's
+    failures one SEDFormatError naming ``path`` (as when read at once)."""
+    if not isinstance(values, Deferred):
+        return np.asarray(values, dtype=float)[None]
+    return Deferred((1,) + values.shape, lambda: np.asarray(_guarded(path, lambda _: values.decode()), dtype=float)[None],
+                    values.label)
 
 
 def _guarded(path: str, read, *args):
@@ -278,32 +294,53 @@ def _vtu_version(path: str) -> tuple[int, int] | None:
     return None if m is None else (int(m.group(1)), int(m.group(2)))
 
 
-def _arrays_from_mesh(mesh, path: str, cells_obj: Cells | None) -> dict[str, RawArray]:
+def _volume_cell_data(mesh, vol: list[int]) -> dict:
+    """Each numeric cell array over the volume blocks ``vol`` of ``mesh`` (a meshio.Mesh: per block;
+    a :class:`_VtuMesh`: rows of its arrays over all cells, still deferred)."""
+    if isinstance(mesh, _VtuMesh):
+        sizes = [len(b.data) for b in mesh.cells]
+        if len(vol) == len(sizes):
+            return dict(mesh.cell_values)
+        starts = np.cumsum([0] + sizes)
+        rows = np.concatenate([np.arange(starts[k], starts[k + 1]) for k in vol])
+        return {name: v.then(lambda x: x[rows], (len(rows),) + v.shape[1:]) if isinstance(v, Deferred) else v[rows]
+                for name, v in mesh.cell_values.items()}
+    out = {}
+    for name, per_block in mesh.cell_data.items():
+        try:
+            out[name] = np.concatenate([np.asarray(per_block[k], dtype=float) for k in vol])
+        except (TypeError, ValueError):
+            continue  # non-numeric cell data
+    return out
+
+
+def _arrays_from_mesh(mesh, path: str, cells_obj: Cells | None, components: dict) -> dict[str, RawArray]:
+    """The point arrays, and the cell arrays over the volume cells, of ``mesh`` as one-step RawArrays
+    (with their ``components`` names where these name every component)."""
     arrays: dict[str, RawArray] = {}
     n_points = len(mesh.points)
+
+    def raw(name, data, location):
+        names = components.get(name, ())
+        named = len(data.shape) == 2 and data.shape[1] == len(names)
+        return RawArray(name, _one_step(path, data), location, None, names if named else ())
+
     for name, data in mesh.point_data.items():
-        data = np.asarray(data, dtype=float)
         if data.shape[0] != n_points:
             raise SEDFormatError(
                 f"SED file {path!r}: point array {name!r} must have one value per point ({n_points}); "
                 f"got {data.shape[0]} instead."
             )
-        arrays[name] = RawArray(name, data[None], "point")
+        arrays[name] = raw(name, data, "point")
     if cells_obj is not None:
-        vol = [k for k, _, _ in _volume_blocks(mesh.cells)]
-        for name, per_block in mesh.cell_data.items():
-            try:
-                parts = [np.asarray(per_block[k], dtype=float) for k in vol]
-            except (TypeError, ValueError):
-                continue  # non-numeric cell data
-            data = np.concatenate(parts)
+        for name, data in _volume_cell_data(mesh, [k for k, _, _ in _volume_blocks(mesh.cells)]).items():
             if data.shape[0] != cells_obj.n_cells:
                 raise SEDFormatError(
                     f"SED file {path!r}: cell array {name!r} must have one value per volume cell "
                     f"({cells_obj.n_cells}); got {data.shape[0]} instead."
                 )
             key = name if name not in arrays else f"{name}@cell"
-            arrays[key] = RawArray(name, data[None], "cell")
+            arrays[key] = raw(name, data, "cell")
     return arrays
 
 
@@ -360,10 +397,7 @@ def raw_from_mesh(mesh, path: str, fmt: str, components: dict, notes: list, *, r
     notes = list(notes)
     if cells_obj is None:
         notes.append("No volume cells in the file: the points are treated as scattered samples.")
-    arrays = _arrays_from_mesh(mesh, path, cells_obj)
-    arrays = {k: (RawArray(a.name, a.values, a.location, a.unit, components[a.name])
-                  if a.name in components and a.values.ndim == 3 and a.values.shape[2] == len(components[a.name]) else a)
-              for k, a in arrays.items()}
+    arrays = _arrays_from_mesh(mesh, path, cells_obj, components)
     return RawExport(files=tuple(files), format=fmt, points=points, arrays=arrays, cells=cells_obj, notes=tuple(notes),
                      reader=reader)
 
@@ -426,18 +460,18 @@ def iter_vtu_series(paths: list[str], times=None, *, progress: bool = False):
                     f"SED file {path!r} lacks the {arr.location} array {arr.name!r} that {paths[0]!r} has; "
                     "every step of a series must carry the same arrays."
                 )
-            values = np.asarray(source[arr.name], dtype=float)
+            values = source[arr.name]
             expected = n_points if arr.location == "point" else n_cells
             if values.shape[0] != expected:
                 raise SEDFormatError(
                     f"SED file {path!r}: array {arr.name!r} must have {expected} values; got {values.shape[0]} instead."
                 )
-            if values.shape[1:] != arr.values.shape[2:]:
+            if tuple(values.shape[1:]) != arr.shape[2:]:
                 raise SEDFormatError(
-                    f"SED file {path!r}: array {arr.name!r} has shape {values.shape[1:]} per value; "
-                    f"{paths[0]!r} has {arr.values.shape[2:]}."
+                    f"SED file {path!r}: array {arr.name!r} has shape {tuple(values.shape[1:])} per value; "
+                    f"{paths[0]!r} has {arr.shape[2:]}."
                 )
-            arrays[key] = replace(arr, values=values[None])
+            arrays[key] = replace(arr, values=_one_step(path, values))
         files = step.files if isinstance(step, RawExport) else (path,)  # a .pvtu's pieces, a .vtm's blocks
         yield replace(first, files=files, arrays=arrays, times=None if times is None else times[k:k + 1])
 
