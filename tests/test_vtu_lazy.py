@@ -137,3 +137,31 @@ def test_a_series_later_steps_decode_only_what_is_used():
         for key, arr in step.arrays.items():
             assert arr.shape == fresh.arrays[key].shape
             np.testing.assert_array_equal(arr.values, fresh.arrays[key].values, err_msg=key)
+
+
+def test_a_series_with_surface_cells_reads_each_steps_volume_cell_data(tmp_path):
+    """Before: a VTU series whose files hold boundary cells besides the volume and a cell array
+    failed at its second step ("array 'mat' must have 384 values; got 389"): later steps counted
+    their cell data against all the file's cells, the first step against the volume cells."""
+    from afferent.io import iter_sed
+    from afferent.io._meshio import iter_vtu_series
+
+    mesh = meshio.read(DEALII)
+    hexes = mesh.cells[0].data
+    files = []
+    for k in range(3):
+        files.append(str(tmp_path / f"mix_{k}.vtu"))
+        meshio.write(files[-1], meshio.Mesh(mesh.points, [("quad", hexes[:5, :4]), ("hexahedron", hexes)],
+                                            point_data={"sed": mesh.point_data["sed"] * (k + 1)},
+                                            cell_data={"mat": [np.zeros(5), np.arange(len(hexes)) + 10.0 * k]}),
+                     compression="zlib")
+    steps = list(iter_vtu_series(files))
+    for k, step in enumerate(steps):
+        np.testing.assert_array_equal(step.arrays["mat"].values[0], np.arange(len(hexes)) + 10.0 * k)
+    pvd = tmp_path / "mix.pvd"
+    pvd.write_text('<?xml version="1.0"?><VTKFile type="Collection" version="0.1"><Collection>'
+                   + "".join(f'<DataSet timestep="{k}" file="mix_{k}.vtu"/>' for k in range(3)) + "</Collection></VTKFile>")
+    with pytest.warns(Warning):  # deal.II's discontinuous copies merged
+        fields = list(iter_sed(str(pvd), **UNITS))
+    assert [f.n_times for f in fields] == [1, 1, 1]
+    np.testing.assert_allclose(fields[2].sed, 3 * fields[0].sed)
