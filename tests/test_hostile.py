@@ -33,8 +33,8 @@ CASES = [
     ("duplicated_times.csv", "Every time step of SED file {f!r} must have the same number of rows"),
     ("unknown_unit.csv", "SED file {f!r} states the unit 'furlong-poundals' for SED column 'SED', which afferent does not know"),
     ("element_energy.csv", "SED file {f!r}: column 'ELSE' holds an energy, not an energy density"),
-    ("length_mismatch.vtu", "SED file {f!r} could not be read as .vtu (truncated or corrupt?): ValueError: len(points) = 8, "
-                            'but len(point_data["SED"]) = 7'),
+    ("length_mismatch.vtu", "SED file {f!r}: point array 'SED' must have one value per point (NumberOfPoints = 8); got 7 "
+                            "instead."),
     ("different_meshes.pvd", "SED file 'step_b.vtu' is not on the same mesh as 'step_a.vtu'"),
     ("corrupt_heavy.xdmf", "SED file {f!r}: the heavy-data file 'corrupt_heavy.h5' could not be opened (truncated or corrupt?)"),
     ("negative_connectivity.vtu", "SED file {f!r}: 'cells' refer to point -2; point indices must be >= 0 (a corrupt "

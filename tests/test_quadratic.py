@@ -23,7 +23,7 @@ from afferent._shape_functions import QUADRATIC, _nodes, natural_coordinates, no
 from afferent.exceptions import AfferentWarning, SEDFormatError
 from afferent.field import Cells, SEDField
 from afferent.io import read_raw
-from afferent.io._meshio import _complete_meshio_dimensions, cells_from_meshio
+from afferent.io._cell_blocks import _complete_meshio_dimensions, cells_from_meshio
 from afferent.receptors import ReceptorLayout
 from afferent.sampling import PLACEMENTS, build_sampler
 

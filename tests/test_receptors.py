@@ -17,7 +17,7 @@ import pytest
 
 from afferent.exceptions import AfferentWarning, SEDFormatError, UnitError
 from afferent.field import Cells
-from afferent.io._meshio import cells_from_meshio
+from afferent.io._cell_blocks import cells_from_meshio
 from afferent.receptors import (
     ReceptorLayout,
     grid_layout,

@@ -122,7 +122,7 @@ def read_rst(path: str, *, progress: bool = False) -> RawExport:
         The optional reader is not installed, or the file is not a readable MAPDL result file
         (damaged headers or records, or the reader failed or crashed on it).
     """
-    from ._meshio import cells_from_meshio
+    from ._cell_blocks import cells_from_meshio
 
     if not os.path.isfile(path):
         raise FileNotFoundError(f"SED file {path!r} not found.")

@@ -178,7 +178,7 @@ def _coordinates(nc, path: str) -> np.ndarray:
 
 def _volume_blocks(nc, path: str, n_nodes: int):
     """The element blocks: (volume cells or None, [(block number, n_elements)] of volume blocks, skipped blocks)."""
-    from ._meshio import cells_from_meshio
+    from ._cell_blocks import cells_from_meshio
 
     n_blocks = sum(1 for k in nc.names if k.startswith("connect") and k[7:].isdigit())
     blocks, volume, skipped = [], [], []

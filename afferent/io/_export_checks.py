@@ -111,11 +111,12 @@ def tensor_sed_crosscheck(raw: RawExport, opts: ReadOptions) -> dict | None:
         arr = find_sed_array(raw, ReadOptions(location=tloc, sed_column=opts.sed_column))[0]
     except (SEDFormatError, ValueError):
         return None
-    if arr.location != tloc or (arr.values.ndim == 3 and arr.values.shape[2] != 1):
+    if arr.location != tloc or (arr.ndim == 3 and arr.shape[2] != 1):
         return None
     ref = arr.values.reshape(arr.values.shape[0], -1)
     step = int(np.argmax(np.nansum(np.abs(ref), axis=1)))
-    one = replace(raw, arrays={k: replace(a, values=a.values[step:step + 1]) for k, a in raw.arrays.items()}, times=None)
+    one = replace(raw, arrays={k: a.then(lambda v: v[step:step + 1], (1,) + a.shape[1:]) for k, a in raw.arrays.items()},
+                  times=None)
     columns = dict(location=tloc, stress_columns=opts.stress_columns, strain_columns=opts.strain_columns)
 
     def difference(raw_k, options):

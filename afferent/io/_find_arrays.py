@@ -54,7 +54,7 @@ def _pick_location(raw, matches, name, location):
 
 def _id_array(raw: RawExport) -> RawArray | None:
     for a in raw.arrays.values():
-        if a.values.ndim == 2 and C.canonical(a.name) in C.ID_ALIASES:
+        if a.ndim == 2 and C.canonical(a.name) in C.ID_ALIASES:
             return a
     return None
 
@@ -68,7 +68,7 @@ def integration_point_groups(raw: RawExport) -> np.ndarray | None:
     CalculiX's ``integ.pnt.`` or Abaqus' ``Int Pt``), the element of each row as an index into
     the unique element ids; None for any other table."""
     rid = _id_array(raw)
-    ip = next((a for a in raw.arrays.values() if a.values.ndim == 2 and C.canonical(a.name) in _POINT_IDS), None)
+    ip = next((a for a in raw.arrays.values() if a.ndim == 2 and C.canonical(a.name) in _POINT_IDS), None)
     if rid is None or ip is None or C.canonical(rid.name) not in _ELEMENT_IDS:
         return None
     ids = rid.values[0]
@@ -169,7 +169,7 @@ def join_coordinates(raw: RawExport, path: str) -> RawExport:
 def drop_nan_rows(raw: RawExport, arrays_used: list[str]) -> RawExport:
     """Drop the points (rows) with a NaN in any column at any step (COMSOL writes NaN for points
     where an expression is not evaluated). Only for tables without cells."""
-    bad = np.zeros(next(iter(raw.arrays.values())).values.shape[1], dtype=bool)
+    bad = np.zeros(next(iter(raw.arrays.values())).shape[1], dtype=bool)
     for name in arrays_used:
         v = raw.arrays[name].values
         bad |= ~np.isfinite(v.reshape(v.shape[0], v.shape[1], -1)).all(axis=(0, 2))
@@ -342,7 +342,7 @@ def find_tensors(raw: RawExport, opts: ReadOptions, *, need_convention: bool = T
             values = np.stack([c.values for c in cols], -1)
             out.append((", ".join(c.name for c in cols), _halve_shear(values, kind, conv), cols[0].location))
             continue
-        named = [a for a in raw.arrays.values() if a.values.ndim == 3 and C.canonical(a.name) in C.TENSOR_ARRAY_NAMES[kind]]
+        named = [a for a in raw.arrays.values() if a.ndim == 3 and C.canonical(a.name) in C.TENSOR_ARRAY_NAMES[kind]]
         tensor_arrays = [a for a in named if opts.location is None or a.location == opts.location]
         if named and not tensor_arrays:
             _wrong_location(raw, named[0], f"{kind} tensor", opts.location)
@@ -354,7 +354,7 @@ def find_tensors(raw: RawExport, opts: ReadOptions, *, need_convention: bool = T
         for loc in ((opts.location,) if opts.location else ("point", "cell")):  # all six at one location
             found, missing = [], []
             for comp in ("xx", "yy", "zz", "xy", "yz", "xz"):
-                hits = [a for a in raw.arrays.values() if a.values.ndim == 2 and a.location == loc
+                hits = [a for a in raw.arrays.values() if a.ndim == 2 and a.location == loc
                         and C.canonical(a.name) in comp_table[comp]]
                 (found if hits else missing).append(hits[0] if hits else comp)
             attempts.append((found, missing))
@@ -365,10 +365,10 @@ def find_tensors(raw: RawExport, opts: ReadOptions, *, need_convention: bool = T
                 f"SED file {_where(raw)!r} has no complete {kind} tensor{have}; missing component(s) "
                 f"{', '.join(missing)}. Found {_names(raw)}. Pass {kind}_columns=(6 names, xx yy zz xy yz xz)."
             )
-        if len({a.values.shape for a in found}) > 1:
+        if len({a.shape for a in found}) > 1:
             raise SEDFormatError(
                 f"SED file {_where(raw)!r}: the {kind} components {', '.join(repr(a.name) for a in found)} must have one "
-                f"value per point at every step alike; got shapes {', '.join(str(a.values.shape) for a in found)}."
+                f"value per point at every step alike; got shapes {', '.join(str(a.shape) for a in found)}."
             )
         values = np.stack([a.values for a in found], -1)
         out.append((", ".join(a.name for a in found), _halve_shear(values, kind, conv), found[0].location))
@@ -399,7 +399,7 @@ def _full_tensors(raw: RawExport, opts: ReadOptions) -> bool:
         (s_name, _, s_loc), (e_name, _, _) = find_tensors(raw, opts, need_convention=False)
     except (SEDFormatError, ValueError):
         return False
-    full = {a.name for a in raw.arrays.values() if a.location == s_loc and a.values.ndim == 3 and a.values.shape[2] == 9}
+    full = {a.name for a in raw.arrays.values() if a.location == s_loc and a.ndim == 3 and a.shape[2] == 9}
     return s_name in full and e_name in full
 
 
@@ -451,7 +451,7 @@ def find_material_array(raw: RawExport, cells=None) -> tuple[str, str, np.ndarra
     wanted = {_key(n) for n in MATERIAL_ARRAY_NAMES}
     for loc in ("cell", "point"):
         for arr in raw.arrays.values():
-            if arr.location != loc or _key(arr.name) not in wanted or arr.values.ndim != 2 or not arr.values.shape[0]:
+            if arr.location != loc or _key(arr.name) not in wanted or arr.ndim != 2 or not arr.shape[0]:
                 continue
             v = arr.values[0]
             if not np.all(np.isfinite(v)) or not np.all(v == np.round(v)):

@@ -281,7 +281,7 @@ def frd_mesh(path: str):
 
 def _cells(path: str, index: dict, elements):
     """(volume cells for sampling or None, the material number of each cell in cell order) of the element block."""
-    from ._meshio import cells_from_meshio
+    from ._cell_blocks import cells_from_meshio
 
     blocks: dict[str, list] = {}
     materials: dict[str, list] = {}  # per cell type, in the order the cells are made

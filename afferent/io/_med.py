@@ -327,7 +327,7 @@ def _array_names(fields: dict, notes: list) -> dict[str, str]:
 def _volume_cells(blocks: dict, path: str):
     """Volume cells for sampling (tetrahedra), and [(MED type, n_elements)] in cell order."""
     from ._exodus import _Block
-    from ._meshio import cells_from_meshio
+    from ._cell_blocks import cells_from_meshio
 
     volume = [(t, conn) for t, conn in blocks.items() if t in MED_VOLUME_TYPES]
     cells = cells_from_meshio([_Block(MED_VOLUME_TYPES[t], conn) for t, conn in volume], path) if volume else None

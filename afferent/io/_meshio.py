@@ -13,7 +13,6 @@ import contextlib
 import io
 import math
 import os
-import re
 import warnings
 from xml.etree import ElementTree as ET
 
@@ -23,145 +22,15 @@ from ..exceptions import AfferentWarning, SEDFormatError
 from ..field import Cells
 from dataclasses import replace
 
-from ._raw import RawArray, RawExport, check_export_file, files_read, stack_steps
+from ._cell_blocks import (_complete_meshio_dimensions, _volume_blocks, _volume_rows, _vtu_version, cells_from_meshio,
+                           volume_type_blocks)
+from ._raw import Deferred, RawArray, RawExport, check_export_file, files_read, stack_steps
 from ._vtu import VtuCountError, read_vtu
 
 __all__ = ["read_mesh_file", "read_vtu_series", "read_pvd", "read_xdmf", "cells_from_meshio"]
 
-# Corner nodes of each volume cell type, then its split into linear tetrahedra (VTK node order).
-_TETS = {
-    "tetra": [(0, 1, 2, 3)],
-    "hexahedron": [(0, 6, 1, 2), (0, 6, 2, 3), (0, 6, 3, 7), (0, 6, 7, 4), (0, 6, 4, 5), (0, 6, 5, 1)],
-    "wedge": [(0, 1, 2, 3), (1, 2, 3, 4), (2, 3, 4, 5)],
-    "pyramid": [(0, 1, 2, 4), (0, 2, 3, 4)],
-}
-_HIGHER = {
-    "tetra10": "tetra", "tetra14": "tetra", "hexahedron20": "hexahedron", "hexahedron24": "hexahedron",
-    "hexahedron27": "hexahedron", "wedge15": "wedge", "wedge18": "wedge", "pyramid13": "pyramid",
-    "pyramid14": "pyramid",
-}
-
-
-#: VTK Lagrange cells of degree 1 and 2 (meshio name, node count) -> the meshio type with the same
-#: nodes in the same order: VTK >= 9 numbers a quadratic Lagrange cell as its quadratic cell
-#: (vtkLagrange*.PointIndexFromIJK, checked in tests/test_quadratic.py). Higher degrees are refused.
-_LAGRANGE = {
-    ("VTK_LAGRANGE_TETRAHEDRON", 4): "tetra", ("VTK_LAGRANGE_TETRAHEDRON", 10): "tetra10",
-    ("VTK_LAGRANGE_HEXAHEDRON", 8): "hexahedron", ("VTK_LAGRANGE_HEXAHEDRON", 27): "hexahedron27",
-    ("VTK_LAGRANGE_WEDGE", 6): "wedge", ("VTK_LAGRANGE_WEDGE", 18): "wedge18",
-}
-#: VTK files written before VTK 9 (VTU file version < 2.1, legacy file version < 5.1) number the
-#: mid-edge nodes on the vertical edges (x=0, y=1) and (x=1, y=1) of a quadratic Lagrange hexahedron
-#: the other way round; VTK's own readers swap them back (nodes 18 and 19), as does afferent.
-_OLD_LAGRANGE_HEX = np.r_[0:18, 19, 18, 20:27]
-#: Topological dimension of the cell types meshio 5.3 can read from VTK files but leaves out of its
-#: own table (``meshio._mesh.topological_dimension``): without them reading a file holding one
-#: fails with ``KeyError: 'wedge15'``.
-_MESHIO_MISSING_DIMENSIONS = {
-    "wedge15": 3, "pyramid13": 3, "hexahedron24": 3, "wedge12": 3, "penta_prism": 3, "hexa_prism": 3,
-    "polyhedron": 3, "quad6": 2, "triangle7": 2, "pixel": 2, "empty": 0, "VTK_BEZIER_CURVE": 1,
-    "VTK_BEZIER_TRIANGLE": 2, "VTK_BEZIER_QUADRILATERAL": 2, "VTK_BEZIER_TETRAHEDRON": 3,
-    "VTK_BEZIER_HEXAHEDRON": 3, "VTK_BEZIER_WEDGE": 3, "VTK_BEZIER_PYRAMID": 3,
-}
-
-
-def _complete_meshio_dimensions() -> None:
-    """Add the missing entries of :data:`_MESHIO_MISSING_DIMENSIONS` to meshio's table (only missing ones)."""
-    from meshio._mesh import topological_dimension
-
-    for name, dim in _MESHIO_MISSING_DIMENSIONS.items():
-        topological_dimension.setdefault(name, dim)
-
-
-class _Block:  # what cells_from_meshio reads: .type and .data
-    def __init__(self, ctype, data):
-        self.type, self.data = ctype, data
-
-
-def _old_lagrange_numbering(path: str) -> bool:
-    """Whether a VTK file numbers Lagrange hexahedra as before VTK 9 (see :data:`_OLD_LAGRANGE_HEX`)."""
-    ext = os.path.splitext(path)[1].lower()
-    if ext == ".vtu":
-        return (_vtu_version(path) or (0, 0)) < (2, 1)
-    if ext != ".vtk":
-        return False
-    with open(path, "rb") as fh:
-        m = re.match(rb"#\s*vtk DataFile Version (\d+)\.(\d+)", fh.readline())
-    return m is not None and (int(m.group(1)), int(m.group(2))) < (5, 1)
-
-
-def volume_type_blocks(cells, path: str) -> list:
-    """meshio cell blocks with VTK Lagrange cells of degree <= 2 renamed to the equivalent meshio type.
-
-    Raises SEDFormatError naming the file and the cell type for a volume cell type afferent cannot
-    interpolate in (Lagrange cells of degree 3 and more, Bezier cells, polyhedra): such a mesh is
-    never treated as scattered points.
-    """
-    from meshio._mesh import topological_dimension
-
-    out = []
-    for block in cells:
-        data = np.asarray(block.data)
-        ctype = _LAGRANGE.get((block.type, data.shape[1] if data.ndim == 2 else 0), block.type)
-        if _HIGHER.get(ctype, ctype) not in _TETS and topological_dimension.get(ctype, 3) == 3:
-            n = data.shape[1] if data.ndim == 2 else "a varying number of"
-            raise SEDFormatError(
-                f"SED file {path!r} holds {len(data)} volume cell(s) of type {ctype!r} ({n} nodes), which afferent "
-                "cannot interpolate in; it reads tetrahedra, hexahedra, wedges and pyramids, linear or quadratic "
-                "(tetra10, hexahedron20/27, wedge15/18, pyramid13), and VTK Lagrange cells of degree 1 or 2. "
-                "Convert the mesh to quadratic cells (ParaView: Tessellate; or export VTK_QUADRATIC_* cells).")
-        if block.type == "VTK_LAGRANGE_HEXAHEDRON" and ctype == "hexahedron27" and _old_lagrange_numbering(path):
-            data = data[:, _OLD_LAGRANGE_HEX]
-        out.append(block if ctype == block.type else _Block(ctype, data))
-    return out
-
-
-def _volume_blocks(cells) -> list[tuple[int, str, np.ndarray]]:
-    out = []
-    for k, block in enumerate(cells):
-        base = _HIGHER.get(block.type, block.type)
-        if base in _TETS:
-            out.append((k, block.type, np.asarray(block.data)))
-    return out
-
-
-def cells_from_meshio(cells, path: str) -> Cells | None:
-    """Split meshio volume cell blocks into linear tetrahedra; None when the mesh has no volume cells.
-
-    Quadratic cells are split by their corner nodes (to locate points); a mesh with quadratic
-    cells keeps every block's full connectivity in VTK/meshio node order (:attr:`Cells.nodes`),
-    which 'linear' sampling interpolates in with the cells' own shape functions. Surface and
-    line blocks are ignored. A block whose rows do not hold its cell type's node count is
-    refused, naming ``path`` (the export).
-    """
-    from meshio._common import num_nodes_per_cell
-
-    blocks = _volume_blocks(cells)
-    if not blocks:
-        return None
-    for _, ctype, conn in blocks:
-        if conn.ndim != 2 or conn.shape[1] != num_nodes_per_cell[ctype]:
-            raise SEDFormatError(f"SED file {path!r}: a block of {ctype!r} cells must hold {num_nodes_per_cell[ctype]} "
-                                 f"node numbers per cell; got an array of shape {conn.shape} instead.")
-    tets, parents, offset = [], [], 0
-    for _, ctype, conn in blocks:
-        pattern = np.asarray(_TETS[_HIGHER.get(ctype, ctype)])
-        n = conn.shape[0]
-        # take along axis 1 of the flat pattern: C-ordered, so the reshape is a view (conn[:, pattern]
-        # is laid out otherwise and the reshape copied it: 23 -> 8 ms for 108k hexahedra); int64 (what
-        # Cells holds) before the take, on the connectivity, not after it on the larger tetrahedra
-        tets.append(np.take(conn.astype(np.int64, copy=False), pattern.ravel(), axis=1).reshape(-1, 4))
-        parents.append(np.repeat(np.arange(offset, offset + n), len(pattern)))
-        offset += n
-    higher = any(ctype in _HIGHER for _, ctype, _ in blocks)  # linear meshes need no more than their tetrahedra
-    nodes = tuple(b[2] for b in blocks) if higher else ()
-    if len(tets) == 1:  # one block: no copy
-        return Cells(tets[0], parents[0], offset, (blocks[0][1],), nodes=nodes)
-    return Cells(np.concatenate(tets), np.concatenate(parents), offset, tuple(b[1] for b in blocks), nodes=nodes)
-
-
 def _read_meshio(path: str, opened: list | None = None):
-    """(meshio.Mesh, component names) of ``path``: a .vtu through :func:`afferent.io._vtu.read_vtu` (one
+    """(mesh, component names) of ``path``: a .vtu through :func:`afferent.io._vtu.read_vtu` (one
     parse, every piece), other formats through meshio's reader; the side files read are appended to
     ``opened`` (XDMF)."""
     import meshio
@@ -174,15 +43,31 @@ def _read_meshio(path: str, opened: list | None = None):
     if ext == ".vtu":
         _check_vtk_xml_type(path)
         content = _guarded(path, read_vtu)
-        mesh = _guarded(path, lambda _: meshio.Mesh(content.points, content.cells, point_data=content.point_data,
-                                                     cell_data=content.cell_data))
-        return mesh, content.components
+        return _VtuMesh(content.points, content.cells, content.point_data, content.cell_values), content.components
 
     def xdmf(p):
         return read_single_grid(p, [] if opened is None else opened)
 
     reader = {".vtk": meshio.vtk.read, ".xdmf": xdmf, ".xmf": xdmf}.get(ext, meshio.read)
     return _guarded(path, reader), {}
+
+
+class _VtuMesh:
+    """What :func:`raw_from_mesh` reads of a VTU (:func:`afferent.io._vtu.read_vtu`), in place of a
+    meshio.Mesh: points, cell blocks, point data, and each cell array over all the file's cells in
+    the blocks' order (ndarrays, or :class:`~afferent.io._raw.Deferred` values, decoded when used)."""
+
+    def __init__(self, points, cells, point_data, cell_values):
+        self.points, self.cells, self.point_data, self.cell_values = points, cells, point_data, cell_values
+
+
+def _one_step(path: str, values):
+    """``values`` (n, ...) as one step, float64, shape (1, n, ...); a Deferred stays one, its decoding's
+    failures one SEDFormatError naming ``path`` (as when read at once)."""
+    if not isinstance(values, Deferred):
+        return np.asarray(values, dtype=float)[None]
+    return Deferred((1,) + values.shape, lambda: np.asarray(_guarded(path, lambda _: values.decode()), dtype=float)[None],
+                    values.label)
 
 
 def _guarded(path: str, read, *args):
@@ -267,43 +152,55 @@ def _check_vtk_xml_type(path: str) -> None:
             "0.1 to 2.x. Save it with an older VTK or ParaView, or as legacy VTK (.vtk).")
 
 
-def _vtu_version(path: str) -> tuple[int, int] | None:
-    """The VTKFile version attribute of a .vtu, as (major, minor); None when absent or unreadable."""
-    try:
-        with open(path, "rb") as fh:
-            head = fh.read(4096)
-    except OSError:
-        return None
-    m = re.search(rb'<VTKFile[^>]*\bversion="(\d+)\.(\d+)"', head)
-    return None if m is None else (int(m.group(1)), int(m.group(2)))
+def _rows(values, rows: np.ndarray | None):
+    """``values[rows]`` (all of ``values`` when ``rows`` is None), still deferred when ``values`` is."""
+    if rows is None:
+        return values
+    return values.then(lambda v: v[rows], (len(rows),) + values.shape[1:]) if isinstance(values, Deferred) else values[rows]
 
 
-def _arrays_from_mesh(mesh, path: str, cells_obj: Cells | None) -> dict[str, RawArray]:
+def _volume_cell_data(mesh) -> dict:
+    """Each numeric cell array of ``mesh`` over its volume cells (a meshio.Mesh: per block; a
+    :class:`_VtuMesh`: rows of its arrays over all cells, still deferred)."""
+    if isinstance(mesh, _VtuMesh):
+        rows = _volume_rows(mesh.cells)
+        return {name: _rows(v, rows) for name, v in mesh.cell_values.items()}
+    out = {}
+    for name, per_block in mesh.cell_data.items():
+        try:
+            out[name] = np.concatenate([np.asarray(per_block[k], dtype=float) for k, _, _ in _volume_blocks(mesh.cells)])
+        except (TypeError, ValueError):
+            continue  # non-numeric cell data
+    return out
+
+
+def _arrays_from_mesh(mesh, path: str, cells_obj: Cells | None, components: dict) -> dict[str, RawArray]:
+    """The point arrays, and the cell arrays over the volume cells, of ``mesh`` as one-step RawArrays
+    (with their ``components`` names where these name every component)."""
     arrays: dict[str, RawArray] = {}
     n_points = len(mesh.points)
+
+    def raw(name, data, location):
+        names = components.get(name, ())
+        named = len(data.shape) == 2 and data.shape[1] == len(names)
+        return RawArray(name, _one_step(path, data), location, None, names if named else ())
+
     for name, data in mesh.point_data.items():
-        data = np.asarray(data, dtype=float)
         if data.shape[0] != n_points:
             raise SEDFormatError(
                 f"SED file {path!r}: point array {name!r} must have one value per point ({n_points}); "
                 f"got {data.shape[0]} instead."
             )
-        arrays[name] = RawArray(name, data[None], "point")
+        arrays[name] = raw(name, data, "point")
     if cells_obj is not None:
-        vol = [k for k, _, _ in _volume_blocks(mesh.cells)]
-        for name, per_block in mesh.cell_data.items():
-            try:
-                parts = [np.asarray(per_block[k], dtype=float) for k in vol]
-            except (TypeError, ValueError):
-                continue  # non-numeric cell data
-            data = np.concatenate(parts)
+        for name, data in _volume_cell_data(mesh).items():
             if data.shape[0] != cells_obj.n_cells:
                 raise SEDFormatError(
                     f"SED file {path!r}: cell array {name!r} must have one value per volume cell "
                     f"({cells_obj.n_cells}); got {data.shape[0]} instead."
                 )
             key = name if name not in arrays else f"{name}@cell"
-            arrays[key] = RawArray(name, data[None], "cell")
+            arrays[key] = raw(name, data, "cell")
     return arrays
 
 
@@ -360,10 +257,7 @@ def raw_from_mesh(mesh, path: str, fmt: str, components: dict, notes: list, *, r
     notes = list(notes)
     if cells_obj is None:
         notes.append("No volume cells in the file: the points are treated as scattered samples.")
-    arrays = _arrays_from_mesh(mesh, path, cells_obj)
-    arrays = {k: (RawArray(a.name, a.values, a.location, a.unit, components[a.name])
-                  if a.name in components and a.values.ndim == 3 and a.values.shape[2] == len(components[a.name]) else a)
-              for k, a in arrays.items()}
+    arrays = _arrays_from_mesh(mesh, path, cells_obj, components)
     return RawExport(files=tuple(files), format=fmt, points=points, arrays=arrays, cells=cells_obj, notes=tuple(notes),
                      reader=reader)
 
@@ -398,6 +292,7 @@ def iter_vtu_series(paths: list[str], times=None, *, progress: bool = False):
     first = read_step(paths[0])
     n_points = first.points.shape[0]
     n_cells = first.cells.n_cells if first.cells is not None else None
+    volume_rows = None  # the volume cells' rows among all of a step's cells, found once when needed
     yield replace(first, times=None if times is None else times[:1])
     for k, path in enumerate(progress_bar(paths[1:], enabled=progress, desc="reading series", unit="file"), start=1):
         if not os.path.isfile(path):
@@ -410,6 +305,11 @@ def iter_vtu_series(paths: list[str], times=None, *, progress: bool = False):
         else:
             step = _guarded(path, read_vtu, ("Points", "PointData", "CellData"))  # no cells: the first step's
             pd, cd, pts, npts = step.point_data, step.cell_values, step.points, step.n_points
+            if cd and n_cells is not None and step.n_cells != n_cells and paths[0].lower().endswith(".vtu"):
+                if volume_rows is None:  # surface cells besides the volume: the first file's blocks say which rows
+                    first_cells = _guarded(paths[0], read_vtu, ("Cells",)).cells
+                    volume_rows = _volume_rows(volume_type_blocks(first_cells, paths[0]))
+                cd = {name: _rows(v, volume_rows) for name, v in cd.items()}
         if npts != n_points or (pts is not None and not np.array_equal(np.asarray(pts, dtype=float), first.points)):
             raise SEDFormatError(
                 f"SED file {path!r} is not on the same mesh as {paths[0]!r} "
@@ -426,18 +326,18 @@ def iter_vtu_series(paths: list[str], times=None, *, progress: bool = False):
                     f"SED file {path!r} lacks the {arr.location} array {arr.name!r} that {paths[0]!r} has; "
                     "every step of a series must carry the same arrays."
                 )
-            values = np.asarray(source[arr.name], dtype=float)
+            values = source[arr.name]
             expected = n_points if arr.location == "point" else n_cells
             if values.shape[0] != expected:
                 raise SEDFormatError(
                     f"SED file {path!r}: array {arr.name!r} must have {expected} values; got {values.shape[0]} instead."
                 )
-            if values.shape[1:] != arr.values.shape[2:]:
+            if tuple(values.shape[1:]) != arr.shape[2:]:
                 raise SEDFormatError(
-                    f"SED file {path!r}: array {arr.name!r} has shape {values.shape[1:]} per value; "
-                    f"{paths[0]!r} has {arr.values.shape[2:]}."
+                    f"SED file {path!r}: array {arr.name!r} has shape {tuple(values.shape[1:])} per value; "
+                    f"{paths[0]!r} has {arr.shape[2:]}."
                 )
-            arrays[key] = replace(arr, values=values[None])
+            arrays[key] = replace(arr, values=_one_step(path, values))
         files = step.files if isinstance(step, RawExport) else (path,)  # a .pvtu's pieces, a .vtm's blocks
         yield replace(first, files=files, arrays=arrays, times=None if times is None else times[k:k + 1])
 

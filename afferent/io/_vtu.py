@@ -16,6 +16,13 @@ from that one parse returns:
   naming the file, the array, the piece, and both counts);
 - the arrays' ``ComponentName0..`` attributes (ccx2paraview writes ``XX YY ZZ XY YZ ZX``).
 
+A binary data array whose header (its byte count; a compressed array's block sizes) agrees with
+its piece's count is not decoded here: it comes back as a :class:`~afferent.io._raw.Deferred`,
+decoded on first use, so that a reader after the SED alone does not decompress the
+displacements and the other arrays beside it (the arrays' text stays in memory with the parsed
+file until then). An array whose header disagrees, and every ASCII array, is decoded at once
+and meets the checks below as before.
+
 Errors are meshio's (``ReadError``, ``ValueError``, ...), which the caller turns into one
 message naming the file, or :class:`VtuCountError`.
 """
@@ -28,6 +35,7 @@ from xml.etree import ElementTree as ET
 import numpy as np
 
 from ..exceptions import SEDFormatError
+from ._raw import Deferred
 
 __all__ = ["VtuContent", "VtuCountError", "read_vtu", "ALL_PARTS"]
 
@@ -50,12 +58,12 @@ class VtuContent:
         None when "Points" was not asked for.
     cells : list of meshio.CellBlock
         In file order, piece after piece (connectivity indices into ``points``).
-    point_data : dict of str to ndarray
-        Shape (n_points, ...) each.
-    cell_data : dict of str to list of ndarray
-        One array per block of ``cells`` (meshio's layout); empty when "Cells" was not asked for.
-    cell_values : dict of str to ndarray
-        Each cell array over all the file's cells (every type), pieces in order.
+    point_data : dict of str to ndarray or Deferred
+        Shape (n_points, ...) each (meshio's: ``(n,)``, or ``(n, k)`` when the tag gives
+        NumberOfComponents); a :class:`~afferent.io._raw.Deferred` is decoded on first use.
+    cell_values : dict of str to ndarray or Deferred
+        Each cell array over all the file's cells (every type, in the order of ``cells``' blocks),
+        pieces in order.
     n_points, n_cells, n_pieces : int
     components : dict of str to tuple of str
         ``{array name: (ComponentName0, ...)}`` for the arrays whose tag names each component.
@@ -64,7 +72,6 @@ class VtuContent:
     points: np.ndarray | None
     cells: list
     point_data: dict
-    cell_data: dict
     cell_values: dict
     n_points: int
     n_cells: int
@@ -118,7 +125,7 @@ def _component_names(attrib: dict) -> tuple[str, ...]:
 class _Piece:
     """One ``<Piece>`` decoded: its counts, points, raw cells and data arrays."""
 
-    def __init__(self, decoder, piece, parts, components: dict, index: int):
+    def __init__(self, decoder, piece, parts, components: dict, index: int, path: str):
         from meshio import ReadError
         from meshio._common import warn
         from meshio._exceptions import CorruptionError
@@ -150,11 +157,16 @@ class _Piece:
                 if len(self.cells["offsets"]) != self.n_cells or len(self.cells["types"]) != self.n_cells:
                     raise ReadError()
             else:
-                into = self.point_data if child.tag == "PointData" else self.cell_data
+                into, n = (self.point_data, self.n_points) if child.tag == "PointData" else (self.cell_data, self.n_cells)
                 for a in arrays:
                     names = _component_names(a.attrib)
                     if names:
                         components[a.attrib["Name"]] = names
+                    shape = _announced_shape(decoder, a, n)
+                    if shape is not None:  # its header agrees with the piece: decoded when first used
+                        label = f"SED file {path!r}: {child.tag[:-4].lower()} array {a.attrib['Name']!r}"
+                        into[a.attrib["Name"]] = Deferred(shape, lambda a=a: decoder.read_data(a), label)
+                        continue
                     try:
                         into[a.attrib["Name"]] = decoder.read_data(a)
                     except CorruptionError as err:
@@ -163,16 +175,58 @@ class _Piece:
                         warn(err.args[0] + " Skipping.")  # meshio's own words, on stderr as meshio says them
 
 
+def _announced_shape(decoder, array, n: int) -> tuple | None:
+    """The shape meshio's ``read_data`` will give a binary DataArray, from its header alone, when the
+    header announces ``n`` values (times NumberOfComponents); None otherwise (ASCII, another count,
+    an unknown type or a damaged header: decoded at once, to meet the checks and messages as they are).
+
+    The header is the first item(s) of the base64 text (inline, or at the array's offset in the
+    appended data, which the parse has base64-encoded): uncompressed, the byte count; compressed,
+    the number of blocks, the block size and the last block's size (0: a full block).
+    """
+    import base64
+
+    from meshio.vtu._vtu import num_bytes_to_num_base64_chars, vtu_to_numpy_type
+
+    attrib = array.attrib
+    fmt = attrib.get("format", "ascii")
+    try:
+        dtype = np.dtype(vtu_to_numpy_type[attrib["type"]])
+        k = int(attrib["NumberOfComponents"]) if "NumberOfComponents" in attrib else None
+        if fmt == "binary":
+            text = array.text.lstrip()
+        elif fmt == "appended":
+            text = decoder.appended_data[int(attrib["offset"]):]
+        else:
+            return None
+        head = np.dtype(vtu_to_numpy_type[decoder.header_type])
+        if decoder.byte_order is not None:
+            head = head.newbyteorder("<" if decoder.byte_order == "LittleEndian" else ">")
+        items = 3 if decoder.compression is not None else 1
+        raw = base64.b64decode(text[:num_bytes_to_num_base64_chars(items * head.itemsize)])
+        header = np.frombuffer(raw[:items * head.itemsize], head).astype(np.int64)
+    except (KeyError, ValueError, TypeError, AttributeError):
+        return None
+    if len(header) != items or header.min() < 0:
+        return None
+    if decoder.compression is None:
+        n_bytes = int(header[0])
+    else:
+        blocks, size, last = (int(h) for h in header)
+        n_bytes = 0 if blocks == 0 else (blocks - 1) * size + (last or size)
+    if k is None:
+        return (n,) if n_bytes == n * dtype.itemsize else None
+    return (n, k) if k > 0 and n_bytes == n * k * dtype.itemsize else None
+
+
 def _check_counts(path: str, pieces: list, data: str, n_pieces: int) -> None:
     """Refuse a cell array (or, with several pieces, a point array) with more or fewer values than its piece has."""
     count = "n_cells" if data == "cell_data" else "n_points"
     many = n_pieces > 1
-    if data == "point_data" and not many:
-        return  # one piece: meshio.Mesh checks point data (its own message)
     for piece in pieces:
         n = getattr(piece, count)
         for name, values in getattr(piece, data).items():
-            if values.shape[0] != n:
+            if values.shape[0] != n:  # a Deferred's shape is its piece's: checked by _announced_shape
                 kind, attr = ("cell", "NumberOfCells") if data == "cell_data" else ("point", "NumberOfPoints")
                 where = f" in piece {piece.index} of {n_pieces}" if many else ""
                 raise VtuCountError(f"SED file {path!r}: {kind} array {name!r} must have one value per {kind}{where} "
@@ -180,7 +234,7 @@ def _check_counts(path: str, pieces: list, data: str, n_pieces: int) -> None:
 
 
 def _joined(path: str, pieces: list, data: str, n_pieces: int) -> dict:
-    """Each array of every piece, pieces in order (one piece: no copy)."""
+    """Each array of every piece, pieces in order (one piece: no copy; deferred while every piece's is)."""
     first = getattr(pieces[0], data)
     if len(pieces) == 1:
         return dict(first)
@@ -191,39 +245,45 @@ def _joined(path: str, pieces: list, data: str, n_pieces: int) -> dict:
             raise VtuCountError(f"SED file {path!r}: piece {piece.index} of {n_pieces} has the {kind} arrays "
                                 f"{sorted(have)}, piece {pieces[0].index} has {sorted(first)}; every piece must carry "
                                 "the same arrays.")
-    return {name: np.concatenate([getattr(p, data)[name] for p in pieces]) for name in first}
+    out = {}
+    for name in first:
+        parts = [getattr(p, data)[name] for p in pieces]
+        if all(isinstance(v, Deferred) for v in parts) and len({v.shape[1:] for v in parts}) == 1:
+            shape = (sum(v.shape[0] for v in parts),) + parts[0].shape[1:]
+            out[name] = Deferred(shape, lambda parts=parts: np.concatenate([v.decode() for v in parts]), parts[0].label)
+        else:
+            out[name] = np.concatenate([v.decode() if isinstance(v, Deferred) else v for v in parts])
+    return out
 
 
-def _cells(pieces: list) -> tuple[list, dict]:
-    """meshio cell blocks and per-block cell data of every piece; each piece's connectivity offset
-    by the points before it (meshio 5.3 keeps the last piece's only)."""
+def _cells(pieces: list) -> list:
+    """meshio cell blocks of every piece; each piece's connectivity offset by the points before it
+    (meshio 5.3 keeps the last piece's only). The blocks are runs of one cell type in the file's
+    order, so a cell array over all the file's cells is the blocks' data end to end."""
     from meshio._mesh import CellBlock
     from meshio._vtk_common import vtk_cells_from_data
     from meshio.vtu import _vtu
 
-    blocks, per_block, offset = [], {name: [] for name in pieces[0].cell_data}, 0
+    blocks, offset = [], 0
     for piece in pieces:
         raw = piece.cells
         if not len(raw["types"]):  # points without cells: meshio's split fails on no cells
             offset += piece.n_points
             continue
         if "faces" in raw or np.any(raw["types"] == 42):  # polyhedra: meshio's own path (refused later, by type)
-            got, data = _vtu._organize_cells([offset], [raw], [piece.cell_data])
+            got, _ = _vtu._organize_cells([offset], [raw], [{}])
         else:
-            got, data = vtk_cells_from_data(raw["connectivity"].ravel(), raw["offsets"].ravel(), raw["types"].ravel(),
-                                            piece.cell_data)
+            got, _ = vtk_cells_from_data(raw["connectivity"].ravel(), raw["offsets"].ravel(), raw["types"].ravel(), {})
             if offset:
                 got = [CellBlock(b.type, b.data + offset) for b in got]
         blocks.extend(got)
-        for name in per_block:
-            per_block[name].extend(data.get(name, []))
         offset += piece.n_points
-    return _runs_joined(blocks, per_block) if len(pieces) > 1 else (blocks, per_block)
+    return _runs_joined(blocks) if len(pieces) > 1 else blocks
 
 
-def _runs_joined(blocks: list, per_block: dict) -> tuple[list, dict]:
+def _runs_joined(blocks: list) -> list:
     """Adjacent blocks of one cell type and node count (a type running on from one piece into the
-    next) as one block, their cell data likewise: a mesh's blocks do not depend on how it was cut."""
+    next) as one block: a mesh's blocks do not depend on how it was cut."""
     from meshio._mesh import CellBlock
 
     runs: list[list[int]] = []
@@ -235,10 +295,9 @@ def _runs_joined(blocks: list, per_block: dict) -> tuple[list, dict]:
         else:
             runs.append([k, k + 1])
     if len(runs) == len(blocks):
-        return blocks, per_block
-    out = [blocks[a] if b - a == 1 else CellBlock(blocks[a].type, np.concatenate([c.data for c in blocks[a:b]]))
-           for a, b in runs]
-    return out, {name: [v[a] if b - a == 1 else np.concatenate(v[a:b]) for a, b in runs] for name, v in per_block.items()}
+        return blocks
+    return [blocks[a] if b - a == 1 else CellBlock(blocks[a].type, np.concatenate([c.data for c in blocks[a:b]]))
+            for a, b in runs]
 
 
 def read_vtu(path: str, parts=ALL_PARTS) -> VtuContent:
@@ -253,7 +312,7 @@ def read_vtu(path: str, parts=ALL_PARTS) -> VtuContent:
     if unknown:
         raise ReadError(f"Unknown grid subtag '{unknown[0]}'.")
     components: dict = {}
-    pieces = [_Piece(decoder, p, parts, components, k) for k, p in enumerate(c for c in grid if c.tag == "Piece")]
+    pieces = [_Piece(decoder, p, parts, components, k, path) for k, p in enumerate(c for c in grid if c.tag == "Piece")]
     if not pieces:
         raise ReadError("No Piece found.")
     n_pieces = len(pieces)
@@ -267,10 +326,10 @@ def read_vtu(path: str, parts=ALL_PARTS) -> VtuContent:
             raise ReadError()
         points = np.concatenate([p.points for p in pieces]) if many else pieces[0].points
     point_data, cell_values = _joined(path, pieces, "point_data", n_pieces), _joined(path, pieces, "cell_data", n_pieces)
-    blocks, per_block = [], {}
+    blocks = []
     if "Cells" in parts and any(p.cells is not None for p in pieces):
         if any(p.cells is None for p in pieces):
             raise ReadError()
-        blocks, per_block = _cells(pieces)
-    return VtuContent(points, blocks, point_data, per_block, cell_values, sum(p.n_points for p in pieces),
+        blocks = _cells(pieces)
+    return VtuContent(points, blocks, point_data, cell_values, sum(p.n_points for p in pieces),
                       sum(p.n_cells for p in pieces), n_pieces, components)
