@@ -165,3 +165,47 @@ def test_a_series_with_surface_cells_reads_each_steps_volume_cell_data(tmp_path)
         fields = list(iter_sed(str(pvd), **UNITS))
     assert [f.n_times for f in fields] == [1, 1, 1]
     np.testing.assert_allclose(fields[2].sed, 3 * fields[0].sed)
+
+
+_VTK_MODES = [("none", "UInt32", "binary", True, "little"), ("none", "UInt64", "appended", False, "little"),
+              ("zlib", "UInt32", "binary", True, "little"), ("zlib", "UInt64", "binary", True, "little"),
+              ("zlib", "UInt32", "appended", True, "little"), ("zlib", "UInt64", "appended", False, "little"),
+              ("lzma", "UInt32", "appended", False, "little"), ("lzma", "UInt64", "binary", True, "little"),
+              ("zlib", "UInt32", "binary", True, "big"), ("none", "UInt64", "appended", False, "big")]
+
+
+@pytest.mark.parametrize("compressor, header, mode, encoded, order", _VTK_MODES,
+                         ids=["-".join(map(str, m)) for m in _VTK_MODES])
+def test_every_binary_layout_vtk_writes_is_deferred_and_reads_vtks_values(tmp_path, compressor, header, mode, encoded,
+                                                                          order):
+    """The deal.II export rewritten by VTK's own XML writer in each binary layout (compressor, header
+    size, inline or appended, base64 or raw, byte order): every data array deferred (its shape from
+    the header) and, decoded, equal to VTK's reading of the same file."""
+    vtk = pytest.importorskip("vtk")
+    from vtk.util.numpy_support import vtk_to_numpy
+
+    reader = vtk.vtkXMLUnstructuredGridReader()
+    reader.SetFileName(str(DEALII))
+    reader.Update()
+    writer = vtk.vtkXMLUnstructuredGridWriter()
+    path = tmp_path / "block.vtu"
+    writer.SetFileName(str(path))
+    writer.SetInputData(reader.GetOutput())
+    {"none": writer.SetCompressorTypeToNone, "zlib": writer.SetCompressorTypeToZLib,
+     "lzma": writer.SetCompressorTypeToLZMA}[compressor]()
+    writer.SetHeaderTypeToUInt64() if header == "UInt64" else writer.SetHeaderTypeToUInt32()
+    writer.SetDataModeToAppended() if mode == "appended" else writer.SetDataModeToBinary()
+    writer.SetEncodeAppendedData(encoded)
+    writer.SetByteOrderToBigEndian() if order == "big" else writer.SetByteOrderToLittleEndian()
+    assert writer.Write() == 1
+    check = vtk.vtkXMLUnstructuredGridReader()
+    check.SetFileName(str(path))
+    check.Update()
+    data = check.GetOutput().GetPointData()
+    raw = read_raw(str(path))
+    assert raw.reader.startswith("meshio") and not any(a.decoded for a in raw.arrays.values())
+    assert sorted(raw.arrays) == sorted(data.GetArrayName(k) for k in range(data.GetNumberOfArrays()))
+    for name, arr in raw.arrays.items():
+        want = vtk_to_numpy(data.GetArray(name))
+        assert arr.shape == (1,) + want.shape
+        np.testing.assert_array_equal(arr.values[0], want, err_msg=name)
