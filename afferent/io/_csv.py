@@ -280,7 +280,7 @@ def _read_one(path: str, sep: str | None, time_column: str | None) -> _FileArray
         out.preset = "calculix-dat"  # *EL PRINT: sxx syy szz sxy sxz syz, tensor shear (CalculiX printout.f)
         return out
     cols = _parse_table(path, lines, sep, notes)
-    return _to_arrays(path, cols, time_column)
+    return _to_arrays(path, cols, time_column, n_records=cols.n_records, record_times=cols.record_times)
 
 
 def _normalise_paths(paths) -> list[str]:
