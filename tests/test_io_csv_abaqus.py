@@ -159,6 +159,15 @@ def test_a_wrapped_title_must_name_the_first_record(tmp_path):
         read_csv(p)
 
 
+def test_a_titled_rule_above_a_plain_title_is_not_a_wrapped_table(tmp_path):
+    text = ("Field Output Report\nSource 1\n---------\n"
+            "            Node           SENER\n           Label          @Loc 1\n" + "-" * 33 + "\n"
+            "               1     1.0E-03\n               2     2.0E-03\n")
+    raw = read_csv(_write(tmp_path, text))
+    assert list(raw.arrays) == ["Node Label", "SENER"]
+    np.testing.assert_array_equal(raw.arrays["SENER"].values, [[1e-3, 2e-3]])
+
+
 def test_the_lug_report_reads_as_joined_records():
     """The wrapped integration-point report of the Abaqus Getting Started guide's lug example (its layout, made-up
     values): 7 + 2 values per record, wrapped footers with 'Int Pt' rows."""

@@ -315,7 +315,8 @@ def _wrapped_titles(lines: list[str], lo: int, m: int) -> list[tuple[int, int]] 
 
     With a page width set, Abaqus writes a wide table's two-line column title in parts, each
     over its own dashed rule, stacked directly above the rows (``Element Int S.Mises ...`` /
-    ``Label Pt @Loc 1 ...`` / ``----`` / ``S.S13 S.S23`` / ``@Loc 1 @Loc 1`` / ``----``). Returns the
+    ``Label Pt @Loc 1 ...`` / ``----`` / ``S.S13 S.S23`` / ``@Loc 1 @Loc 1`` / ``----``); the lower line of
+    each part holds the ``@Loc N`` qualifiers of its values. Returns the
     (upper, lower) line indices of each part, top first, or None unless there are two or more.
     """
     parts: list[tuple[int, int]] = []
@@ -327,6 +328,8 @@ def _wrapped_titles(lines: list[str], lo: int, m: int) -> list[tuple[int, int]] 
             break
         upper, lower = j - 2, j - 1
         if not all(_is_body(lines[k].strip()) and not _is_data_line(lines[k], "whitespace") for k in (upper, lower)):
+            break
+        if not _LOC.search(lines[lower]):  # every part names values ('@Loc 1' under each): not 'Source 1' over '---'
             break
         parts.append((upper, lower))
         j = upper - 1
