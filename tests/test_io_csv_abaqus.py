@@ -149,6 +149,20 @@ def test_a_short_wrapped_record_is_refused(tmp_path):
         read_csv(p)
 
 
+def test_a_lost_line_of_a_wrapped_record_is_found_where_it_is_lost(tmp_path):
+    """Parts of equal counts (6 + 6): the line counts alone would pair the wrong lines until the last record."""
+    from pathlib import Path
+
+    lines = (Path(__file__).parent / "data" / "csv" / "abaqus_wrapped.rpt").read_text().split("\n")
+    del lines[25]  # the second line of the second record (line 26)
+    p = _write(tmp_path, "\n".join(lines))
+    msg = (f"SED file {p!r} has a table wrapped over 2 lines per record of 6, 6 values (column titles at lines 17-21): "
+           "line 26 must continue the record at line 25 (its line 2 of 2); got '2', the label of a new record: a line "
+           "of a record is missing instead.")
+    with pytest.raises(SEDFormatError, match=re.escape(msg)):
+        read_csv(p)
+
+
 def test_a_wrapped_title_must_name_the_first_record(tmp_path):
     rows = ["    1     1      0.25", "       -0.5   1.5E-03", "   -2.E-03      -0."]
     p = _write(tmp_path, _frame("Indent", "Increment 1: Step Time = 1.", rows, title=WRAPPED))

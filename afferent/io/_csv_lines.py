@@ -392,20 +392,37 @@ def _join_wrapped(path: str, rows: list[str], row_lines: list[int], wrap: tuple[
     """The records of a wrapped table, each record's lines joined into one row (numbered by its first line).
 
     ``wrap``: values on each line of a record; ``titles``: the first and last line (1-based) of the column titles.
+    Every line must hold its part's count of values. When the first record starts with a label (an integer:
+    Abaqus prints every value with a decimal point) and its other lines do not, every record must: a line
+    lost or added inside a table whose parts have equal counts is caught where it happens.
     """
     per = len(wrap)
+    what = (f"SED file {path!r} has a table wrapped over {per} lines per record of {', '.join(map(str, wrap))} values "
+            f"(column titles at lines {titles[0]}-{titles[1]})")
+    heads = [rows[k].split(None, 1)[0] if rows[k].strip() else "" for k in range(min(per, len(rows)))]
+    labelled = len(heads) == per and heads[0].isdigit() and not any(h.isdigit() for h in heads[1:])
+    n_rec = -(-len(rows) // per)
+    ok = len(rows) == n_rec * per and [len(x.split()) for x in rows] == list(wrap) * n_rec
+    if ok and labelled:
+        ok = [x.split(None, 1)[0].isdigit() for x in rows] == ([True] + [False] * (per - 1)) * n_rec
+    if ok:  # the common case, checked by list comparisons; else the loop below says where it fails
+        return [" ".join(rows[r:r + per]) for r in range(0, len(rows), per)], row_lines[::per]
     out, out_lines = [], []
     for r in range(0, len(rows), per):
         for k, want in enumerate(wrap):
-            got = _count_fields(rows[r + k], "whitespace") if r + k < len(rows) else None
-            if got != want:
-                where = f"{got} at line {row_lines[r + k]}" if got is not None else "the end of the rows"
-                raise SEDFormatError(
-                    f"SED file {path!r} has a table wrapped over {per} lines per record of {', '.join(map(str, wrap))} "
-                    f"values (column titles at lines {titles[0]}-{titles[1]}): the record at line "
-                    f"{row_lines[r]} must have "
-                    f"{want} values on its line {k + 1}; got {where} instead."
-                )
+            if r + k >= len(rows):
+                raise SEDFormatError(f"{what}: the record at line {row_lines[r]} must have {want} values on its line "
+                                     f"{k + 1}; got no line (the rows end at line {row_lines[-1]}) instead.")
+            fields = rows[r + k].split()
+            if len(fields) != want:
+                raise SEDFormatError(f"{what}: the record at line {row_lines[r]} must have {want} values on its line "
+                                     f"{k + 1}; got {len(fields)} at line {row_lines[r + k]} instead.")
+            if labelled and fields[0].isdigit() != (k == 0):
+                must = ("start a record with its label (an integer)" if k == 0 else
+                        f"continue the record at line {row_lines[r]} (its line {k + 1} of {per})")
+                got = "a continuation line" if k == 0 else "the label of a new record: a line of a record is missing"
+                raise SEDFormatError(f"{what}: line {row_lines[r + k]} must {must}; got {_quote(fields[0])}, {got} "
+                                     "instead.")
         out.append(" ".join(rows[r:r + per]))
         out_lines.append(row_lines[r])
     return out, out_lines
