@@ -231,3 +231,14 @@ def test_integration_point_report_without_coordinates_is_refused_naming_them(tmp
             "must have one x coordinate column (e.g. 'x', 'X', 'COORD1', 'X Location'); found no. Found columns "
             "'Element Label', 'Int Pt', 'SENER'.")):
         read_sed(p, sed_unit="MPa", length_unit="mm")
+
+
+def test_integration_points_with_coord_are_points_of_their_own():
+    """COORD at the integration points places each row: four points, not two element means."""
+    from pathlib import Path
+
+    field = read_sed(str(Path(__file__).parent / "data" / "csv" / "abaqus_wrapped.rpt"), sed_unit="MPa",
+                     length_unit="mm")
+    assert field.n_points == 4
+    np.testing.assert_allclose(field.points[:, 0], [211.325e-6, 788.675e-6, 1.21132e-3, 1.78868e-3])
+    np.testing.assert_allclose(field.sed[0], [1.5e3, 2.5e3, 750.0, 333.333])
