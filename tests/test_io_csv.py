@@ -77,14 +77,17 @@ LAYOUTS = {
     "abaqus_sener.rpt": dict(
         names=["Node Label", "SENER"],
         units={"Node Label": None, "SENER": None},
-        shape=(1, 5), times=None, length_unit=None, time_unit=None,
+        shape=(1, 5), times=[1.0], length_unit=None, time_unit=None,
         values={
             "Node Label": [[1.0, 2.0, 3.0, 4.0, 5.0]],
             "SENER": [[1.23456789e-03, 3.33333333e-04, 7.14285714e-05, 9.09090909e-04, 1.11111111e-04]],
         },
         notes=["detected delimiter: runs of whitespace",
                "skipped 10 comment or preamble lines above the header (line 17)",
-               "dropped 10 footer rows (Minimum/Maximum/At Node/At Element/Total)",
+               "the report holds Nodal values (line 11)",
+               "read the report's frame (step 'Indent'): 'Increment     20: Step Time =    1.000' (line 9); times are "
+               "their 'Step Time'",
+               "dropped 10 footer rows (Minimum/Maximum/At Node/At Element/Int Pt/Total)",
                "joined 2 report blocks with identical columns",
                "removed Abaqus position qualifiers ('@Loc N') from column names"],
     ),
@@ -92,7 +95,7 @@ LAYOUTS = {
         names=["Element Label", "Int Pt", "S.S11", "S.S22", "S.S33", "S.S12", "S.S13", "S.S23",
                "LE.LE11", "LE.LE22", "LE.LE33", "LE.LE12", "LE.LE13", "LE.LE23"],
         units={"S.S11": None},
-        shape=(1, 3), times=None, length_unit=None, time_unit=None,
+        shape=(1, 3), times=[1.0], length_unit=None, time_unit=None,
         values={
             "Element Label": [[1.0, 1.0, 2.0]],
             "Int Pt": [[1.0, 2.0, 1.0]],
@@ -101,7 +104,44 @@ LAYOUTS = {
             "LE.LE12": [[-9.09090909e-04, -8.26446281e-04, -1.04719755e-03]],
             "LE.LE23": [[-3.63636364e-05, -3.30578512e-05, -4.18879020e-05]],
         },
-        notes=["dropped 4 footer rows (Minimum/Maximum/At Node/At Element/Total)"],
+        notes=["dropped 4 footer rows (Minimum/Maximum/At Node/At Element/Int Pt/Total)"],
+    ),
+    "abaqus_frames.rpt": dict(
+        names=["Node Label", "COORD.COOR1", "COORD.COOR2", "COORD.COOR3", "SENER"],
+        units={"SENER": None, "COORD.COOR1": None},
+        shape=(2, 6), times=[0.5, 1.0], length_unit=None, time_unit=None,
+        values={
+            "Node Label": [[1.0, 2.0, 3.0, 4.0, 1.0, 2.0]] * 2,
+            "COORD.COOR1": [[0.0, 1.0, 0.0, 1.0, 0.0, 0.5]] * 2,
+            "COORD.COOR3": [[-1.0, -1.0, -1.0, -1.0, 0.0, -0.0]] * 2,
+            "SENER": [[100e-6, 200e-6, 300e-6, 1.11111e-3, 33.3333e-6, 2.5e-3],
+                      [400e-6, 800e-6, 1.2e-3, 4.44444e-3, 133.333e-6, 10e-3]],
+        },
+        notes=["read the report's 2 frames as time steps of 6 rows (step 'Indent'): 'Increment      5: Step Time =    "
+               "0.5000' (line 9); 'Increment     10: Step Time =     1.000' (line 57); times are their 'Step Time'",
+               "dropped 16 footer rows (Minimum/Maximum/At Node/At Element/Int Pt/Total)",
+               "joined 2 report blocks with identical columns in each frame",
+               "removed Abaqus position qualifiers ('@Loc N') from column names"],
+    ),
+    "abaqus_wrapped.rpt": dict(
+        names=["Element Label", "Int Pt", "COORD.COOR1", "COORD.COOR2", "COORD.COOR3", "SENER",
+               "S.S11", "S.S22", "S.S33", "S.S12", "S.S13", "S.S23"],
+        units={"SENER": None},
+        shape=(1, 4), times=[1.0], length_unit=None, time_unit=None,
+        values={
+            "Element Label": [[1.0, 1.0, 2.0, 2.0]],
+            "Int Pt": [[1.0, 2.0, 1.0, 2.0]],
+            "COORD.COOR1": [[211.325e-3, 788.675e-3, 1.21132, 1.78868]],
+            "SENER": [[1.5e-3, 2.5e-3, 750e-6, 333.333e-6]],
+            "S.S11": [[-3e-3, -4e-3, -2e-3, -1e-3]],
+            "S.S13": [[-250e-6, -0.0, 250e-6, 0.0]],
+            "S.S23": [[125e-6, 62.5e-6, 0.0, -15.625e-6]],
+        },
+        notes=["joined each record's 2 lines of a wrapped table (6 + 6 values; column titles in 2 parts)",
+               "the report holds Integration point values (line 11): one row per element integration point: they are "
+               "points only with COORD at the integration points in the report, or with coordinates= element "
+               "centroids (rows averaged per element)",
+               "dropped 6 footer rows (Minimum/Maximum/At Node/At Element/Int Pt/Total)"],
     ),
     "workbench_tab.txt": dict(
         names=["Node Number", "X Location", "Y Location", "Z Location", "Equivalent Stress",

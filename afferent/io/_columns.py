@@ -54,6 +54,11 @@ COORD_ALIASES: dict[str, frozenset[str]] = {
     "z": _c("z", "coord3", "coor3", "coordz", "coordinatez", "zlocation", "zcoord", "zcoordinate", "points2"),
 }
 
+# Abaqus reports give coordinates as the COORD output variable's components (``COORD.COOR1``,
+# ``@Loc 1`` removed; ``COORD-COOR1`` reads the same once canonical): docs/fe-export.md, Abaqus.
+for _axis, _coor in (("x", "COORD.COOR1"), ("y", "COORD.COOR2"), ("z", "COORD.COOR3")):
+    COORD_ALIASES[_axis] = COORD_ALIASES[_axis] | _c(_coor)
+
 #: Time columns.
 TIME_ALIASES: frozenset[str] = _c("time", "t", "steptime", "totaltime", "timestep", "time_s")
 

@@ -10,8 +10,9 @@ Layouts handled (see :ref:`fe-checklist` and each tool's section of the FE-expor
 * comment lines starting with ``#``, ``%`` (COMSOL), ``**`` (Abaqus) or ``!``, blank lines,
   BOM, CRLF, gzip compression (detected by magic bytes, not by the file name);
 * free-text preambles above the header row, a units row below it, and Abaqus
-  ``.rpt``-like reports (a two-line column title over a dashed rule,
-  ``Minimum``/``Maximum``/``At Node``/``Total`` footers, several blocks with the same columns);
+  ``.rpt`` reports (a two-line column title over a dashed rule, wrapped tables,
+  ``Minimum``/``Maximum``/``At Node``/``Int Pt``/``Total`` footers, several blocks with the same
+  columns: the parts of one frame joined, each ``Frame:`` one time step);
 * COMSOL spreadsheets: ``% Key,value`` lines, the last ``%`` line holding the column names,
   ``% Length unit,mm``, units in parentheses, per-step columns ``solid.Ws (J/m^3) @ t=0.02``;
 * a time column (rows grouped by time value), several files (one per time step);
@@ -280,7 +281,7 @@ def _read_one(path: str, sep: str | None, time_column: str | None) -> _FileArray
         out.preset = "calculix-dat"  # *EL PRINT: sxx syy szz sxy sxz syz, tensor shear (CalculiX printout.f)
         return out
     cols = _parse_table(path, lines, sep, notes)
-    return _to_arrays(path, cols, time_column)
+    return _to_arrays(path, cols, time_column, n_records=cols.n_records, record_times=cols.record_times)
 
 
 def _normalise_paths(paths) -> list[str]:
@@ -370,9 +371,11 @@ def read_csv(paths, *, sep: str | None = None, time_column: str | None = None,
       the units.
     - Abaqus ``.rpt``-like reports: a two-line column title over a dashed rule is joined
       column by column (``Node``/``Label`` -> ``'Node Label'``), ``@Loc N`` qualifiers are
-      removed, rows starting with ``Minimum``, ``Maximum``, ``At Node``, ``At Element`` or
-      ``Total`` are footers and are dropped, and later blocks with the same columns are
-      appended (with different columns: error). A repeat of the header line is skipped.
+      removed, rows starting with ``Minimum``, ``Maximum``, ``At Node``, ``At Element``, ``Int Pt``
+      or ``Total`` are footers and are dropped, and later blocks with the same columns are
+      appended (with different columns: error). A repeat of the header line is skipped. A
+      wrapped table (titles in parts, each over its own rule; each record over several lines)
+      is read as joined records, every line's count checked.
 
     Time steps come from, within one file:
 
@@ -382,7 +385,11 @@ def read_csv(paths, *, sep: str | None = None, time_column: str | None = None,
        group must have the same number of rows; the time column itself is not in ``arrays``.
     3. FEBio logfile records (``*Step``/``*Time``/``*Data``): each record is one step; the
        column names are ``id`` followed by the ``*Data`` names split on ``;``.
-    4. CalculiX ``.dat`` blocks (``stresses (elem, integ.pnt.,sxx,...) for set S and time t``):
+    4. Abaqus report frames (``Frame: Increment N: Step Time = T`` above a block): each new
+       frame is one step at its ``Step Time``; blocks of one frame (parts) are joined rows. Frames
+       of several analysis steps, or without a step time, give ``times=None`` (with a note): the
+       report states no total time.
+    5. CalculiX ``.dat`` blocks (``stresses (elem, integ.pnt.,sxx,...) for set S and time t``):
        each time is one step; blocks of different kinds with the same rows are put side by
        side, shared label columns kept once; the single value column of a block such as
        ``internal energy density (elem, integ.pnt.,energy)`` is named after the block.

@@ -1,6 +1,7 @@
 """Text tables, first layer: bytes -> text lines, line classes (comment, rule, data), delimiters, header names.
 
-Used by :mod:`afferent.io._csv` (the reader) and its layout modules; see there for the layouts handled.
+Used by :mod:`afferent.io._csv` (the reader) and its layout modules; see there for the layouts handled. The
+last section reads the structure of Abaqus reports: frames (time steps), output positions, wrapped tables.
 """
 
 from __future__ import annotations
@@ -16,7 +17,7 @@ import numpy as np
 import pandas as pd
 
 from ..exceptions import SEDFormatError
-from ._columns import COORD_ALIASES
+from ._columns import COORD_ALIASES, ID_ALIASES, canonical
 
 # --------------------------------------------------------------------------------------
 # Line classification
@@ -39,7 +40,7 @@ _QUOTE_CHARS = 80
 #: Header names listed (and counted exactly) in an error message, at most.
 _MANY_NAMES = 10_000
 
-_FOOTER = re.compile(r"^\s*(?:minimum|maximum|total|at\s+node|at\s+element)\b", re.IGNORECASE)
+_FOOTER = re.compile(r"^\s*(?:minimum|maximum|total|at\s+node|at\s+element|int\s+pt)\b", re.IGNORECASE)
 _RULE_CHARS = re.compile(r"^[\s\-=+|]+$")
 # The number patterns have no two ways to match the same digits (``\d+(?:\.\d*)?``, never
 # ``\d+\.?\d*``): a cell of 20,000 digits followed by a letter fails in linear time, not quadratic.
@@ -57,6 +58,12 @@ _NA_SET = frozenset(v.lower() for v in _NA_VALUES)
 _SUFFIX = re.compile(r"^(?P<base>.*)@\s*(?P<var>[A-Za-z_][\w.]*)\s*=\s*(?P<val>\S+)\s*$")
 #: Abaqus position qualifier in report column titles: ``SENER @Loc 1``.
 _LOC = re.compile(r"@\s*Loc\s*\d+", re.IGNORECASE)
+#: Abaqus report header lines naming the analysis step and the frame of the table below them:
+#: ``   Step: Indent`` and ``   Frame: Increment      5: Step Time =    0.5000`` (docs/fe-export.md, Abaqus).
+_RPT_STEP = re.compile(r"^\s*Step:\s*(?P<val>\S.*?)\s*$")
+_RPT_FRAME = re.compile(r"^\s*Frame:\s*(?P<val>\S.*?)\s*$")
+_RPT_LOC = re.compile(r"^\s*Loc\s+\d+\s*:\s*(?P<what>.*?)\s+values\s+from\s+source", re.IGNORECASE)
+_RPT_STEP_TIME = re.compile(r"Step\s+Time\s*=\s*(?P<t>\S+)", re.IGNORECASE)
 #: ``% Key,value`` (COMSOL .csv) or ``% Key: value`` (COMSOL .txt) metadata lines.
 _META = re.compile(r"^(?P<key>[A-Za-z][^,;:\t=]*)(?:\t\s*)?[,;:\t=](?P<val>.*)$")
 #: FEBio logfile record keys: ``*Step  = 3``, ``*Time  = 0.3``, ``*Data  = sed;sx``.
@@ -81,7 +88,7 @@ _WS_TOKEN = re.compile(r"\S+")
 _DIGITS = frozenset("0123456789")  # a line starting with a digit (or -1, +1, .5) is a data row
 _SIGNS = frozenset("+-.")
 _COORD_NAMES = frozenset().union(*COORD_ALIASES.values())
-_FOOTER_WORDS = "Minimum/Maximum/At Node/At Element/Total"
+_FOOTER_WORDS = "Minimum/Maximum/At Node/At Element/Int Pt/Total"
 # pandas < 3 needs round_trip to read floats exactly; pandas 3 reads them exactly by default
 # and deprecates the argument.
 _FLOAT_KW = {"float_precision": "round_trip"} if int(pd.__version__.split(".")[0]) < 3 else {}
@@ -279,3 +286,218 @@ def _align_two_lines(upper: str, lower: str, ncols: int) -> list[str] | None:
             k = int(np.argmin([abs((s1 + e1) / 2 - centre) for s1, e1, _ in base]))
         parts[k].append(tok)
     return [" ".join(p) for p in parts]
+
+
+# --------------------------------------------------------------------------------------
+# Abaqus report headers: frames and wrapped titles
+# --------------------------------------------------------------------------------------
+
+
+def _report_frame(lines: list[str], lo: int, hi: int) -> tuple[str | None, str, int] | None:
+    """The analysis step and frame an Abaqus report states in ``lines[lo:hi]`` (a block's header).
+
+    ``(step, frame, line)`` from the last ``Step:`` and ``Frame:`` lines (``line`` 1-based, of the
+    ``Frame:`` line), e.g. ``('Indent', 'Increment      5: Step Time =    0.5000', 9)``; None without a
+    ``Frame:`` line.
+    """
+    step, frame = None, None
+    for i in range(max(lo, 0), hi):
+        text = lines[i]
+        if "Frame:" in text and (m := _RPT_FRAME.match(text)):
+            frame = (m.group("val"), i + 1)
+        elif "Step:" in text and (m := _RPT_STEP.match(text)):
+            step = m.group("val")
+    return None if frame is None else (step, frame[0], frame[1])
+
+
+def _wrapped_titles(lines: list[str], lo: int, m: int) -> list[tuple[int, int]] | None:
+    """The sub-block titles of a wrapped Abaqus table above its first data row ``m`` (0-based).
+
+    With a page width set, Abaqus writes a wide table's two-line column title in parts, each
+    over its own dashed rule, stacked directly above the rows (``Element Int S.Mises ...`` /
+    ``Label Pt @Loc 1 ...`` / ``----`` / ``S.S13 S.S23`` / ``@Loc 1 @Loc 1`` / ``----``); the lower line of
+    each part holds the ``@Loc N`` qualifiers of its values. Returns the
+    (upper, lower) line indices of each part, top first, or None unless there are two or more.
+    """
+    parts: list[tuple[int, int]] = []
+    j = m - 1
+    while True:
+        while j >= lo and not lines[j].strip():
+            j -= 1
+        if j - 2 < lo or not _is_rule(lines[j].strip()):
+            break
+        upper, lower = j - 2, j - 1
+        if not all(_is_body(lines[k].strip()) and not _is_data_line(lines[k], "whitespace") for k in (upper, lower)):
+            break
+        if not _LOC.search(lines[lower]):  # every part names values ('@Loc 1' under each): not 'Source 1' over '---'
+            break
+        parts.append((upper, lower))
+        j = upper - 1
+    return parts[::-1] if len(parts) >= 2 else None
+
+
+#: What the rows of a report at each output position are, and what they need to become points.
+_RPT_POSITIONS = {
+    "integration point": "one row per element integration point: they are points only with COORD at the integration "
+                         "points in the report, or with coordinates= element centroids (rows averaged per element)",
+    "centroidal": "one row per element: points only with COORD at the centroids in the report, or with coordinates= "
+                  "element centroids",
+    "element nodal": "one row per element and node: a node shared by several elements is listed once per element with "
+                     "unaveraged values (refused where they differ); export 'Unique nodal' for one value per node",
+}
+
+
+def _report_position_note(lines: list[str], hi: int) -> str | None:
+    """A note on the output position an Abaqus report states above line ``hi`` (``Loc 1 : Nodal values
+    from source 1``), saying what its rows are when they are not nodes; None without such a line."""
+    for i in range(min(hi, len(lines)) - 1, -1, -1):
+        if "values" in lines[i] and (m := _RPT_LOC.match(lines[i])):
+            what = m.group("what")
+            more = _RPT_POSITIONS.get(what.lower())
+            return f"the report holds {what} values (line {i + 1})" + (f": {more}" if more else "")
+    return None
+
+
+def _wrapped_names(path: str, lines: list[str], lo: int, m: int) -> tuple[list[str], tuple[int, ...], int, int] | None:
+    """(names, values per line of a record, first and last title line) of a wrapped Abaqus table whose first
+    record starts at line ``m`` (0-based), or None.
+
+    Each title part names the values of one line of a record (:func:`_wrapped_titles`); the
+    first record's lines fix how many values each part has.
+    """
+    parts = _wrapped_titles(lines, lo, m)
+    if parts is None:
+        return None
+    names: list[str] = []
+    wrap: list[int] = []
+    for k, (upper, lower) in enumerate(parts):
+        i = m + k
+        n = _count_fields(lines[i], "whitespace") if i < len(lines) and _is_data_line(lines[i], "whitespace") else 0
+        got = _align_two_lines(lines[upper], lines[lower], n) if n else None
+        if got is None:
+            what = f"{n} values" if n else f"{_quote(lines[i].strip()) if i < len(lines) else 'the end of the file'}"
+            raise SEDFormatError(
+                f"SED file {path!r} has a table wrapped over {len(parts)} lines per record (column titles at lines "
+                f"{', '.join(str(u + 1) for u, _ in parts)}): line {i + 1}, part {k + 1} of its first record, must "
+                f"hold one value per column named at lines {upper + 1}-{lower + 1} ({_quote(lines[upper].strip())}); "
+                f"got {what} instead."
+            )
+        names += got
+        wrap.append(n)
+    return names, tuple(wrap), parts[0][0], parts[-1][1]
+
+
+def _join_wrapped(path: str, rows: list[str], row_lines: list[int], wrap: tuple[int, ...],
+                  titles: tuple[int, int]) -> tuple[list[str], list[int]]:
+    """The records of a wrapped table, each record's lines joined into one row (numbered by its first line).
+
+    ``wrap``: values on each line of a record; ``titles``: the first and last line (1-based) of the column titles.
+    Every line must hold its part's count of values. When the first record starts with a label (an integer:
+    Abaqus prints every value with a decimal point) and its other lines do not, every record must: a line
+    lost or added inside a table whose parts have equal counts is caught where it happens.
+    """
+    per = len(wrap)
+    what = (f"SED file {path!r} has a table wrapped over {per} lines per record of {', '.join(map(str, wrap))} values "
+            f"(column titles at lines {titles[0]}-{titles[1]})")
+    heads = [rows[k].split(None, 1)[0] if rows[k].strip() else "" for k in range(min(per, len(rows)))]
+    labelled = len(heads) == per and heads[0].isdigit() and not any(h.isdigit() for h in heads[1:])
+    n_rec = -(-len(rows) // per)
+    ok = len(rows) == n_rec * per and [len(x.split()) for x in rows] == list(wrap) * n_rec
+    if ok and labelled:
+        ok = [x.split(None, 1)[0].isdigit() for x in rows] == ([True] + [False] * (per - 1)) * n_rec
+    if ok:  # the common case, checked by list comparisons; else the loop below says where it fails
+        return [" ".join(rows[r:r + per]) for r in range(0, len(rows), per)], row_lines[::per]
+    out, out_lines = [], []
+    for r in range(0, len(rows), per):
+        for k, want in enumerate(wrap):
+            if r + k >= len(rows):
+                raise SEDFormatError(f"{what}: the record at line {row_lines[r]} must have {want} values on its line "
+                                     f"{k + 1}; got no line (the rows end at line {row_lines[-1]}) instead.")
+            fields = rows[r + k].split()
+            if len(fields) != want:
+                raise SEDFormatError(f"{what}: the record at line {row_lines[r]} must have {want} values on its line "
+                                     f"{k + 1}; got {len(fields)} at line {row_lines[r + k]} instead.")
+            if labelled and fields[0].isdigit() != (k == 0):
+                must = ("start a record with its label (an integer)" if k == 0 else
+                        f"continue the record at line {row_lines[r]} (its line {k + 1} of {per})")
+                got = "a continuation line" if k == 0 else "the label of a new record: a line of a record is missing"
+                raise SEDFormatError(f"{what}: line {row_lines[r + k]} must {must}; got {_quote(fields[0])}, {got} "
+                                     "instead.")
+        out.append(" ".join(rows[r:r + per]))
+        out_lines.append(row_lines[r])
+    return out, out_lines
+
+
+def _check_frame_labels(path, headers, values, row_lines, n_records: int) -> None:
+    """Every frame must list the same node / element labels in the same order (they are one point set)."""
+    for name, vals in zip(headers, values):
+        if canonical(name) not in ID_ALIASES:
+            continue
+        per = vals.reshape(n_records, -1)
+        differ = np.flatnonzero(np.any(per != per[0], axis=1) & ~np.all(np.isnan(per), axis=1))
+        if differ.size:
+            k = int(differ[0])
+            r = int(np.flatnonzero(per[k] != per[0])[0])
+            raise SEDFormatError(
+                f"Every frame of the Abaqus report {path!r} must list the same {name!r} values in the same order (one "
+                f"point set, one time step per frame); got {per[0, r]:g} at line {row_lines[r]} in the first frame and "
+                f"{per[k, r]:g} at line {row_lines[k * per.shape[1] + r]} in frame {k + 1} instead."
+            )
+
+
+def _frame_records(path: str, frames: list, n_rows: int, notes: list[str]) -> tuple[int, np.ndarray | None]:
+    """(time steps, their times or None) of a table whose report blocks state Abaqus frames.
+
+    ``frames`` holds ``(first row, (step, frame, line) or None)`` per block. Blocks of one frame
+    (the parts of a model) are rows of one time step; each new frame starts a time step. Times are
+    the frames' ``Step Time``, used only when every frame states one and all are of one analysis
+    step (Abaqus restarts Step Time in each step and the report gives no total time); else None
+    (steps numbered), with a note saying why.
+    """
+    groups: list[tuple[int, tuple | None]] = []
+    for start, info in frames:
+        prev = groups[-1][1] if groups else False
+        if prev is not False and (info is None or (prev is not None and info[:2] == prev[:2])):
+            continue  # another part of the same frame
+        groups.append((start, info))
+    if all(info is None for _, info in groups):
+        return 1, None
+    bare = next((g for g in groups if g[1] is None), None)
+    if bare is not None:
+        raise SEDFormatError(
+            f"Every report block of SED file {path!r} must state its frame ('Frame: ...') once one does; got a block "
+            f"without one (its rows from row {bare[0] + 1}) beside the frame at line {groups[-1][1][2]} instead."
+        )
+    sizes = [b[0] - a[0] for a, b in zip(groups, groups[1:] + [(n_rows, None)])]
+    if len(set(sizes)) > 1:
+        k = next(k for k, n in enumerate(sizes) if n != sizes[0])
+        raise SEDFormatError(
+            f"Every frame of the Abaqus report {path!r} must list the same rows (one time step each); got "
+            f"{_plural(sizes[0], 'row')} in frame {_quote(groups[0][1][1])} (line {groups[0][1][2]}) and {sizes[k]} in "
+            f"frame {_quote(groups[k][1][1])} (line {groups[k][1][2]}) instead."
+        )
+    said = "; ".join(f"{_quote(f)} (line {ln})" for _, (_, f, ln) in groups[:4]) + ("; ..." if len(groups) > 4 else "")
+    steps = list(dict.fromkeys(info[0] for _, info in groups))
+    stated = [_RPT_STEP_TIME.search(info[1]) for _, info in groups]
+    kind = "frame" if len(groups) == 1 else f"{len(groups)} frames as time steps of {_plural(sizes[0], 'row')}"
+    if len(steps) > 1:
+        notes.append(f"read the report's {kind}: {said}; they span {len(steps)} analysis steps "
+                     f"({_join_names(str(s) for s in steps)}) and Abaqus restarts 'Step Time' in each step (the report "
+                     "gives no total time), so the steps are numbered, not timed; pass times= to set them")
+        return len(groups), None
+    if not all(stated):
+        bad = groups[stated.index(None)][1]
+        notes.append(f"read the report's {kind}: {said}; frame {_quote(bad[1])} (line {bad[2]}) states no 'Step Time', "
+                     "so the steps are numbered, not timed; pass times= to set them")
+        return len(groups), None
+    try:
+        times = np.asarray([float(m.group("t")) for m in stated], dtype=np.float64)
+    except ValueError:
+        k = next(k for k, m in enumerate(stated) if not _NUMBER.match(m.group("t")))
+        raise SEDFormatError(
+            f"The frame line {groups[k][1][2]} of SED file {path!r} must give its Step Time as a number; got "
+            f"{_quote(stated[k].group('t'))} instead."
+        ) from None
+    where = f" (step {_quote(steps[0])})" if steps[0] is not None else ""
+    notes.append(f"read the report's {kind}{where}: {said}; times are their 'Step Time'")
+    return len(groups), times

@@ -50,9 +50,15 @@ from ._csv_lines import (
     _is_rule,
     _join_names,
     _plural,
+    _check_frame_labels,
+    _frame_records,
+    _join_wrapped,
+    _report_frame,
+    _report_position_note,
     _spans,
     _split,
     _whitespace_names,
+    _wrapped_names,
 )
 
 # --------------------------------------------------------------------------------------
@@ -67,8 +73,9 @@ class _Header:
     text: str  # stripped text of the header line, to skip repeats of it
     first_data: int  # 0-based index of the first data row
     from_comment: bool = False
-    n_lines: int = 1  # 2 for a two-line column title
+    n_lines: int = 1  # 2 for a two-line column title; from the first title line to the last for a wrapped one
     units_line: int | None = None  # 1-based line of a units row below the names
+    wrap: tuple[int, ...] | None = None  # values on each line of a record of a wrapped Abaqus table
 
 
 @dataclass
@@ -81,6 +88,8 @@ class _Columns:
     header_line: int
     meta: dict[str, tuple[str, int]] = field(default_factory=dict)
     notes: list[str] = field(default_factory=list)
+    n_records: int = 1  # time steps, rows in step order (Abaqus report frames)
+    record_times: np.ndarray | None = None  # their times, in the file's time unit
 
 
 def _body_lines(lines: list[str], start: int = 0):
@@ -140,6 +149,8 @@ def _raise_no_data(path: str, lines: list[str], body: list[int]):
 
 def _find_header(path: str, lines: list[str], lo: int, m: int, delim: str, ncols: int) -> _Header:
     """Find the header of the block whose first full data row is ``m`` (0-based)."""
+    if delim == "whitespace" and (wrapped := _wrapped_header(path, lines, lo, m)) is not None:
+        return wrapped
     first_data = m
     j = m - 1
     while j >= lo:
@@ -175,6 +186,16 @@ def _find_header(path: str, lines: list[str], lo: int, m: int, delim: str, ncols
         f"SED file {path!r} must have a header row naming its {ncols} columns above the first data "
         f"row (line {first_data + 1}); got none instead."
     )
+
+
+def _wrapped_header(path: str, lines: list[str], lo: int, m: int) -> _Header | None:
+    """The header of a wrapped Abaqus table whose first record starts at line ``m`` (0-based), or None
+    (:func:`~afferent.io._csv_lines._wrapped_names`)."""
+    found = _wrapped_names(path, lines, lo, m)
+    if found is None:
+        return None
+    names, wrap, top, last = found
+    return _Header(names, last + 1, lines[last].strip(), m, n_lines=last - top + 1, wrap=wrap)
 
 
 def _names_for(text: str, delim: str, ncols: int, lines: list[str], first_data: int) -> list[str] | None:
@@ -303,8 +324,11 @@ def _parse_table(path: str, lines: list[str], sep: str | None, notes: list[str])
     counts = Counter(_count_fields(lines[i], delim) for i in data_idx)
     ncols = counts.most_common(1)[0][0]
     m = next(i for i in data_idx if _count_fields(lines[i], delim) == ncols)
-
-    header = _find_header(path, lines, 0, m, delim, ncols)
+    wrapped = _wrapped_header(path, lines, 0, data_idx[0]) if delim == "whitespace" else None
+    if wrapped is not None:  # records over several lines: the first line's count finds later blocks
+        header, ncols = wrapped, wrapped.wrap[0]
+    else:
+        header = _find_header(path, lines, 0, m, delim, ncols)
     n_pre = sum(1 for line in lines[: header.line - header.n_lines] if line.strip())
     meta = _comsol_meta(lines[: header.first_data], header.line)
     if header.from_comment:
@@ -315,11 +339,20 @@ def _parse_table(path: str, lines: list[str], sep: str | None, notes: list[str])
         first = header.line - header.n_lines + 1
         notes.append(f"skipped {_plural(n_pre, 'comment or preamble line')} above the header (line {first})")
 
-    rows, row_lines, tally = _collect_rows(path, lines, header, delim, ncols)
+    if (where := _report_position_note(lines, header.line - header.n_lines)) is not None:
+        notes.append(where)
+    rows, row_lines, tally, frames = _collect_rows(path, lines, header, delim, ncols)
+    if header.wrap:
+        rows, row_lines = _join_wrapped(path, rows, row_lines, header.wrap, (header.line - header.n_lines + 1, header.line))
+        frames = [(start // len(header.wrap), info) for start, info in frames]
+        notes.append(f"joined each record's {len(header.wrap)} lines of a wrapped table "
+                     f"({' + '.join(map(str, header.wrap))} values; column titles in {len(header.wrap)} parts)")
+    n_records, times = _frame_records(path, frames, len(rows), notes)
     if tally["footer"]:
         notes.append(f"dropped {_plural(tally['footer'], 'footer row')} ({_FOOTER_WORDS})")
-    if tally["blocks"] > 1:
-        notes.append(f"joined {tally['blocks']} report blocks with identical columns")
+    if tally["blocks"] > n_records:
+        per = " in each frame" if n_records > 1 else ""
+        notes.append(f"joined {tally['blocks'] // n_records} report blocks with identical columns{per}")
     if tally["trailing"]:
         notes.append(f"ignored {_plural(tally['trailing'], 'text line')} after the last footer")
     if tally["repeat"]:
@@ -332,7 +365,9 @@ def _parse_table(path: str, lines: list[str], sep: str | None, notes: list[str])
     if names != [re.sub(r"\s+", " ", n.strip()) for n in header.names]:
         notes.append("removed Abaqus position qualifiers ('@Loc N') from column names")
     headers, values = _read_rows(path, rows, row_lines, delim, names, header.line, notes)
-    return _Columns(headers, values, np.asarray(row_lines), header.line, meta, notes)
+    if n_records > 1:
+        _check_frame_labels(path, headers, values, row_lines, n_records)
+    return _Columns(headers, values, np.asarray(row_lines), header.line, meta, notes, n_records, times)
 
 
 def _comsol_meta(pre: list[str], header_line: int) -> dict[str, tuple[str, int]]:
@@ -349,10 +384,15 @@ def _comsol_meta(pre: list[str], header_line: int) -> dict[str, tuple[str, int]]
 
 
 def _collect_rows(path, lines, header: _Header, delim, ncols):
-    """Data rows of every block, skipping blanks, comments, footers and repeated headers."""
+    """Data rows of every block, skipping blanks, comments, footers and repeated headers.
+
+    Also returns, per block, its first row and the Abaqus frame stated above it
+    (:func:`~afferent.io._csv_lines._report_frame`). ``ncols``: values on a block's first data line.
+    """
     rows: list[str] = []
     row_lines: list[int] = []
     tally = Counter(blocks=1)
+    frames = [(0, _report_frame(lines, 0, header.line - header.n_lines))]
     n = len(lines)
     i = header.first_data
     while True:
@@ -381,13 +421,16 @@ def _collect_rows(path, lines, header: _Header, delim, ncols):
         if i >= n:
             break
         # Footer rows, then maybe another block of the same report.
-        j, after, next_m, lo = i, [], None, i
+        j, after, next_m, lo, in_footer = i, [], None, i, False
         while j < n:
             s = lines[j].strip()
             if _FOOTER.match(s):
                 tally["footer"] += 1
-                after, lo = [], j + 1
+                after, lo, in_footer = [], j + 1, True
+            elif in_footer and header.wrap and _is_data_line(lines[j], delim):
+                lo = j + 1  # a wrapped footer's continuation line
             elif _is_body(s):
+                in_footer = False
                 if _is_data_line(lines[j], delim) and _count_fields(lines[j], delim) == ncols:
                     next_m = j
                     break
@@ -404,8 +447,9 @@ def _collect_rows(path, lines, header: _Header, delim, ncols):
                 f"{_join_names(header.names)} instead. Export one region or variable set per file."
             )
         tally["blocks"] += 1
+        frames.append((len(rows), _report_frame(lines, lo, nxt.line - nxt.n_lines)))
         i = nxt.first_data
-    return rows, row_lines, tally
+    return rows, row_lines, tally, frames
 
 
 def _field_counts(text: str, rows: list[str], delim: str) -> np.ndarray:
