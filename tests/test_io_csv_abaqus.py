@@ -11,7 +11,7 @@ import re
 import numpy as np
 import pytest
 
-from afferent.exceptions import SEDFormatError
+from afferent.exceptions import AfferentWarning, SEDFormatError
 from afferent.io import read_sed
 from afferent.io._csv import read_csv
 
@@ -112,6 +112,18 @@ def test_one_frame_per_file_gives_each_file_its_step_time(tmp_path):
     np.testing.assert_array_equal(raw.times, [0.5, 1.0])
 
 
+def test_coord_coordinates_warn_that_they_are_deformed_positions_under_nlgeom(tmp_path):
+    """Abaqus' COORD is the current position in a geometrically nonlinear step: read, with a warning
+    in the run record (receptor sites of the undeformed model would fall beside the points)."""
+    p = _write(tmp_path, _frame("Indent", "Increment      5: Step Time =    0.5000", ROWS))
+    with pytest.warns(AfferentWarning, match=re.escape(
+            f"SED file {p!r}: the coordinates are Abaqus' COORD output ('COORD.COOR1', 'COORD.COOR2', 'COORD.COOR3'): "
+            "the nodes' current (deformed) positions when the step ran with NLGEOM")):
+        field = read_sed(p, sed_unit="MPa", length_unit="mm")
+    assert any("Abaqus' COORD output" in n for n in field.provenance.notes)
+
+
+@pytest.mark.filterwarnings("ignore:.*Abaqus' COORD output")
 def test_coord_with_dashes_is_a_coordinate(tmp_path):
     p = _write(tmp_path, _frame("Indent", "Increment      5: Step Time =    0.5000", ROWS,
                                 title=TITLE.replace("COORD.COOR", "COORD-COOR")))

@@ -45,6 +45,7 @@ from ._find_arrays import (
     join_coordinates,
 )
 from ._coincident import COINCIDENT_WARN_RTOL, merge_coincident
+from . import _columns as C
 from ._raw import RawExport
 from ._read_options import (  # noqa: F401 (importable from here, as before the split)
     CROSSCHECK_RTOL,
@@ -120,6 +121,10 @@ def _prepared(raw: RawExport, opts: ReadOptions) -> RawExport:
     return raw
 
 
+#: Abaqus' COORD components as a report names them (docs/fe-export.md, Abaqus): current positions under NLGEOM.
+_ABAQUS_COORD = frozenset(C.canonical(f"COORD.COOR{k}") for k in (1, 2, 3))
+
+
 def _coordinates(raw: RawExport, opts: ReadOptions, rec: _Record, *, checked: bool = False):
     """Coordinates in file units, and the length unit: (xyz, factor to m, unit, where the unit came from).
 
@@ -127,6 +132,13 @@ def _coordinates(raw: RawExport, opts: ReadOptions, rec: _Record, *, checked: bo
     """
     xyz, coord_names = find_coordinates(raw, opts)
     rec.columns["coordinates"] = list(coord_names)
+    if not checked and {C.canonical(n) for n in coord_names} & _ABAQUS_COORD:
+        msg = (f"SED file {_where(raw)!r}: the coordinates are Abaqus' COORD output ({', '.join(map(repr, coord_names))}): "
+               "the nodes' current (deformed) positions when the step ran with NLGEOM, where receptor sites given in the "
+               "undeformed model fall beside the points they mean. Report COORD from the step's first frame (before "
+               "loading), or give the reference positions with coordinates= (node labels and x, y, z).")
+        rec.notes.append(msg)
+        warnings.warn(msg, AfferentWarning, stacklevel=5)
     if not checked:
         _check_values(raw, xyz[None], f"coordinates ({', '.join(coord_names)})")
     lu, lf, lsrc = _unit(raw, opts.length_unit, raw.length_unit, "length", "length_unit", "the coordinates")
@@ -169,7 +181,6 @@ def _sed_from_field(raw: RawExport, opts: ReadOptions, rec: _Record) -> tuple[np
 def _energy_named(raw: RawExport, opts: ReadOptions, arr, rec: _Record) -> None:
     """Record why an array named like an energy (Kratos' STRAIN_ENERGY) is read as a density:
     its values (against the tensors), or the user's sed_column= confirmation."""
-    from . import _columns as C
     from ._export_checks import density_by_values
 
     reason = C.ENERGY_NOT_DENSITY.get(C.canonical(arr.name))
