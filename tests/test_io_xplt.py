@@ -9,16 +9,20 @@ at every state; for the compressed file, from the same run written plain): the r
 from __future__ import annotations
 
 import json
+import re
 import shutil
 import struct
+import warnings
 
 import numpy as np
 import pytest
 
 from afferent import read_sed
 from afferent.cli import main
-from afferent.exceptions import SEDFormatError
+from afferent.exceptions import AfferentWarning, SEDFormatError
 from afferent.io import format_of, iter_sed, read_raw
+from afferent.io._export_checks import shear_consistency
+from afferent.io._read_options import SHEAR_RATIO_BAND
 from afferent.io._xplt import _open, xplt_step_count
 
 from conftest import DATA_DIR
@@ -27,7 +31,8 @@ FEBIO = DATA_DIR / "febio"
 HEX8 = FEBIO / "block_hex8.xplt"
 TET10 = FEBIO / "block_tet10_z.xplt"  # states zlib-compressed
 PENTA15 = FEBIO / "block_penta15.xplt"
-FILES = [HEX8, TET10, PENTA15]
+LARGE = FEBIO / "block_hex8_large.xplt"  # pressed 0.25 mm and slid 0.2 mm: Green-Lagrange strains up to 0.47
+FILES = [HEX8, TET10, PENTA15, LARGE]
 UNITS = dict(length_unit="mm", sed_unit="MPa")
 
 
@@ -55,7 +60,7 @@ def test_mesh_and_every_state_as_pyfebio_reads_them(path):
         np.testing.assert_array_equal(domain.conn, ref[f"domain/{domain.part}"][:, 1:])
     n_states = raw.times.size
     np.testing.assert_array_equal(raw.times, [float(ref[f"time/{k}"][0]) for k in range(n_states)])
-    np.testing.assert_allclose(raw.times, [0.0, 0.5, 1.0])
+    np.testing.assert_allclose(raw.times, [0.0, 1.0, 2.0] if path == LARGE else [0.0, 0.5, 1.0])
     names = {key.split("/")[0] for key in ref if key.startswith(("node:", "elem:"))}
     assert len(names) >= 2
     for key in names:
@@ -231,3 +236,68 @@ def test_shell_domains_and_their_variables_are_ignored_and_named():
     assert "shell thickness" not in raw.arrays
     assert "ignored domain(s) 3 (QUAD4, 16 elements)" in raw.notes[0]
     assert "plot variable(s) 'shell thickness' only on ignored domains: not read." in raw.notes
+
+
+
+def test_large_deformation_is_judged_only_within_the_small_strain_bound():
+    """FEBio's tensor shear, neo-Hookean: at the last state (|E| up to 0.47) Cauchy stress against Lagrange strain
+    gives a shear/normal stiffness ratio of 0.57, where engineering shear read as tensor would put it; the checks judge
+    the state at 15 % of the load (|E| up to 0.066) only, and a state beyond the bound alone is not checkable."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", AfferentWarning)  # no "looks engineering"
+        field = read_sed(LARGE, length_unit="mm", stress_unit="MPa", sed_from="exact")
+    shear, versus = field.provenance.checks["shear_convention"], field.provenance.checks["tensor_sed_vs_export_sed"]
+    assert shear["checkable"] and shear["consistent"] and 0.8 < shear["ratio"] < 0.9, shear
+    assert shear["steps_judged"] == 2 and shear["n_steps"] == 3 and shear["max_strain"] == pytest.approx(0.066, abs=1e-3)
+    assert shear["note"] == "1 step(s) with strains beyond the small-strain bound 0.1 (up to 0.466) not judged"
+    assert versus["checkable"] and versus["step"] == 1 and versus["agree"], versus
+    raw = read_raw(LARGE)
+    stress, strain = raw.arrays["stress"].values[-1], raw.arrays["Lagrange strain"].values[-1]
+    assert shear_consistency(stress, strain)["ratio"] < SHEAR_RATIO_BAND[0]  # as linear theory, it would look wrong
+    last = list(iter_sed(LARGE, length_unit="mm", stress_unit="MPa", sed_from="exact"))[-1]
+    for name in ("shear_convention", "tensor_sed_vs_export_sed"):
+        check = last.provenance.checks[name]
+        assert not check["checkable"] and check["max_strain"] == pytest.approx(0.466, abs=1e-3), check
+        assert check["note"].startswith("not checkable: strains up to 0.466 exceed the small-strain bound 0.1 at "
+                                        "every step (a finite-strain analysis")
+
+
+def test_a_ratio_no_convention_explains_is_not_blamed_on_the_convention():
+    """FEBio's small-strain state (tensor shear, ratio 0.93): with the strain's shear halved it is ~2 x as stiff.
+    Read as tensor that is no convention's signature (engineering would make it ~4): the warning must not advise
+    shear='engineering'; read as engineering (what the halving also is), it names tensor."""
+    from afferent.io._export_checks import _shear_message
+    from afferent.io._find_arrays import _convention
+    from afferent.io._read_options import ReadOptions
+
+    raw = read_raw(HEX8)
+    stress, strain = raw.arrays["stress"].values[1:2], raw.arrays["Lagrange strain"].values[1:2].copy()
+    strain[..., 3:] /= 2
+    shear = shear_consistency(stress, strain, finite=True)
+    assert shear["checkable"] and 1.7 < shear["ratio"] < 2.1 and not shear["consistent"]
+    said = _shear_message(raw, shear, _convention(ReadOptions(), raw), "preset='febio'")
+    assert "and 3.7 x with the shear read as engineering: no shear convention explains it" in said, said
+    assert "pass shear=" not in said
+    said = _shear_message(raw, shear, _convention(ReadOptions(shear="engineering"), raw), "shear='engineering'")
+    assert said.endswith("the file's shear strain looks tensor. Check the preset or pass shear='tensor'.")
+
+
+PARTIAL = FEBIO / "block_hex8_partial.xplt"  # 'strain energy density' written with elem_set="epidermis"
+
+
+def test_a_variable_written_for_some_domains_only_is_refused_naming_the_domains(capsys):
+    """NaN on the dermis' cells (no value there: a receptor in the dermis would get none) is refused, and the
+    refusal says which domains carry the variable, which lack it and how to request it for all of them."""
+    raw = read_raw(PARTIAL)
+    sed = raw.arrays["strain energy density"].values
+    assert np.isnan(sed[:, :32]).all() and np.isfinite(sed[:, 32:]).all()  # dermis (domain 1) first, then epidermis
+    np.testing.assert_array_equal(sed[:, 32:], np.stack([_reference(PARTIAL)[f"elem:strain energy density/{k}/2"]
+                                                         for k in range(3)]).reshape(3, 16))
+    said = ("plot variable 'strain energy density' is written for domain(s) 2 (epidermis, 16 elements) only: NaN on "
+            "domain(s) 1 (dermis, 32 elements). To read it there, request it for every domain: in the .feb, "
+            "<var type=\"strain energy density\"/> without elem_set= or a domain list")
+    assert any(n.startswith(said) for n in raw.notes)
+    with pytest.raises(SEDFormatError, match=r"block_hex8_partial.xplt': SED column 'strain energy density' must be "
+                                             r"finite; got 96 non-finite value\(s\) .* The file's " + re.escape(said)):
+        read_sed(PARTIAL, **UNITS)
+    assert main(["info", str(PARTIAL)]) == 0 and said in capsys.readouterr().out

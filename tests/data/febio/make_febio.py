@@ -22,7 +22,7 @@ mm-N-s units, so stress and SED in MPa), its bottom fixed, a square patch of its
 
 Usage::
 
-    python tests/data/febio/make_febio.py            # FEBio 4 as febio4 on the PATH, or FEBIO=/path/febio4
+    python tests/data/febio/make_febio.py [name ...]  # FEBio 4 as febio4 on the PATH, or FEBIO=/path/febio4
 """
 
 from __future__ import annotations
@@ -97,7 +97,12 @@ def _shells(nodes) -> list:
             for j in range(NY) for i in range(NX)]
 
 
-def _feb(kind: str, variables: list[str], compression: int) -> str:
+def _feb(kind: str, variables: list[str], compression: int, load: dict | None = None) -> str:
+    """The .feb text of a model; ``load`` overrides the default loading: ``press`` (mm), ``slide`` (mm, the
+    punch's x displacement), ``curve`` (the load curve's points (t, fraction)), ``steps`` and ``step_size``;
+    ``var_sets`` maps a plot variable to the element set (here a domain's name) named in its ``<var>`` tag."""
+    load = {"press": PRESS_MM, "slide": 0.0, "curve": ((0, 0), (1, 1)), "steps": 2, "step_size": 0.5,
+            "var_sets": {}, **(load or {})}
     shell = kind.endswith("+shell")
     kind = kind.removesuffix("+shell")
     nodes, elements = _mesh(kind)
@@ -109,8 +114,8 @@ def _feb(kind: str, variables: list[str], compression: int) -> str:
            and 0.5 - 1e-9 <= y <= 1.5 + 1e-9]
     bottom = [k + 1 for k, (x, y, z) in enumerate(nodes) if abs(z) < 1e-9]
     out = ['<?xml version="1.0" encoding="ISO-8859-1"?>', '<febio_spec version="4.0">', '\t<Module type="solid"/>',
-           "\t<Control>", "\t\t<analysis>STATIC</analysis>", "\t\t<time_steps>2</time_steps>",
-           "\t\t<step_size>0.5</step_size>", "\t\t<plot_zero_state>1</plot_zero_state>",
+           "\t<Control>", "\t\t<analysis>STATIC</analysis>", f"\t\t<time_steps>{load['steps']}</time_steps>",
+           f"\t\t<step_size>{load['step_size']}</step_size>", "\t\t<plot_zero_state>1</plot_zero_state>",
            '\t\t<solver type="solid">', "\t\t\t<symmetric_stiffness>symmetric</symmetric_stiffness>",
            "\t\t</solver>", "\t</Control>", "\t<Material>"]
     for mid_, (name, e_mpa) in enumerate((("epidermis", 0.8), ("dermis", 0.2)), start=1):
@@ -142,11 +147,16 @@ def _feb(kind: str, variables: list[str], compression: int) -> str:
             '\t\t<bc name="fixed" type="zero displacement" node_set="bottom">',
             "\t\t\t<x_dof>1</x_dof>", "\t\t\t<y_dof>1</y_dof>", "\t\t\t<z_dof>1</z_dof>", "\t\t</bc>",
             '\t\t<bc name="press" type="prescribed displacement" node_set="punch">', "\t\t\t<dof>z</dof>",
-            f'\t\t\t<value lc="1">{-PRESS_MM}</value>', "\t\t\t<relative>0</relative>", "\t\t</bc>", "\t</Boundary>",
+            f'\t\t\t<value lc="1">{-load["press"]}</value>', "\t\t\t<relative>0</relative>", "\t\t</bc>",
+            *(['\t\t<bc name="slide" type="prescribed displacement" node_set="punch">', "\t\t\t<dof>x</dof>",
+               f'\t\t\t<value lc="1">{load["slide"]}</value>', "\t\t\t<relative>0</relative>", "\t\t</bc>"]
+              if load["slide"] else []),
+            "\t</Boundary>",
             "\t<LoadData>", '\t\t<load_controller id="1" type="loadcurve">', "\t\t\t<interpolate>LINEAR</interpolate>",
-            "\t\t\t<points>", "\t\t\t\t<pt>0,0</pt>", "\t\t\t\t<pt>1,1</pt>", "\t\t\t</points>",
+            "\t\t\t<points>", *(f"\t\t\t\t<pt>{a:g},{b:g}</pt>" for a, b in load["curve"]), "\t\t\t</points>",
             "\t\t</load_controller>", "\t</LoadData>", "\t<Output>", '\t\t<plotfile type="febio">']
-    out += [f'\t\t\t<var type="{v}"/>' for v in variables]
+    out += [f'\t\t\t<var type="{v}"' + (f' elem_set="{load["var_sets"][v]}"' if v in load["var_sets"] else "") + "/>"
+            for v in variables]
     out += ([f"\t\t\t<compression>{compression}</compression>"] if compression else [])
     out += ["\t\t</plotfile>", "\t</Output>", "</febio_spec>", ""]
     return "\n".join(out)
@@ -157,6 +167,13 @@ MODELS = {
     "block_tet10_z": ("tet10", ["displacement", "stress", "Lagrange strain"], 1),
     "block_penta15": ("penta15", ["displacement", "strain energy density"], 0),
     "block_hex8_shell": ("hex8+shell", ["displacement", "strain energy density", "shell thickness"], 0),
+    # large deformation: the punch pressed 0.25 mm (25 % of the block) and slid 0.2 mm, 15 % of it at t = 1
+    "block_hex8_large": ("hex8", ["displacement", "stress", "Lagrange strain", "strain energy density"], 0,
+                         {"press": 0.25, "slide": 0.2, "curve": ((0, 0), (1, 0.15), (2, 1)), "step_size": 1}),
+    # strain energy density written for the epidermis only (elem_set=; FEBio 4.11's other way, a list of domain
+    # indices in the <var> tag, crashes it unless every domain is listed: WriteDomainDataField loops over all domains)
+    "block_hex8_partial": ("hex8", ["displacement", "strain energy density", "stress"], 0,
+                           {"var_sets": {"strain energy density": "epidermis"}}),
 }
 
 
@@ -208,12 +225,15 @@ def _run(febio: str, name: str, text: str) -> Path:
     return HERE / f"{name}.xplt"
 
 
-def main() -> None:
+def main(names: list[str]) -> None:
+    """Regenerate the models ``names`` (all when empty)."""
     febio = os.environ.get("FEBIO", "febio4")
-    for name, (kind, variables, compression) in MODELS.items():
-        xplt = _run(febio, name, _feb(kind, variables, compression))
+    for name, (kind, variables, compression, *load) in MODELS.items():
+        if names and name not in names:
+            continue
+        xplt = _run(febio, name, _feb(kind, variables, compression, *load))
         if compression:  # pyfebio reads no compressed states: its reference is the same run written plain
-            twin = _run(febio, f"{name}_plain", _feb(kind, variables, 0))
+            twin = _run(febio, f"{name}_plain", _feb(kind, variables, 0, *load))
             _reference(twin)
             twin.with_suffix(".reference.npz").replace(xplt.with_suffix(".reference.npz"))
             for leftover in (twin, twin.with_suffix(".feb")):
@@ -224,4 +244,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    main(sys.argv[1:])
