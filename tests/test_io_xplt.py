@@ -32,7 +32,9 @@ HEX8 = FEBIO / "block_hex8.xplt"
 TET10 = FEBIO / "block_tet10_z.xplt"  # states zlib-compressed
 PENTA15 = FEBIO / "block_penta15.xplt"
 LARGE = FEBIO / "block_hex8_large.xplt"  # pressed 0.25 mm and slid 0.2 mm: Green-Lagrange strains up to 0.47
-FILES = [HEX8, TET10, PENTA15, LARGE]
+FORMATS = FEBIO / "block_hex8_formats.xplt"  # 'SPR stress' per domain node (NODE), 'total energy' per domain (REGION)
+ELEMENTS = [FEBIO / f"block_{kind}.xplt" for kind in ("hex20", "hex27", "tet15", "tet20", "pyra13")]  # one step each
+FILES = [HEX8, TET10, PENTA15, LARGE, FORMATS, *ELEMENTS]
 UNITS = dict(length_unit="mm", sed_unit="MPa")
 
 
@@ -60,18 +62,84 @@ def test_mesh_and_every_state_as_pyfebio_reads_them(path):
         np.testing.assert_array_equal(domain.conn, ref[f"domain/{domain.part}"][:, 1:])
     n_states = raw.times.size
     np.testing.assert_array_equal(raw.times, [float(ref[f"time/{k}"][0]) for k in range(n_states)])
-    np.testing.assert_allclose(raw.times, [0.0, 1.0, 2.0] if path == LARGE else [0.0, 0.5, 1.0])
+    np.testing.assert_allclose(raw.times, {LARGE: [0, 1, 2], HEX8: [0, .5, 1], TET10: [0, .5, 1],
+                                           PENTA15: [0, .5, 1]}.get(path, [0, 1]))
     names = {key.split("/")[0] for key in ref if key.startswith(("node:", "elem:"))}
     assert len(names) >= 2
+    fmt = {var.name: var.fmt for var in model.variables["domain"]}
     for key in names:
         got = raw.arrays[key.split(":", 1)[1]]
         for k in range(n_states):
             if key.startswith("node:"):
                 np.testing.assert_array_equal(got.values[k].reshape(ref[f"{key}/{k}"].shape), ref[f"{key}/{k}"])
             elif got.location == "cell":  # the element blocks in the domains' order (block id = domain number)
-                expected = np.concatenate([ref[f"{key}/{k}/{d.number}"] for d in volume])
+                expected = np.concatenate([np.repeat(ref[f"{key}/{k}/{d.number}"].reshape(1, -1), d.conn.shape[0], 0)
+                                           if fmt[got.name] == "REGION" else ref[f"{key}/{k}/{d.number}"] for d in volume])
                 np.testing.assert_array_equal(got.values[k].reshape(expected.shape), expected)
+            elif fmt[got.name] == "NODE":  # each domain's block over its nodes (FEBio's order): the mean where shared
+                total, count = np.zeros(got.values[k].shape), np.zeros(got.values.shape[1])
+                for d in volume:
+                    np.add.at(total, d.nodes, ref[f"{key}/{k}/{d.number}"].reshape(d.nodes.size, -1))
+                    np.add.at(count, d.nodes, 1)
+                np.testing.assert_allclose(got.values[k], total / count[:, None], rtol=1e-6)
     assert raw.preset == "febio" and raw.files == (str(path),)
+
+
+def test_region_and_node_formats_on_a_real_file():
+    """'total energy' (one value per domain, REGION) becomes cell data repeated over the domain's elements: the
+    domain's W integrated, so the sum of its elements' 'strain energy density' x their volume (0.25 mm^3; equal
+    Gauss weights and detJ on these boxes); 'SPR stress' (per domain node, NODE) point data, equal to FEBio's own
+    VTK output of the same run where one domain holds the node, the two domains' mean where they meet (z = 0.75 mm;
+    FEBio's VTK writes the last domain's value there)."""
+    raw, ref = read_raw(FORMATS), _reference(FORMATS)
+    model, volume = _domains(FORMATS)
+    assert {v.name: v.fmt for v in model.variables["domain"]} == {
+        "stress": "ITEM", "strain energy density": "ITEM", "SPR stress": "NODE", "total energy": "REGION"}
+    energy, spr, sed = (raw.arrays[k].values[1] for k in ("total energy", "SPR stress", "strain energy density"))
+    assert raw.arrays["total energy"].location == "cell" and raw.arrays["SPR stress"].location == "point"
+    dermis = slice(0, volume[0].conn.shape[0])  # 12 elements, then the epidermis' 4
+    for part in (dermis, slice(dermis.stop, None)):
+        assert np.unique(energy[part]).size == 1
+        assert energy[part][0] == pytest.approx(sed[part].sum() * 0.25, rel=1e-5)
+    shared = np.intersect1d(volume[0].nodes, volume[1].nodes)
+    assert shared.size == 9 and np.allclose(raw.points[shared, 2], 0.75)
+    alone = np.setdiff1d(np.arange(raw.points.shape[0]), shared)
+    vtk = ref["vtk:SPR stress/1"]
+    np.testing.assert_allclose(spr[alone], vtk[alone], rtol=1e-5, atol=1e-6 * np.abs(vtk).max())
+    block = ref["elem:SPR stress/1/1"].reshape(-1, 6)  # the dermis' own values at its nodes (FEBio's order)
+    own = block[[list(volume[0].nodes).index(n) for n in shared]]
+    np.testing.assert_allclose(spr[shared], (own + vtk[shared]) / 2, rtol=1e-5, atol=1e-6 * np.abs(vtk).max())
+
+
+_VTK_EDGES = {  # VTK's quadratic cells: the node after the corners on each edge, in order
+    "hexahedron20": [(0, 1), (1, 2), (2, 3), (3, 0), (4, 5), (5, 6), (6, 7), (7, 4), (0, 4), (1, 5), (2, 6), (3, 7)],
+    "pyramid13": [(0, 1), (1, 2), (2, 3), (3, 0), (0, 4), (1, 4), (2, 4), (3, 4)],
+    "tetra10": [(0, 1), (1, 2), (2, 0), (0, 3), (1, 3), (2, 3)],
+    "wedge15": [(0, 1), (1, 2), (2, 0), (3, 4), (4, 5), (5, 3), (0, 3), (1, 4), (2, 5)],
+}
+
+
+@pytest.mark.parametrize("path", [HEX8, TET10, PENTA15, *ELEMENTS], ids=lambda p: p.stem)
+def test_every_solid_element_type_becomes_cells_in_vtk_order(path):
+    """FEBio's quadratic HEX20, PENTA15, TET10, PYRA13 keep every node, each mid-edge node at the middle of VTK's
+    edge; TET15, TET20 and HEX27 are read by their corners (a note says so); every cell's tetrahedra (the split
+    used to locate receptors) have positive volumes and fill the block (2 x 2 x 1 mm)."""
+    raw = read_raw(path)
+    _, volume = _domains(path)
+    etype = volume[0].etype
+    for ctype, nodes in zip(raw.cells.cell_types, raw.cells.nodes):
+        xyz, edges = raw.points[nodes], _VTK_EDGES[ctype]
+        for k, (a, b) in enumerate(edges):
+            np.testing.assert_allclose(xyz[:, nodes.shape[1] - len(edges) + k], (xyz[:, a] + xyz[:, b]) / 2, atol=1e-6)
+    if etype not in ("HEX8", "TET15", "TET20", "HEX27"):
+        np.testing.assert_array_equal(np.concatenate(raw.cells.nodes), np.concatenate([d.conn for d in volume]))
+    else:
+        assert raw.cells.nodes == () and len(raw.cells.cell_types) == 2
+    if etype in ("TET15", "TET20", "HEX27"):
+        assert f"{etype} elements read by their corner nodes (point data linear between corners)." in raw.notes
+    p0, p1, p2, p3 = (raw.points[raw.cells.tetra[:, c]] for c in range(4))
+    signed = np.einsum("ij,ij->i", np.cross(p1 - p0, p2 - p0), p3 - p0) / 6
+    assert (signed > 0).all() and signed.sum() == pytest.approx(4.0, rel=1e-6)
 
 
 def test_element_variables_are_cell_data_with_febio_component_names():
