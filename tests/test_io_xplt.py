@@ -327,7 +327,7 @@ def test_large_deformation_is_judged_only_within_the_small_strain_bound():
         check = last.provenance.checks[name]
         assert not check["checkable"] and check["max_strain"] == pytest.approx(0.466, abs=1e-3), check
         assert check["note"].startswith("not checkable: strains up to 0.466 exceed the small-strain bound 0.1 at "
-                                        "every step (a finite-strain analysis")
+                                        "every loaded step (a finite-strain analysis")
 
 
 def test_a_ratio_no_convention_explains_is_not_blamed_on_the_convention():
@@ -369,3 +369,35 @@ def test_a_variable_written_for_some_domains_only_is_refused_naming_the_domains(
                                              r"finite; got 96 non-finite value\(s\) .* The file's " + re.escape(said)):
         read_sed(PARTIAL, **UNITS)
     assert main(["info", str(PARTIAL)]) == 0 and said in capsys.readouterr().out
+
+
+def test_a_run_streaming_the_large_deformation_records_which_states_were_not_checkable(tmp_path, capsys):
+    """afferent run reads a plot file state by state: the last state (|E| 0.47) alone is not checkable - no false
+    "looks engineering" warning - and run.json says so, beside the verdict of the state that was judged."""
+    receptors = tmp_path / "receptors.csv"
+    receptors.write_text("id,x,y,z\n1,1.0,1.0,0.8\n2,0.75,1.0,0.8\n3,1.25,1.0,0.8\n")
+    out = tmp_path / "run"
+    code = main(["run", str(LARGE), "--receptors", str(receptors), "--receptor-unit", "mm", "--length-unit", "mm",
+                 "--stress-unit", "MPa", "--sed-from", "exact", "--params", "start", "--no-plots", "--no-cache", "-o",
+                 str(out)])
+    err = capsys.readouterr().err
+    assert code == 0, err
+    assert "shear strain looks" not in err and "differs from the file's own SED" not in err
+    checks = json.loads((out / "run.json").read_text())["field"]["checks"]
+    for name in ("shear_convention", "tensor_sed_vs_export_sed"):
+        check = checks[name]
+        assert check["series_step"] == 1 and check["steps_not_checkable"] == [2] and "steps_failed" not in check
+        assert check["checkable"] and check["max_strain"] == pytest.approx(0.066, abs=1e-3)
+    assert checks["shear_convention"]["consistent"] and checks["tensor_sed_vs_export_sed"]["agree"]
+
+
+def test_a_streamed_series_lists_the_states_whose_check_failed():
+    """FEBio's tensor shear read as engineering, state by state: both loaded states fail the shear check (ratio ~1.9,
+    'looks tensor'); the series' record keeps the first loaded state's verdict and lists both."""
+    from afferent.io import series_provenance
+
+    with pytest.warns(AfferentWarning, match="the file's shear strain looks tensor"):
+        steps = list(iter_sed(HEX8, length_unit="mm", stress_unit="MPa", sed_from="exact", shear="engineering"))
+    shear = series_provenance(s.provenance for s in steps).checks["shear_convention"]
+    assert shear["series_step"] == 1 and shear["steps_failed"] == [1, 2] and not shear["consistent"]
+    assert 1.7 < shear["ratio"] < 2.1 and "steps_not_checkable" not in shear

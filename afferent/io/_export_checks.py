@@ -109,7 +109,7 @@ def _beyond_bound(peak: float, finite: bool) -> str:
     """The sentence for data whose strains exceed :data:`SMALL_STRAIN_BOUND`."""
     if finite:
         return (f"not checkable: strains up to {peak:.3g} exceed the small-strain bound {SMALL_STRAIN_BOUND:g} at every "
-                "step (a finite-strain analysis: there Cauchy stress and the reference-frame strain leave linear "
+                "loaded step (a finite-strain analysis: there Cauchy stress and the reference-frame strain leave linear "
                 "elasticity, and the check would give a false verdict)")
     return (f"strains up to {peak:.3g} exceed the small-strain bound {SMALL_STRAIN_BOUND:g}: judged as a linear "
             "(small-strain) analysis; in a geometrically nonlinear one large deformation alone moves this check")
@@ -161,9 +161,10 @@ def tensor_sed_crosscheck(raw: RawExport, opts: ReadOptions) -> dict | None:
     except (SEDFormatError, ValueError):
         halve = True
     total, peaks = np.nansum(np.abs(ref), axis=1), _step_peaks(strain * np.repeat([1.0, 0.5 if halve else 1.0], 3))
-    within = (peaks <= SMALL_STRAIN_BOUND) & (total > 0)
+    small = peaks <= SMALL_STRAIN_BOUND
+    within = small & (total > 0)
     bound = {"sed_array": arr.name, "small_strain_bound": SMALL_STRAIN_BOUND}
-    if not within.any() and is_finite_strain(e_name):
+    if not within.any() and not small.all() and is_finite_strain(e_name):
         return {**bound, "checkable": False, "max_strain": float(peaks.max()), "agree": None,
                 "note": _beyond_bound(float(peaks.max()), True)}
     step = int(np.flatnonzero(within)[np.argmax(total[within])] if within.any() else np.argmax(total))
@@ -189,7 +190,7 @@ def tensor_sed_crosscheck(raw: RawExport, opts: ReadOptions) -> dict | None:
         "convention": (f"preset={in_use!r}" if in_use else "") + (f" shear={opts.shear!r}" if opts.shear else ""),
         "relative_difference": rel, "scale": scale, "by_preset": by_preset, "best_preset": best,
         "location": tloc, "tolerance": CROSSCHECK_RTOL[tloc], "agree": bool(rel <= CROSSCHECK_RTOL[tloc]),
-        **({} if within.any() else {"note": _beyond_bound(float(peaks[step]), False)}),
+        **({} if within.any() or small.all() else {"note": _beyond_bound(float(peaks[step]), False)}),
     }
 
 
