@@ -441,8 +441,9 @@ def series_provenance(provenances) -> Provenance:
     """One :class:`~afferent.field.Provenance` for the steps :func:`iter_sed` yielded.
 
     Files in order without repeats, the first step's columns, units and factors (every step is
-    read with the same declarations), notes without repeats, each check as :func:`_series_checks`
-    gathers it, and the negative nodal SED summed over the steps: ``count`` and ``n_values``
+    read with the same declarations), notes without repeats, each check from the first step that
+    judged loaded data (``series_step``) with the steps that were not checkable
+    (``steps_not_checkable``) or failed it (``steps_failed``), and the negative nodal SED summed over the steps: ``count`` and ``n_values``
     added, ``min_pa`` and ``min_relative`` the most negative, ``negative_share`` the largest,
     ``steps_with_negatives`` and ``first_step`` (index into the series).
     """
