@@ -401,3 +401,16 @@ def test_a_streamed_series_lists_the_states_whose_check_failed():
     shear = series_provenance(s.provenance for s in steps).checks["shear_convention"]
     assert shear["series_step"] == 1 and shear["steps_failed"] == [1, 2] and not shear["consistent"]
     assert 1.7 < shear["ratio"] < 2.1 and "steps_not_checkable" not in shear
+
+
+def test_info_on_a_large_deformation_state_says_the_cross_check_is_not_checkable():
+    from dataclasses import replace
+
+    from afferent.io._describe import describe_raw
+
+    raw = read_raw(LARGE)
+    last = replace(raw, arrays={k: replace(a, values=a.values[-1:]) for k, a in raw.arrays.items()}, times=raw.times[-1:])
+    lines = describe_raw(last)
+    assert any("1/2 sigma:eps from the tensors vs the SED array 'strain energy density': not checkable: strains up to "
+               "0.466 exceed the small-strain bound 0.1" in line for line in lines), lines
+    assert any("(step 1, relative L2 after the best scale" in line for line in describe_raw(raw))
