@@ -9,16 +9,20 @@ at every state; for the compressed file, from the same run written plain): the r
 from __future__ import annotations
 
 import json
+import re
 import shutil
 import struct
+import warnings
 
 import numpy as np
 import pytest
 
 from afferent import read_sed
 from afferent.cli import main
-from afferent.exceptions import SEDFormatError
+from afferent.exceptions import AfferentWarning, SEDFormatError
 from afferent.io import format_of, iter_sed, read_raw
+from afferent.io._export_checks import shear_consistency
+from afferent.io._read_options import SHEAR_RATIO_BAND
 from afferent.io._xplt import _open, xplt_step_count
 
 from conftest import DATA_DIR
@@ -27,7 +31,10 @@ FEBIO = DATA_DIR / "febio"
 HEX8 = FEBIO / "block_hex8.xplt"
 TET10 = FEBIO / "block_tet10_z.xplt"  # states zlib-compressed
 PENTA15 = FEBIO / "block_penta15.xplt"
-FILES = [HEX8, TET10, PENTA15]
+LARGE = FEBIO / "block_hex8_large.xplt"  # pressed 0.25 mm and slid 0.2 mm: Green-Lagrange strains up to 0.47
+FORMATS = FEBIO / "block_hex8_formats.xplt"  # 'SPR stress' per domain node (NODE), 'total energy' per domain (REGION)
+ELEMENTS = [FEBIO / f"block_{kind}.xplt" for kind in ("hex20", "hex27", "tet15", "tet20", "pyra13")]  # one step each
+FILES = [HEX8, TET10, PENTA15, LARGE, FORMATS, *ELEMENTS]
 UNITS = dict(length_unit="mm", sed_unit="MPa")
 
 
@@ -55,18 +62,84 @@ def test_mesh_and_every_state_as_pyfebio_reads_them(path):
         np.testing.assert_array_equal(domain.conn, ref[f"domain/{domain.part}"][:, 1:])
     n_states = raw.times.size
     np.testing.assert_array_equal(raw.times, [float(ref[f"time/{k}"][0]) for k in range(n_states)])
-    np.testing.assert_allclose(raw.times, [0.0, 0.5, 1.0])
+    np.testing.assert_allclose(raw.times, {LARGE: [0, 1, 2], HEX8: [0, .5, 1], TET10: [0, .5, 1],
+                                           PENTA15: [0, .5, 1]}.get(path, [0, 1]))
     names = {key.split("/")[0] for key in ref if key.startswith(("node:", "elem:"))}
     assert len(names) >= 2
+    fmt = {var.name: var.fmt for var in model.variables["domain"]}
     for key in names:
         got = raw.arrays[key.split(":", 1)[1]]
         for k in range(n_states):
             if key.startswith("node:"):
                 np.testing.assert_array_equal(got.values[k].reshape(ref[f"{key}/{k}"].shape), ref[f"{key}/{k}"])
             elif got.location == "cell":  # the element blocks in the domains' order (block id = domain number)
-                expected = np.concatenate([ref[f"{key}/{k}/{d.number}"] for d in volume])
+                expected = np.concatenate([np.repeat(ref[f"{key}/{k}/{d.number}"].reshape(1, -1), d.conn.shape[0], 0)
+                                           if fmt[got.name] == "REGION" else ref[f"{key}/{k}/{d.number}"] for d in volume])
                 np.testing.assert_array_equal(got.values[k].reshape(expected.shape), expected)
+            elif fmt[got.name] == "NODE":  # each domain's block over its nodes (FEBio's order): the mean where shared
+                total, count = np.zeros(got.values[k].shape), np.zeros(got.values.shape[1])
+                for d in volume:
+                    np.add.at(total, d.nodes, ref[f"{key}/{k}/{d.number}"].reshape(d.nodes.size, -1))
+                    np.add.at(count, d.nodes, 1)
+                np.testing.assert_allclose(got.values[k], total / count[:, None], rtol=1e-6)
     assert raw.preset == "febio" and raw.files == (str(path),)
+
+
+def test_region_and_node_formats_on_a_real_file():
+    """'total energy' (one value per domain, REGION) becomes cell data repeated over the domain's elements: the
+    domain's W integrated, so the sum of its elements' 'strain energy density' x their volume (0.25 mm^3; equal
+    Gauss weights and detJ on these boxes); 'SPR stress' (per domain node, NODE) point data, equal to FEBio's own
+    VTK output of the same run where one domain holds the node, the two domains' mean where they meet (z = 0.75 mm;
+    FEBio's VTK writes the last domain's value there)."""
+    raw, ref = read_raw(FORMATS), _reference(FORMATS)
+    model, volume = _domains(FORMATS)
+    assert {v.name: v.fmt for v in model.variables["domain"]} == {
+        "stress": "ITEM", "strain energy density": "ITEM", "SPR stress": "NODE", "total energy": "REGION"}
+    energy, spr, sed = (raw.arrays[k].values[1] for k in ("total energy", "SPR stress", "strain energy density"))
+    assert raw.arrays["total energy"].location == "cell" and raw.arrays["SPR stress"].location == "point"
+    dermis = slice(0, volume[0].conn.shape[0])  # 12 elements, then the epidermis' 4
+    for part in (dermis, slice(dermis.stop, None)):
+        assert np.unique(energy[part]).size == 1
+        assert energy[part][0] == pytest.approx(sed[part].sum() * 0.25, rel=1e-5)
+    shared = np.intersect1d(volume[0].nodes, volume[1].nodes)
+    assert shared.size == 9 and np.allclose(raw.points[shared, 2], 0.75)
+    alone = np.setdiff1d(np.arange(raw.points.shape[0]), shared)
+    vtk = ref["vtk:SPR stress/1"]
+    np.testing.assert_allclose(spr[alone], vtk[alone], rtol=1e-5, atol=1e-6 * np.abs(vtk).max())
+    block = ref["elem:SPR stress/1/1"].reshape(-1, 6)  # the dermis' own values at its nodes (FEBio's order)
+    own = block[[list(volume[0].nodes).index(n) for n in shared]]
+    np.testing.assert_allclose(spr[shared], (own + vtk[shared]) / 2, rtol=1e-5, atol=1e-6 * np.abs(vtk).max())
+
+
+_VTK_EDGES = {  # VTK's quadratic cells: the node after the corners on each edge, in order
+    "hexahedron20": [(0, 1), (1, 2), (2, 3), (3, 0), (4, 5), (5, 6), (6, 7), (7, 4), (0, 4), (1, 5), (2, 6), (3, 7)],
+    "pyramid13": [(0, 1), (1, 2), (2, 3), (3, 0), (0, 4), (1, 4), (2, 4), (3, 4)],
+    "tetra10": [(0, 1), (1, 2), (2, 0), (0, 3), (1, 3), (2, 3)],
+    "wedge15": [(0, 1), (1, 2), (2, 0), (3, 4), (4, 5), (5, 3), (0, 3), (1, 4), (2, 5)],
+}
+
+
+@pytest.mark.parametrize("path", [HEX8, TET10, PENTA15, *ELEMENTS], ids=lambda p: p.stem)
+def test_every_solid_element_type_becomes_cells_in_vtk_order(path):
+    """FEBio's quadratic HEX20, PENTA15, TET10, PYRA13 keep every node, each mid-edge node at the middle of VTK's
+    edge; TET15, TET20 and HEX27 are read by their corners (a note says so); every cell's tetrahedra (the split
+    used to locate receptors) have positive volumes and fill the block (2 x 2 x 1 mm)."""
+    raw = read_raw(path)
+    _, volume = _domains(path)
+    etype = volume[0].etype
+    for ctype, nodes in zip(raw.cells.cell_types, raw.cells.nodes):
+        xyz, edges = raw.points[nodes], _VTK_EDGES[ctype]
+        for k, (a, b) in enumerate(edges):
+            np.testing.assert_allclose(xyz[:, nodes.shape[1] - len(edges) + k], (xyz[:, a] + xyz[:, b]) / 2, atol=1e-6)
+    if etype not in ("HEX8", "TET15", "TET20", "HEX27"):
+        np.testing.assert_array_equal(np.concatenate(raw.cells.nodes), np.concatenate([d.conn for d in volume]))
+    else:
+        assert raw.cells.nodes == () and len(raw.cells.cell_types) == 2
+    if etype in ("TET15", "TET20", "HEX27"):
+        assert f"{etype} elements read by their corner nodes (point data linear between corners)." in raw.notes
+    p0, p1, p2, p3 = (raw.points[raw.cells.tetra[:, c]] for c in range(4))
+    signed = np.einsum("ij,ij->i", np.cross(p1 - p0, p2 - p0), p3 - p0) / 6
+    assert (signed > 0).all() and signed.sum() == pytest.approx(4.0, rel=1e-6)
 
 
 def test_element_variables_are_cell_data_with_febio_component_names():
@@ -231,3 +304,115 @@ def test_shell_domains_and_their_variables_are_ignored_and_named():
     assert "shell thickness" not in raw.arrays
     assert "ignored domain(s) 3 (QUAD4, 16 elements)" in raw.notes[0]
     assert "plot variable(s) 'shell thickness' only on ignored domains: not read." in raw.notes
+
+
+
+def test_large_deformation_is_judged_only_within_the_small_strain_bound():
+    """FEBio's tensor shear, neo-Hookean: at the last state (|E| up to 0.47) Cauchy stress against Lagrange strain
+    gives a shear/normal stiffness ratio of 0.57, where engineering shear read as tensor would put it; the checks judge
+    the state at 15 % of the load (|E| up to 0.066) only, and a state beyond the bound alone is not checkable."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", AfferentWarning)  # no "looks engineering"
+        field = read_sed(LARGE, length_unit="mm", stress_unit="MPa", sed_from="exact")
+    shear, versus = field.provenance.checks["shear_convention"], field.provenance.checks["tensor_sed_vs_export_sed"]
+    assert shear["checkable"] and shear["consistent"] and 0.8 < shear["ratio"] < 0.9, shear
+    assert shear["steps_judged"] == 2 and shear["n_steps"] == 3 and shear["max_strain"] == pytest.approx(0.066, abs=1e-3)
+    assert shear["note"] == "1 step(s) with strains beyond the small-strain bound 0.1 (up to 0.466) not judged"
+    assert versus["checkable"] and versus["step"] == 1 and versus["agree"], versus
+    raw = read_raw(LARGE)
+    stress, strain = raw.arrays["stress"].values[-1], raw.arrays["Lagrange strain"].values[-1]
+    linear = shear_consistency(stress, strain)  # judged as linear theory (a strain not named finite): it looks wrong
+    assert linear["ratio"] < SHEAR_RATIO_BAND[0] and linear["note"].startswith(
+        "strains up to 0.466 exceed the small-strain bound 0.1: judged as a linear (small-strain) analysis")
+    last = list(iter_sed(LARGE, length_unit="mm", stress_unit="MPa", sed_from="exact"))[-1]
+    for name in ("shear_convention", "tensor_sed_vs_export_sed"):
+        check = last.provenance.checks[name]
+        assert not check["checkable"] and check["max_strain"] == pytest.approx(0.466, abs=1e-3), check
+        assert check["note"].startswith("not checkable: strains up to 0.466 exceed the small-strain bound 0.1 at "
+                                        "every loaded step (a finite-strain analysis")
+
+
+def test_a_ratio_no_convention_explains_is_not_blamed_on_the_convention():
+    """FEBio's small-strain state (tensor shear, ratio 0.93): with the strain's shear halved it is ~2 x as stiff.
+    Read as tensor that is no convention's signature (engineering would make it ~4): the warning must not advise
+    shear='engineering'; read as engineering (what the halving also is), it names tensor."""
+    from afferent.io._export_checks import _shear_message
+    from afferent.io._find_arrays import _convention
+    from afferent.io._read_options import ReadOptions
+
+    raw = read_raw(HEX8)
+    stress, strain = raw.arrays["stress"].values[1:2], raw.arrays["Lagrange strain"].values[1:2].copy()
+    strain[..., 3:] /= 2
+    shear = shear_consistency(stress, strain, finite=True)
+    assert shear["checkable"] and 1.7 < shear["ratio"] < 2.1 and not shear["consistent"]
+    said = _shear_message(raw, shear, _convention(ReadOptions(), raw), "preset='febio'")
+    assert "and 3.7 x with the shear read as engineering: no shear convention explains it" in said, said
+    assert "pass shear=" not in said
+    said = _shear_message(raw, shear, _convention(ReadOptions(shear="engineering"), raw), "shear='engineering'")
+    assert said.endswith("the file's shear strain looks tensor. Check the preset or pass shear='tensor'.")
+
+
+PARTIAL = FEBIO / "block_hex8_partial.xplt"  # 'strain energy density' written with elem_set="epidermis"
+
+
+def test_a_variable_written_for_some_domains_only_is_refused_naming_the_domains(capsys):
+    """NaN on the dermis' cells (no value there: a receptor in the dermis would get none) is refused, and the
+    refusal says which domains carry the variable, which lack it and how to request it for all of them."""
+    raw = read_raw(PARTIAL)
+    sed = raw.arrays["strain energy density"].values
+    assert np.isnan(sed[:, :32]).all() and np.isfinite(sed[:, 32:]).all()  # dermis (domain 1) first, then epidermis
+    np.testing.assert_array_equal(sed[:, 32:], np.stack([_reference(PARTIAL)[f"elem:strain energy density/{k}/2"]
+                                                         for k in range(3)]).reshape(3, 16))
+    said = ("plot variable 'strain energy density' is written for domain(s) 2 (epidermis, 16 elements) only: NaN on "
+            "domain(s) 1 (dermis, 32 elements). To read it there, request it for every domain: in the .feb, "
+            "<var type=\"strain energy density\"/> without elem_set= or a domain list")
+    assert any(n.startswith(said) for n in raw.notes)
+    with pytest.raises(SEDFormatError, match=r"block_hex8_partial.xplt': SED column 'strain energy density' must be "
+                                             r"finite; got 96 non-finite value\(s\) .* The file's " + re.escape(said)):
+        read_sed(PARTIAL, **UNITS)
+    assert main(["info", str(PARTIAL)]) == 0 and said in capsys.readouterr().out
+
+
+def test_a_run_streaming_the_large_deformation_records_which_states_were_not_checkable(tmp_path, capsys):
+    """afferent run reads a plot file state by state: the last state (|E| 0.47) alone is not checkable - no false
+    "looks engineering" warning - and run.json says so, beside the verdict of the state that was judged."""
+    receptors = tmp_path / "receptors.csv"
+    receptors.write_text("id,x,y,z\n1,1.0,1.0,0.8\n2,0.75,1.0,0.8\n3,1.25,1.0,0.8\n")
+    out = tmp_path / "run"
+    code = main(["run", str(LARGE), "--receptors", str(receptors), "--receptor-unit", "mm", "--length-unit", "mm",
+                 "--stress-unit", "MPa", "--sed-from", "exact", "--params", "start", "--no-plots", "--no-cache", "-o",
+                 str(out)])
+    err = capsys.readouterr().err
+    assert code == 0, err
+    assert "shear strain looks" not in err and "differs from the file's own SED" not in err
+    checks = json.loads((out / "run.json").read_text())["field"]["checks"]
+    for name in ("shear_convention", "tensor_sed_vs_export_sed"):
+        check = checks[name]
+        assert check["series_step"] == 1 and check["steps_not_checkable"] == [2] and "steps_failed" not in check
+        assert check["checkable"] and check["max_strain"] == pytest.approx(0.066, abs=1e-3)
+    assert checks["shear_convention"]["consistent"] and checks["tensor_sed_vs_export_sed"]["agree"]
+
+
+def test_a_streamed_series_lists_the_states_whose_check_failed():
+    """FEBio's tensor shear read as engineering, state by state: both loaded states fail the shear check (ratio ~1.9,
+    'looks tensor'); the series' record keeps the first loaded state's verdict and lists both."""
+    from afferent.io import series_provenance
+
+    with pytest.warns(AfferentWarning, match="the file's shear strain looks tensor"):
+        steps = list(iter_sed(HEX8, length_unit="mm", stress_unit="MPa", sed_from="exact", shear="engineering"))
+    shear = series_provenance(s.provenance for s in steps).checks["shear_convention"]
+    assert shear["series_step"] == 1 and shear["steps_failed"] == [1, 2] and not shear["consistent"]
+    assert 1.7 < shear["ratio"] < 2.1 and "steps_not_checkable" not in shear
+
+
+def test_info_on_a_large_deformation_state_says_the_cross_check_is_not_checkable():
+    from dataclasses import replace
+
+    from afferent.io._describe import describe_raw
+
+    raw = read_raw(LARGE)
+    last = replace(raw, arrays={k: replace(a, values=a.values[-1:]) for k, a in raw.arrays.items()}, times=raw.times[-1:])
+    lines = describe_raw(last)
+    assert any("1/2 sigma:eps from the tensors vs the SED array 'strain energy density': not checkable: strains up to "
+               "0.466 exceed the small-strain bound 0.1" in line for line in lines), lines
+    assert any("(step 1, relative L2 after the best scale" in line for line in describe_raw(raw))

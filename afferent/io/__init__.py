@@ -440,11 +440,12 @@ def _series_negative_message(path_or_paths, negatives: list, n_steps: int) -> st
 def series_provenance(provenances) -> Provenance:
     """One :class:`~afferent.field.Provenance` for the steps :func:`iter_sed` yielded.
 
-    Files in order without repeats, the first step's columns, units, factors and checks (every
-    step is read with the same declarations), notes without repeats, and the negative nodal SED
-    summed over the steps: ``count`` and ``n_values`` added, ``min_pa`` and ``min_relative`` the
-    most negative, ``negative_share`` the largest, ``steps_with_negatives`` and ``first_step``
-    (index into the series).
+    Files in order without repeats, the first step's columns, units and factors (every step is
+    read with the same declarations), notes without repeats, each check from the first step that
+    judged loaded data (``series_step``) with the steps that were not checkable
+    (``steps_not_checkable``) or failed it (``steps_failed``), and the negative nodal SED summed over the steps: ``count`` and ``n_values``
+    added, ``min_pa`` and ``min_relative`` the most negative, ``negative_share`` the largest,
+    ``steps_with_negatives`` and ``first_step`` (index into the series).
     """
     from dataclasses import replace
 
@@ -463,4 +464,27 @@ def series_provenance(provenances) -> Provenance:
             negative_share=max(n["negative_share"] for _, n in neg), steps_with_negatives=len(neg),
             first_step=neg[0][0],
         )
-    return replace(provs[0], files=files, notes=notes, negative_sed=negative)
+    return replace(provs[0], files=files, notes=notes, negative_sed=negative, checks=_series_checks(provs))
+
+
+def _series_checks(provs) -> dict:
+    """Each cross-check of a streamed series (each step checked alone) as one record.
+
+    The check of the first step that judged loaded data (``max_strain`` > 0: not the zero state),
+    else of the first step that has it; plus ``series_step`` (its index), ``steps_not_checkable``
+    (the steps whose strains exceed the small-strain bound: see docs/fe-export.md, "The
+    cross-checks") and ``steps_failed`` (the steps whose verdict - ``consistent``, ``agree`` or
+    ``density`` - is false), each a list of step indices, when there are any.
+    """
+    out: dict = {}
+    for name in dict.fromkeys(k for p in provs for k in p.checks):
+        per = [(k, p.checks[name]) for k, p in enumerate(provs) if name in p.checks]
+        judged = [(k, c) for k, c in per if c.get("checkable", True) and c.get("max_strain", 1.0) > 0]
+        k, chosen = (judged or per)[0]
+        record = dict(chosen, series_step=k)
+        skipped = [k for k, c in per if not c.get("checkable", True)]
+        failed = [k for k, c in per if c.get("checkable", True)
+                  and False in (c.get("consistent"), c.get("agree"), c.get("density"))]
+        record.update({"steps_not_checkable": skipped} if skipped else {}, **({"steps_failed": failed} if failed else {}))
+        out[name] = record
+    return out

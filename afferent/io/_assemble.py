@@ -227,7 +227,7 @@ def _sed_from_tensors(raw: RawExport, opts: ReadOptions, rec: _Record) -> tuple[
         + (f": {conv.note}, so no preset or shear is needed." if conv.note == FULL_TENSORS else ".")
     )
     sed = sed_exact(s, e) if opts.sed_from == "exact" else sed_equivalent(s, e, opts.poisson)
-    for msg in _tensor_checks(raw, opts, s, e, location, rec.checks):
+    for msg in _tensor_checks(raw, opts, s, e, location, rec.checks, strain_name=e_name):
         rec.notes.append(msg)
         warnings.warn(msg, AfferentWarning, stacklevel=4)  # the caller of assemble's caller, as before the cut
     return sed, location

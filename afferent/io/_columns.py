@@ -21,6 +21,7 @@ __all__ = [
     "STRESS_COMPONENTS",
     "STRAIN_COMPONENTS",
     "TENSOR_ARRAY_NAMES",
+    "FINITE_STRAIN_NAMES",
 ]
 
 _STRIP = re.compile(r"[\s._:\-/\[\]()]+")
@@ -139,3 +140,11 @@ TENSOR_ARRAY_NAMES: dict[str, frozenset[str]] = {
                  "Lagrange strain", "infinitesimal strain", "EPEL", "EPTO", "GREEN_LAGRANGE_STRAIN_VECTOR",
                  "GREEN_LAGRANGE_STRAIN_TENSOR", *(f"EPSI_{where}" for where in _ASTER_SUPPORTS)),
 }
+
+#: Strain arrays whose name says they are a finite-strain measure (Green-Lagrange, logarithmic),
+#: written by a geometrically nonlinear analysis beside Cauchy stress: FEBio's ``Lagrange strain``
+#: (FEBio always solves finite deformation), Kratos' Green-Lagrange vectors, Abaqus' ``LE``
+#: (logarithmic, written with NLGEOM; ``E`` without). The tensor checks judge such data only at
+#: steps within :data:`afferent.io._read_options.SMALL_STRAIN_BOUND`.
+FINITE_STRAIN_NAMES: frozenset[str] = _c("Lagrange strain", "Green-Lagrange strain", "GREEN_LAGRANGE_STRAIN_VECTOR",
+                                         "GREEN_LAGRANGE_STRAIN_TENSOR", "LE")

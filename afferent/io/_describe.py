@@ -187,7 +187,9 @@ def _tensor_lines(raw, add) -> None:
     except (SEDFormatError, ValueError):
         add("tensors", "no complete stress and strain tensors")
     check = tensor_sed_crosscheck(raw, ReadOptions())
-    if check is not None:
+    if check is not None and not check["checkable"]:
+        add("cross-check", f"1/2 sigma:eps from the tensors vs the SED array {check['sed_array']!r}: {check['note']}")
+    elif check is not None:
         groups: dict = {}
         for name, rel in check["by_preset"].items():
             groups.setdefault(_percent(rel), []).append(name)

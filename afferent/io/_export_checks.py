@@ -12,9 +12,11 @@ import numpy as np
 
 from ..exceptions import SEDFormatError
 from ..strain_energy import PRESETS, sed_exact
+from ._columns import FINITE_STRAIN_NAMES, canonical
 from ._find_arrays import _convention, _where, find_sed_array, find_tensors
 from ._raw import RawExport
-from ._read_options import CROSSCHECK_RTOL, DENSITY_SCALE_BAND, NEGATIVE_SED_RTOL, SHEAR_RATIO_BAND, ReadOptions
+from ._read_options import (CROSSCHECK_RTOL, DENSITY_SCALE_BAND, NEGATIVE_SED_RTOL, SHEAR_RATIO_BAND,
+                            SMALL_STRAIN_BOUND, ReadOptions)
 
 
 def _check_values(raw: RawExport, values: np.ndarray, what: str) -> None:
@@ -22,11 +24,15 @@ def _check_values(raw: RawExport, values: np.ndarray, what: str) -> None:
     if bad.any():
         t, i = np.argwhere(bad.reshape(values.shape[0], values.shape[1], -1).any(-1))[0]
         kind = "NaN" if np.isnan(values[t, i]).any() else "infinite"
+        said = [n for n in raw.notes if " NaN on " in n and any(f"{a.name!r}" in n and a.name in what
+                                                                 for a in raw.arrays.values())]
         raise SEDFormatError(
             f"SED file {_where(raw)!r}: {what} must be finite; got {int(bad.sum())} non-finite value(s) "
             f"(first: {kind} at row {int(i)}{f', step {int(t)}' if values.shape[0] > 1 else ''}) instead."
             + (" Pass on_nan='drop' to leave such rows out." if raw.cells is None else "")
+            + "".join(f" The file's {n[0].lower()}{n[1:]}" for n in said)
         )
+
 
 
 def _merge_duplicate_points(raw: RawExport, xyz: np.ndarray, sed: np.ndarray):
@@ -81,14 +87,46 @@ def _presets_like(check: dict, name: str) -> str:
     return ("presets " if len(same) > 1 else "preset ") + ", ".join(map(repr, same)) + (" give" if len(same) > 1 else " gives")
 
 
+def strain_magnitude(strain) -> np.ndarray:
+    """|eps| = sqrt(eps:eps) of each row of canonical strain components (..., 6), shear as given (dimensionless)."""
+    e = np.asarray(strain, dtype=float)
+    return np.sqrt(np.sum(e[..., :3] ** 2, axis=-1) + 2.0 * np.sum(e[..., 3:] ** 2, axis=-1))
+
+
+def _step_peaks(strain) -> np.ndarray:
+    """The largest |eps| of each step of strain (n_steps, n, 6) or (n, 6) (one step); rows not finite left out."""
+    e = np.asarray(strain, dtype=float)
+    mag = strain_magnitude(e.reshape(1 if e.ndim < 3 else e.shape[0], -1, 6))
+    return np.where(np.isfinite(mag), mag, 0.0).max(axis=1, initial=0.0)
+
+
+def is_finite_strain(name: str) -> bool:
+    """Is the strain array ``name`` a finite-strain measure (:data:`afferent.io._columns.FINITE_STRAIN_NAMES`)?"""
+    return canonical(name) in FINITE_STRAIN_NAMES
+
+
+def _beyond_bound(peak: float, finite: bool) -> str:
+    """The sentence for data whose strains exceed :data:`SMALL_STRAIN_BOUND`."""
+    if finite:
+        return (f"not checkable: strains up to {peak:.3g} exceed the small-strain bound {SMALL_STRAIN_BOUND:g} at every "
+                "loaded step (a finite-strain analysis: there Cauchy stress and the reference-frame strain leave linear "
+                "elasticity, and the check would give a false verdict)")
+    return (f"strains up to {peak:.3g} exceed the small-strain bound {SMALL_STRAIN_BOUND:g}: judged as a linear "
+            "(small-strain) analysis; in a geometrically nonlinear one large deformation alone moves this check")
+
+
 def tensor_sed_crosscheck(raw: RawExport, opts: ReadOptions) -> dict | None:
     """Compare SED computed from the export's tensors with the export's own SED array.
 
     Many tools write an SED array beside stress and strain. For linear elasticity the two
     agree when the component order and shear convention are right, whatever the units (a
     least-squares scale factor absorbs a unit difference and is reported). The comparison is
-    made at the step with the largest total SED, under the convention in use and under every
-    preset of :data:`afferent.strain_energy.PRESETS`.
+    made at the step with the largest total SED among the steps whose strains stay within
+    :data:`SMALL_STRAIN_BOUND` (any step when none does and the strain is not a finite-strain
+    measure: then a ``note`` says so), under the convention in use and under every preset of
+    :data:`afferent.strain_energy.PRESETS`. At finite strain the file's SED is the hyperelastic
+    W (FEBio's neo-Hookean W: 1.27 x 1/2 sigma:E at |E| 0.066, 2.2 x at 0.47), not 1/2 sigma:eps: a finite-strain
+    file (:func:`is_finite_strain`) with no step within the bound is not checkable.
 
     What it can tell: the shear convention (engineering shear read as tensor shear doubles the
     shear terms). What it cannot: the order of the shear components, since relabelling yz and
@@ -101,20 +139,35 @@ def tensor_sed_crosscheck(raw: RawExport, opts: ReadOptions) -> dict | None:
     -------
     dict or None
         None when the export lacks an SED array or tensors at the same location. Otherwise
-        ``sed_array``, ``step``, ``convention`` (the preset or shear in use), ``relative_difference``
-        and ``scale`` (SED array ~ scale x SED from the tensors, both in the file's units: 1 when
-        the SED array is in the stress unit; for the best preset when no convention is declared), ``by_preset`` (relative difference per
-        preset), ``best_preset``, ``tolerance`` (:data:`CROSSCHECK_RTOL`) and ``agree`` (bool).
+        ``sed_array``, ``checkable``, ``max_strain`` (the largest |eps| of the step compared; of
+        the file when not checkable), ``small_strain_bound``; when not checkable ``agree`` None
+        and ``note`` ("not checkable: ..."); else ``step``, ``convention`` (the preset or shear in use),
+        ``relative_difference`` and ``scale`` (SED array ~ scale x SED from the tensors, both in the
+        file's units: 1 when the SED array is in the stress unit; for the best preset when no
+        convention is declared), ``by_preset`` (relative difference per preset), ``best_preset``,
+        ``tolerance`` (:data:`CROSSCHECK_RTOL`), ``agree`` (bool) and, for strains beyond the bound,
+        ``note``.
     """
     try:
-        (_, _, tloc), _ = find_tensors(raw, replace(opts, sed_from="exact"), need_convention=False)
+        (_, _, tloc), (e_name, strain, _) = find_tensors(raw, replace(opts, sed_from="exact"), need_convention=False)
         arr = find_sed_array(raw, ReadOptions(location=tloc, sed_column=opts.sed_column))[0]
     except (SEDFormatError, ValueError):
         return None
     if arr.location != tloc or (arr.ndim == 3 and arr.shape[2] != 1):
         return None
     ref = arr.values.reshape(arr.values.shape[0], -1)
-    step = int(np.argmax(np.nansum(np.abs(ref), axis=1)))
+    try:  # the strain's size under the convention in use; when none is known yet, the smaller (engineering) reading
+        halve = _convention(opts, raw).shear == "engineering"
+    except (SEDFormatError, ValueError):
+        halve = True
+    total, peaks = np.nansum(np.abs(ref), axis=1), _step_peaks(strain * np.repeat([1.0, 0.5 if halve else 1.0], 3))
+    small = peaks <= SMALL_STRAIN_BOUND
+    within = small & (total > 0)
+    bound = {"sed_array": arr.name, "small_strain_bound": SMALL_STRAIN_BOUND}
+    if not within.any() and not small.all() and is_finite_strain(e_name):
+        return {**bound, "checkable": False, "max_strain": float(peaks.max()), "agree": None,
+                "note": _beyond_bound(float(peaks.max()), True)}
+    step = int(np.flatnonzero(within)[np.argmax(total[within])] if within.any() else np.argmax(total))
     one = replace(raw, arrays={k: a.then(lambda v: v[step:step + 1], (1,) + a.shape[1:]) for k, a in raw.arrays.items()},
                   times=None)
     columns = dict(location=tloc, stress_columns=opts.stress_columns, strain_columns=opts.strain_columns)
@@ -134,10 +187,11 @@ def tensor_sed_crosscheck(raw: RawExport, opts: ReadOptions) -> dict | None:
     else:  # no convention declared (afferent info): report the presets only
         rel, scale = by_preset[best], scales[best]
     return {
-        "sed_array": arr.name, "step": step,
+        **bound, "checkable": True, "max_strain": float(peaks[step]), "step": step,
         "convention": (f"preset={in_use!r}" if in_use else "") + (f" shear={opts.shear!r}" if opts.shear else ""),
         "relative_difference": rel, "scale": scale, "by_preset": by_preset, "best_preset": best,
         "location": tloc, "tolerance": CROSSCHECK_RTOL[tloc], "agree": bool(rel <= CROSSCHECK_RTOL[tloc]),
+        **({} if within.any() or small.all() else {"note": _beyond_bound(float(peaks[step]), False)}),
     }
 
 
@@ -152,12 +206,13 @@ def density_by_values(raw: RawExport, arr) -> dict | None:
     Returns
     -------
     dict or None
-        None when the export has no tensors at that location; else the cross-check's
-        ``relative_difference``, ``scale`` and ``best_preset`` for the best preset, ``density``
-        (bool) and ``note`` (a sentence for the provenance).
+        None when the export has no tensors at that location, or when the comparison is not
+        checkable (finite strains beyond :data:`SMALL_STRAIN_BOUND` at every step); else the
+        cross-check's ``relative_difference``, ``scale`` and ``best_preset`` for the best preset,
+        ``density`` (bool) and ``note`` (a sentence for the provenance).
     """
     check = tensor_sed_crosscheck(raw, ReadOptions(sed_column=arr.name, location=arr.location))
-    if check is None or check["sed_array"] != arr.name:
+    if check is None or not check["checkable"] or check["sed_array"] != arr.name:
         return None
     best = check["best_preset"]
     rel, scale = check["by_preset"][best], check["scale"]
@@ -168,32 +223,9 @@ def density_by_values(raw: RawExport, arr) -> dict | None:
     return {"relative_difference": rel, "scale": scale, "best_preset": best, "density": density, "note": note}
 
 
-def shear_consistency(stress, strain) -> dict | None:
-    """Is the strain's shear convention right? A check that needs no material data.
-
-    For an isotropic linear-elastic solid the deviatoric stress is 2G times the deviatoric
-    strain, for the normal (xx - mean) and the shear (xy, yz, xz) components alike. Fitting
-    ``sigma_dev = k_n eps_dev`` on the normal components and ``sigma_ij = k_s eps_ij`` on the
-    shear components over all points and steps gives ``k_s / k_n = 1`` when the shear strain is
-    read with the right convention, 0.5 when engineering shear is read as tensor shear and 2 for
-    the reverse. Averaging to the nodes is linear, so nodal data obey it too (CalculiX nodal
-    STRESS/TOSTRAIN: to 3e-6); several materials or mild nonlinearity move it a little, never
-    by a factor 2.
-
-    Parameters
-    ----------
-    stress, strain : ndarray of shape (..., 6)
-        Canonical components (xx yy zz xy yz xz); strain with the shear as read (tensor).
-
-    Returns
-    -------
-    dict or None
-        ``ratio`` (k_s / k_n), ``k_normal``, ``k_shear`` (Pa per unit strain, 2G for an
-        isotropic solid), ``band`` and ``consistent``; None when the data hold too little shear
-        or deviatoric strain to tell.
-    """
-    s = np.asarray(stress, dtype=float).reshape(-1, 6)
-    e = np.asarray(strain, dtype=float).reshape(-1, 6)
+def _stiffness_ratio(s: np.ndarray, e: np.ndarray) -> dict | None:
+    """k_shear / k_normal of the rows (..., 6) (see :func:`shear_consistency`); None when too little to tell."""
+    s, e = s.reshape(-1, 6), e.reshape(-1, 6)
     ok = np.isfinite(s).all(axis=1) & np.isfinite(e).all(axis=1)
     s, e = s[ok], e[ok]
     sd = s[:, :3] - s[:, :3].mean(axis=1, keepdims=True)
@@ -209,33 +241,107 @@ def shear_consistency(stress, strain) -> dict | None:
             "consistent": bool(SHEAR_RATIO_BAND[0] <= ratio <= SHEAR_RATIO_BAND[1])}
 
 
-def _tensor_checks(raw: RawExport, opts: ReadOptions, s: np.ndarray, e: np.ndarray, location: str, checks: dict):
-    """Run the tensor cross-checks, record them in ``checks``; return the warning texts."""
+def shear_consistency(stress, strain, finite: bool = False) -> dict | None:
+    """Is the strain's shear convention right? A check that needs no material data.
+
+    For an isotropic linear-elastic solid the deviatoric stress is 2G times the deviatoric
+    strain, for the normal (xx - mean) and the shear (xy, yz, xz) components alike. Fitting
+    ``sigma_dev = k_n eps_dev`` on the normal components and ``sigma_ij = k_s eps_ij`` on the
+    shear components over all points and steps gives ``k_s / k_n = 1`` when the shear strain is
+    read with the right convention, 0.5 when engineering shear is read as tensor shear and 2 for
+    the reverse. Averaging to the nodes is linear, so nodal data obey it too (CalculiX nodal
+    STRESS/TOSTRAIN: to 3e-6); several materials or mild nonlinearity move it a little, never
+    by a factor 2.
+
+    Large deformation moves it by itself (:data:`SMALL_STRAIN_BOUND`), so only the steps whose
+    strains stay within the bound are judged. When none does: for a finite-strain measure
+    (``finite``, :func:`is_finite_strain`) the data are not checkable; otherwise every step is
+    judged as a linear (small-strain) analysis, and a ``note`` says so.
+
+    Parameters
+    ----------
+    stress, strain : ndarray of shape (n_steps, n, 6) or (n, 6) (one step)
+        Canonical components (xx yy zz xy yz xz); strain with the shear as read (tensor).
+    finite : bool
+        The strain is a finite-strain measure (Green-Lagrange, logarithmic).
+
+    Returns
+    -------
+    dict or None
+        ``ratio`` (k_s / k_n), ``k_normal``, ``k_shear`` (Pa per unit strain, 2G for an
+        isotropic solid), ``band``, ``consistent``, ``checkable`` (True), ``steps_judged`` (of
+        ``n_steps``), ``max_strain`` (largest |eps| judged), ``small_strain_bound`` and, where
+        steps were left out or the strains exceed the bound, ``note``. Not checkable:
+        ``checkable`` False, ``consistent`` None, ``max_strain``, ``small_strain_bound`` and ``note``
+        ("not checkable: ..."). None when the data hold too little shear or deviatoric strain to tell.
+    """
+    s, e = np.asarray(stress, dtype=float), np.asarray(strain, dtype=float)
+    s, e = (s, e) if s.ndim >= 3 else (s.reshape(1, -1, 6), e.reshape(1, -1, 6))
+    peaks = _step_peaks(e)
+    within = peaks <= SMALL_STRAIN_BOUND
+    fit = _stiffness_ratio(s[within], e[within]) if within.any() else None
+    record = {"n_steps": int(peaks.size), "small_strain_bound": SMALL_STRAIN_BOUND}
+    if fit is not None:
+        left = int(peaks.size - within.sum())
+        note = (f"{left} step(s) with strains beyond the small-strain bound {SMALL_STRAIN_BOUND:g} (up to "
+                f"{peaks.max():.3g}) not judged" if left else None)
+        return {**fit, **record, "checkable": True, "steps_judged": int(within.sum()),
+                "max_strain": float(peaks[within].max()), **({"note": note} if note else {})}
+    if within.all() or _stiffness_ratio(s, e) is None:
+        return None
+    if finite:
+        return {**record, "checkable": False, "consistent": None, "max_strain": float(peaks.max()),
+                "note": _beyond_bound(float(peaks.max()), True)}
+    return {**_stiffness_ratio(s, e), **record, "checkable": True, "steps_judged": int(peaks.size),
+            "max_strain": float(peaks.max()), "note": _beyond_bound(float(peaks.max()), False)}
+
+
+def _caveat(check: dict) -> str:
+    """' (Note.)' for a check's ``note``, '' without one."""
+    note = check.get("note", "")
+    return f" ({note[0].upper()}{note[1:]}.)" if note else ""
+
+
+def _shear_message(raw: RawExport, shear: dict, conv, in_use: str) -> str:
+    """The warning for a shear/normal stiffness ratio outside the band: which convention would fit, if any."""
+    factor = 2.0 if conv.shear == "tensor" else 0.5  # reading the shear as the other convention scales the ratio so
+    other = "engineering" if conv.shear == "tensor" else "tensor"
+    said = (f"SED file {_where(raw)!r}: with the shear strain read as {conv.shear} ({in_use.strip()}), the shear "
+            f"components of stress and strain are {shear['ratio']:.3g} x as stiff as the normal ones (1 for an "
+            "isotropic solid)")
+    caveat = _caveat(shear) if shear["max_strain"] > SMALL_STRAIN_BOUND else ""
+    if SHEAR_RATIO_BAND[0] <= factor * shear["ratio"] <= SHEAR_RATIO_BAND[1]:
+        return f"{said}: the file's shear strain looks {other}. Check the preset or pass shear={other!r}.{caveat}"
+    return (f"{said}, and {factor * shear['ratio']:.3g} x with the shear read as {other}: no shear convention explains "
+            f"it. Check the stress and strain columns (an anisotropic material also does this).{caveat}")
+
+
+def _tensor_checks(raw: RawExport, opts: ReadOptions, s: np.ndarray, e: np.ndarray, location: str, checks: dict,
+                   strain_name: str = ""):
+    """Run the tensor cross-checks, record them in ``checks``; return the warning texts.
+
+    ``strain_name``: the strain array's name (a finite-strain measure is judged within the small-strain bound only).
+    """
     messages = []
     conv = _convention(opts, raw)
     in_use = (f"preset={opts.preset or raw.preset!r}" if (opts.preset or raw.preset) else "") + (
         f" shear={opts.shear!r}" if opts.shear else "")
-    shear = shear_consistency(s, e)
+    shear = shear_consistency(s, e, finite=is_finite_strain(strain_name))
     if shear is not None:
         checks["shear_convention"] = shear
-        if not shear["consistent"]:
-            other = "tensor" if conv.shear == "engineering" else "engineering"
-            messages.append(
-                f"SED file {_where(raw)!r}: with the shear strain read as {conv.shear} ({in_use.strip()}), the shear "
-                f"components of stress and strain are {shear['ratio']:.3g} x as stiff as the normal ones (1 for an "
-                f"isotropic solid): the file's shear strain looks {other}. Check the preset or pass shear={other!r}."
-            )
+        if shear["checkable"] and not shear["consistent"]:
+            messages.append(_shear_message(raw, shear, conv, in_use))
     check = tensor_sed_crosscheck(raw, opts)
     if check is not None:
         checks["tensor_sed_vs_export_sed"] = check
-        if not check["agree"]:
+        if check["checkable"] and not check["agree"]:
             best = check["best_preset"]
             messages.append(
                 f"SED file {_where(raw)!r}: 1/2 sigma:eps from the tensors ({check['convention'].strip()}) differs from "
                 f"the file's own SED array {check['sed_array']!r} by {_percent(check['relative_difference'])} "
                 f"(relative L2 at step {check['step']}, after a scale of {check['scale']:.4g}; expected below "
                 f"{_percent(check['tolerance'])} for {check['location']} data); {_presets_like(check, best)} "
-                f"{_percent(check['by_preset'][best])}. Check the preset and the columns."
+                f"{_percent(check['by_preset'][best])}. Check the preset and the columns.{_caveat(check)}"
             )
     return messages
 

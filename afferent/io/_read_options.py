@@ -54,6 +54,21 @@ DENSITY_SCALE_BAND = (0.5, 2.0)
 #: tensor shear, 2 for the reverse; the band's edges are the geometric midpoints.
 SHEAR_RATIO_BAND = (2 ** -0.5, 2 ** 0.5)
 
+#: Largest strain magnitude |eps| = sqrt(eps:eps) (any row, shear as read) of a step the tensor
+#: checks judge when the strain is a finite-strain measure (:data:`afferent.io._columns.FINITE_STRAIN_NAMES`:
+#: Green-Lagrange, logarithmic). Both checks rest on linear elasticity; at finite strain the tool
+#: pairs Cauchy stress (deformed frame) with a strain of the reference frame and its SED is the
+#: hyperelastic W, so the shear/normal stiffness ratio drifts with the strain, a rotation alone
+#: moves it, and 1/2 sigma:eps departs from W. Measured on FEBio files (ratio at each step, against
+#: the step's largest |eps|): a neo-Hookean block pressed 25 % and slid 20 % (FEBio 4.11) 0.88 at
+#: 0.04, 0.82 at 0.11, 0.71 (the band's edge) at 0.26, 0.57 at 0.47; pressed only, 0.92 at 0.05,
+#: 0.90 at 0.10, 0.71 at 0.44; a St Venant-Kirchhoff beam bent by a pressure (febio-python's
+#: hexbeam, FEBio 3.4) 1.08 at 0.05, 1.14 at 0.10, 1.42 at 0.35. Within 0.1 the drift stays
+#: under 20 %, so a right convention stays inside :data:`SHEAR_RATIO_BAND` and a wrong one (x 0.5
+#: or x 2) outside it; beyond it a right convention can look wrong. Steps beyond the bound are
+#: not judged; a file with no step within it is "not checkable".
+SMALL_STRAIN_BOUND = 0.1
+
 
 @dataclass(frozen=True)
 class ReadOptions:

@@ -112,9 +112,23 @@ def _domain_points(var: _Variable, blocks: dict, volume: list, n_nodes: int, pat
         return np.where(count[:, None] > 0, total / count[:, None], np.nan)
 
 
-def _arrays(model: _Model, volume: list, data: dict, path: str, time: float, elsewhere: list) -> dict:
+def _partial_note(var: _Variable, blocks: dict, volume: list) -> str | None:
+    """The note for a domain variable written for some volume domains only (FEBio's ``elem_set=`` on a ``<var>``)."""
+    def named(ds):
+        return ", ".join(f"{d.number} ({d.name or d.etype}, {d.conn.shape[0]} elements)" for d in ds)
+
+    has = [d for d in volume if d.number in blocks]
+    lacks = [d for d in volume if d.number not in blocks]
+    if not has or not lacks:
+        return None
+    return (f"plot variable {var.name!r} is written for domain(s) {named(has)} only: NaN on domain(s) {named(lacks)}. "
+            f"To read it there, request it for every domain: in the .feb, <var type=\"{var.name}\"/> without elem_set= "
+            "or a domain list; in FEBio Studio, the plot variable without a domain selection.")
+
+
+def _arrays(model: _Model, volume: list, data: dict, path: str, time: float, elsewhere: list, partial: list) -> dict:
     """The nodal and domain variables of one state as one-step RawArrays; the names of domain variables only
-    ignored domains carry are appended to ``elsewhere``."""
+    ignored domains carry are appended to ``elsewhere``, the notes on those some volume domains lack to ``partial``."""
     arrays: dict = {}
     n = model.points.shape[0]
 
@@ -141,6 +155,8 @@ def _arrays(model: _Model, volume: list, data: dict, path: str, time: float, els
             add(var, _domain_points(var, blocks, volume, n, path, time), "point")
         if blocks and var.name not in arrays:
             elsewhere.append(var.name)
+        elif note := _partial_note(var, blocks, volume):
+            partial.append(note)
     material = np.concatenate([np.full(d.conn.shape[0], float(d.part)) for d in volume]) if volume else None
     if material is not None and np.unique(material).size > 1 and "material" not in arrays:
         arrays["material"] = RawArray("material", material[None], "cell")
@@ -209,10 +225,11 @@ def iter_xplt(path: str, *, progress: bool = False):
     try:
         for time, data in _states(f, model):
             elsewhere: list = []
-            arrays = _arrays(model, volume, data, path, time, elsewhere)
+            partial: list = []
+            arrays = _arrays(model, volume, data, path, time, elsewhere, partial)
             more = (f"plot variable(s) {', '.join(map(repr, elsewhere))} only on ignored domains: not read.",)
             yield RawExport(files=(path,), format="xplt", points=model.points, arrays=arrays, times=np.array([time]),
-                            cells=cells, notes=notes + (more if elsewhere else ()), preset="febio")
+                            cells=cells, notes=notes + (more if elsewhere else ()) + tuple(partial), preset="febio")
     finally:
         f.close()
 
