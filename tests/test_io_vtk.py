@@ -77,7 +77,8 @@ def test_an_energy_named_array_without_tensors_asks_for_one_flag():
     with pytest.raises(SEDFormatError, match=re.escape(msg)):
         read_sed(KRATOS_VTM, length_unit="m", sed_unit="Pa")
     f = read_sed(KRATOS_VTM, length_unit="m", sed_unit="Pa", sed_column="STRAIN_ENERGY")
-    assert any("read as a density because sed_column= says so (the file has no tensors" in n for n in f.provenance.notes)
+    assert any("read as a density because sed_column= says so (the file has no stress and strain tensors to decide from "
+               "the values)" in n for n in f.provenance.notes)
 
 
 def test_an_element_energy_beside_tensors_is_refused_by_its_values(tmp_path):

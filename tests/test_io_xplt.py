@@ -416,3 +416,14 @@ def test_info_on_a_large_deformation_state_says_the_cross_check_is_not_checkable
     assert any("1/2 sigma:eps from the tensors vs the SED array 'strain energy density': not checkable: strains up to "
                "0.466 exceed the small-strain bound 0.1" in line for line in lines), lines
     assert any("(step 1, relative L2 after the best scale" in line for line in describe_raw(raw))
+
+
+def test_an_energy_named_array_beyond_the_small_strain_bound_says_why_the_values_cannot_decide():
+    """Before: 'the file has no stress and strain tensors', of a file that has them at large strain
+    (the density-by-values check is not checkable there: the refusal of an energy-named array said so)."""
+    from afferent.io import read_raw
+    from afferent.io._find_arrays import _undecided
+
+    raw = read_raw(str(FEBIO / "block_hex8_large.xplt"))
+    assert _undecided(raw) == ("the file's stress and strain tensors cannot decide it from the values (none at the "
+                               "array's location, or strains beyond the small-strain bound 0.1 at every step)")

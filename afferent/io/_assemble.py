@@ -34,6 +34,7 @@ from ._export_checks import (  # noqa: F401 (importable from here, as before the
 from ._find_arrays import (
     FULL_TENSORS,
     _convention,
+    _undecided,
     _where,
     average_per_element,
     drop_nan_rows,
@@ -194,7 +195,7 @@ def _energy_named(raw: RawExport, opts: ReadOptions, arr, rec: _Record) -> None:
     else:
         msg = (f"{arr.name!r} is named like an energy ({reason}); read as a density because sed_column= says so"
                + (f", although its values are {check['scale']:.3g} x 1/2 sigma:eps of the file's tensors." if check else
-                  " (the file has no tensors to check it against)."))
+                  f" ({_undecided(raw)})."))
         rec.notes.append(msg)
         if check is not None:
             warnings.warn(msg, AfferentWarning, stacklevel=5)

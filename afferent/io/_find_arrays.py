@@ -13,7 +13,7 @@ from ..exceptions import SEDFormatError
 from ..strain_energy import PRESETS, Convention, to_canonical
 from . import _columns as C
 from ._raw import RawArray, RawExport
-from ._read_options import ReadOptions
+from ._read_options import SMALL_STRAIN_BOUND, ReadOptions
 
 
 def _where(raw: RawExport) -> str:
@@ -248,8 +248,7 @@ def find_sed_array(raw: RawExport, opts: ReadOptions) -> list[RawArray]:
                 f"SED file {_where(raw)!r}: column {a.name!r} holds an energy, not an energy density ({reason}); "
                 + (f"its values are {check['scale']:.3g} x 1/2 sigma:eps of the file's tensors (relative difference "
                    f"{check['relative_difference']:.2g}), as an element energy is the density x the element volume. "
-                   if check is not None else "so its name says, and the file has no stress and strain tensors to "
-                   "decide from the values. ")
+                   if check is not None else f"so its name says, and {_undecided(raw)}. ")
                 + f"Export the density, or divide by the element volume first; if it is a density after all, confirm "
                 f"with sed_column={a.name!r} (--sed-column {a.name})."
             )
@@ -265,6 +264,14 @@ def find_sed_array(raw: RawExport, opts: ReadOptions) -> list[RawArray]:
         f"(looked for SED, SENER, ESEDEN, SEND, solid.Ws, ENER, 'strain energy density', ...). "
         f"Found {_names(raw)}.{hint}"
     )
+
+
+def _undecided(raw: RawExport) -> str:
+    """Why the values cannot tell a density from an energy (:func:`density_by_values` gave None), as a clause."""
+    if not _tensor_summary(raw):
+        return "the file has no stress and strain tensors to decide from the values"
+    return ("the file's stress and strain tensors cannot decide it from the values (none at the array's location, or "
+            f"strains beyond the small-strain bound {SMALL_STRAIN_BOUND:g} at every step)")
 
 
 def _tensor_summary(raw: RawExport) -> str:
