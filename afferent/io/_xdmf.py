@@ -22,6 +22,7 @@ is followed within the XDMF file only (DOLFINx's ``xpointer`` to the mesh grid).
 
 from __future__ import annotations
 
+import math
 import os
 import re
 from types import SimpleNamespace
@@ -58,6 +59,30 @@ def has_collections(path: str) -> bool:
     return any(g.get("GridType") == "Collection" for g in root.iter("Grid"))
 
 
+def _read_whole(h5, dataset: str) -> np.ndarray | None:
+    """A hard-linked dataset of ``h5`` read whole by one ``H5Dread`` into a new array, or None.
+
+    Only a contiguous dataset whose storage is allocated in the file itself (HDF5 gives its
+    offset: every value is read from it, none left unwritten) holding integers or reals in a
+    simple dataspace is read so; anything else (chunked, filtered or compact storage, external
+    raw files, virtual datasets, unallocated storage, scalar dataspaces, enums and other types)
+    returns None for h5py's own read. The same bytes as ``h5[dataset][()]``, without building
+    h5py's ``Dataset`` object and without the zero-filled buffer h5py reads into: a step of
+    300,763 float64 values in 0.5 ms instead of 0.7 ms (README, "Series streaming").
+    """
+    from h5py import h5d, h5s
+
+    dsid = h5d.open(h5.id, dataset.encode())
+    if dsid.get_offset() is None:  # HADDR_UNDEF: not contiguous, not allocated, or in external raw files
+        return None
+    space, dtype = dsid.get_space(), dsid.dtype
+    if space.get_simple_extent_type() != h5s.SIMPLE or dtype.kind not in "iuf" or dtype.metadata:
+        return None
+    data = np.empty(space.shape, dtype)
+    dsid.read(h5s.ALL, h5s.ALL, data)
+    return data
+
+
 class _Heavy:
     """Reads DataItems: HDF5 datasets (one open file per .h5), raw binary files or inline XML numbers.
 
@@ -83,7 +108,7 @@ class _Heavy:
         if fmt == "HDF":
             data = self._hdf(text, what)
         elif fmt == "BINARY":
-            data = self._binary(item, text, what, -1 if dims is None else int(np.prod(dims)))
+            data = self._binary(item, text, what, -1 if dims is None else math.prod(dims))
         elif fmt == "XML":
             try:
                 data = np.array(text.split(), dtype=float)
@@ -93,7 +118,7 @@ class _Heavy:
             raise SEDFormatError(f"SED file {self.path!r}: {what} is stored as Format={fmt!r}; afferent reads HDF, "
                                  "Binary and XML DataItems.")
         if dims is not None:
-            if int(np.prod(dims)) != data.size:
+            if math.prod(dims) != data.size:
                 raise SEDFormatError(f"SED file {self.path!r}: {what} must hold {' x '.join(map(str, dims))} values "
                                      f"(its Dimensions); got {data.size} instead.")
             data = data.reshape(dims)
@@ -120,11 +145,14 @@ class _Heavy:
             self._note(h5path)
         h5 = self.files[h5path]
         group = (h5path, dataset.rstrip("/").rsplit("/", 1)[0])
-        if not (group in self.plain_groups and self._hard_link(h5, dataset)):
+        plain = group in self.plain_groups and self._hard_link(h5, dataset)
+        if not plain:
             self._follow(h5, h5path, dataset, what, group)
         # else a hard link in a group whose path was followed before: nothing new to find or note (a series' steps)
         try:
-            data = np.asarray(h5[dataset][()])
+            data = _read_whole(h5, dataset) if plain else None
+            if data is None:
+                data = np.asarray(h5[dataset][()])
         except OSError as err:
             raise SEDFormatError(f"SED file {self.path!r}: dataset {dataset!r} of {what} in {h5path!r} could not "
                                  f"be read (truncated?): {err}") from err
@@ -427,6 +455,7 @@ def iter_xdmf_collections(path: str, *, progress: bool = False):
         first_names: dict[str, str] | None = None
         first_shapes: dict[str, tuple] = {}
         bar = progress_bar(total=len(leaves), enabled=progress, desc="reading xdmf", unit="grid")
+        files, n_opened = (), -1  # heavy.opened only grows: the files' tuple is rebuilt when it does
         for t in times:
             found = _step_attributes(heavy, by_time[t], t, len(points), cells, first_names, path, bar)
             if first_names is None:
@@ -436,8 +465,10 @@ def iter_xdmf_collections(path: str, *, progress: bool = False):
                                 f"functions {', '.join(found) or 'none'}; mesh read once.")
             else:
                 _check_same_functions(found, t, times, first_names, first_shapes, path)
-            yield RawExport(files=files_read([path], heavy.opened), format="xdmf", points=points, arrays=found, times=np.array([t]),
-                            cells=cells, notes=tuple(notes))
+            if len(heavy.opened) != n_opened:
+                files, n_opened = files_read([path], heavy.opened), len(heavy.opened)
+            yield RawExport(files=files, format="xdmf", points=points, arrays=found, times=np.array([t]), cells=cells,
+                            notes=tuple(notes))
         bar.close()
     finally:
         heavy.close()
