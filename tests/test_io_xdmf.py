@@ -171,3 +171,17 @@ def test_a_series_steps_read_whole_are_h5py_s_values_bit_for_bit(tmp_path, monke
         np.testing.assert_array_equal(buffer, 7.0)  # untouched by HDF5: an uninitialised buffer would be garbage
     assert [os.path.basename(p) for p in steps[-1].files] == ["s.xdmf", "s.h5", "target.h5"]
     assert [os.path.basename(p) for p in steps[-2].files] == ["s.xdmf", "s.h5"]
+
+
+def test_a_series_xml_is_parsed_once_and_its_meshes_listed_once(monkeypatch):
+    """_raw_steps parsed the XDMF three times (collections? how many steps? then the steps), and the
+    mesh grids were listed again for every leaf grid, twice (N^2 for N steps): once each now."""
+    from afferent.io import _raw_steps, _xdmf
+
+    parses, listings = [], []
+    parse, uniform = _xdmf._parse, _xdmf._uniform_grids
+    monkeypatch.setattr(_xdmf, "_parse", lambda path: parses.append(path) or parse(path))
+    monkeypatch.setattr(_xdmf, "_uniform_grids", lambda domain: listings.append(1) or uniform(domain))
+    n_steps, steps = _raw_steps(str(DX / "block.xdmf"), None, False)
+    assert n_steps == len(list(steps)) == 3
+    assert len(parses) == 1 and len(listings) == 1

@@ -53,10 +53,20 @@ def _counts(text: str | None, what: str, path: str) -> tuple[int, ...]:
     return tuple(int(w) for w in words)
 
 
-def has_collections(path: str) -> bool:
-    """Whether an XDMF file holds grid collections (a time series) rather than a single grid."""
-    root = _parse(path)
+def has_collections(path: str | ET.Element) -> bool:
+    """Whether an XDMF file (its path, or its parsed root) holds grid collections (a time series) rather than a
+    single grid."""
+    root = path if isinstance(path, ET.Element) else _parse(path)
     return any(g.get("GridType") == "Collection" for g in root.iter("Grid"))
+
+
+def series_steps(path: str, *, progress: bool = False):
+    """(number of time steps, :func:`iter_xdmf_collections` iterator) for an XDMF file with grid collections,
+    else None; the XML is parsed once for the three."""
+    root = _parse(path)
+    if not has_collections(root):
+        return None
+    return step_count(root), iter_xdmf_collections(path, progress=progress, root=root)
 
 
 def _read_whole(h5, dataset: str) -> np.ndarray | None:
@@ -246,13 +256,18 @@ def read_single_grid(path: str, opened: list):
         heavy.close()
 
 
-def _mesh_grid(domain: ET.Element, grid: ET.Element) -> ET.Element:
-    """The grid whose Topology/Geometry a grid uses: its own, or the one its xi:include names."""
+def _uniform_grids(domain: ET.Element) -> list:
+    """The uniform grids of the domain that hold a Topology and a Geometry (the meshes), in file order."""
+    return [g for g in domain.iter("Grid") if g.get("GridType", "Uniform") == "Uniform"
+            and g.find("Topology") is not None and g.find("Geometry") is not None]
+
+
+def _mesh_grid(uniform: list, grid: ET.Element) -> ET.Element:
+    """The grid whose Topology/Geometry a grid uses: its own, or the one of ``uniform`` (:func:`_uniform_grids`)
+    its xi:include names."""
     if grid.find("Topology") is not None and grid.find("Geometry") is not None:
         return grid
     inc = next((c for c in grid if c.tag in _XI_TAGS), None)
-    uniform = [g for g in domain.iter("Grid") if g.get("GridType", "Uniform") == "Uniform"
-               and g.find("Topology") is not None and g.find("Geometry") is not None]
     if inc is not None:
         m = re.search(r"@Name\s*=\s*[\"']([^\"']+)[\"']", inc.get("xpointer", ""))
         if m:
@@ -264,9 +279,9 @@ def _mesh_grid(domain: ET.Element, grid: ET.Element) -> ET.Element:
     return uniform[0]
 
 
-def step_count(path: str) -> int:
-    """Number of distinct times in the temporal grid collections of an XDMF file."""
-    root = _parse(path)
+def step_count(path: str | ET.Element) -> int:
+    """Number of distinct times in the temporal grid collections of an XDMF file (its path, or its parsed root)."""
+    root = path if isinstance(path, ET.Element) else _parse(path)
     times = {t.get("Value") for coll in root.iter("Grid") if coll.get("GridType") == "Collection"
              for grid in coll.findall("Grid") for t in grid.findall("Time")}
     return len(times)
@@ -298,7 +313,8 @@ def _temporal_leaves(domain: ET.Element, path: str) -> list:
 def _one_mesh(domain: ET.Element, leaves: list, path: str) -> ET.Element:
     """The grid holding the mesh every leaf uses; more than one mesh is refused."""
     try:
-        meshes = {id(_mesh_grid(domain, g)): _mesh_grid(domain, g) for _, g in leaves}
+        uniform = _uniform_grids(domain)  # once: searched again for every leaf, a series of N steps cost N^2
+        meshes = {id(m): m for m in (_mesh_grid(uniform, g) for _, g in leaves)}
     except SEDFormatError as err:
         raise SEDFormatError(f"SED file {path!r}: {err}.") from None
     if len(meshes) > 1:
@@ -410,7 +426,7 @@ def _check_same_functions(found: dict, t: float, times: list, first_names: dict,
                                  f"component(s) at t = {t:g} but {first_shapes[name] or 1} at t = {times[0]:g}.")
 
 
-def iter_xdmf_collections(path: str, *, progress: bool = False):
+def iter_xdmf_collections(path: str, *, progress: bool = False, root: ET.Element | None = None):
     """Read an XDMF file made of grid collections (one or several functions over time), one time
     step at a time: the mesh is read once, then each step's attributes (memory: one step).
 
@@ -420,6 +436,8 @@ def iter_xdmf_collections(path: str, *, progress: bool = False):
         The ``.xdmf``/``.xmf`` file; its ``.h5`` heavy-data file(s) beside it.
     progress : bool
         Show a progress bar over the grids.
+    root : xml.etree.ElementTree.Element, optional
+        The file's XML already parsed (:func:`series_steps`), else parsed here.
 
     Yields
     ------
@@ -436,7 +454,7 @@ def iter_xdmf_collections(path: str, *, progress: bool = False):
     """
     from .._progress import progress_bar
 
-    root = _parse(path)
+    root = _parse(path) if root is None else root
     domain = root.find("Domain")
     if domain is None:
         raise SEDFormatError(f"SED file {path!r} has no <Domain>: not an XDMF file?")
