@@ -173,15 +173,25 @@ def test_a_series_steps_read_whole_are_h5py_s_values_bit_for_bit(tmp_path, monke
     assert [os.path.basename(p) for p in steps[-2].files] == ["s.xdmf", "s.h5"]
 
 
-def test_a_series_xml_is_parsed_once_and_its_meshes_listed_once(monkeypatch):
-    """_raw_steps parsed the XDMF three times (collections? how many steps? then the steps), and the
-    mesh grids were listed again for every leaf grid, twice (N^2 for N steps): once each now."""
+def test_a_series_xml_is_parsed_once_and_its_meshes_and_links_listed_once(monkeypatch):
+    """_raw_steps parsed the XDMF three times (collections? how many steps? then the steps), the mesh
+    grids were listed again for every leaf grid, twice (N^2 for N steps), and each step's dataset had
+    its link checked: once each now, the links once per HDF5 group (DOLFINx: /Mesh/mesh, and one group
+    per function holding its steps)."""
     from afferent.io import _raw_steps, _xdmf
 
-    parses, listings = [], []
-    parse, uniform = _xdmf._parse, _xdmf._uniform_grids
+    parses, listings, groups = [], [], []
+    parse, uniform, hard_links = _xdmf._parse, _xdmf._uniform_grids, _xdmf._Heavy._hard_links
     monkeypatch.setattr(_xdmf, "_parse", lambda path: parses.append(path) or parse(path))
     monkeypatch.setattr(_xdmf, "_uniform_grids", lambda domain: listings.append(1) or uniform(domain))
+    monkeypatch.setattr(_xdmf._Heavy, "_hard_links", staticmethod(lambda h5, g: groups.append(g) or hard_links(h5, g)))
     n_steps, steps = _raw_steps(str(DX / "block.xdmf"), None, False)
-    assert n_steps == len(list(steps)) == 3
+    steps = list(steps)
+    assert n_steps == len(steps) == 3 and len(steps[0].arrays) == 5
     assert len(parses) == 1 and len(listings) == 1
+    assert sorted(groups) == ["/Function/" + f for f in sorted(("sed", "sed_nodal", "strain", "stress", "u"))] + [
+        "/Mesh/mesh"]
+    with h5py.File(DX / "block.h5", "r") as f:  # every step's arrays as h5py reads them
+        for k, step in enumerate(steps, start=1):
+            for name, a in step.arrays.items():
+                np.testing.assert_array_equal(a.values[0].ravel(), f[f"/Function/{name}/{k}"][()].ravel())
