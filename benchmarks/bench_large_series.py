@@ -22,7 +22,7 @@ in its own process under ``/usr/bin/time`` (wall time, peak resident memory):
 Targets (issue 14): ``afferent sample`` within 1.2x the bare read; peak memory about one step's
 mesh plus the per-receptor results, the same for 10 and 50 steps.
 
-``--vs-h5py`` (issue 23: XDMF streaming within 1.1x of h5py): in one process, CPU time, in turn 7
+``--vs-h5py`` (issue 23: XDMF streaming within 1.1x of h5py): in one process, CPU time, in turn 11
 times each after a warm-up, the XDMF series read step by step by afferent's reader
 (``afferent.io.iter_sed``'s raw steps: the mesh once, then each step's attributes, with every check)
 against h5py alone reading the same datasets (the mesh's two datasets, then each step's) the usual
@@ -156,6 +156,10 @@ def _h5py_alone(path: Path, paths: list[str], low_level: bool = False) -> int:
     return n
 
 
+#: rounds of --vs-h5py: a step differs from h5py by ~0.1-0.3 ms, the whole series by 10-20 ms of noise under load
+ROUNDS = 11
+
+
 def vs_h5py(folder: Path, steps: int) -> None:
     """afferent's streamed XDMF read against h5py alone on the same datasets (CPU time, interleaved).
 
@@ -195,13 +199,13 @@ def vs_h5py(folder: Path, steps: int) -> None:
     for fn in runs.values():  # warm-up: imports, the page cache
         fn()
     times = {k: [] for k in runs}
-    for _ in range(7):
+    for _ in range(ROUNDS):
         for k, fn in runs.items():
             t = time.process_time()
             fn()
             times[k].append(time.process_time() - t)
     print(f"# {exports[steps].name}: {steps} steps; h5py reads the {len(items[steps]) - steps} mesh datasets and the "
-          f"{steps} step datasets; CPU s, medians of 7 rounds; per step = (whole - first step alone) / {steps - 1}")
+          f"{steps} step datasets; CPU s, medians of {ROUNDS} rounds; per step = (whole - first step alone) / {steps - 1}")
     print(f"{'reader':20} {'whole s':>8} {'vs h5py':>8} {'steps 2..N s':>13} {'per step ms':>12} {'vs h5py':>8} "
           f"{'vs low-level':>13}")
     med = {k: statistics.median(v) for k, v in times.items()}
