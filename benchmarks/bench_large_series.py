@@ -22,12 +22,14 @@ in its own process under ``/usr/bin/time`` (wall time, peak resident memory):
 Targets (issue 14): ``afferent sample`` within 1.2x the bare read; peak memory about one step's
 mesh plus the per-receptor results, the same for 10 and 50 steps.
 
-``--vs-h5py`` (issue 23: XDMF streaming within 1.1x of h5py): in one process, CPU time, in turn 7
+``--vs-h5py`` (issue 23: XDMF streaming within 1.1x of h5py): in one process, CPU time, in turn 11
 times each after a warm-up, the XDMF series read step by step by afferent's reader
 (``afferent.io.iter_sed``'s raw steps: the mesh once, then each step's attributes, with every check)
-against h5py alone reading the same datasets (the mesh's two datasets, then each step's), and
-``afferent.io.iter_sed`` (SI units, the checks of each step) beside them; medians and the median of
-the pairwise ratios. Default for this mode: ``--points 300000 --steps 20``. The data is written once into
+against h5py alone reading the same datasets (the mesh's two datasets, then each step's) the usual
+way (``f[name][()]``) and by its low-level API (``h5d.open`` and one ``H5Dread`` into ``np.empty``:
+the floor), and ``afferent.io.iter_sed`` (SI units, the checks of each step) beside them; the ratios
+of the medians, per step after the first against both h5py reads. Default for this mode:
+``--points 300000 --steps 20``. The data is written once into
 ``--data`` (default: a temporary folder; ~1.4 GB at 1e6 points and 50 steps) and reused when the
 folder already holds it.
 """
@@ -125,25 +127,37 @@ BARE_XDMF = textwrap.dedent("""
 """)
 
 
-def _h5py_alone(path: Path, paths: list[str]) -> int:
+def _h5py_alone(path: Path, paths: list[str], low_level: bool = False) -> int:
     """Read every dataset of ``paths`` (``file.h5:/name``, mesh first) with h5py alone; returns the values read.
 
-    As a stream's consumer does, the mesh is kept and each step's array is held until the next
-    one is read (an array freed at once lets the allocator hand the same pages back for the next
-    step, which a consumer that uses the step does not see).
+    ``low_level``: by h5py's low-level API (``h5d.open``, then one ``H5Dread`` of the whole dataset into
+    ``np.empty``: no ``Dataset`` object, no zero-filled buffer), the floor of any reader; else by h5py's
+    high-level ``f[name][()]``, the usual way. As a stream's consumer does, the mesh is kept and each
+    step's array is held until the next one is read (an array freed at once lets the allocator hand the
+    same pages back for the next step, which a consumer that uses the step does not see).
     """
     import h5py
+    from h5py import h5d, h5s
 
     n, files, held = 0, {}, []
     for k, item in enumerate(paths):
         name, dataset = item.split(":", 1)
         h5 = files.get(name) or files.setdefault(name, h5py.File(path.parent / name, "r"))
-        values = np.asarray(h5[dataset][()])
+        if low_level:
+            dsid = h5d.open(h5.id, dataset.encode())
+            values = np.empty(dsid.shape, dsid.dtype)
+            dsid.read(h5s.ALL, h5s.ALL, values)
+        else:
+            values = np.asarray(h5[dataset][()])
         held = held[:2] + [values]  # the mesh's two arrays, and the last step
         n += values.size
     for f in files.values():
         f.close()
     return n
+
+
+#: rounds of --vs-h5py: a step differs from h5py by ~0.1-0.3 ms, the whole series by 10-20 ms of noise under load
+ROUNDS = 11
 
 
 def vs_h5py(folder: Path, steps: int) -> None:
@@ -154,8 +168,10 @@ def vs_h5py(folder: Path, steps: int) -> None:
     whole read.
     """
     import statistics
+    import warnings
     import xml.etree.ElementTree as ET
 
+    from afferent.exceptions import AfferentWarning
     from afferent.io import _raw_steps, iter_sed
 
     def datasets(export):
@@ -170,30 +186,35 @@ def vs_h5py(folder: Path, steps: int) -> None:
         return sum(1 for _ in it)
 
     def sed(export):
-        return sum(1 for _ in iter_sed(str(export), length_unit="mm", sed_unit="MPa"))
+        with warnings.catch_warnings():  # step 0 is all zero (the undeformed state): its warning, once a round
+            warnings.simplefilter("ignore", AfferentWarning)
+            return sum(1 for _ in iter_sed(str(export), length_unit="mm", sed_unit="MPa"))
 
     exports = {1: xdmf(folder, 1), steps: xdmf(folder, steps)}
     items = {n: datasets(e) for n, e in exports.items()}
     runs = {(what, n): fn for n, e in exports.items() for what, fn in (
-        ("h5py alone", lambda e=e, n=n: _h5py_alone(e, items[n])), ("afferent raw steps", lambda e=e: raw(e)),
-        ("afferent iter_sed", lambda e=e: sed(e)))}
+        ("h5py alone", lambda e=e, n=n: _h5py_alone(e, items[n])),
+        ("h5py low-level", lambda e=e, n=n: _h5py_alone(e, items[n], low_level=True)),
+        ("afferent raw steps", lambda e=e: raw(e)), ("afferent iter_sed", lambda e=e: sed(e)))}
     for fn in runs.values():  # warm-up: imports, the page cache
         fn()
     times = {k: [] for k in runs}
-    for _ in range(7):
+    for _ in range(ROUNDS):
         for k, fn in runs.items():
             t = time.process_time()
             fn()
             times[k].append(time.process_time() - t)
-    print(f"# {exports[steps].name}: {steps} steps; h5py alone reads the {len(items[steps]) - steps} mesh datasets and "
-          f"the {steps} step datasets; CPU s, medians of 7 rounds")
-    print(f"{'reader':20} {'whole s':>8} {'vs h5py':>8} {'steps 2..N s':>13} {'per step ms':>12} {'vs h5py':>8}")
+    print(f"# {exports[steps].name}: {steps} steps; h5py reads the {len(items[steps]) - steps} mesh datasets and the "
+          f"{steps} step datasets; CPU s, medians of {ROUNDS} rounds; per step = (whole - first step alone) / {steps - 1}")
+    print(f"{'reader':20} {'whole s':>8} {'vs h5py':>8} {'steps 2..N s':>13} {'per step ms':>12} {'vs h5py':>8} "
+          f"{'vs low-level':>13}")
     med = {k: statistics.median(v) for k, v in times.items()}
-    for what in ("h5py alone", "afferent raw steps", "afferent iter_sed"):
-        whole, first = med[(what, steps)], med[(what, 1)]
-        rest = whole - first
-        print(f"{what:20} {whole:8.3f} {whole / med[('h5py alone', steps)]:8.2f} {rest:13.3f} "
-              f"{1e3 * rest / (steps - 1):12.2f} {rest / (med[('h5py alone', steps)] - med[('h5py alone', 1)]):8.2f}")
+    rest = {what: med[(what, steps)] - med[(what, 1)] for what, _ in med}
+    for what in ("h5py alone", "h5py low-level", "afferent raw steps", "afferent iter_sed"):
+        whole = med[(what, steps)]
+        print(f"{what:20} {whole:8.3f} {whole / med[('h5py alone', steps)]:8.2f} {rest[what]:13.3f} "
+              f"{1e3 * rest[what] / (steps - 1):12.2f} {rest[what] / rest['h5py alone']:8.2f} "
+              f"{rest[what] / rest['h5py low-level']:13.2f}")
 
 
 def timed(cmd: list[str], env=None) -> tuple[float, float]:

@@ -6,6 +6,7 @@ afferent computes from the written stress and strain tensors.
 
 from __future__ import annotations
 
+import os
 import re
 import shutil
 
@@ -110,3 +111,87 @@ def test_a_meshio_time_series_with_mixed_cells(tmp_path, monkeypatch):
     assert raw.cells.cell_types == ("hexahedron", "tetra") and raw.cells.n_cells == 2
     np.testing.assert_array_equal(raw.times, [0.0, 1.0])
     np.testing.assert_allclose(raw.arrays["SED"].values[:, 0], [1e-4, 2e-4])
+
+
+def test_a_series_steps_read_whole_are_h5py_s_values_bit_for_bit(tmp_path, monkeypatch):
+    """The later datasets of a series (hard links in a group already followed) are read by one H5Dread into
+    a new array when they are contiguous and allocated, integers or reals (afferent.io._xdmf._read_whole);
+    every other storage goes through h5py's own read. Each step is h5py's `f[name][()]` as float64, bit for
+    bit, whichever way it was read; an external link's target is still listed. An unallocated dataset
+    whose fill time is 'never' is the reason for the guard: HDF5 leaves the buffer untouched."""
+    import meshio
+    from h5py import h5d, h5s, h5t
+
+    from afferent.io import _raw_steps, _xdmf
+
+    monkeypatch.chdir(tmp_path)  # meshio writes the .h5 into the working folder
+    pts = np.array([[x, y, z] for z in (0, 1) for y in (0, 1) for x in (0, 1)], float)
+    sed = 1e-4 * (1.0 + pts @ [1.0, 2.0, 3.0])
+    kinds = ["float64", ">f8", "<f4", ">i4", "chunked gzip", "compact", "fill never", "external link"]
+    with meshio.xdmf.TimeSeriesWriter("s.xdmf") as w:
+        w.write_points_cells(pts, [("hexahedron", np.array([[0, 1, 3, 2, 4, 5, 7, 6]]))])
+        for k in range(len(kinds)):
+            w.write_data(float(k), point_data={"SED": sed * (k + 1)})
+    names = [f"/data{k + 2}" for k in range(len(kinds))]  # meshio's names: the mesh's /data0 and /data1, then a step each
+    assert re.findall(r"s\.h5:(/data\d+)", (tmp_path / "s.xdmf").read_text()) == names + ["/data0", "/data1"]
+    with h5py.File("s.h5", "r+") as f, h5py.File("target.h5", "w") as target:
+        for kind, name in zip(kinds, names):
+            values = f[name][()]
+            del f[name]
+            if kind in ("float64", ">f8", "<f4"):
+                f[name] = values.astype(kind)
+            elif kind == ">i4":
+                f[name] = (values * 1e7).astype(">i4")
+            elif kind == "chunked gzip":
+                f.create_dataset(name, data=values, chunks=(4,), compression="gzip")
+            elif kind == "external link":
+                target["sed"] = values
+                f[name] = h5py.ExternalLink("target.h5", "/sed")
+            else:  # compact storage, or none allocated with HDF5's fill time 'never'
+                dcpl = h5py.h5p.create(h5py.h5p.DATASET_CREATE)
+                dcpl.set_layout(h5d.COMPACT) if kind == "compact" else dcpl.set_fill_time(h5d.FILL_TIME_NEVER)
+                dset = h5d.create(f.id, name.encode(), h5t.NATIVE_DOUBLE, h5s.create_simple(values.shape), dcpl=dcpl)
+                if kind == "compact":
+                    dset.write(h5s.ALL, h5s.ALL, values)
+    whole = []
+    original = _xdmf._read_whole
+    monkeypatch.setattr(_xdmf, "_read_whole", lambda h5, name: whole.append((name, r := original(h5, name))) or r)
+    steps = list(_raw_steps("s.xdmf", None, False)[1])
+    read_whole = {name for name, r in whole if r is not None}
+    assert read_whole == {"/data1", *names[:4]}  # the cells (after the points followed the group) and 4 steps
+    assert {name for name, r in whole if r is None} == set(names[4:7])  # chunked, compact, fill never
+    with h5py.File("s.h5", "r") as f:
+        for step, name in zip(steps, names):
+            values = step.arrays["SED"].values[0]
+            assert values.dtype == np.float64
+            np.testing.assert_array_equal(values, np.asarray(f[name][()]).astype(float), err_msg=name)
+        np.testing.assert_array_equal(steps[6].arrays["SED"].values[0], 0.0)  # h5py's zero-filled buffer
+        buffer = np.full(len(pts), 7.0)
+        h5d.open(f.id, names[6].encode()).read(h5s.ALL, h5s.ALL, buffer)
+        np.testing.assert_array_equal(buffer, 7.0)  # untouched by HDF5: an uninitialised buffer would be garbage
+    assert [os.path.basename(p) for p in steps[-1].files] == ["s.xdmf", "s.h5", "target.h5"]
+    assert [os.path.basename(p) for p in steps[-2].files] == ["s.xdmf", "s.h5"]
+
+
+def test_a_series_xml_is_parsed_once_and_its_meshes_and_links_listed_once(monkeypatch):
+    """_raw_steps parsed the XDMF three times (collections? how many steps? then the steps), the mesh
+    grids were listed again for every leaf grid, twice (N^2 for N steps), and each step's dataset had
+    its link checked: once each now, the links once per HDF5 group (DOLFINx: /Mesh/mesh, and one group
+    per function holding its steps)."""
+    from afferent.io import _raw_steps, _xdmf
+
+    parses, listings, groups = [], [], []
+    parse, uniform, hard_links = _xdmf._parse, _xdmf._uniform_grids, _xdmf._Heavy._hard_links
+    monkeypatch.setattr(_xdmf, "_parse", lambda path: parses.append(path) or parse(path))
+    monkeypatch.setattr(_xdmf, "_uniform_grids", lambda domain: listings.append(1) or uniform(domain))
+    monkeypatch.setattr(_xdmf._Heavy, "_hard_links", staticmethod(lambda h5, g: groups.append(g) or hard_links(h5, g)))
+    n_steps, steps = _raw_steps(str(DX / "block.xdmf"), None, False)
+    steps = list(steps)
+    assert n_steps == len(steps) == 3 and len(steps[0].arrays) == 5
+    assert len(parses) == 1 and len(listings) == 1
+    assert sorted(groups) == ["/Function/" + f for f in sorted(("sed", "sed_nodal", "strain", "stress", "u"))] + [
+        "/Mesh/mesh"]
+    with h5py.File(DX / "block.h5", "r") as f:  # every step's arrays as h5py reads them
+        for k, step in enumerate(steps, start=1):
+            for name, a in step.arrays.items():
+                np.testing.assert_array_equal(a.values[0].ravel(), f[f"/Function/{name}/{k}"][()].ravel())

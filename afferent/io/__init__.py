@@ -315,10 +315,11 @@ def _raw_steps(path_or_paths, fmt: str | None, progress: bool):
         files, _ = _meshio.pvd_entries(paths[0])
         return len(files), _meshio.iter_pvd(paths[0], progress=progress)
     if kind == "xdmf" and len(paths) == 1 and os.path.isfile(paths[0]) and os.path.getsize(paths[0]) > 0:
-        from ._xdmf import has_collections, iter_xdmf_collections, step_count
+        from ._xdmf import series_steps
 
-        if has_collections(paths[0]):
-            return step_count(paths[0]), iter_xdmf_collections(paths[0], progress=progress)
+        steps = series_steps(paths[0], progress=progress)
+        if steps is not None:
+            return steps
     if kind == "xplt" and len(paths) == 1:
         from ._xplt import iter_xplt, xplt_step_count
 
