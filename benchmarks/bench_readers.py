@@ -28,9 +28,8 @@ ROOT = Path(__file__).resolve().parent.parent
 FILES = [
     "tests/data/calculix/block_c3d8.frd", "tests/data/calculix/block_c3d8_binary.frd", "tests/data/calculix/block_c3d8.frd.gz",
     "tests/data/calculix/block_c3d20r.frd", "tests/data/calculix/block_c3d10.frd", "tests/data/calculix/block_c3d8.dat",
-    "tests/data/dolfinx/block.xdmf", "tests/data/exodus/EqualValueEmbeddedConstraint_out.e",
-    "tests/data/exodus/tensile_bar_out.e", "tests/data/exodus/elastic_patch_quadratic_out.e",
-    "tests/data/exodus/aero_blunt_wedge_wall_test3.ex2", "tests/data/sfepy/block.vtk",
+    "tests/data/dolfinx/block.xdmf", "tests/data/exodus/layers_ioss.e",
+    "tests/data/exodus/layers_sfepy.e", "tests/data/exodus/hex20_ioss.e", "tests/data/sfepy/block.vtk",
     # issue 20: tools this project had not met (each folder's README: tool, version, how made)
     "tests/data/calculix/block_c3d15.frd", "tests/data/calculix/block_c3d8_print.dat",
     "tests/data/calculix/block_c3d8_print.dat.gz", "tests/data/kratos/vtk/Structure_0_1.vtk",
