@@ -1,7 +1,7 @@
 """Quadratic cells: interpolated with their own shape functions (afferent/_shape_functions.py), the
 readers' node orders mapped to VTK's, quadratic and Lagrange cell types of VTK files.
 
-Meshes: CalculiX 2.20's own .frd files (tests/data/calculix), MOOSE's HEX20 patch test
+Meshes: CalculiX 2.20's own .frd files (tests/data/calculix), 8 irregular HEX20 from VTK 9.7.2's IOSS writer
 (tests/data/exodus), VTK 9.7's files (tests/data/vtk), and structured meshes of every quadratic
 type written with meshio. A field exactly quadratic in x, y, z is interpolated exactly by a
 quadratic cell whose isoparametric map is affine (straight edges, a parallelepiped hexahedron);

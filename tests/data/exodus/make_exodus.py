@@ -29,6 +29,9 @@ Files:
   5.3.5's Exodus writer -> netCDF4): netCDF-4 (HDF5), one HEX8 block, the nodal vector ``u`` as
   one (time, node, 3) variable, SfePy's node groups ``exodus:ref``, meshio's dummy time 0 (float32),
   no element variable (meshio's writer drops cell data).
+- ``hex20_ioss.e``: 2 x 2 x 2 straight-edged HEX20 over the block (its centre corner node moved),
+  written from VTK quadratic hexahedra by vtkIOSSWriter (which puts them in Exodus's node order),
+  with the last step's displacement and nodal SED evaluated at its nodes by SfePy (``evaluate_at``).
 - ``plate_ioss.e``: a 2-D plane-strain version (a 2 x 1 mm section, 8 x 3 QUAD4, y up, the top
   third epidermis, d = 0.05 and 0.1 mm at t = 0.5, 1 s) through vtkIOSSWriter: no volume elements.
 """
