@@ -224,6 +224,25 @@ def test_element_block_ids_are_the_cell_array_material():
     assert "cell array 'material': the element block id of each cell (2 blocks: 1 'dermis', 2 'epidermis')" in raw.notes
 
 
+def _with_block_ids(tmp_path, ids):
+    out = tmp_path / f"ids_{'_'.join(map(str, ids))}.e"
+    with netcdf_file(LAYERS, mmap=False) as nc, netcdf_file(out, "w", version=2) as g:
+        for name, size in sorted(nc.dimensions.items(), key=lambda d: d[1] is not None):  # the record one first
+            g.createDimension(name, size)
+        for k, var in nc.variables.items():
+            g.createVariable(k, var.data.dtype, var.dimensions)[:] = np.array(ids) if k == "eb_prop1" else var.data
+            for key, value in var._attributes.items():
+                setattr(g.variables[k], key, value)
+    return out
+
+
+def test_the_material_is_the_block_id_not_its_position(tmp_path):
+    raw = read_raw(_with_block_ids(tmp_path, [7, 3]))
+    np.testing.assert_array_equal(raw.arrays["material"].values[0], np.repeat([7.0, 3.0], [32, 16]))
+    assert "cell array 'material': the element block id of each cell (2 blocks: 7 'dermis', 3 'epidermis')" in raw.notes
+    assert "material" not in read_raw(_with_block_ids(tmp_path, [5, 5])).arrays  # one id: one material
+
+
 INTERFACE = "id,x,y,z\ncentre,1.0,1.0,{z}\nside,0.5,0.5,{z}\ndeep,1.0,1.0,0.3\n".format(z=2 / 3)
 
 
@@ -237,6 +256,8 @@ def test_info_and_side_see_the_two_blocks_as_materials(tmp_path, capsys):
     assert re.search(r"--side 2: 2 receptors change, by a median -\d\.\d+ %", out)
     field = read_sed(LAYERS, length_unit="mm", sed_unit="MPa", sed_column="sed", location="cell")
     layout = ReceptorLayout(np.array([[1.0, 1.0, 2 / 3], [0.5, 0.5, 2 / 3], [1.0, 1.0, 0.3]]) * 1e-3)
+    assert field.provenance.columns["material"] == "material"
+    np.testing.assert_array_equal(np.unique(field.cells.materials), [1, 2])
     one, two = sample_sed(field, layout, side=1), sample_sed(field, layout, side=2)
     assert one.interface["interfaces"] == {"1/2": 2} and two.interface["side"] == 2
     assert np.all(np.abs(one.values[:, :2] - two.values[:, :2]) > 0.01 * two.values[:, :2])  # the sides differ
@@ -249,3 +270,20 @@ def test_element_types_spelled_otherwise_are_recognised_by_family_and_nodes():
     assert [_volume_type(t, n) for t, n in (("HEXAHEDRON", 8), ("HEX", 20), ("TETRA", 4), ("TET10", 10),
                                             ("WEDGE", 6), ("PYRAMID", 5), ("SHELL4", 4), ("BAR2", 2))] == [
         "hexahedron", "hexahedron20", "tetra", "tetra10", "wedge", "pyramid", None, None]
+
+
+def test_the_development_check_script_runs_on_exodus_files(capsys):
+    """benchmarks/check_exodus_files.py (how MOOSE's files were checked): the IOSS HEX20 file passes;
+    the two-material file fails a one-material Hooke's law check, as it must."""
+    import importlib.util
+
+    from conftest import DATA_DIR as data
+
+    path = data.parent.parent / "benchmarks" / "check_exodus_files.py"
+    spec = importlib.util.spec_from_file_location("check_exodus_files", path)
+    check = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(check)
+    assert check.main([str(EXO / "hex20_ioss.e")]) == 0
+    assert "ok   node order  hexahedron20: largest mid-node offset 0 of the edge length" in capsys.readouterr().out
+    assert check.main([str(LAYERS), "--young", str(E_DERMIS), "--poisson", str(NU)]) == 1
+    assert "FAIL shear       stress_* vs strain_* (cell)" in capsys.readouterr().out
