@@ -2,9 +2,10 @@
 
 Run:  python benchmarks/bench_readers.py [--frd-elements 40]
 
-For every file under tests/data that a real FE tool wrote (CalculiX, DOLFINx, MOOSE/Cubit/SEACAS
-Exodus, SfePy, and the MAPDL file ansys-mapdl-reader ships), ``afferent.io.read_raw`` is timed
-(first call, including the reader's imports, then the best of 5). With ``ccx`` on the PATH a
+For every file under tests/data that a real FE tool wrote (CalculiX, DOLFINx, SfePy's Exodus
+through VTK's IOSS writer and through meshio, SfePy's VTK, and the MAPDL file
+ansys-mapdl-reader ships), ``afferent.io.read_raw`` is timed (first call, including the
+reader's imports, then the best of 5). With ``ccx`` on the PATH a
 C3D8 version of tests/data/calculix's model with N x N x N/2 elements is solved and its .frd
 read (the default N = 40 gives 35,301 nodes and a 34 MB file).
 
