@@ -257,6 +257,8 @@ def test_info_and_side_see_the_two_blocks_as_materials(tmp_path, capsys):
     field = read_sed(LAYERS, length_unit="mm", sed_unit="MPa", sed_column="sed", location="cell")
     layout = ReceptorLayout(np.array([[1.0, 1.0, 2 / 3], [0.5, 0.5, 2 / 3], [1.0, 1.0, 0.3]]) * 1e-3)
     assert field.provenance.columns["material"] == "material"
+    assert "cell array 'material': the element block id of each cell (2 blocks: 1 'dermis', 2 'epidermis')" in \
+        field.provenance.notes  # the run record says where the materials came from
     np.testing.assert_array_equal(np.unique(field.cells.materials), [1, 2])
     one, two = sample_sed(field, layout, side=1), sample_sed(field, layout, side=2)
     assert one.interface["interfaces"] == {"1/2": 2} and two.interface["side"] == 2
