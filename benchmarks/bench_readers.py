@@ -2,9 +2,10 @@
 
 Run:  python benchmarks/bench_readers.py [--frd-elements 40]
 
-For every file under tests/data that a real FE tool wrote (CalculiX, DOLFINx, MOOSE/Cubit/SEACAS
-Exodus, SfePy, and the MAPDL file ansys-mapdl-reader ships), ``afferent.io.read_raw`` is timed
-(first call, including the reader's imports, then the best of 5). With ``ccx`` on the PATH a
+For every file under tests/data that a real FE tool wrote (CalculiX, DOLFINx, SfePy's Exodus
+through VTK's IOSS writer and through meshio, SfePy's VTK, and the MAPDL file
+ansys-mapdl-reader ships), ``afferent.io.read_raw`` is timed (first call, including the
+reader's imports, then the best of 5). With ``ccx`` on the PATH a
 C3D8 version of tests/data/calculix's model with N x N x N/2 elements is solved and its .frd
 read (the default N = 40 gives 35,301 nodes and a 34 MB file).
 
@@ -28,9 +29,8 @@ ROOT = Path(__file__).resolve().parent.parent
 FILES = [
     "tests/data/calculix/block_c3d8.frd", "tests/data/calculix/block_c3d8_binary.frd", "tests/data/calculix/block_c3d8.frd.gz",
     "tests/data/calculix/block_c3d20r.frd", "tests/data/calculix/block_c3d10.frd", "tests/data/calculix/block_c3d8.dat",
-    "tests/data/dolfinx/block.xdmf", "tests/data/exodus/EqualValueEmbeddedConstraint_out.e",
-    "tests/data/exodus/tensile_bar_out.e", "tests/data/exodus/elastic_patch_quadratic_out.e",
-    "tests/data/exodus/aero_blunt_wedge_wall_test3.ex2", "tests/data/sfepy/block.vtk",
+    "tests/data/dolfinx/block.xdmf", "tests/data/exodus/layers_ioss.e",
+    "tests/data/exodus/layers_sfepy.e", "tests/data/exodus/hex20_ioss.e", "tests/data/sfepy/block.vtk",
     # issue 20: tools this project had not met (each folder's README: tool, version, how made)
     "tests/data/calculix/block_c3d15.frd", "tests/data/calculix/block_c3d8_print.dat",
     "tests/data/calculix/block_c3d8_print.dat.gz", "tests/data/kratos/vtk/Structure_0_1.vtk",

@@ -226,7 +226,7 @@ SERIES = ROOT / "sample_sed" / "block4" / "series_0p88mm"
 @pytest.mark.parametrize("export, side", [
     (DATA_DIR / "calculix" / "block_c3d8.frd", []),
     (DATA_DIR / "calculix" / "block_c3d8.frd.gz", []),
-    (DATA_DIR / "exodus" / "circular_out.e", []),
+    (DATA_DIR / "exodus" / "layers_ioss.e", []),
     (DATA_DIR / "csv" / "abaqus_sener.rpt", []),
     (DX / "block.xdmf", ["block.h5"]),
     (DX / "sed_only.xdmf", ["sed_only.h5"]),

@@ -1,7 +1,7 @@
 """Quadratic cells: interpolated with their own shape functions (afferent/_shape_functions.py), the
 readers' node orders mapped to VTK's, quadratic and Lagrange cell types of VTK files.
 
-Meshes: CalculiX 2.20's own .frd files (tests/data/calculix), MOOSE's HEX20 patch test
+Meshes: CalculiX 2.20's own .frd files (tests/data/calculix), 8 irregular HEX20 from VTK 9.7.2's IOSS writer
 (tests/data/exodus), VTK 9.7's files (tests/data/vtk), and structured meshes of every quadratic
 type written with meshio. A field exactly quadratic in x, y, z is interpolated exactly by a
 quadratic cell whose isoparametric map is affine (straight edges, a parallelepiped hexahedron);
@@ -30,7 +30,7 @@ from afferent.sampling import PLACEMENTS, build_sampler
 DATA = Path(__file__).parent / "data"
 CCX = DATA / "calculix"
 VTKDIR = DATA / "vtk"
-PATCH = DATA / "exodus" / "elastic_patch_quadratic_out.e"
+HEX20 = DATA / "exodus" / "hex20_ioss.e"  # 8 irregular HEX20 written by VTK's IOSS writer (Exodus node order)
 
 
 def quadratic(p):
@@ -120,7 +120,7 @@ def test_newton_finds_the_natural_coordinates_in_a_curved_cell():
 CCX_FILES = {"tetra10": "block_c3d10.frd", "hexahedron20": "block_c3d20r.frd", "wedge15": "block_c3d15.frd"}
 
 
-@pytest.mark.parametrize("path", [CCX / f for f in CCX_FILES.values()] + [PATCH], ids=lambda p: p.name)
+@pytest.mark.parametrize("path", [CCX / f for f in CCX_FILES.values()] + [HEX20], ids=lambda p: p.name)
 def test_the_readers_put_the_nodes_in_vtk_order(path):
     # .frd and Exodus list the vertical edges' mid-nodes before the top face's (20-node brick, 15-node wedge)
     raw = read_raw(path)
@@ -157,10 +157,10 @@ def test_corner_only_error_on_a_coarse_tet10_mesh():
     assert after.max() < 1e-13
 
 
-def test_moose_hex20_patch_linear_exact_and_quadratic_closer_than_corners():
-    # 7 irregular straight-edged HEX20: their map is trilinear, not affine, so the serendipity
+def test_exodus_hex20_linear_exact_and_quadratic_closer_than_corners():
+    # 8 irregular straight-edged HEX20: their map is trilinear, not affine, so the serendipity
     # space does not hold x^2 exactly; a linear field it does, and the quadratic error shrinks.
-    f = read_sed(PATCH, length_unit="m", sed_unit="Pa", sed_column="elastic_energy", location="point")
+    f = read_raw(HEX20)
     assert f.cells.cell_types == ("hexahedron20",)
     pos = _inside(f.points, 300)
     got, _ = _sample(f.points, f.cells, linear(f.points), pos)

@@ -7,14 +7,17 @@ with an ``elem_type`` attribute), the output times (``time_whole``), nodal varia
 (``name_nod_var``; ``vals_nod_var1..N`` or one ``vals_nod_var``) and element variables
 (``name_elem_var``; ``vals_elem_var{i}eb{j}`` per block, present where the truth table
 ``elem_var_tab`` says so). Every time step is read (meshio's Exodus reader keeps only the
-first). Nodal variables are point data; element variables are cell data over the volume blocks
+first). Nodal variables are point data (a variable with a trailing component axis, as meshio
+writes a vector, keeps its components); element variables are cell data over the volume blocks
 (hexahedra, tetrahedra, wedges, pyramids, linear or quadratic), NaN in a volume block that
-does not carry the variable. Surface, shell, bar and truss blocks are ignored.
+does not carry the variable. Surface, shell, bar and truss blocks are ignored. Several volume
+blocks with different ids give the cell array ``material`` (each cell's block id, ``eb_prop1``),
+the materials the interface site finders and ``side=`` use.
 
 MOOSE writes tensor components as separate scalar variables (``stress_xx``, ``stress_xy``, ...
-from RankTwoAux); afferent matches them by name. Their shear is tensor shear (verified on a
-MOOSE file: stress = C : elastic_strain with tensor shear, tests/test_io_exodus.py). Exodus
-has no units: the user declares them.
+from RankTwoAux); afferent matches them by name. Their shear is tensor shear (stress =
+C : elastic_strain with tensor shear, checked during development on MOOSE's test files with
+tools/check_exodus_files.py; docs/fe-export.md). Exodus has no units: the user declares them.
 """
 
 from __future__ import annotations
@@ -38,7 +41,8 @@ EXODUS_ELEMENTS = {
 
 #: Exodus II node order -> VTK/meshio's, for the types where they differ (the columns of VTK's order
 #: in Exodus's): Exodus numbers the vertical edges' mid-nodes before the top face's (HEX20, HEX27,
-#: WEDGE15, WEDGE18: seen in MOOSE's HEX20 file tests/data/exodus/elastic_patch_quadratic_out.e)
+#: WEDGE15, WEDGE18: HEX20 checked on VTK 9.7.2's IOSS writer, tests/data/exodus/hex20_ioss.e, and on MOOSE's
+#: HEX20 patch test with tools/check_exodus_files.py)
 #: and a HEX27's centre node before its face nodes (-z, +z, -x, +x, -y, +y; VTK: -x, +x, -y, +y,
 #: -z, +z, centre), per the Exodus II manual's table of higher-order nodes (as libMesh's Exodus
 #: reader maps them; no HEX27 file in the tests).
@@ -143,12 +147,16 @@ class _NetCDF:
             self._h5.close()
 
 
-def _per_step(values, n_t: int, n: int, path: str, what: str, per: str) -> np.ndarray:
-    """Values as (n_times, n), or a SEDFormatError naming ``what`` when the sizes disagree."""
+def _per_step(values, n_t: int, n: int, path: str, what: str, per: str, components: bool = False) -> np.ndarray:
+    """Values as (n_times, n), or with ``components`` (n_times, n, k) for a variable stored with a
+    trailing component axis (meshio writes a nodal vector as one (time, node, k) variable); a
+    SEDFormatError naming ``what`` when the sizes disagree."""
     v = np.asarray(values, dtype=float)
+    if components and v.ndim == 3 and v.shape[:2] == (n_t, n) and v.shape[2] > 1:
+        return v
     if v.size != n_t * n:
         raise SEDFormatError(f"SED file {path!r}: {what} must have one value per {per} ({n}) at each of the {n_t} "
-                             f"time step(s); got {v.size} values instead.")
+                             f"time step(s); got {v.size} values (shape {v.shape}) instead.")
     return v.reshape(n_t, n)
 
 
@@ -211,7 +219,7 @@ def _nodal_arrays(nc, path: str, n_t: int, n_nodes: int) -> dict[str, RawArray]:
             v = combined[:, i - 1, :]
         else:
             raise SEDFormatError(f"SED file {path!r} names the nodal variable {name!r} but holds no values for it.")
-        arrays[name] = RawArray(name, _per_step(v, n_t, n_nodes, path, f"nodal variable {name!r}", "node"), "point")
+        arrays[name] = RawArray(name, _per_step(v, n_t, n_nodes, path, f"nodal variable {name!r}", "node", True), "point")
     return arrays
 
 
@@ -235,6 +243,31 @@ def _element_arrays(nc, path: str, n_t: int, volume: list, arrays: dict[str, Raw
         if present:
             key = name if name not in arrays else f"{name}@cell"
             arrays[key] = RawArray(name, np.concatenate(parts, axis=1).reshape(n_t, n_cells), "cell")
+
+
+def _material_array(nc, volume: list, n_t: int) -> tuple[RawArray | None, str | None]:
+    """The element block id of each volume cell (cell order) as the cell array ``material``, with a note.
+
+    Only for a file of several volume blocks with different ids (``eb_prop1``; the block's
+    position, 1-based, when the file has none), so that the interface between two materials
+    can be found (``--grid tips --material-array material --upper ID --lower ID``) and sampled
+    on one side (``side=ID``), as for a CalculiX ``.frd`` or an FEBio ``.xplt``. The ids stay
+    numbers (what those options take); the note names each block when the file does
+    (``eb_names``).
+    """
+    if len(volume) < 2:
+        return None, None
+    ids = nc.get("eb_prop1").astype(np.int64).ravel() if "eb_prop1" in nc else np.zeros(0, dtype=np.int64)
+    names = nc.strings("eb_names")
+    block_ids = [int(ids[j - 1]) if j - 1 < ids.size else j for j, _ in volume]
+    if len(set(block_ids)) < 2:
+        return None, None
+    values = np.concatenate([np.full(n, float(b)) for b, (_, n) in zip(block_ids, volume)])
+    labels = [f"{b} {names[j - 1]!r}" if j - 1 < len(names) and names[j - 1] else str(b)
+              for b, (j, _) in zip(block_ids, volume)]
+    note = (f"cell array 'material': the element block id of each cell ({len(set(block_ids))} blocks: "
+            f"{', '.join(labels)})")
+    return RawArray("material", np.broadcast_to(values, (max(n_t, 1), values.size)), "cell"), note
 
 
 def read_exodus(path: str, *, progress: bool = False) -> RawExport:
@@ -269,8 +302,12 @@ def read_exodus(path: str, *, progress: bool = False) -> RawExport:
         arrays = _nodal_arrays(nc, path, n_t, coords.shape[0])
         if cells is not None:
             _element_arrays(nc, path, n_t, volume, arrays)
+        material, material_note = _material_array(nc, volume, n_t)
         notes = [f"Exodus II, {nc.kind}: {n_t} time step(s), {len(volume)} volume block(s)"
                  + (f"; ignored {', '.join(skipped)}" if skipped else "") + "."]
+        if material is not None and "material" not in arrays:
+            arrays["material"] = material
+            notes.append(material_note)
     finally:
         nc.close()
     if cells is None:
