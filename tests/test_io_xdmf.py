@@ -195,3 +195,37 @@ def test_a_series_xml_is_parsed_once_and_its_meshes_and_links_listed_once(monkey
         for k, step in enumerate(steps, start=1):
             for name, a in step.arrays.items():
                 np.testing.assert_array_equal(a.values[0].ravel(), f[f"/Function/{name}/{k}"][()].ravel())
+
+
+def test_datasets_stored_in_other_files_list_those_files(tmp_path, monkeypatch):
+    """A step whose dataset keeps its values in an external raw file (HDF5 external storage) or in
+    another HDF5 file (a virtual dataset) lists that file among the files read (what the cache and
+    run.json hash): before, neither was listed, so rewriting it went unnoticed."""
+    import meshio
+
+    from afferent.io import _raw_steps
+
+    monkeypatch.chdir(tmp_path)
+    pts = np.array([[x, y, z] for z in (0, 1) for y in (0, 1) for x in (0, 1)], float)
+    sed = 1e-4 * (1.0 + pts @ [1.0, 2.0, 3.0])
+    with meshio.xdmf.TimeSeriesWriter("s.xdmf") as w:
+        w.write_points_cells(pts, [("hexahedron", np.array([[0, 1, 3, 2, 4, 5, 7, 6]]))])
+        for k in range(4):
+            w.write_data(float(k), point_data={"SED": sed * (k + 1)})
+    with h5py.File("s.h5", "r+") as f, h5py.File("source.h5", "w") as source:
+        values = f["/data4"][()]
+        del f["/data4"]  # step 2: values in an external raw file
+        f.create_dataset("/data4", shape=values.shape, dtype="<f8", external=[("raw.bin", 0, values.nbytes)])
+        f["/data4"][...] = values
+        values = f["/data5"][()]
+        del f["/data5"]  # step 3: a virtual dataset over another HDF5 file
+        source["sed"] = values
+        layout = h5py.VirtualLayout(shape=values.shape, dtype="f8")
+        layout[:] = h5py.VirtualSource("source.h5", "sed", shape=values.shape)
+        f.create_virtual_dataset("/data5", layout)
+    steps = list(_raw_steps("s.xdmf", None, False)[1])
+    names = [[os.path.basename(p) for p in step.files] for step in steps]
+    assert names[1] == ["s.xdmf", "s.h5"]
+    assert "raw.bin" in names[2] and "source.h5" in names[3]
+    for k, step in enumerate(steps):
+        np.testing.assert_array_equal(step.arrays["SED"].values[0], sed * (k + 1))

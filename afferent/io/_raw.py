@@ -226,7 +226,9 @@ def files_read(*groups) -> tuple[str, ...]:
 
 
 def h5_files(h5file, name: str) -> list[str]:
-    """The files the HDF5 object ``name`` of an open h5py file and every group on its path live in.
+    """The files the HDF5 object ``name`` of an open h5py file and every group on its path live in,
+    and, for a dataset, the files its values are stored in (external raw storage, a virtual
+    dataset's sources: :func:`_storage_files`).
 
     An external link (``h5py.ExternalLink``) makes HDF5 open another file: the object then
     lives there, and that file is among the result, as is every file a chain of external links
@@ -247,12 +249,38 @@ def h5_files(h5file, name: str) -> list[str]:
         prefix = "/" + "/".join(parts[:k])
         out.extend(_link_chain(h5file, prefix, h5file[os.path.dirname(prefix)].file.filename))
         out.append(h5file[prefix].file.filename)
+    import h5py
+
+    obj = h5file[name]
+    if isinstance(obj, h5py.Dataset):
+        out.extend(_storage_files(obj))
     seen, unique = set(), []
     for f in out:
         if os.path.abspath(f) not in seen:
             seen.add(os.path.abspath(f))
             unique.append(f)
     return unique
+
+
+def _storage_files(dataset) -> list[str]:
+    """The files a dataset's values live in besides its HDF5 file: the raw files of external storage
+    (``H5Pset_external``) and the source files of a virtual dataset (``'.'``: its own file, left out).
+
+    A relative name is taken beside the dataset's file when a file of that name is there, else as
+    given (relative to the working folder), as HDF5 looks for them by default.
+    """
+    import os
+
+    plist = dataset.id.get_create_plist()
+    names = [plist.get_external(k)[0] for k in range(plist.get_external_count())]
+    if dataset.is_virtual:
+        names += [src.file_name for src in dataset.virtual_sources() if src.file_name != "."]
+    base = os.path.dirname(dataset.file.filename)
+    out = []
+    for name in (n.decode() if isinstance(n, bytes) else n for n in names):
+        beside = os.path.join(base, name)
+        out.append(name if os.path.isabs(name) or not os.path.exists(beside) else beside)
+    return out
 
 
 def _link_chain(h5file, name: str, parent: str, limit: int = 32) -> list[str]:

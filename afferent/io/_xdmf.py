@@ -163,6 +163,8 @@ class _Heavy:
         try:
             data = _read_whole(h5, dataset) if plain else None
             if data is None:
+                if plain:  # not contiguous in the file itself: its storage may name files of its own (external raw, virtual)
+                    self._follow(h5, h5path, dataset, what, group)
                 data = np.asarray(h5[dataset][()])
         except OSError as err:
             raise SEDFormatError(f"SED file {self.path!r}: dataset {dataset!r} of {what} in {h5path!r} could not "
