@@ -193,3 +193,13 @@ def test_raw_appended_data_of_every_layout_vtk_writes(tmp_path, compressor, head
     raw = read_raw(str(path))
     np.testing.assert_array_equal(np.asarray(raw.arrays["sed"].values, float).ravel(), sed)
     np.testing.assert_array_equal(raw.cells.tetra, [[0, 1, 2, 3], [4, 5, 6, 7]])
+
+
+def test_a_2d_export_says_it_is_2d(capsys):
+    # a plane-strain section: triangles only, every element with its own copies of its nodes;
+    # afferent interpolates in volume cells, so the points are scattered samples, and their copies are refused
+    assert main(["info", str(NGSOLVE / "plane_2d.vtu")]) == 0
+    out = capsys.readouterr().out
+    assert "No volume cells in the file (its cells: triangle; a 2-D model?)" in out
+    with pytest.raises(SEDFormatError, match=r"plane_2d\.vtu' lists the point \(0, 0\.2, 0\) more than once"):
+        read_sed(NGSOLVE / "plane_2d.vtu", length_unit="mm", sed_unit="MPa")

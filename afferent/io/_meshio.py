@@ -256,7 +256,11 @@ def raw_from_mesh(mesh, path: str, fmt: str, components: dict, notes: list, *, r
     points.setflags(write=False)  # the coincident search remembers read-only coordinates without a digest
     notes = list(notes)
     if cells_obj is None:
-        notes.append("No volume cells in the file: the points are treated as scattered samples.")
+        from meshio._mesh import topological_dimension
+
+        flat = ", ".join(dict.fromkeys(b.type for b in mesh.cells if topological_dimension.get(b.type) == 2))
+        notes.append("No volume cells in the file" + (f" (its cells: {flat}; a 2-D model?)" if flat else "")
+                     + ": the points are treated as scattered samples.")
     arrays = _arrays_from_mesh(mesh, path, cells_obj, components)
     return RawExport(files=tuple(files), format=fmt, points=points, arrays=arrays, cells=cells_obj, notes=tuple(notes),
                      reader=reader)

@@ -19,6 +19,8 @@ Writes (VTKOutput, floatsize="single", raw binary appended data):
                      a block of each per element): sed
   block_order3.vtu   last step, order=3 (VTK Lagrange tetrahedra of degree 3), one element
                      (only_element=0): sed
+  plane_2d.vtu       the two layers as a 2-D plane-strain section (2 x 1 mm, 80 triangles), last
+                     load: sed
   reference.csv      NGSolve's own mesh(x, y, z) evaluation of sed, u and sigma at five points
                      (mm) for every load step
 """
@@ -96,6 +98,31 @@ with TaskManager():
     vtk("block_sub1", ("sed",), subdivision=1).Do()
     vtk("block_order3", ("sed",), order=3, only_element=0).Do()  # one cell: enough to be refused
 
+
+
+def plane_strain():
+    """The same two layers as a 2-D plane-strain section (x across, y up, mm): what a 2-D model writes."""
+    from ngsolve import IfPos
+    from ngsolve.meshes import MakeStructured2DMesh
+
+    m2 = MakeStructured2DMesh(quads=False, nx=8, ny=5, mapping=lambda px, py: (2 * px, py))
+    e2 = IfPos(y - 0.8, 0.136, 0.08)
+    mu2, lam2 = e2 / (2 * (1 + nu)), e2 * nu / ((1 + nu) * (1 - 2 * nu))
+    fes = VectorH1(m2, order=2, dirichlet="bottom")
+    w, q = fes.TnT()
+    eps2 = 0.5 * (Grad(w) + Grad(w).trans)
+    sig2 = 2 * mu2 * eps2 + lam2 * Trace(eps2) * Id(2)
+    a2 = BilinearForm(InnerProduct(sig2, 0.5 * (Grad(q) + Grad(q).trans)) * dx).Assemble()
+    f2 = LinearForm(-0.012 * exp(-((x - 1) ** 2) / 0.3) * specialcf.normal(2) * q * ds("top")).Assemble()
+    g = GridFunction(fes)
+    g.vec.data = a2.mat.Inverse(fes.FreeDofs()) * f2.vec
+    e = 0.5 * (Grad(g) + Grad(g).trans)
+    s2 = 2 * mu2 * e + lam2 * Trace(e) * Id(2)
+    VTKOutput(m2, coefs=[0.5 * InnerProduct(s2, e)], names=["sed"], filename=os.path.join(HERE, "plane_2d"),
+              floatsize="single").Do()
+
+
+plane_strain()
 header = "step,x,y,z,sed,ux,uy,uz,sxx,syy,szz,sxy,syz,sxz"
 np.savetxt(os.path.join(HERE, "reference.csv"), np.array(rows), delimiter=",", header=header,
            comments="", fmt="%.10g")
