@@ -203,3 +203,23 @@ def test_a_2d_export_says_it_is_2d(capsys):
     assert "No volume cells in the file (its cells: triangle; a 2-D model?)" in out
     with pytest.raises(SEDFormatError, match=r"plane_2d\.vtu' lists the point \(0, 0\.2, 0\) more than once"):
         read_sed(NGSOLVE / "plane_2d.vtu", length_unit="mm", sed_unit="MPa")
+
+
+def test_mfem_series_without_settime_is_numbered_not_refused():
+    # ParaViewDataCollection writes timestep="0" for every step unless SetTime is called: was refused
+    # ('timesteps must be strictly increasing; got 0.0 followed by 0.0'); now numbered steps, and times= applies
+    path = MFEM / "notime" / "notime.pvd"
+    field = _quiet(read_sed, path, length_unit="mm", sed_unit="MPa")
+    assert field.times.tolist() == [0.0, 1.0] and field.provenance.units["time"] == "step"
+    timed = _quiet(read_sed, path, length_unit="mm", sed_unit="MPa", times=[0.5, 1.0])
+    assert timed.times.tolist() == [0.5, 1.0] and timed.provenance.units["time"] == "s"
+    np.testing.assert_array_equal(field.sed[0], field.sed[1])  # the same load saved twice
+
+
+def test_ngsolve_step_counter_times_are_noted():
+    # VTKOutput.Do() without a time states the step counter 0, 1 as the time: read as s, with a note
+    field = _quiet(read_sed, NGSOLVE / "notime.pvd", length_unit="mm", sed_unit="MPa")
+    assert field.times.tolist() == [0.0, 1.0] and field.provenance.units["time"] == "s"
+    assert any("are its step numbers (NGSolve's VTKOutput.Do()" in n for n in field.provenance.notes)
+    timed = _quiet(read_sed, NGSOLVE / "block.pvd", length_unit="mm", sed_unit="MPa")  # times 1, 2, 3 stated
+    assert not any("step numbers (NGSolve" in n for n in timed.provenance.notes)

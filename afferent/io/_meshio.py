@@ -414,8 +414,9 @@ def _pvd_xml_entries(path: str) -> list[tuple[float | None, int, str]]:
 
 def pvd_entries(path: str) -> tuple[list[str], list[float] | None]:
     """The files and times of a ParaView ``.pvd`` collection (``<DataSet timestep=... file=...>``) or
-    JSON file series (``.vtu.series``, Kratos' ``.vtm.series``); times None when no entry states one
-    (the steps are then numbered, not given invented seconds)."""
+    JSON file series (``.vtu.series``, Kratos' ``.vtm.series``); times None when no entry states one,
+    or every entry the same one (MFEM's ``ParaViewDataCollection`` writes ``timestep="0"`` at every
+    step unless ``SetTime`` is called): the steps are then numbered, not given invented seconds."""
     if not os.path.isfile(path):
         raise FileNotFoundError(f"SED file {path!r} not found.")
     raw = _series_entries(path) if path.lower().endswith(".series") else _pvd_xml_entries(path)
@@ -430,6 +431,8 @@ def pvd_entries(path: str) -> tuple[list[str], list[float] | None]:
     if not all(stated):
         return [e[2] for e in entries], None
     times = [e[0] for e in entries]
+    if len(times) > 1 and len(set(times)) == 1:  # MFEM's ParaViewDataCollection without SetTime: 0 at every step
+        return [e[2] for e in entries], None
     if any(b <= a for a, b in zip(times, times[1:])):
         k = next(i for i, (a, b) in enumerate(zip(times, times[1:])) if b <= a)
         raise SEDFormatError(

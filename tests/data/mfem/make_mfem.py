@@ -24,6 +24,9 @@ Writes (ParaViewDataCollection, BINARY32 (Float32), zlib compression):
   order3/order3.pvd, order3/Cycle000003/proc000000.vtu
             last step, SetHighOrderOutput(True), SetLevelsOfDetail(3): Lagrange hexahedra of
             degree 3 (what a user of order-3 elements writes)
+  notime/notime.pvd, notime/Cycle00000{0,1}/proc000000.vtu
+            last step saved twice with SetCycle but no SetTime, SetLevelsOfDetail(1) and
+            SetHighOrderOutput(False) (MFEM's defaults): linear hexahedra, corner values
   reference.csv
             MFEM's own evaluation (Mesh.FindPoints, GridFunction.GetValue) of sed and the
             displacement at five points (mm) for every load step
@@ -139,6 +142,10 @@ for step, peak in enumerate(PEAKS, start=1):
     save(series, step)
     rows += reference(step)
 save(collection("linear", False, 2), 3)
+untimed = collection("notime", False, 1)  # MFEM's defaults, and no SetTime: timestep="0" at every step
+for cycle in range(2):
+    untimed.SetCycle(cycle)
+    untimed.Save()
 save(collection("order3", True, 3), 3)
 np.savetxt(os.path.join(HERE, "reference.csv"), np.array(rows), delimiter=",", fmt="%.10g",
            header="step,x,y,z,sed,ux,uy,uz", comments="")

@@ -19,6 +19,8 @@ Writes (VTKOutput, floatsize="single", raw binary appended data):
                      a block of each per element): sed
   block_order3.vtu   last step, order=3 (VTK Lagrange tetrahedra of degree 3), one element
                      (only_element=0): sed
+  notime.pvd, notime.vtu, notime_step00001.vtu
+                     Do() twice without a time (the last load both times): sed
   plane_2d.vtu       the two layers as a 2-D plane-strain section (2 x 1 mm, 80 triangles), last
                      load: sed
   reference.csv      NGSolve's own mesh(x, y, z) evaluation of sed, u and sigma at five points
@@ -94,6 +96,9 @@ with TaskManager():
             s = np.array(sig(mp)).ravel()
             rows.append([step, px, py, pz, sed(mp), *gfu(mp), s[0], s[4], s[8], s[1], s[5], s[2]])
     vtk("block_tensors", ("sed", "stress", "strain")).Do()
+    counted = vtk("notime", ("sed",))  # Do() without a time: the .pvd states the step counter 0, 1
+    for _ in range(2):
+        counted.Do()
     vtk("block_order2", ("sed", "material_id"), order=2).Do()
     vtk("block_sub1", ("sed",), subdivision=1).Do()
     vtk("block_order3", ("sed",), order=3, only_element=0).Do()  # one cell: enough to be refused
