@@ -223,3 +223,15 @@ def test_ngsolve_step_counter_times_are_noted():
     assert any("are its step numbers (NGSolve's VTKOutput.Do()" in n for n in field.provenance.notes)
     timed = _quiet(read_sed, NGSOLVE / "block.pvd", length_unit="mm", sed_unit="MPa")  # times 1, 2, 3 stated
     assert not any("step numbers (NGSolve" in n for n in timed.provenance.notes)
+
+
+@pytest.mark.parametrize("name, what", [("run_000003.mfem_root", "an MFEM VisItDataCollection"),
+                                        ("sed.gf", "an MFEM/GLVis grid function"), ("block.vol", "a Netgen/NGSolve mesh")])
+def test_the_tools_native_files_are_named_with_the_export_to_write(tmp_path, name, what, capsys):
+    path = tmp_path / name
+    path.write_text("MFEM VisIt DataCollection\n")  # the content is never looked at: the ending decides
+    with pytest.raises(SEDFormatError, match=f"is {what}, which afferent does not read; write VTU: MFEM's "
+                                             r"ParaViewDataCollection \(a \.pvd\), NGSolve's VTKOutput"):
+        read_sed(path, length_unit="mm", sed_unit="MPa")
+    assert main(["info", str(path)]) == 2
+    assert capsys.readouterr().err.count("\n") == 1
