@@ -122,14 +122,20 @@ def _raw_appended(path: str):
     data = raw[start.end():stop].split(b"_", 1)[1]
     head = vtu_to_numpy_type[root.get("header_type", "UInt32")]
     head = head.newbyteorder("<" if root.get("byte_order", "LittleEndian") == "LittleEndian" else ">")
-    by_offset = {int(a.get("offset")): a for a in root.iter("DataArray") if a.get("format") == "appended"}
+    by_offset: dict = {}  # raw offset -> the DataArrays there (one, unless a writer shares data)
+    for a in root.iter("DataArray"):
+        if a.get("format") == "appended":
+            if not (a.get("offset") or "").strip().isdigit():
+                raise ReadError(f"appended DataArray {a.get('Name')!r}: offset {a.get('offset')!r} is not a byte count")
+            by_offset.setdefault(int(a.get("offset")), []).append(a)
     compressor = root.attrib.pop("compressor", None)
     unzip = {"vtkLZMADataCompressor": lzma, "vtkZLibDataCompressor": zlib, None: None}[compressor]
     encoded, i = [], 0
     for offset in sorted(by_offset):
         if offset != i:
             raise ReadError(f"appended data: an array at byte {offset}, the previous one ends at {i}")
-        by_offset[offset].set("offset", str(sum(len(e) for e in encoded)))
+        for a in by_offset[offset]:
+            a.set("offset", str(sum(len(e) for e in encoded)))
         if unzip is None:
             size = int(np.frombuffer(data[i:i + head.itemsize], head)[0])
             block, i = data[i:i + head.itemsize + size], i + head.itemsize + size
