@@ -84,6 +84,9 @@ def format_of(path: str, fmt: str | None = None) -> str:
     for name, endings in FORMATS.items():
         if lower.endswith(endings):
             return name
+    for endings, what in _UNREAD.items():
+        if lower.endswith(endings):
+            raise SEDFormatError(f"SED file {path!r} is {what}, which afferent does not read; {_UNREAD_WAY_OUT}")
     known = ", ".join(repr(e) for ends in FORMATS.values() for e in ends)
     raise SEDFormatError(
         f"Could not deduce the SED file format from {path!r}. Known extensions are {known}; "
@@ -92,6 +95,13 @@ def format_of(path: str, fmt: str | None = None) -> str:
 
 
 _format_of = format_of
+
+#: Native files of the tools of docs/fe-export.md's "NGSolve and MFEM" that afferent does not read,
+#: and the export it reads instead.
+_UNREAD = {(".mfem_root",): "an MFEM VisItDataCollection", (".gf", ".gf.gz"): "an MFEM/GLVis grid function",
+           (".vol", ".vol.gz"): "a Netgen/NGSolve mesh"}
+_UNREAD_WAY_OUT = ("write VTU: MFEM's ParaViewDataCollection (a .pvd), NGSolve's VTKOutput (docs/fe-export.md, "
+                   "'NGSolve and MFEM').")
 
 
 def _paths(path_or_paths) -> list[str]:

@@ -290,6 +290,10 @@ def _times(raw: RawExport, opts: ReadOptions, n_times: int, rec: _Record) -> np.
         times = np.asarray(raw.times, dtype=float)
         tu, tf, tsrc = _unit(raw, opts.time_unit, raw.time_unit, "time", "time_unit", "the step times") if (
             opts.time_unit or raw.time_unit) else ("s", 1.0, "assumed: no unit stated; FE step times are in s")
+        if n_times > 1 and np.array_equal(times, np.arange(n_times)) and not opts.time_unit:
+            rec.notes.append(f"The step times 0, 1, ..., {n_times - 1} the export states are its step numbers (NGSolve's "
+                             "VTKOutput.Do() writes its step counter when given no time); read as s: pass times= "
+                             "if they are not.")
     else:
         times = np.arange(n_times, dtype=float)  # step numbers, not seconds: the unit says so
         tu, tf, tsrc = "step", 1.0, "none in the file: steps numbered 0, 1, ..."

@@ -82,6 +82,14 @@ def _old_lagrange_numbering(path: str) -> bool:
     return m is not None and (int(m.group(1)), int(m.group(2))) < (5, 1)
 
 
+#: How the tools that write Lagrange cells of a higher degree write them of degree 2 or less
+#: (checked on tests/data/mfem and tests/data/ngsolve: docs/fe-export.md).
+_LAGRANGE_HINT = (" A Lagrange cell's degree is the export's: MFEM's ParaViewDataCollection with SetHighOrderOutput(true) "
+                  "writes cells of degree SetLevelsOfDetail(n) (write n <= 2, or SetHighOrderOutput(false): n x n x n "
+                  "linear cells per element); NGSolve's VTKOutput(order=k) cells of degree k (write order=2, or "
+                  "order=1 with subdivision).")
+
+
 def volume_type_blocks(cells, path: str) -> list:
     """meshio cell blocks with VTK Lagrange cells of degree <= 2 renamed to the equivalent meshio type.
 
@@ -101,7 +109,8 @@ def volume_type_blocks(cells, path: str) -> list:
                 f"SED file {path!r} holds {len(data)} volume cell(s) of type {ctype!r} ({n} nodes), which afferent "
                 "cannot interpolate in; it reads tetrahedra, hexahedra, wedges and pyramids, linear or quadratic "
                 "(tetra10, hexahedron20/27, wedge15/18, pyramid13), and VTK Lagrange cells of degree 1 or 2. "
-                "Convert the mesh to quadratic cells (ParaView: Tessellate; or export VTK_QUADRATIC_* cells).")
+                "Convert the mesh to quadratic cells (ParaView: Tessellate; or export VTK_QUADRATIC_* cells)."
+                + (_LAGRANGE_HINT if ctype.startswith("VTK_LAGRANGE") else ""))
         if block.type == "VTK_LAGRANGE_HEXAHEDRON" and ctype == "hexahedron27" and _old_lagrange_numbering(path):
             data = data[:, _OLD_LAGRANGE_HEX]
         out.append(block if ctype == block.type else _Block(ctype, data))

@@ -63,7 +63,8 @@ def describe_raw(raw) -> list[str]:
     if raw.cells is not None:
         from .._shape_functions import has_quadratic
 
-        add("cells", f"{raw.cells.n_cells:,} volume cells ({', '.join(raw.cells.cell_types)}), "
+        types = ", ".join(dict.fromkeys(raw.cells.cell_types))  # each once: NGSolve's subdivision alternates blocks
+        add("cells", f"{raw.cells.n_cells:,} volume cells ({types}), "
                      f"{raw.cells.tetra.shape[0]:,} tetrahedra for sampling"
                      + ("; point data interpolated with the quadratic cells' shape functions"
                         if has_quadratic(raw.cells) else ""))

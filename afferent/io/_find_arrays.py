@@ -433,10 +433,11 @@ def _convention(opts: ReadOptions, raw: RawExport | None = None) -> Convention:
 #: Names of material-id arrays (compared lower case, letters and digits only): deal.II
 #: ``material_id``, VTK ``MaterialIds``, SfePy ``mat_id``, gmsh ``gmsh:physical``, medit
 #: ``medit:ref``, DOLFINx/VTK ``CellEntityIds``, Exodus/ParaView ``ElementBlockIds`` and
-#: ``ObjectId``, the bundled sample's ``layer``.
+#: ``ObjectId``, the bundled sample's ``layer``, MFEM's ``attribute`` (``ParaViewDataCollection``
+#: writes each element's attribute as cell data).
 MATERIAL_ARRAY_NAMES = ("material_id", "materialids", "material", "materials", "mat_id", "matid", "layer",
                         "gmsh:physical", "medit:ref", "cellentityids", "elementblockids", "blockid", "block_id",
-                        "objectid", "subdomain", "domain", "region")
+                        "objectid", "subdomain", "domain", "region", "attribute")
 
 
 def _key(name: str) -> str:
@@ -458,9 +459,10 @@ def find_material_array(raw: RawExport, cells=None) -> tuple[str, str, np.ndarra
     wanted = {_key(n) for n in MATERIAL_ARRAY_NAMES}
     for loc in ("cell", "point"):
         for arr in raw.arrays.values():
-            if arr.location != loc or _key(arr.name) not in wanted or arr.ndim != 2 or not arr.shape[0]:
+            scalar = arr.ndim == 2 or (arr.ndim == 3 and arr.shape[2] == 1)  # NumberOfComponents="1": NGSolve
+            if arr.location != loc or _key(arr.name) not in wanted or not scalar or not arr.shape[0]:
                 continue
-            v = arr.values[0]
+            v = arr.values[0].reshape(arr.shape[1])
             if not np.all(np.isfinite(v)) or not np.all(v == np.round(v)):
                 continue
             if loc == "cell":

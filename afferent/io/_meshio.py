@@ -256,7 +256,11 @@ def raw_from_mesh(mesh, path: str, fmt: str, components: dict, notes: list, *, r
     points.setflags(write=False)  # the coincident search remembers read-only coordinates without a digest
     notes = list(notes)
     if cells_obj is None:
-        notes.append("No volume cells in the file: the points are treated as scattered samples.")
+        from meshio._mesh import topological_dimension
+
+        flat = ", ".join(dict.fromkeys(b.type for b in mesh.cells if topological_dimension.get(b.type) == 2))
+        notes.append("No volume cells in the file" + (f" (its cells: {flat}; a 2-D model?)" if flat else "")
+                     + ": the points are treated as scattered samples.")
     arrays = _arrays_from_mesh(mesh, path, cells_obj, components)
     return RawExport(files=tuple(files), format=fmt, points=points, arrays=arrays, cells=cells_obj, notes=tuple(notes),
                      reader=reader)
@@ -410,8 +414,9 @@ def _pvd_xml_entries(path: str) -> list[tuple[float | None, int, str]]:
 
 def pvd_entries(path: str) -> tuple[list[str], list[float] | None]:
     """The files and times of a ParaView ``.pvd`` collection (``<DataSet timestep=... file=...>``) or
-    JSON file series (``.vtu.series``, Kratos' ``.vtm.series``); times None when no entry states one
-    (the steps are then numbered, not given invented seconds)."""
+    JSON file series (``.vtu.series``, Kratos' ``.vtm.series``); times None when no entry states one,
+    or every entry the same one (MFEM's ``ParaViewDataCollection`` writes ``timestep="0"`` at every
+    step unless ``SetTime`` is called): the steps are then numbered, not given invented seconds."""
     if not os.path.isfile(path):
         raise FileNotFoundError(f"SED file {path!r} not found.")
     raw = _series_entries(path) if path.lower().endswith(".series") else _pvd_xml_entries(path)
@@ -426,6 +431,8 @@ def pvd_entries(path: str) -> tuple[list[str], list[float] | None]:
     if not all(stated):
         return [e[2] for e in entries], None
     times = [e[0] for e in entries]
+    if len(times) > 1 and len(set(times)) == 1:  # MFEM's ParaViewDataCollection without SetTime: 0 at every step
+        return [e[2] for e in entries], None
     if any(b <= a for a, b in zip(times, times[1:])):
         k = next(i for i, (a, b) in enumerate(zip(times, times[1:])) if b <= a)
         raise SEDFormatError(

@@ -4,8 +4,9 @@ meshio 5.3's ``meshio.vtu.read`` joins the points of a VTU with several ``<Piece
 keeps only the last piece's cells (``_organize_cells`` leaves its loop over the pieces before
 collecting the cells); it splits cell data among the cell blocks without counting it against
 ``NumberOfCells``; it drops the DataArrays' ``ComponentName`` attributes; and it refuses VTU
-file version 2.x. :func:`read_vtu` parses the XML once (``xml.etree``, or meshio's
-``_parse_raw_binary`` for raw appended data), decodes each DataArray with meshio's
+file version 2.x. :func:`read_vtu` parses the XML once (``xml.etree``; raw appended data
+re-encoded by :func:`_raw_appended`, not meshio's ``_parse_raw_binary``, which can give one array
+another's data), decodes each DataArray with meshio's
 ``VtuReader.read_data`` (base64, zlib, lzma) and its cells with ``vtk_cells_from_data``, and
 from that one parse returns:
 
@@ -80,18 +81,75 @@ class VtuContent:
 
 
 def _root(path: str):
-    """The parsed VTKFile element (meshio's checks of the header), raw appended data re-encoded by meshio."""
+    """The parsed VTKFile element (meshio's checks of the header), raw appended data re-encoded as base64."""
     from meshio import ReadError
-    from meshio.vtu import _vtu
 
     try:
         root = ET.parse(path).getroot()
     except ET.ParseError:
-        root = _vtu._parse_raw_binary(path)
+        root = _raw_appended(path)
     if root.tag != "VTKFile":
         raise ReadError(f"Expected tag 'VTKFile', found {root.tag}")
     if root.attrib.get("type") != "UnstructuredGrid":
         raise ReadError(f"Expected type UnstructuredGrid, found {root.attrib.get('type')}")
+    return root
+
+
+def _raw_appended(path: str):
+    """The VTKFile element of a file with raw (binary) appended data, that data base64-encoded.
+
+    meshio's ``_parse_raw_binary`` does this but finds each array by its offset *after* giving the
+    arrays before it their new (base64) offsets: when a new offset equals a later array's raw one
+    (NGSolve's ``VTKOutput(floatsize="single")``: 1304 Float32 points, 15,652 bytes, whose base64
+    length is the raw offset of ``offsets``), one array gets another's data, or the file fails to
+    read. Here every array is found by its raw offset first. Each is one header (UInt32 or UInt64
+    byte count; compressed: block count, sizes) and its bytes, as VTK writes them.
+    """
+    import base64
+    import lzma
+    import re
+    import zlib
+
+    from meshio import ReadError
+    from meshio.vtu._vtu import vtu_to_numpy_type
+
+    with open(path, "rb") as f:
+        raw = f.read()
+    start, stop = re.search(rb'<AppendedData[^>]+(?:">)', raw), raw.find(b"</AppendedData>")
+    if start is None or stop < 0 or b"_" not in raw[start.end():stop]:
+        raise ReadError()
+    root = ET.fromstring(raw[:start.end()].decode() + raw[stop:].decode())
+    data = raw[start.end():stop].split(b"_", 1)[1]
+    head = vtu_to_numpy_type[root.get("header_type", "UInt32")]
+    head = head.newbyteorder("<" if root.get("byte_order", "LittleEndian") == "LittleEndian" else ">")
+    by_offset: dict = {}  # raw offset -> the DataArrays there (one, unless a writer shares data)
+    for a in root.iter("DataArray"):
+        if a.get("format") == "appended":
+            if not (a.get("offset") or "").strip().isdigit():
+                raise ReadError(f"appended DataArray {a.get('Name')!r}: offset {a.get('offset')!r} is not a byte count")
+            by_offset.setdefault(int(a.get("offset")), []).append(a)
+    compressor = root.attrib.pop("compressor", None)
+    unzip = {"vtkLZMADataCompressor": lzma, "vtkZLibDataCompressor": zlib, None: None}[compressor]
+    encoded, i = [], 0
+    for offset in sorted(by_offset):
+        if offset != i:
+            raise ReadError(f"appended data: an array at byte {offset}, the previous one ends at {i}")
+        for a in by_offset[offset]:
+            a.set("offset", str(sum(len(e) for e in encoded)))
+        if unzip is None:
+            size = int(np.frombuffer(data[i:i + head.itemsize], head)[0])
+            block, i = data[i:i + head.itemsize + size], i + head.itemsize + size
+        else:
+            n_blocks = int(np.frombuffer(data[i:i + head.itemsize], head)[0])
+            sizes = np.frombuffer(data[i:i + (3 + n_blocks) * head.itemsize], head)[3:].astype(int)
+            i += (3 + n_blocks) * head.itemsize
+            body = b"".join(unzip.decompress(data[i + a:i + b])
+                            for a, b in zip(np.r_[0, np.cumsum(sizes)[:-1]], np.cumsum(sizes)))
+            block, i = np.array([len(body)]).astype(head).tobytes() + body, i + int(sizes.sum())
+        encoded.append(base64.b64encode(block).decode())
+    tag = root.find("AppendedData")
+    tag.set("encoding", "base64")
+    tag.text = "_" + "".join(encoded)
     return root
 
 
