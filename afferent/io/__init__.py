@@ -36,12 +36,13 @@ from ._raw import RawExport
 
 __all__ = ["read_sed", "iter_sed", "series_provenance", "read_raw", "describe_raw", "format_of", "FORMATS"]
 
-#: Known formats: name -> file-name endings. '.gz' CSV files are read by the CSV reader. A ParaView
+#: Known formats: name -> file-name endings. '.gz' CSV files are read by the CSV reader, as are ANSYS MAPDL text
+#: listings (``.lis``, a solver's ``.out``). A ParaView
 #: JSON file series (``.vtu.series``, Kratos' ``.vtm.series``) is read like a ``.pvd``. ``.pvtu`` and
 #: ``.vtm`` (and ``.vtk``/``.vtu`` files meshio refuses) need the ``vtk`` extra (see docs/fe-export.md).
 FORMATS: dict[str, tuple[str, ...]] = {
-    "csv": (".csv", ".txt", ".tsv", ".dat", ".rpt", ".log", ".csv.gz", ".txt.gz", ".tsv.gz", ".dat.gz", ".rpt.gz",
-            ".log.gz"),
+    "csv": (".csv", ".txt", ".tsv", ".dat", ".rpt", ".log", ".lis", ".out", ".csv.gz", ".txt.gz", ".tsv.gz", ".dat.gz",
+            ".rpt.gz", ".log.gz", ".lis.gz", ".out.gz"),
     "vtu": (".vtu",),
     "vtk": (".vtk",),
     "pvtu": (".pvtu",),

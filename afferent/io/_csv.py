@@ -41,7 +41,7 @@ from .._validation import check_option, suggest
 from ..exceptions import SEDFormatError
 from ..units import TIME_UNITS, parse_unit
 from ._columns import TIME_ALIASES, canonical, split_unit
-from ._csv_blocks import _parse_ccx, _parse_febio
+from ._csv_blocks import _MAPDL_START, _parse_ccx, _parse_febio, _parse_mapdl
 from ._csv_lines import (
     _CCX_START,
     _COORD_NAMES,
@@ -71,6 +71,7 @@ class _FileArrays:
     length_unit: str | None
     notes: list[str]
     preset: str | None = None
+    join_key: str | None = None  # the id column several files are joined on side by side (MAPDL listings: NODE)
 
 
 def _unit_of(raw: str | None, name: str, notes: list[str]) -> str | None:
@@ -279,8 +280,23 @@ def _read_one(path: str, sep: str | None, time_column: str | None) -> _FileArray
         out = _to_arrays(path, cols, time_column, n_records=n_rec, record_times=times)
         out.preset = "calculix-dat"  # *EL PRINT: sxx syy szz sxy sxz syz, tensor shear (CalculiX printout.f)
         return out
+    if _is_mapdl(text, head):
+        cols, n_rec, times = _parse_mapdl(path, lines, sep, notes)
+        out = _to_arrays(path, cols, time_column, n_records=n_rec, record_times=times)
+        out.preset = "ansys"  # S: SX SY SZ SXY SYZ SXZ, EPEL: engineering shear (docs/fe-export.md, ANSYS MAPDL)
+        out.join_key = cols.headers[0]
+        return out
     cols = _parse_table(path, lines, sep, notes)
     return _to_arrays(path, cols, time_column)
+
+
+def _is_mapdl(text: str, head: str) -> bool:
+    """An ANSYS MAPDL listing: a PRNSOL/PRETAB title, NLIST title or POST1 banner at a line start (searched
+    beyond the first MB only when the words occur: a solver's .out file holds its listings after the log)."""
+    if _MAPDL_START.search(head):
+        return True
+    return len(text) > len(head) and ("PRINT" in text or "LIST ALL" in text or "POST1" in text) and bool(
+        _MAPDL_START.search(text))
 
 
 def _normalise_paths(paths) -> list[str]:
@@ -411,10 +427,54 @@ def read_csv(paths, *, sep: str | None = None, time_column: str | None = None,
 
     iterator = progress_bar(files, enabled=progress, desc="Reading SED files", unit="file")
     per_file = [_read_one(p, sep, time_column) for p in iterator]
+    if len(per_file) > 1 and all(fa.join_key for fa in per_file) and _distinct_columns(per_file):
+        return _merge(files, [_side_by_side(files, per_file)], along="side by side")
     return _merge(files, per_file)
 
 
-def _merge(files: list[str], per_file: list[_FileArrays]) -> RawExport:
+def _distinct_columns(per_file: list[_FileArrays]) -> bool:
+    """Whether the files hold different columns (besides their id column): listings of different items (S in
+    one file, EPEL in another) are joined side by side; files of the same columns are time steps."""
+    seen: set[str] = set()
+    for fa in per_file:
+        own = set(fa.arrays) - {fa.join_key}
+        if own & seen:
+            return False
+        seen |= own
+    return True
+
+
+def _side_by_side(files: list[str], per_file: list[_FileArrays]) -> _FileArrays:
+    """Several MAPDL listings of one run joined on their id column (rows are in id order in each)."""
+    ref, first = per_file[0], files[0]
+    key = ref.join_key
+    ids = ref.arrays[key][1]
+    arrays = dict(ref.arrays)
+    for path, fa in zip(files[1:], per_file[1:]):
+        other = fa.arrays[fa.join_key][1]
+        if fa.join_key != key or other.shape != ids.shape or not np.array_equal(other, ids):
+            raise SEDFormatError(
+                f"ANSYS MAPDL listing {path!r} must list the same {key}s at the same steps as {first!r} to be joined "
+                f"side by side; got {other.shape[1]} {fa.join_key}s at {other.shape[0]} step(s) (or other numbers) "
+                f"against {ids.shape[1]} at {ids.shape[0]} instead."
+            )
+        same_times = (fa.times is None) == (ref.times is None) and (
+            fa.times is None or np.array_equal(fa.times, ref.times))
+        if not same_times:
+            raise SEDFormatError(
+                f"ANSYS MAPDL listing {path!r} must be printed at the times of {first!r} to be joined side by side; "
+                f"got TIME= {None if fa.times is None else fa.times.tolist()} against "
+                f"{None if ref.times is None else ref.times.tolist()} instead."
+            )
+        arrays.update((name, entry) for name, entry in fa.arrays.items() if name != fa.join_key)
+    notes = [n for fa in per_file for n in fa.notes] + [
+        f"joined {len(files)} listings side by side on {key!r}: {', '.join(map(repr, files))}"]
+    return _FileArrays(arrays, ref.times, ref.time_unit, ref.length_unit, notes, ref.preset, key)
+
+
+def _merge(files: list[str], per_file: list[_FileArrays], along: str = "time") -> RawExport:
+    """One RawExport from each file's arrays: stacked along time (one step per file), or ``along='side by side'``
+    (``per_file`` then holds the one joined set of arrays of all ``files``)."""
     first, ref = files[0], per_file[0]
     ref_names = list(ref.arrays)
     n_rows = next(iter(ref.arrays.values()))[1].shape[1] if ref.arrays else 0
@@ -467,7 +527,8 @@ def _merge(files: list[str], per_file: list[_FileArrays]) -> RawExport:
     presets = {fa.preset for fa in per_file}
     return RawExport(
         files=tuple(files), format="csv", points=None, arrays=arrays, times=times,
-        length_unit=length_unit, time_unit=time_unit, notes=_merge_notes(files, per_file),
+        length_unit=length_unit, time_unit=time_unit,
+        notes=_merge_notes(files, per_file) if along == "time" else tuple(dict.fromkeys(ref.notes)),
         preset=presets.pop() if len(presets) == 1 else None,
     )
 

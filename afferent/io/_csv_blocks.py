@@ -5,11 +5,25 @@ See :mod:`afferent.io._csv` for the layouts and the FE-export page for each tool
 
 from __future__ import annotations
 
+import re
+import warnings
+
 import numpy as np
 
-from ..exceptions import SEDFormatError
+from ..exceptions import AfferentWarning, SEDFormatError
 from ._columns import canonical
-from ._csv_lines import _CCX_LABELS, _CCX_TITLE, _FEBIO_KEY, _SEP_NAMES, _SNIFF_LINES, _is_comment, _join_names, _plural
+from ._csv_lines import (
+    _CCX_LABELS,
+    _CCX_TITLE,
+    _DIGITS,
+    _FEBIO_KEY,
+    _SEP_NAMES,
+    _SNIFF_LINES,
+    _is_comment,
+    _join_names,
+    _plural,
+    _quote,
+)
 from ._csv_table import _Columns, _read_rows, _sniff
 
 # --------------------------------------------------------------------------------------
@@ -276,3 +290,283 @@ def _parse_ccx(path: str, lines: list[str], sep: str | None, notes: list[str]):
     )
     cols = _Columns(headers, values, np.asarray(blocks[0][3]), records[0]["line"], {}, notes)
     return cols, len(time_keys), times
+
+
+# --------------------------------------------------------------------------------------
+# ANSYS MAPDL listings (PRNSOL, NLIST, PRETAB)
+# --------------------------------------------------------------------------------------
+
+#: ``PRINT S    NODAL SOLUTION PER NODE`` (PRNSOL), ``PRINT S    ELEMENT SOLUTION PER ELEMENT`` (PRESOL),
+#: ``PRINT F    REACTION SOLUTIONS PER NODE`` (PRRSOL), ``PRINT ELEMENT TABLE ITEMS PER ELEMENT`` (PRETAB).
+_MAPDL_TITLE = re.compile(
+    r"^\s*PRINT\s+(?:(?P<etable>ELEMENT\s+TABLE\s+ITEMS)|(?P<item>\S+)\s+(?P<kind>NODAL|ELEMENT|REACTION)\s+"
+    r"SOLUTIONS?)\s+PER\s+(?:NODE|ELEMENT)\b", re.IGNORECASE)
+#: ``LIST ALL SELECTED NODES.   DSYS=      0`` (NLIST).
+_MAPDL_NLIST = re.compile(r"^\s*LIST\s+ALL\s+SELECTED\s+NODES\b[^\n]*?(?:DSYS\s*=\s*(?P<dsys>-?\d+))?\s*$",
+                          re.IGNORECASE)
+#: The page banner ``***** POST1 NODAL STRESS LISTING *****``.
+_MAPDL_BANNER = re.compile(r"^\s*\*{5}\s*(?P<what>POST1\b[^*]*?LISTING)\s*\*{5}", re.IGNORECASE)
+#: Where a listing starts (to detect one): a title, an NLIST title or a POST1 page banner at a line start.
+_MAPDL_START = re.compile(
+    r"^[ \t]*(?:PRINT[ \t]+(?:ELEMENT[ \t]+TABLE[ \t]+ITEMS|\S+[ \t]+(?:NODAL|ELEMENT|REACTION)[ \t]+SOLUTIONS?)"
+    r"[ \t]+PER[ \t]|LIST[ \t]+ALL[ \t]+SELECTED[ \t]+NODES\b|\*{5}[ \t]*POST1\b[^*\n]*LISTING[ \t]*\*{5})",
+    re.IGNORECASE | re.MULTILINE)
+_MAPDL_STEP = re.compile(r"^\s*LOAD\s+STEP\s*=\s*(?P<ls>\d+)\s+SUBSTEP\s*=\s*(?P<sub>\d+)", re.IGNORECASE)
+_MAPDL_TIME = re.compile(r"^\s*(?P<kind>TIME|FREQ)\s*=\s*(?P<t>\S+)", re.IGNORECASE)
+#: Summaries after the rows: ``MINIMUM VALUES``, ``MAXIMUM VALUES``, ``MAXIMUM ABSOLUTE VALUES``, ``TOTAL VALUES``.
+_MAPDL_SUMMARY = re.compile(r"^\s*(?:MINIMUM|MAXIMUM|TOTAL)\b[A-Z ]*\bVALUES\s*$", re.IGNORECASE)
+#: Two values written without a blank between them (3-digit exponents fill MAPDL's fields):
+#: ``-0.70653E+007-0.40380E+007``; a sign right after a digit or a point starts a new value.
+_MAPDL_ABUT = re.compile(r"(?<=[0-9.])(?=[-+])")
+_MAPDL_ID_NAMES = ("NODE", "ELEM")
+_POWERGRAPHICS = "powergraphics is currently enabled"
+
+
+def _mapdl_new(listings: list[dict], i: int, item: str, kind: str) -> dict:
+    cur = {"item": item, "kind": kind, "line": i + 1, "names": None, "header_line": None, "steps": {},
+           "power": False, "shell": False}
+    listings.append(cur)
+    return cur
+
+
+def _mapdl_element_nodal(path: str, line_no: int, what: str):
+    raise SEDFormatError(
+        f"ANSYS MAPDL listing {path!r} must list one value per node (PRNSOL) or per element (ETABLE + PRETAB); got "
+        f"an element-nodal listing ({what}, line {line_no}: PRESOL prints every element's nodes, each node once per "
+        "element it belongs to) instead. Print PRNSOL,S,COMP / PRNSOL,EPEL,COMP / PRNSOL,SEND,ELASTIC for nodal "
+        "values, or ETABLE,SED,SEND,ELASTIC then PRETAB for one value per element."
+    )
+
+
+def _mapdl_text_line(path: str, s: str, i: int, cur: dict | None, listings: list[dict], state: dict) -> dict | None:
+    """Class a line that is not a data row: a title, banner, load step, time, summary or column header."""
+    m = _MAPDL_TITLE.match(s)
+    if m:
+        if m.group("kind") and m.group("kind").upper() == "ELEMENT":
+            _mapdl_element_nodal(path, i + 1, s.strip())
+        item = "ETABLE" if m.group("etable") else m.group("item").upper()
+        state.update(summary=False)
+        return _mapdl_new(listings, i, item, "PRETAB" if m.group("etable") else "PRNSOL")
+    m = _MAPDL_NLIST.match(s)
+    if m:
+        dsys = m.group("dsys")
+        if dsys is not None and int(dsys) != 0:
+            raise SEDFormatError(
+                f"NLIST listing {path!r} must give the node coordinates in the global Cartesian system (DSYS= 0); got "
+                f"DSYS= {dsys} at line {i + 1} instead (another display system: cylindrical or local coordinates). "
+                "Issue DSYS,0 before NLIST."
+            )
+        state.update(summary=False)
+        return _mapdl_new(listings, i, "NLIST", "NLIST")
+    m = _MAPDL_BANNER.match(s)
+    if m:
+        what = " ".join(m.group("what").split()).upper()
+        if "ELEMENT NODAL" in what:
+            _mapdl_element_nodal(path, i + 1, f"'***** {what} *****'")
+        state.update(summary=False)
+        return cur if cur is not None else _mapdl_new(listings, i, what, "PRNSOL")
+    if cur is None:
+        return None
+    upper = s.upper()
+    if _POWERGRAPHICS in s.lower():
+        cur["power"] = True
+    elif "TOP/BOTTOM" in upper:
+        cur["shell"] = True
+    elif upper.startswith("ELEMENT="):
+        _mapdl_element_nodal(path, i + 1, s)
+    elif (m := _MAPDL_STEP.match(s)) is not None:
+        state.update(step=(m.group("ls"), m.group("sub")), time=None, summary=False)
+    elif (m := _MAPDL_TIME.match(s)) is not None:
+        state.update(time=(m.group("kind").upper(), m.group("t")), summary=False)
+    elif _MAPDL_SUMMARY.match(s):
+        state.update(summary=True)
+    elif not state["summary"] and s.split()[0].upper() in _MAPDL_ID_NAMES:
+        names = s.split()
+        if cur["names"] is not None and names != cur["names"]:
+            raise SEDFormatError(
+                f"Every page of an ANSYS MAPDL listing must have the same columns; got {_join_names(names)} at "
+                f"line {i + 1} of {path!r} after {_join_names(cur['names'])} (line {cur['header_line']}) instead."
+            )
+        cur["names"], cur["header_line"] = names, cur["header_line"] or i + 1
+    return cur
+
+
+def _mapdl_listings(path: str, lines: list[str], notes: list[str]) -> list[dict]:
+    """The listings of a MAPDL output: title, columns, and the row indices of each (load step, substep, time)."""
+    listings: list[dict] = []
+    cur = None
+    state = {"step": None, "time": None, "summary": False}
+    n_text = 0
+    for i, line in enumerate(lines):
+        s = line.strip()
+        if not s:
+            continue
+        if s[0] in _DIGITS and cur is not None and cur["names"] is not None and "VERSION=" not in s.upper():
+            key = (state["step"], state["time"])
+            cur["steps"].setdefault(key, []).append(i)
+            state["summary"] = False
+            continue
+        if s[0] in _DIGITS and cur is not None and "VERSION=" not in s.upper() and not state["summary"]:
+            raise SEDFormatError(
+                f"ANSYS MAPDL listing {path!r} must name its columns (a 'NODE ...' header row) above its first data "
+                f"row; got line {i + 1} ({_quote(s)}) with no header above it instead. Print the listing with its "
+                "headers (/HEADER,ON and the default /PAGE)."
+            )
+        new = _mapdl_text_line(path, s, i, cur, listings, state)
+        if new is cur and not s.upper().startswith(_MAPDL_ID_NAMES):
+            n_text += 1
+        cur = new
+    if n_text:
+        notes.append(f"skipped {_plural(n_text, 'line')} of MAPDL page headers, notes and MINIMUM/MAXIMUM summaries")
+    return listings
+
+
+def _mapdl_names(cur: dict) -> list[str]:
+    """Column names as MAPDL prints them; a value column not named after the listing's item gets it in front
+    (``PRINT SEND`` and a column ``ELASTIC`` -> ``'SEND ELASTIC'``)."""
+    names = list(cur["names"])
+    item = cur["item"]
+    if cur["kind"] == "PRNSOL" and item.isalnum():
+        names[1:] = [n if n.upper().startswith(item) else f"{item} {n}" for n in names[1:]]
+    return names
+
+
+def _mapdl_blocks(path: str, listings: list[dict]) -> dict[tuple, dict]:
+    """Listings with the same columns joined (pages, several SET + PRNSOL): names -> {step key: row indices}."""
+    blocks: dict[tuple, dict] = {}
+    for cur in listings:
+        if not cur["steps"]:
+            continue
+        names = tuple(_mapdl_names(cur))
+        block = blocks.setdefault(names, {"steps": {}, "header_line": cur["header_line"], "listings": []})
+        block["listings"].append(cur)
+        for key, rows in cur["steps"].items():
+            block["steps"].setdefault(key, []).extend(rows)
+    if not blocks:
+        titles = ", ".join(f"{c['item']} (line {c['line']})" for c in listings) or "none"
+        raise SEDFormatError(
+            f"ANSYS MAPDL listing {path!r} must hold data rows under a 'NODE ...' (or 'ELEM ...') header; got none "
+            f"instead (listings found: {titles})."
+        )
+    keys = list(next(iter(blocks.values()))["steps"])
+    for names, block in blocks.items():
+        if list(block["steps"]) != keys:
+            raise SEDFormatError(
+                f"Every listing of ANSYS MAPDL file {path!r} must cover the same load steps to be read side by side; "
+                f"got {_mapdl_steps_text(keys)} for {_join_names(next(iter(blocks)))} and "
+                f"{_mapdl_steps_text(list(block['steps']))} for {_join_names(names)} instead."
+            )
+    return blocks
+
+
+def _mapdl_steps_text(keys: list) -> str:
+    def one(key):
+        step, time = key
+        where = f"load step {step[0]} substep {step[1]}" if step else "no load step"
+        return where + (f" ({time[0]}= {time[1]})" if time else "")
+    return ", ".join(one(k) for k in keys[:4]) + (f", ... ({len(keys)} in all)" if len(keys) > 4 else "")
+
+
+def _mapdl_sorted(path: str, names: tuple, block: dict, lines: list[str], notes: list[str]):
+    """One block's rows read (pandas), each step's rows put in id order; (headers, values, row lines, ids)."""
+    keys = list(block["steps"])
+    row_idx = [i for k in keys for i in block["steps"][k]]
+    rows = [_MAPDL_ABUT.sub(" ", lines[i]) for i in row_idx]
+    row_lines = np.asarray([i + 1 for i in row_idx])
+    headers, values = _read_rows(path, rows, row_lines, "whitespace", list(names), block["header_line"], notes)
+    if headers[0] != names[0]:
+        raise SEDFormatError(f"Column {names[0]!r} of ANSYS MAPDL listing {path!r} must hold node or element numbers.")
+    ids = values[0]
+    order, start, first = [], 0, None
+    for k in keys:
+        n = len(block["steps"][k])
+        step_ids = ids[start:start + n]
+        o = np.argsort(step_ids, kind="stable")
+        sorted_ids = step_ids[o]
+        dup = np.flatnonzero(sorted_ids[1:] == sorted_ids[:-1])
+        if dup.size:
+            _mapdl_repeated(path, names[0], block, k, sorted_ids[dup[0]], row_lines[start:start + n][o])
+        if first is None:
+            first = sorted_ids
+        elif not np.array_equal(sorted_ids, first):
+            raise SEDFormatError(
+                f"Every load step of ANSYS MAPDL listing {path!r} must list the same {names[0]}s; got {first.size} in "
+                f"{_mapdl_steps_text(keys[:1])} and {sorted_ids.size} in {_mapdl_steps_text([k])} (or other numbers) "
+                "instead. Select the same nodes (NSEL) for every SET before PRNSOL."
+            )
+        order.append(start + o)
+        start += n
+    order = np.concatenate(order)
+    if not np.array_equal(order, np.arange(order.size)):
+        notes.append(f"put the rows of every step in {names[0]} order (the listing is sorted otherwise, NSORT)")
+    return headers, [v[order] for v in values], row_lines[order], first
+
+
+def _mapdl_repeated(path, name, block, key, value, row_lines):
+    shells = any(c["shell"] for c in block["listings"])
+    power = any(c["power"] for c in block["listings"])
+    why = ("shell results listed for the top and bottom surfaces" if shells else
+           "PowerGraphics listing a node once per surface it lies on" if power else "element-nodal values")
+    raise SEDFormatError(
+        f"ANSYS MAPDL listing {path!r} must list each {name} once per load step; got {name} {value:g} more than once "
+        f"in {_mapdl_steps_text([key])} (rows at lines {', '.join(map(str, row_lines[:2]))}, ...) instead ({why}). "
+        "Print PRNSOL with /GRAPHICS,FULL, over solid elements."
+    )
+
+
+def _mapdl_times(path: str, keys: list, notes: list[str]) -> np.ndarray | None:
+    """The ``TIME=`` of each step in the listing's time unit, or None (no times, or frequencies)."""
+    times = [k[1] for k in keys]
+    if all(t is None for t in times):
+        return None
+    if any(t is None for t in times) or any(t[0] != "TIME" for t in times):
+        notes.append("the listing's steps carry no TIME= (FREQ= or none): steps are numbered, not timed")
+        return None
+    try:
+        return np.array([float(t[1]) for t in times])
+    except ValueError as err:
+        raise SEDFormatError(f"'TIME=' of ANSYS MAPDL listing {path!r} must be a number; got {times!r}.") from err
+
+
+def _parse_mapdl(path: str, lines: list[str], sep: str | None, notes: list[str]):
+    """Read ANSYS MAPDL listings (PRNSOL, NLIST, PRETAB); return (_Columns, n_steps, times).
+
+    Pages are joined and their headers, notes and MINIMUM/MAXIMUM/TOTAL summaries skipped; each
+    (LOAD STEP, SUBSTEP, TIME) is one step, its rows put in NODE order; listings of different items
+    with the same nodes and steps (S, then EPEL) are put side by side, the NODE column kept once.
+    Values written without a blank between them (``-0.7E+007-0.4E+007``) are split. PRESOL
+    (element-nodal) listings are refused; a PowerGraphics listing (exterior surfaces only) warns.
+    """
+    if sep not in (None, "whitespace"):
+        raise SEDFormatError(f"ANSYS MAPDL listing {path!r} has blank-separated columns; got sep={sep!r} instead.")
+    listings = _mapdl_listings(path, lines, notes)
+    blocks = _mapdl_blocks(path, listings)
+    headers, values, row_lines, ids, header_line = [], [], None, None, None
+    for names, block in blocks.items():
+        hs, vs, rl, block_ids = _mapdl_sorted(path, names, block, lines, notes)
+        if ids is None:
+            ids, row_lines, header_line = block_ids, rl, block["header_line"]
+        elif not np.array_equal(block_ids, ids):
+            raise SEDFormatError(
+                f"The listings of ANSYS MAPDL file {path!r} must list the same {names[0]}s to be read side by side; got "
+                f"{ids.size} under {_join_names(headers)} and {block_ids.size} under {_join_names(hs)} instead."
+            )
+        for h, v in zip(hs, vs):
+            if h in headers:
+                if h == hs[0]:
+                    continue  # the NODE column, kept once
+                raise SEDFormatError(f"Column {h!r} of ANSYS MAPDL file {path!r} is listed twice with different values.")
+            headers.append(h)
+            values.append(v)
+    keys = list(next(iter(blocks.values()))["steps"])
+    if any(c["power"] for c in listings):
+        notes.append("PowerGraphics was enabled: MAPDL lists the exterior surfaces' nodes only")
+        warnings.warn(
+            f"ANSYS MAPDL listing {path!r} was printed with PowerGraphics enabled: PRNSOL then lists the nodes of the "
+            "model's exterior surfaces only, so SED inside the skin (at the receptors) would be interpolated from "
+            "surface values. Print it again after /GRAPHICS,FULL.", AfferentWarning, stacklevel=2)
+    kinds = list(dict.fromkeys(c["item"] for c in listings if c["steps"]))
+    notes.append(f"read {_plural(len(kinds), 'ANSYS MAPDL listing')} ({', '.join(kinds)}) at "
+                 f"{_plural(len(keys), 'step')}, {_plural(ids.size, 'row')} per step")
+    times = _mapdl_times(path, keys, notes)
+    return _Columns(headers, values, row_lines, header_line, {}, notes), len(keys), times
