@@ -159,6 +159,8 @@ def _find_header(path: str, lines: list[str], lo: int, m: int, delim: str, ncols
             first_data = j
             j -= 1
             continue
+        if _FOOTER.match(s):
+            _raise_summary_only(path, lines, j, first_data)
         return _header_from_lines(path, lines, j, delim, ncols, first_data, lo, rule=False)
     # No text line above the data: COMSOL puts the names on the last '%' line.
     for k in range(first_data - 1, lo - 1, -1):
@@ -174,6 +176,20 @@ def _find_header(path: str, lines: list[str], lo: int, m: int, delim: str, ncols
     raise SEDFormatError(
         f"SED file {path!r} must have a header row naming its {ncols} columns above the first data "
         f"row (line {first_data + 1}); got none instead."
+    )
+
+
+def _starts_with_number(stripped: str) -> bool:
+    c = stripped[:1]
+    return c in _DIGITS or (c in _SIGNS and stripped[1:2] in _DIGITS)
+
+
+def _raise_summary_only(path: str, lines: list[str], footer: int, first_data: int):
+    """The first row of numbers lies in a summary (a footer such as MAPDL's ``MINIMUM VALUES``): no data above it."""
+    raise SEDFormatError(
+        f"SED file {path!r} must hold data rows above its summary; got none: the first row of numbers (line "
+        f"{first_data + 1}: {_quote(lines[first_data].strip())}) belongs to the summary {_quote(lines[footer].strip())} "
+        f"(line {footer + 1}) instead."
     )
 
 
@@ -380,13 +396,16 @@ def _collect_rows(path, lines, header: _Header, delim, ncols):
             i += 1
         if i >= n:
             break
-        # Footer rows, then maybe another block of the same report.
+        # Footer rows, then maybe another block of the same report. Lines of a summary that start with a word
+        # (MAPDL's 'MINIMUM VALUES' / 'NODE  1  1' / 'VALUE  -0.2  -91.') are footer rows too.
         j, after, next_m, lo = i, [], None, i
         while j < n:
             s = lines[j].strip()
-            if _FOOTER.match(s):
+            if _FOOTER.match(s) or (lo == j and s and not _starts_with_number(s) and _is_data_line(lines[j], delim)):
                 tally["footer"] += 1
                 after, lo = [], j + 1
+            elif not s and lo == j:
+                lo = j + 1
             elif _is_body(s):
                 if _is_data_line(lines[j], delim) and _count_fields(lines[j], delim) == ncols:
                     next_m = j
