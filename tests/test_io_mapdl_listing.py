@@ -191,6 +191,10 @@ def test_cli_info_and_sample_on_listings(tmp_path, capsys):
     assert _quiet(main, ["info", S, EPEL]) == 0
     out = capsys.readouterr().out
     assert "EPELXY" in out and "SXY" in out
+    assert "or coordinates='NODES' (an id,x,y,z table, an ANSYS NLIST listing" in out  # how to add them
+    assert _quiet(main, ["info", SEND, "--coordinates", NLIST]) == 0
+    out = capsys.readouterr().out
+    assert "points       99" in out and "SED          'SEND ELASTIC' (point data)" in out
     receptors = tmp_path / "receptors.csv"
     receptors.write_text("id,x,y,z\n1,0.5,0.25,2.0\n2,0.5,0.25,3.0\n")
     code = _quiet(main, ["sample", SEND, "--coordinates", NLIST, "--receptors", str(receptors), "--length-unit", "m",
