@@ -125,8 +125,9 @@ def test_pretab_element_table(tmp_path):
 def test_a_listing_deep_in_a_solver_out_file(tmp_path):
     log = "".join(f" *** NOTE ***    CP = {k:.3f}   TIME= 12:00:00\n Solution is done!\n" for k in range(25000))
     text = log + " PRINT S    NODAL SOLUTION PER NODE\n" + _page(1, 1.0, HEADER_S, [
-        "       1  0.10000E-02  2.0000      0.0000      0.0000      0.0000      0.0000"]) + SUMMARY
-    assert len(log) > 1_000_000
+        "       1  0.10000E-02  2.0000      0.0000      0.0000      0.0000      0.0000"]) + SUMMARY + log[:200]
+    assert len(log) > 1_000_000 and log.startswith(" *** NOTE")  # the log after the summary is not read as rows
+    text = text.replace(" *** NOTE ***    CP = 0.001", "     1   0.001   12.00", 2)  # digits first, after it too
     raw = read_raw(_write(tmp_path, "file.out", text))
     assert raw.arrays["SY"].values.tolist() == [[2.0]]
 
@@ -203,3 +204,25 @@ def test_cli_info_and_sample_on_listings(tmp_path, capsys):
     assert code == 0
     table = (tmp_path / "sed.csv").read_text().splitlines()
     assert table[0].startswith("receptor") and len(table) == 1 + 2 * 3  # 2 receptors x 3 steps
+
+
+def test_nlist_in_the_same_output_file_gives_the_coordinates(tmp_path):
+    nlist = Path(NLIST).read_text()
+    lines = nlist.splitlines()
+    lines.insert(5, "      999    7.00000000000        8.00000000000        9.00000000000")  # a node without results
+    extra = "\n".join(lines) + "\n"
+    both = _write(tmp_path, "run.out", extra + Path(SEND).read_text())
+    raw = read_raw(both)
+    assert list(raw.arrays) == ["NODE", "SEND ELASTIC", "X", "Y", "Z"]
+    assert "coordinates from the NLIST listing (line 2) joined on 'NODE': 100 nodes listed, 99 with results" in raw.notes
+    field = _quiet(read_sed, both, length_unit="m", sed_unit="Pa")
+    joined = _quiet(read_sed, SEND, coordinates=NLIST, length_unit="m", sed_unit="Pa")
+    np.testing.assert_array_equal(field.points, joined.points)
+    np.testing.assert_array_equal(field.sed, joined.sed)
+    short = _write(tmp_path, "short.out", nlist.replace("        1    0.00000000000", "     1000    0.00000000000")
+                   + Path(SEND).read_text())
+    with pytest.raises(SEDFormatError, match=r"The NLIST listing of .* \(line 2\) must list every node that has results; "
+                                             r"got 1 without coordinates \(first: 1\)"):
+        read_raw(short)
+    with pytest.raises(SEDFormatError, match=r"An NLIST listing is a coordinates table: pass it as coordinates="):
+        read_raw([SEND, NLIST])

@@ -16,7 +16,10 @@ Layouts handled (see :ref:`fe-checklist` and each tool's section of the FE-expor
   ``% Length unit,mm``, units in parentheses, per-step columns ``solid.Ws (J/m^3) @ t=0.02``;
 * a time column (rows grouped by time value), several files (one per time step);
 * FEBio logfiles (``*Step``/``*Time``/``*Data`` records, one record per time step);
-* CalculiX ``.dat`` blocks (``stresses (elem, integ.pnt.,sxx,...) for set X and time t``).
+* CalculiX ``.dat`` blocks (``stresses (elem, integ.pnt.,sxx,...) for set X and time t``);
+* ANSYS MAPDL listings (``PRINT S    NODAL SOLUTION PER NODE``, ``LIST ALL SELECTED NODES``,
+  ``PRINT ELEMENT TABLE ITEMS PER ELEMENT``, or a ``***** POST1 ... LISTING *****`` banner): pages,
+  summaries, load steps; several listing files of different items joined side by side on ``NODE``.
 
 Parsing of the rows themselves is done by :func:`pandas.read_csv`; this module only finds
 where the header and the data rows are, counts fields, and checks what pandas returns.
@@ -41,9 +44,10 @@ from .._validation import check_option, suggest
 from ..exceptions import SEDFormatError
 from ..units import TIME_UNITS, parse_unit
 from ._columns import TIME_ALIASES, canonical, split_unit
-from ._csv_blocks import _MAPDL_START, _parse_ccx, _parse_febio, _parse_mapdl
+from ._csv_blocks import _parse_ccx, _parse_febio, _parse_mapdl
 from ._csv_lines import (
     _CCX_START,
+    _MAPDL_START,
     _COORD_NAMES,
     _FEBIO_START,
     _SEP_ALIASES,
@@ -402,10 +406,17 @@ def read_csv(paths, *, sep: str | None = None, time_column: str | None = None,
        each time is one step; blocks of different kinds with the same rows are put side by
        side, shared label columns kept once; the single value column of a block such as
        ``internal energy density (elem, integ.pnt.,energy)`` is named after the block.
+    5. ANSYS MAPDL listings (``PRNSOL``, ``PRETAB``; ``NLIST`` for coordinates): each ``LOAD STEP`` /
+       ``SUBSTEP`` is one step, its ``TIME=`` the step time (``FREQ=``: numbered steps); pages joined,
+       banners and ``MINIMUM``/``MAXIMUM VALUES`` summaries skipped, rows put in ``NODE`` order,
+       values written without a blank between them split; listings of different items in one file
+       side by side, an ``NLIST`` in the same file giving X, Y, Z. ``PRESOL`` (element-nodal) and a
+       node listed twice in a step are refused; PowerGraphics (surface nodes only) warns.
 
     With several files, steps are concatenated in the given order; every file must have the
     same columns and the same number of rows per step; ``times`` is None unless every file
-    states its times.
+    states its times. MAPDL listings of different items (``S`` in one file, ``EPEL`` in another)
+    are joined side by side instead, on ``NODE``: same nodes, same steps and times.
 
     Rows are never dropped silently: empty and ``NaN`` cells stay NaN (the assembler reports
     them); a column with no number at all (a label column such as ``SKIN-1``) is dropped with
@@ -432,6 +443,10 @@ def read_csv(paths, *, sep: str | None = None, time_column: str | None = None,
     return _merge(files, per_file)
 
 
+#: The columns of an NLIST listing besides NODE (coordinates and rotation angles).
+_NLIST_COLUMNS = ("X", "Y", "Z", "THXY", "THYZ", "THZX")
+
+
 def _distinct_columns(per_file: list[_FileArrays]) -> bool:
     """Whether the files hold different columns (besides their id column): listings of different items (S in
     one file, EPEL in another) are joined side by side; files of the same columns are time steps."""
@@ -453,10 +468,12 @@ def _side_by_side(files: list[str], per_file: list[_FileArrays]) -> _FileArrays:
     for path, fa in zip(files[1:], per_file[1:]):
         other = fa.arrays[fa.join_key][1]
         if fa.join_key != key or other.shape != ids.shape or not np.array_equal(other, ids):
+            nlist = {canonical(n) for n in fa.arrays} <= {canonical(n) for n in (key, *_NLIST_COLUMNS)}
             raise SEDFormatError(
                 f"ANSYS MAPDL listing {path!r} must list the same {key}s at the same steps as {first!r} to be joined "
                 f"side by side; got {other.shape[1]} {fa.join_key}s at {other.shape[0]} step(s) (or other numbers) "
                 f"against {ids.shape[1]} at {ids.shape[0]} instead."
+                + (" An NLIST listing is a coordinates table: pass it as coordinates= (--coordinates)." if nlist else "")
             )
         same_times = (fa.times is None) == (ref.times is None) and (
             fa.times is None or np.array_equal(fa.times, ref.times))

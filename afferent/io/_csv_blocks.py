@@ -1,11 +1,11 @@
-"""Text exports made of records rather than one table: FEBio logfiles and CalculiX ``.dat`` blocks -> columns.
+"""Text exports made of records rather than one table: FEBio logfiles, CalculiX ``.dat`` blocks and ANSYS MAPDL
+listings (PRNSOL, NLIST, PRETAB) -> columns.
 
 See :mod:`afferent.io._csv` for the layouts and the FE-export page for each tool.
 """
 
 from __future__ import annotations
 
-import re
 import warnings
 
 import numpy as np
@@ -16,6 +16,13 @@ from ._csv_lines import (
     _CCX_LABELS,
     _CCX_TITLE,
     _DIGITS,
+    _MAPDL_ABUT,
+    _MAPDL_BANNER,
+    _MAPDL_NLIST,
+    _MAPDL_STEP,
+    _MAPDL_SUMMARY,
+    _MAPDL_TIME,
+    _MAPDL_TITLE,
     _FEBIO_KEY,
     _SEP_NAMES,
     _SNIFF_LINES,
@@ -296,28 +303,6 @@ def _parse_ccx(path: str, lines: list[str], sep: str | None, notes: list[str]):
 # ANSYS MAPDL listings (PRNSOL, NLIST, PRETAB)
 # --------------------------------------------------------------------------------------
 
-#: ``PRINT S    NODAL SOLUTION PER NODE`` (PRNSOL), ``PRINT S    ELEMENT SOLUTION PER ELEMENT`` (PRESOL),
-#: ``PRINT F    REACTION SOLUTIONS PER NODE`` (PRRSOL), ``PRINT ELEMENT TABLE ITEMS PER ELEMENT`` (PRETAB).
-_MAPDL_TITLE = re.compile(
-    r"^\s*PRINT\s+(?:(?P<etable>ELEMENT\s+TABLE\s+ITEMS)|(?P<item>\S+)\s+(?P<kind>NODAL|ELEMENT|REACTION)\s+"
-    r"SOLUTIONS?)\s+PER\s+(?:NODE|ELEMENT)\b", re.IGNORECASE)
-#: ``LIST ALL SELECTED NODES.   DSYS=      0`` (NLIST).
-_MAPDL_NLIST = re.compile(r"^\s*LIST\s+ALL\s+SELECTED\s+NODES\b[^\n]*?(?:DSYS\s*=\s*(?P<dsys>-?\d+))?\s*$",
-                          re.IGNORECASE)
-#: The page banner ``***** POST1 NODAL STRESS LISTING *****``.
-_MAPDL_BANNER = re.compile(r"^\s*\*{5}\s*(?P<what>POST1\b[^*]*?LISTING)\s*\*{5}", re.IGNORECASE)
-#: Where a listing starts (to detect one): a title, an NLIST title or a POST1 page banner at a line start.
-_MAPDL_START = re.compile(
-    r"^[ \t]*(?:PRINT[ \t]+(?:ELEMENT[ \t]+TABLE[ \t]+ITEMS|\S+[ \t]+(?:NODAL|ELEMENT|REACTION)[ \t]+SOLUTIONS?)"
-    r"[ \t]+PER[ \t]|LIST[ \t]+ALL[ \t]+SELECTED[ \t]+NODES\b|\*{5}[ \t]*POST1\b[^*\n]*LISTING[ \t]*\*{5})",
-    re.IGNORECASE | re.MULTILINE)
-_MAPDL_STEP = re.compile(r"^\s*LOAD\s+STEP\s*=\s*(?P<ls>\d+)\s+SUBSTEP\s*=\s*(?P<sub>\d+)", re.IGNORECASE)
-_MAPDL_TIME = re.compile(r"^\s*(?P<kind>TIME|FREQ)\s*=\s*(?P<t>\S+)", re.IGNORECASE)
-#: Summaries after the rows: ``MINIMUM VALUES``, ``MAXIMUM VALUES``, ``MAXIMUM ABSOLUTE VALUES``, ``TOTAL VALUES``.
-_MAPDL_SUMMARY = re.compile(r"^\s*(?:MINIMUM|MAXIMUM|TOTAL)\b[A-Z ]*\bVALUES\s*$", re.IGNORECASE)
-#: Two values written without a blank between them (3-digit exponents fill MAPDL's fields):
-#: ``-0.70653E+007-0.40380E+007``; a sign right after a digit or a point starts a new value.
-_MAPDL_ABUT = re.compile(r"(?<=[0-9.])(?=[-+])")
 _MAPDL_ID_NAMES = ("NODE", "ELEM")
 _POWERGRAPHICS = "powergraphics is currently enabled"
 
@@ -345,7 +330,7 @@ def _mapdl_text_line(path: str, s: str, i: int, cur: dict | None, listings: list
         if m.group("kind") and m.group("kind").upper() == "ELEMENT":
             _mapdl_element_nodal(path, i + 1, s.strip())
         item = "ETABLE" if m.group("etable") else m.group("item").upper()
-        state.update(summary=False)
+        state.update(summary=False, step=None, time=None)
         return _mapdl_new(listings, i, item, "PRETAB" if m.group("etable") else "PRNSOL")
     m = _MAPDL_NLIST.match(s)
     if m:
@@ -356,7 +341,7 @@ def _mapdl_text_line(path: str, s: str, i: int, cur: dict | None, listings: list
                 f"DSYS= {dsys} at line {i + 1} instead (another display system: cylindrical or local coordinates). "
                 "Issue DSYS,0 before NLIST."
             )
-        state.update(summary=False)
+        state.update(summary=False, step=None, time=None)
         return _mapdl_new(listings, i, "NLIST", "NLIST")
     m = _MAPDL_BANNER.match(s)
     if m:
@@ -401,10 +386,10 @@ def _mapdl_listings(path: str, lines: list[str], notes: list[str]) -> list[dict]
         s = line.strip()
         if not s:
             continue
-        if s[0] in _DIGITS and cur is not None and cur["names"] is not None and "VERSION=" not in s.upper():
+        if (s[0] in _DIGITS and cur is not None and cur["names"] is not None and not state["summary"]
+                and "VERSION=" not in s.upper()):
             key = (state["step"], state["time"])
             cur["steps"].setdefault(key, []).append(i)
-            state["summary"] = False
             continue
         if s[0] in _DIGITS and cur is not None and "VERSION=" not in s.upper() and not state["summary"]:
             raise SEDFormatError(
@@ -540,6 +525,11 @@ def _parse_mapdl(path: str, lines: list[str], sep: str | None, notes: list[str])
     if sep not in (None, "whitespace"):
         raise SEDFormatError(f"ANSYS MAPDL listing {path!r} has blank-separated columns; got sep={sep!r} instead.")
     listings = _mapdl_listings(path, lines, notes)
+    nlists = [c for c in listings if c["kind"] == "NLIST" and c["steps"]]
+    if nlists and len(nlists) < sum(bool(c["steps"]) for c in listings):
+        listings = [c for c in listings if c not in nlists]  # results with their NLIST: coordinates, below
+    else:
+        nlists = []
     blocks = _mapdl_blocks(path, listings)
     headers, values, row_lines, ids, header_line = [], [], None, None, None
     for names, block in blocks.items():
@@ -559,6 +549,12 @@ def _parse_mapdl(path: str, lines: list[str], sep: str | None, notes: list[str])
             headers.append(h)
             values.append(v)
     keys = list(next(iter(blocks.values()))["steps"])
+    if nlists:
+        for h, v in zip(*_mapdl_coordinates(path, nlists, ids, len(keys), lines, notes)):
+            if h in headers:
+                raise SEDFormatError(f"Column {h!r} of ANSYS MAPDL file {path!r} is both a result and an NLIST column.")
+            headers.append(h)
+            values.append(v)
     if any(c["power"] for c in listings):
         notes.append("PowerGraphics was enabled: MAPDL lists the exterior surfaces' nodes only")
         warnings.warn(
@@ -570,3 +566,21 @@ def _parse_mapdl(path: str, lines: list[str], sep: str | None, notes: list[str])
                  f"{_plural(len(keys), 'step')}, {_plural(ids.size, 'row')} per step")
     times = _mapdl_times(path, keys, notes)
     return _Columns(headers, values, row_lines, header_line, {}, notes), len(keys), times
+
+
+def _mapdl_coordinates(path: str, nlists: list[dict], ids: np.ndarray, n_steps: int, lines: list[str],
+                       notes: list[str]) -> tuple[list[str], list[np.ndarray]]:
+    """The NLIST columns (X, Y, Z, ...) of the nodes that carry results, repeated for every step."""
+    (names, block), = _mapdl_blocks(path, nlists).items()
+    hs, vs, _, node_ids = _mapdl_sorted(path, names, block, lines, notes)
+    pos = np.clip(np.searchsorted(node_ids, ids), 0, node_ids.size - 1)
+    missing = ids[node_ids[pos] != ids]
+    if missing.size:
+        raise SEDFormatError(
+            f"The NLIST listing of ANSYS MAPDL file {path!r} (line {nlists[0]['line']}) must list every node that "
+            f"has results; got {missing.size} without coordinates (first: {', '.join(f'{v:g}' for v in missing[:5])}) "
+            "instead. NLIST the same nodes (NSEL) as PRNSOL."
+        )
+    notes.append(f"coordinates from the NLIST listing (line {nlists[0]['line']}) joined on {names[0]!r}: "
+                 f"{node_ids.size} nodes listed, {ids.size} with results")
+    return list(hs[1:]), [np.tile(v[pos], n_steps) for v in vs[1:]]
