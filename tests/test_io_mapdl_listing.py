@@ -120,6 +120,17 @@ def test_pretab_element_table(tmp_path):
     raw = read_raw(_write(tmp_path, "etab.lis", text))
     assert list(raw.arrays) == ["ELEM", "SED", "CX"] and raw.times is None
     np.testing.assert_array_equal(raw.arrays["SED"].values, [[0.059135, 0.041]])
+    # ETABLE,SED,SEND,ELASTIC + ETABLE,X,CENT,X ... + PRETAB,SED,X,Y,Z after each of two SETs: SED at the centroids
+    table = ("PRINT ELEMENT TABLE ITEMS PER ELEMENT\n\n  ***** POST1 ELEMENT TABLE LISTING *****\n\n"
+             "    STAT     CURRENT     CURRENT     CURRENT     CURRENT\n    ELEM     SED         X           Y           Z\n"
+             "       1  {0}      0.25000     0.25000     0.50000\n       2  {1}      0.75000     0.25000     0.50000\n"
+             "       3  {2}      0.50000     0.75000     0.50000\n       4  {0}      0.50000     0.50000     0.75000\n")
+    two = _write(tmp_path, "etab2.lis", table.format("0.10000E-02", "0.20000E-02", "0.30000E-02")
+                 + table.format("0.40000E-02", "0.50000E-02", "0.60000E-02"))
+    field = read_sed(two, length_unit="mm", sed_unit="MPa")
+    np.testing.assert_allclose(field.sed, [[1e3, 2e3, 3e3, 1e3], [4e3, 5e3, 6e3, 4e3]])
+    np.testing.assert_allclose(field.points[1], [0.75e-3, 0.25e-3, 0.5e-3])
+    assert field.times.tolist() == [0.0, 1.0] and any("no TIME=" in n for n in field.provenance.notes)
 
 
 def test_a_listing_deep_in_a_solver_out_file(tmp_path):

@@ -7,6 +7,7 @@ See :mod:`afferent.io._csv` for the layouts and the FE-export page for each tool
 from __future__ import annotations
 
 import warnings
+from collections import Counter
 
 import numpy as np
 
@@ -417,8 +418,10 @@ def _mapdl_names(cur: dict) -> list[str]:
 
 
 def _mapdl_blocks(path: str, listings: list[dict]) -> dict[tuple, dict]:
-    """Listings with the same columns joined (pages, several SET + PRNSOL): names -> {step key: row indices}."""
+    """Listings with the same columns joined (pages, several SET + PRNSOL): names -> {step key: row indices}.
+    Several listings of one item without LOAD STEP lines (PRETAB after each SET) are numbered steps."""
     blocks: dict[tuple, dict] = {}
+    stepless = Counter(tuple(_mapdl_names(c)) for c in listings if (None, None) in c["steps"])
     for cur in listings:
         if not cur["steps"]:
             continue
@@ -426,6 +429,8 @@ def _mapdl_blocks(path: str, listings: list[dict]) -> dict[tuple, dict]:
         block = blocks.setdefault(names, {"steps": {}, "header_line": cur["header_line"], "listings": []})
         block["listings"].append(cur)
         for key, rows in cur["steps"].items():
+            if key == (None, None) and stepless[names] > 1:
+                key = (None, ("LISTING", str(sum((None, None) in c["steps"] for c in block["listings"]))))
             block["steps"].setdefault(key, []).extend(rows)
     if not blocks:
         titles = ", ".join(f"{c['item']} (line {c['line']})" for c in listings) or "none"
@@ -448,6 +453,8 @@ def _mapdl_steps_text(keys: list) -> str:
     def one(key):
         step, time = key
         where = f"load step {step[0]} substep {step[1]}" if step else "no load step"
+        if time and time[0] == "LISTING":
+            return f"listing {time[1]} (no load step)"
         return where + (f" ({time[0]}= {time[1]})" if time else "")
     return ", ".join(one(k) for k in keys[:4]) + (f", ... ({len(keys)} in all)" if len(keys) > 4 else "")
 
