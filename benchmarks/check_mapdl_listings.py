@@ -1,6 +1,6 @@
 """Check afferent's reading of ANSYS MAPDL text listings against real MAPDL listings (not shipped).
 
-    python benchmarks/check_mapdl_listings.py [--mirror DIR]
+    python benchmarks/check_mapdl_listings.py [--mirror DIR] [--speed NODES]
 
 The real listings are files of public repositories (named below with their commits), read from
 local git copies under ``--mirror`` (default ``/work/.mirror``, one ``owner+name/repo`` git
@@ -137,10 +137,46 @@ def check_rows(path: str, text: str) -> str:
             f"{seconds:.2f} s, {len(text):,} bytes")
 
 
+def speed(n_nodes: int, repeats: int = 3) -> None:
+    """Read time of a PRNSOL,S listing of ``n_nodes`` nodes x 3 load steps (written by the test data's script,
+    random values) against the same numbers as a plain whitespace table with a time column."""
+    import importlib.util
+
+    here = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "tests", "data", "mapdl",
+                        "make_mapdl_listings.py")
+    spec = importlib.util.spec_from_file_location("make_mapdl_listings", here)
+    make = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(make)
+    rng = np.random.default_rng(1)
+    nodes = np.arange(1, n_nodes + 1)
+    steps = [(k, float(k), rng.normal(0, 1e3, (n_nodes, 6))) for k in (1, 2, 3)]
+    with tempfile.TemporaryDirectory() as tmp:
+        listing = os.path.join(tmp, "s.lis")
+        with open(listing, "w") as fh:
+            fh.write(make.prnsol("S", "POST1 NODAL STRESS LISTING", ["SX", "SY", "SZ", "SXY", "SYZ", "SXZ"], nodes,
+                                 steps).replace("FREQ=", "TIME="))
+        table = os.path.join(tmp, "s.txt")
+        with open(table, "w") as fh:
+            fh.write("time node sx sy sz sxy syz sxz\n")
+            for k, t, v in steps:
+                fh.write("".join(f"{t} {n} " + " ".join(f"{x:.5g}" for x in row) + "\n" for n, row in zip(nodes, v)))
+        for label, path in (("MAPDL listing", listing), ("plain table", table)):
+            times = []
+            for _ in range(repeats):
+                t0 = time.process_time()
+                read_csv(path)
+                times.append(time.process_time() - t0)
+            print(f"{label}: {n_nodes:,} nodes x 3 steps, {os.path.getsize(path) / 1e6:.1f} MB: "
+                  f"read_csv median {sorted(times)[len(times) // 2]:.2f} s CPU of {repeats}")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--mirror", default="/work/.mirror")
+    parser.add_argument("--speed", type=int, metavar="NODES", help="also time a listing of NODES nodes x 3 steps")
     args = parser.parse_args()
+    if args.speed:
+        speed(args.speed)
     with tempfile.TemporaryDirectory() as tmp:
         for repo, commit, path, how in CASES:
             text = git_show(args.mirror, repo, commit, path)

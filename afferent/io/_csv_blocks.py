@@ -17,7 +17,6 @@ from ._csv_lines import (
     _CCX_LABELS,
     _CCX_TITLE,
     _DIGITS,
-    _MAPDL_ABUT,
     _MAPDL_BANNER,
     _MAPDL_NLIST,
     _MAPDL_STEP,
@@ -383,16 +382,21 @@ def _mapdl_listings(path: str, lines: list[str], notes: list[str]) -> list[dict]
     cur = None
     state = {"step": None, "time": None, "summary": False}
     n_text = 0
+    target = None  # the row list of the current listing and step (None after any other line)
     for i, line in enumerate(lines):
         s = line.strip()
         if not s:
             continue
-        if (s[0] in _DIGITS and cur is not None and cur["names"] is not None and not state["summary"]
-                and "VERSION=" not in s.upper()):
-            key = (state["step"], state["time"])
-            cur["steps"].setdefault(key, []).append(i)
+        if s[0] in _DIGITS and target is not None and "VERSION=" not in s:  # the fast path: a data row
+            target.append(i)
             continue
-        if s[0] in _DIGITS and cur is not None and "VERSION=" not in s.upper() and not state["summary"]:
+        if s[0] in _DIGITS and cur is not None and cur["names"] is not None and not state["summary"] \
+                and "VERSION=" not in s:  # the first row after a header, step or page line
+            target = cur["steps"].setdefault((state["step"], state["time"]), [])
+            target.append(i)
+            continue
+        target = None
+        if s[0] in _DIGITS and cur is not None and "VERSION=" not in s and not state["summary"]:
             raise SEDFormatError(
                 f"ANSYS MAPDL listing {path!r} must name its columns (a 'NODE ...' header row) above its first data "
                 f"row; got line {i + 1} ({_quote(s)}) with no header above it instead. Print the listing with its "
@@ -463,7 +467,7 @@ def _mapdl_sorted(path: str, names: tuple, block: dict, lines: list[str], notes:
     """One block's rows read (pandas), each step's rows put in id order; (headers, values, row lines, ids)."""
     keys = list(block["steps"])
     row_idx = [i for k in keys for i in block["steps"][k]]
-    rows = [_MAPDL_ABUT.sub(" ", lines[i]) for i in row_idx]
+    rows = _split_abutting([lines[i] for i in row_idx])
     row_lines = np.asarray([i + 1 for i in row_idx])
     headers, values = _read_rows(path, rows, row_lines, "whitespace", list(names), block["header_line"], notes)
     if headers[0] != names[0]:
@@ -492,6 +496,19 @@ def _mapdl_sorted(path: str, names: tuple, block: dict, lines: list[str], notes:
     if not np.array_equal(order, np.arange(order.size)):
         notes.append(f"put the rows of every step in {names[0]} order (the listing is sorted otherwise, NSORT)")
     return headers, [v[order] for v in values], row_lines[order], first
+
+
+def _split_abutting(rows: list[str]) -> list[str]:
+    """The rows with a blank before every sign that follows a digit or a point: two values MAPDL wrote without a blank
+    between them (``-0.70653E+007-0.40380E+007``: 3-digit exponents, or a negative E-format value after another,
+    fill the fixed-width fields) become two; ``E-07`` is left alone. numpy over the bytes: 3x faster than a regex."""
+    buf = np.frombuffer("\n".join(rows).encode("utf-8"), dtype=np.uint8)
+    sign = (buf == 45) | (buf == 43)
+    after = ((buf >= 48) & (buf <= 57)) | (buf == 46)
+    at = np.flatnonzero(sign[1:] & after[:-1]) + 1
+    if not at.size:
+        return rows
+    return np.insert(buf, at, 32).tobytes().decode("utf-8").split("\n")
 
 
 def _mapdl_repeated(path, name, block, key, value, row_lines):

@@ -92,9 +92,6 @@ _MAPDL_STEP = re.compile(r"^\s*LOAD\s+STEP\s*=\s*(?P<ls>\d+)\s+SUBSTEP\s*=\s*(?P
 _MAPDL_TIME = re.compile(r"^\s*(?P<kind>TIME|FREQ)\s*=\s*(?P<t>\S+)", re.IGNORECASE)
 #: Summaries after the rows: ``MINIMUM VALUES``, ``MAXIMUM VALUES``, ``MAXIMUM ABSOLUTE VALUES``, ``TOTAL VALUES``.
 _MAPDL_SUMMARY = re.compile(r"^\s*(?:MINIMUM|MAXIMUM|TOTAL)\b[A-Z ]*\bVALUES\s*$", re.IGNORECASE)
-#: Two values written without a blank between them (3-digit exponents fill MAPDL's fields):
-#: ``-0.70653E+007-0.40380E+007``; a sign right after a digit or a point starts a new value.
-_MAPDL_ABUT = re.compile(r"(?<=[0-9.])(?=[-+])")
 _COMMENT_STRIP = re.compile(r"^\s*(?:\*\*|[#%!])\s?")
 _UNIT_ONLY = re.compile(r"^[\(\[][^\)\]]*[\)\]]$")
 _WIDE_TOKEN = re.compile(r"\S+(?: \S+)*")  # tokens separated by two or more spaces or a tab
