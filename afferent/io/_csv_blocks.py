@@ -2,6 +2,9 @@
 listings (PRNSOL, NLIST, PRETAB) -> columns.
 
 See :mod:`afferent.io._csv` for the layouts and the FE-export page for each tool.
+
+Size: just over 600 lines: the three record formats side by side, each a few functions that find its records and
+hand their rows to the same table machinery (``_read_rows``, ``_Columns``); their line patterns are in ``_csv_lines``.
 """
 
 from __future__ import annotations
