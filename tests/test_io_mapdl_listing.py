@@ -237,3 +237,9 @@ def test_nlist_in_the_same_output_file_gives_the_coordinates(tmp_path):
         read_raw(short)
     with pytest.raises(SEDFormatError, match=r"An NLIST listing is a coordinates table: pass it as coordinates="):
         read_raw([SEND, NLIST])
+    # a second NLIST with other columns (found by fuzzing: was a bare ValueError from unpacking)
+    two = _write(tmp_path, "two.out", nlist + " LIST ALL SELECTED NODES.   DSYS=      0\n\n   NODE        X\n"
+                 "        1    0.00000000000\n" + Path(SEND).read_text())
+    with pytest.raises(SEDFormatError, match=r"The NLIST listings of ANSYS MAPDL file .* must have the same columns; "
+                                             r"got 'NODE', 'X', 'Y', 'Z' and 'NODE', 'X' instead"):
+        read_raw(two)

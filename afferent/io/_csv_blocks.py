@@ -598,7 +598,11 @@ def _parse_mapdl(path: str, lines: list[str], sep: str | None, notes: list[str])
 def _mapdl_coordinates(path: str, nlists: list[dict], ids: np.ndarray, n_steps: int, lines: list[str],
                        notes: list[str]) -> tuple[list[str], list[np.ndarray]]:
     """The NLIST columns (X, Y, Z, ...) of the nodes that carry results, repeated for every step."""
-    (names, block), = _mapdl_blocks(path, nlists).items()
+    blocks = _mapdl_blocks(path, nlists)
+    if len(blocks) > 1:
+        raise SEDFormatError(f"The NLIST listings of ANSYS MAPDL file {path!r} must have the same columns; got "
+                             f"{' and '.join(_join_names(names) for names in blocks)} instead.")
+    (names, block), = blocks.items()
     hs, vs, _, node_ids = _mapdl_sorted(path, names, block, lines, notes)
     pos = np.clip(np.searchsorted(node_ids, ids), 0, node_ids.size - 1)
     missing = ids[node_ids[pos] != ids]
