@@ -402,8 +402,8 @@ def _mapdl_listings(path: str, lines: list[str], notes: list[str]) -> list[dict]
         if s[0] in _DIGITS and cur is not None and "VERSION=" not in s and not state["summary"]:
             raise SEDFormatError(
                 f"ANSYS MAPDL listing {path!r} must name its columns (a 'NODE ...' header row) above its first data "
-                f"row; got line {i + 1} ({_quote(s)}) with no header above it instead. Print the listing with its "
-                "headers (/HEADER,ON and the default /PAGE)."
+                f"row; got line {i + 1} ({_quote(s)}) with no header above it instead. Print the listing with MAPDL's "
+                "default headers (/HEADER,DEFA)."
             )
         new = _mapdl_text_line(path, s, i, cur, listings, state)
         if new is cur and not s.upper().startswith(_MAPDL_ID_NAMES):
