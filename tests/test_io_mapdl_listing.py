@@ -113,6 +113,18 @@ def test_values_written_without_a_blank_between_them(tmp_path):
     np.testing.assert_array_equal(raw.arrays["FX"].values, [[2.5e7, -1.25e6]])
 
 
+def test_listings_printed_without_their_title_lines(tmp_path):
+    # each page starts with its banner (as a PRNSOL listing cut out of a longer output): S, then EPEL
+    rows = ["       2  0.10000E-02  2.0000      0.0000      0.0000      0.0000      0.0000",
+            "       1  0.30000E-02  1.0000      0.0000      0.0000      0.0000      0.0000"]
+    epel = _page(1, 1.0, HEADER_S.replace(" S", " EPEL"), [r.replace("2.0000", "4.0000") for r in rows],
+                 "POST1 NODAL ELASTIC STRAIN LISTING")
+    raw = read_raw(_write(tmp_path, "both.lis", _page(1, 1.0, HEADER_S, rows) + _page(1, 1.0, HEADER_S, rows[:0])
+                          + SUMMARY + epel + SUMMARY))
+    assert list(raw.arrays)[6:9] == ["SXZ", "EPELX", "EPELY"]
+    np.testing.assert_array_equal(raw.arrays["EPELY"].values, [[1.0, 4.0]])
+
+
 def test_pretab_element_table(tmp_path):
     text = ("PRINT ELEMENT TABLE ITEMS PER ELEMENT\n\n  ***** POST1 ELEMENT TABLE LISTING *****\n\n"
             "    STAT     CURRENT     CURRENT\n    ELEM     SED         CX\n"

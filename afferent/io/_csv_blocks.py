@@ -351,8 +351,12 @@ def _mapdl_text_line(path: str, s: str, i: int, cur: dict | None, listings: list
         what = " ".join(m.group("what").split()).upper()
         if "ELEMENT NODAL" in what:
             _mapdl_element_nodal(path, i + 1, f"'***** {what} *****'")
+        same = cur is not None and not state["summary"] and cur.get("banner", what) == what
         state.update(summary=False)
-        return cur if cur is not None else _mapdl_new(listings, i, what, "PRNSOL")
+        if not same:  # a listing printed without its title line: its page banner starts it
+            cur = _mapdl_new(listings, i, what, "PRNSOL")
+        cur["banner"] = what
+        return cur
     if cur is None:
         return None
     upper = s.upper()
