@@ -247,6 +247,11 @@ def test_nlist_in_the_same_output_file_gives_the_coordinates(tmp_path):
     with pytest.raises(SEDFormatError, match=r"The NLIST listing of .* \(line 2\) must list every node that has results; "
                                              r"got 1 without coordinates \(first: 1\)"):
         read_raw(short)
+    elist = ("\n LIST ALL SELECTED ELEMENTS.  (LIST NODES)\n\n    ELEM MAT TYP REL ESY SEC        NODES\n\n"
+             "       1   1   1   1   0   1      1     2     4     3     5     6     8     7\n")
+    raw = read_raw(_write(tmp_path, "elist.out", extra + elist + Path(SEND).read_text()))  # an ELIST between them
+    assert list(raw.arrays) == ["NODE", "SEND ELASTIC", "X", "Y", "Z"]
+    assert "skipped 1 MAPDL list of other items ('LIST ALL SELECTED ELEMENTS.' at line 115)" in raw.notes
     with pytest.raises(SEDFormatError, match=r"An NLIST listing is a coordinates table: pass it as coordinates="):
         read_raw([SEND, NLIST])
     # a second NLIST with other columns (found by fuzzing: was a bare ValueError from unpacking)

@@ -22,6 +22,7 @@ from ._csv_lines import (
     _DIGITS,
     _MAPDL_BANNER,
     _MAPDL_NLIST,
+    _MAPDL_OTHER_LIST,
     _MAPDL_STEP,
     _MAPDL_SUMMARY,
     _MAPDL_TIME,
@@ -346,6 +347,9 @@ def _mapdl_text_line(path: str, s: str, i: int, cur: dict | None, listings: list
             )
         state.update(summary=False, step=None, time=None)
         return _mapdl_new(listings, i, "NLIST", "NLIST")
+    if _MAPDL_OTHER_LIST.match(s):  # ELIST, DLIST...: its rows are left out
+        state.update(summary=False, step=None, time=None)
+        return _mapdl_new(listings, i, " ".join(s.split()[:4]), "OTHER")
     m = _MAPDL_BANNER.match(s)
     if m:
         what = " ".join(m.group("what").split()).upper()
@@ -556,6 +560,11 @@ def _parse_mapdl(path: str, lines: list[str], sep: str | None, notes: list[str])
     if sep not in (None, "whitespace"):
         raise SEDFormatError(f"ANSYS MAPDL listing {path!r} has blank-separated columns; got sep={sep!r} instead.")
     listings = _mapdl_listings(path, lines, notes)
+    other = [c for c in listings if c["kind"] == "OTHER"]
+    if other:
+        notes.append(f"skipped {_plural(len(other), 'MAPDL list')} of other items ("
+                     f"{', '.join(repr(c['item']) + ' at line ' + str(c['line']) for c in other[:3])})")
+        listings = [c for c in listings if c["kind"] != "OTHER"]
     nlists = [c for c in listings if c["kind"] == "NLIST" and c["steps"]]
     if nlists and len(nlists) < sum(bool(c["steps"]) for c in listings):
         listings = [c for c in listings if c not in nlists]  # results with their NLIST: coordinates, below

@@ -81,6 +81,8 @@ _MAPDL_TITLE = re.compile(
 #: ``LIST ALL SELECTED NODES.   DSYS=      0`` (NLIST).
 _MAPDL_NLIST = re.compile(r"^\s*LIST\s+ALL\s+SELECTED\s+NODES\b[^\n]*?(?:DSYS\s*=\s*(?P<dsys>-?\d+))?\s*$",
                           re.IGNORECASE)
+#: Other MAPDL lists whose rows are not results (``LIST ALL SELECTED ELEMENTS``, ``LIST CONSTRAINTS ...``): skipped.
+_MAPDL_OTHER_LIST = re.compile(r"^\s*LIST\s+[A-Z]", re.IGNORECASE)
 #: The page banner ``***** POST1 NODAL STRESS LISTING *****``.
 _MAPDL_BANNER = re.compile(r"^\s*\*{5}\s*(?P<what>POST1\b[^*]*?LISTING)\s*\*{5}", re.IGNORECASE)
 #: Where a listing starts (to detect one): a title, an NLIST title or a POST1 page banner at a line start.
