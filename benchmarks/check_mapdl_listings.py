@@ -19,7 +19,8 @@ there is skipped. Nothing of them is committed to afferent. What is checked, per
   numbers split by hand.
 * perryjohnson/ansys_utils ``PRNSOL.lis`` (PRNSOL,U,Y, NSORT-ed, 1,005 pages) and ``NLIST.lis``,
   and three more NLIST listings: read, against a plain parse of their rows.
-* MahsaScript ``stressANSYS`` / ``strainANSYS`` (PRESOL of LINK180 elements): refused.
+* MahsaScript ``stressANSYS`` / ``strainANSYS`` (PRESOL of LINK180 elements): refused; an ELIST
+  (``LIST ALL SELECTED ELEMENTS``) alone: refused (no results), skipped beside listings.
 """
 
 from __future__ import annotations
@@ -51,6 +52,7 @@ CASES = [
      "NLIST.lis", "rows"),
     ("SanthoshKumarArroju/Finite_Element_Analysis", "27b223dac0eb27534c9d3e5560ce855b1d34e51e", "NLIST.lis", "rows"),
     ("BaoxuanWang/Blade_model_and_results_2026", "4176decad200604ae6f26fbeb6c8deae6c1374d6", "NLIST.lis", "rows"),
+    ("SanthoshKumarArroju/Finite_Element_Analysis", "350e0921373456bbcbdee684b4f420c2d97910f4", "ELIST.lis", "elist"),
     ("MahsaScript/Matlab_Finite_Element_Methode_Stress_Strain_3D", "257150a6774cfd64e07382ad91468bbf3d398348",
      "stressANSYS", "presol"),
     ("MahsaScript/Matlab_Finite_Element_Methode_Stress_Strain_3D", "257150a6774cfd64e07382ad91468bbf3d398348",
@@ -189,7 +191,8 @@ def main() -> None:
                 fh.write(text)
             result = {"solid186": lambda: check_solid186(local, text), "shell181": lambda: check_shell181(tmp, text),
                       "prrsol": lambda: check_prrsol(tmp, text), "rows": lambda: check_rows(local, text),
-                      "presol": lambda: refused(local, "element-nodal")}[how]()
+                      "presol": lambda: refused(local, "element-nodal"),
+                      "elist": lambda: refused(local, "which lists the model, not results")}[how]()
             print(f"OK   {label}: {result}")
 
 

@@ -252,6 +252,9 @@ def test_nlist_in_the_same_output_file_gives_the_coordinates(tmp_path):
     raw = read_raw(_write(tmp_path, "elist.out", extra + elist + Path(SEND).read_text()))  # an ELIST between them
     assert list(raw.arrays) == ["NODE", "SEND ELASTIC", "X", "Y", "Z"]
     assert "skipped 1 MAPDL list of other items ('LIST ALL SELECTED ELEMENTS.' at line 115)" in raw.notes
+    with pytest.raises(SEDFormatError, match=r"must hold results \(PRNSOL, PRETAB\) or node coordinates \(NLIST\); got "
+                                             r"only 'LIST ALL SELECTED ELEMENTS.' \(line 2\), which lists the model"):
+        read_raw(_write(tmp_path, "elist.lis", elist))
     with pytest.raises(SEDFormatError, match=r"An NLIST listing is a coordinates table: pass it as coordinates="):
         read_raw([SEND, NLIST])
     # a second NLIST with other columns (found by fuzzing: was a bare ValueError from unpacking)

@@ -565,6 +565,11 @@ def _parse_mapdl(path: str, lines: list[str], sep: str | None, notes: list[str])
         notes.append(f"skipped {_plural(len(other), 'MAPDL list')} of other items ("
                      f"{', '.join(repr(c['item']) + ' at line ' + str(c['line']) for c in other[:3])})")
         listings = [c for c in listings if c["kind"] != "OTHER"]
+        if not any(c["steps"] for c in listings):
+            raise SEDFormatError(
+                f"ANSYS MAPDL file {path!r} must hold results (PRNSOL, PRETAB) or node coordinates (NLIST); got only "
+                f"{other[0]['item']!r} (line {other[0]['line']}), which lists the model, not results, instead."
+            )
     nlists = [c for c in listings if c["kind"] == "NLIST" and c["steps"]]
     if nlists and len(nlists) < sum(bool(c["steps"]) for c in listings):
         listings = [c for c in listings if c not in nlists]  # results with their NLIST: coordinates, below

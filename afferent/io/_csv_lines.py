@@ -88,7 +88,7 @@ _MAPDL_BANNER = re.compile(r"^\s*\*{5}\s*(?P<what>POST1\b[^*]*?LISTING)\s*\*{5}"
 #: Where a listing starts (to detect one): a title, an NLIST title or a POST1 page banner at a line start.
 _MAPDL_START = re.compile(
     r"^[ \t]*(?:PRINT[ \t]+(?:ELEMENT[ \t]+TABLE[ \t]+ITEMS|\S+[ \t]+(?:NODAL|ELEMENT|REACTION)[ \t]+SOLUTIONS?)"
-    r"[ \t]+PER[ \t]|LIST[ \t]+ALL[ \t]+SELECTED[ \t]+NODES\b|\*{5}[ \t]*POST1\b[^*\n]*LISTING[ \t]*\*{5})",
+    r"[ \t]+PER[ \t]|LIST[ \t]+ALL[ \t]+SELECTED[ \t]+(?:NODES|ELEMENTS)\b|\*{5}[ \t]*POST1\b[^*\n]*LISTING[ \t]*\*{5})",
     re.IGNORECASE | re.MULTILINE)
 _MAPDL_STEP = re.compile(r"^\s*LOAD\s+STEP\s*=\s*(?P<ls>\d+)\s+SUBSTEP\s*=\s*(?P<sub>\d+)", re.IGNORECASE)
 _MAPDL_TIME = re.compile(r"^\s*(?P<kind>TIME|FREQ)\s*=\s*(?P<t>\S+)", re.IGNORECASE)
