@@ -68,7 +68,8 @@ _VOIGT_ABQ = ("xx", "yy", "zz", "xy", "xz", "yz")
 #: for unnamed 6-component arrays.
 PRESETS: dict[str, Convention] = {
     "abaqus": Convention(_VOIGT_ABQ, "engineering", "S11 S22 S33 S12 S13 S23; LE/E engineering shear [3P]"),
-    "ansys": Convention(_VOIGT_VTK, "engineering", "X Y Z XY YZ XZ [V, pymapdl-reader]; EPEL engineering shear [3P]"),
+    "ansys": Convention(_VOIGT_VTK, "engineering", "X Y Z XY YZ XZ [V, pymapdl-reader, MAPDL listings]; "
+                                                   "EPEL engineering shear [V, Theory Ref. 2.1.1]"),
     "comsol": Convention(_VOIGT_VTK, "tensor", "solid.eXY etc. Green-Lagrange, tensor shear [V]"),
     "febio": Convention(_VOIGT_VTK, "tensor", "plotfile xx yy zz xy yz xz (implied for .xplt); Lagrange strain tensor shear [V]"),
     "calculix-frd": Convention(("xx", "yy", "zz", "xy", "yz", "zx"), "tensor", ".frd / ccx2paraview XX YY ZZ XY YZ ZX; tensor shear [V]"),

@@ -53,6 +53,7 @@ TARGETS: list[tuple[str, str]] = [
     ("xdmf-text", ".xdmf"), ("xdmf-heavy", ".h5"),
     # long lines: the input's first line repeated 2**(byte % 24) times (up to LONG_LINE_BYTES)
     ("csv-long", ".csv"),
+    ("lis", ".lis"),  # ANSYS MAPDL text listings (PRNSOL, NLIST, PRETAB), read by the text-table reader
 ]
 
 #: the longest input the csv-long target builds (bytes): a 10 MB line is what a user's broken export can hold
@@ -185,12 +186,13 @@ def _seed_corpus(corpus: Path) -> None:
         "observed": ROOT / "sample_sed/observed", "waveform": HERE / "seeds", "sed_table": HERE / "seeds",
         "frd": ROOT / "tests/data/calculix", "exodus": ROOT / "tests/data/exodus", "med": ROOT / "tests/data/med",
         "xdmf-text": HERE / "seeds", "xdmf-heavy": HERE / "seeds", "csv-long": HERE / "seeds",
+        "lis": ROOT / "tests/data/mapdl",
     }
     suffixes = {"csv": (".csv",), "txt": (".txt",), "dat": (".dat",), "rpt": (".rpt",), "vtu": (".vtu",),
                 "vtk": (".vtk",), "pvd": (".pvd",), "xdmf": (".xdmf",), "scene": (".toml",), "receptors": ("receptors.csv",),
                 "observed": (".csv",), "waveform": ("waveform.csv",), "sed_table": ("sed_table.csv",), "frd": (".frd",),
                 "exodus": (".e", ".ex2", ".g"), "med": (".med", ".rmed"), "xdmf-text": ("collection.xdmf",),
-                "xdmf-heavy": ("heavy.h5",), "csv-long": ("long_row.csv",)}
+                "xdmf-heavy": ("heavy.h5",), "csv-long": ("long_row.csv",), "lis": (".lis",)}
     for target, folder in picks.items():
         if not folder.is_dir():
             continue

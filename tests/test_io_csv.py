@@ -579,6 +579,24 @@ def test_report_blocks_with_different_columns(tmp_path):
         read_csv(p)
 
 
+def test_summaries_of_label_and_value_rows_are_footers(tmp_path):
+    # MAPDL-style summaries (no listing title: read as a table) - 'NODE 1 1' under 'MINIMUM VALUES' was taken for the
+    # first row of a second block ("must have a header row ... above the first data row (line 6)")
+    text = ("NODE SX SY\n1 0.1 0.2\n2 0.3 0.4\n\n MINIMUM VALUES\n NODE 1 1\n VALUE -0.1 -0.2\n\n"
+            " MAXIMUM VALUES\n NODE 2 2\n VALUE 0.3 0.4\nNODE SX SY\n3 0.5 0.6\n")
+    raw = read_csv(_write(tmp_path, text, "a.txt"))
+    np.testing.assert_array_equal(raw.arrays["SY"].values, [[0.2, 0.4, 0.6]])
+    assert "dropped 6 footer rows (Minimum/Maximum/At Node/At Element/Total)" in raw.notes
+
+
+def test_a_table_whose_first_row_of_numbers_is_a_summary(tmp_path):
+    p = _write(tmp_path, "NODE SX SY\n\n MINIMUM VALUES\n NODE 1 1\n VALUE -0.1 -0.2\n", "a.txt")
+    msg = (f"SED file {p!r} must hold data rows above its summary; got none: the first row of numbers (line 4: "
+           "'NODE 1 1') belongs to the summary 'MINIMUM VALUES' (line 3) instead.")
+    with pytest.raises(SEDFormatError, match=re.escape(msg)):
+        read_csv(p)
+
+
 def test_repeated_header_rows_are_skipped(tmp_path):
     p = _write(tmp_path, "NODE SX\n1 0.5\nNODE SX\n2 0.25\n", "a.txt")
     raw = read_csv(p)

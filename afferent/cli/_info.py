@@ -36,6 +36,10 @@ def add_args(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     source = args.exports if len(args.exports) > 1 else args.exports[0]
     raw = read_raw(source, format=args.format, progress=show_progress(args))
+    if args.coordinates is not None:  # a table of labels (a MAPDL PRNSOL listing, a report): its NLIST / node table
+        from ..io._find_arrays import join_coordinates
+
+        raw = join_coordinates(raw, args.coordinates)
     print("\n".join(describe_raw(raw)))
     if args.receptors is not None or args.grid is not None:
         from .._interfaces import interface_lines

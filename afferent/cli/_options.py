@@ -27,7 +27,7 @@ def add_input_options(parser: argparse.ArgumentParser) -> None:
     g.add_argument("--stress-columns", metavar="NAMES", help="stress array name, or 6 comma-separated column names xx,yy,zz,xy,yz,xz")
     g.add_argument("--strain-columns", metavar="NAMES", help="strain array name, or 6 comma-separated column names xx,yy,zz,xy,yz,xz")
     g.add_argument("--coord-columns", metavar="X,Y,Z", help="names of the coordinate columns of a CSV")
-    g.add_argument("--coordinates", metavar="NODES.csv", help="node/element table id,x,y,z to join on a table that has only labels")
+    g.add_argument("--coordinates", metavar="NODES.csv", help="node/element table id,x,y,z (or an ANSYS NLIST listing, a CalculiX .frd) to join on a table that has only labels")
     g.add_argument("--on-nan", choices=("raise", "drop"), default="raise", help="NaN rows of a point table: error (default) or leave them out")
     g.add_argument("--negative-tolerance", type=float, default=0.25, metavar="R",
                    help="accept negative SED down to -R x the largest SED, summing to at most R x the positive values "

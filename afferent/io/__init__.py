@@ -36,12 +36,13 @@ from ._raw import RawExport
 
 __all__ = ["read_sed", "iter_sed", "series_provenance", "read_raw", "describe_raw", "format_of", "FORMATS"]
 
-#: Known formats: name -> file-name endings. '.gz' CSV files are read by the CSV reader. A ParaView
+#: Known formats: name -> file-name endings. '.gz' CSV files are read by the CSV reader, as are ANSYS MAPDL text
+#: listings (``.lis``, a solver's ``.out``). A ParaView
 #: JSON file series (``.vtu.series``, Kratos' ``.vtm.series``) is read like a ``.pvd``. ``.pvtu`` and
 #: ``.vtm`` (and ``.vtk``/``.vtu`` files meshio refuses) need the ``vtk`` extra (see docs/fe-export.md).
 FORMATS: dict[str, tuple[str, ...]] = {
-    "csv": (".csv", ".txt", ".tsv", ".dat", ".rpt", ".log", ".csv.gz", ".txt.gz", ".tsv.gz", ".dat.gz", ".rpt.gz",
-            ".log.gz"),
+    "csv": (".csv", ".txt", ".tsv", ".dat", ".rpt", ".log", ".lis", ".out", ".csv.gz", ".txt.gz", ".tsv.gz", ".dat.gz",
+            ".rpt.gz", ".log.gz", ".lis.gz", ".out.gz"),
     "vtu": (".vtu",),
     "vtk": (".vtk",),
     "pvtu": (".pvtu",),
@@ -198,8 +199,9 @@ def read_sed(
     ----------
     path_or_paths : str, path-like or list of them
         One export (``.vtu``, ``.vtk``, ``.pvtu``, ``.vtm``, ``.pvd``, a JSON ``.vtu.series``/``.vtm.series``,
-        ``.xdmf``, ``.csv``/``.txt``/``.rpt``, optionally ``.gz``, ``.frd``, Exodus, ``.rst``, MED
-        ``.med``/``.rmed``, FEBio ``.xplt``), or several files of one format, one per time step, in time order.
+        ``.xdmf``, ``.csv``/``.txt``/``.rpt``, optionally ``.gz``, ANSYS MAPDL listings ``.lis``/``.out``, ``.frd``,
+        Exodus, ``.rst``, MED ``.med``/``.rmed``, FEBio ``.xplt``), or several files of one format, one per time step,
+        in time order (MAPDL listings of different items, ``S`` in one and ``EPEL`` in another: side by side).
         ``.pvtu`` and ``.vtm`` files, and ``.vtk``/``.vtu`` files meshio refuses, are read through VTK
         (``pip install 'afferent-skin[vtk]'``); a ``.pvtu``'s pieces are joined into one mesh, the nodes
         they share with the same values merged.
@@ -240,7 +242,8 @@ def read_sed(
     coordinates : str or path-like, optional
         A CSV node (or element-centroid) table ``id, x, y, z`` to join on the export's node or
         element label column, for tables that carry no coordinates (Abaqus reports, FEBio
-        logfiles, CalculiX .dat). Its length unit is ``length_unit`` or the one it states.
+        logfiles, CalculiX .dat, ANSYS PRNSOL listings); an ANSYS ``NLIST`` listing or the run's
+        CalculiX ``.frd`` serve too. Its length unit is ``length_unit`` or the one it states.
     on_nan : {'raise', 'drop'}, default='raise'
         NaN in a point table is an error; ``'drop'`` leaves those rows out (COMSOL writes NaN
         where an expression is not evaluated) and records how many in the provenance.

@@ -17,7 +17,10 @@ Layouts handled (see :ref:`fe-checklist` and each tool's section of the FE-expor
   ``% Length unit,mm``, units in parentheses, per-step columns ``solid.Ws (J/m^3) @ t=0.02``;
 * a time column (rows grouped by time value), several files (one per time step);
 * FEBio logfiles (``*Step``/``*Time``/``*Data`` records, one record per time step);
-* CalculiX ``.dat`` blocks (``stresses (elem, integ.pnt.,sxx,...) for set X and time t``).
+* CalculiX ``.dat`` blocks (``stresses (elem, integ.pnt.,sxx,...) for set X and time t``);
+* ANSYS MAPDL listings (``PRINT S    NODAL SOLUTION PER NODE``, ``LIST ALL SELECTED NODES``,
+  ``PRINT ELEMENT TABLE ITEMS PER ELEMENT``, or a ``***** POST1 ... LISTING *****`` banner): pages,
+  summaries, load steps; several listing files of different items joined side by side on ``NODE``.
 
 Parsing of the rows themselves is done by :func:`pandas.read_csv`; this module only finds
 where the header and the data rows are, counts fields, and checks what pandas returns.
@@ -42,9 +45,10 @@ from .._validation import check_option, suggest
 from ..exceptions import SEDFormatError
 from ..units import TIME_UNITS, parse_unit
 from ._columns import TIME_ALIASES, canonical, split_unit
-from ._csv_blocks import _parse_ccx, _parse_febio
+from ._csv_blocks import _parse_ccx, _parse_febio, _parse_mapdl
 from ._csv_lines import (
     _CCX_START,
+    _MAPDL_START,
     _COORD_NAMES,
     _FEBIO_START,
     _SEP_ALIASES,
@@ -72,6 +76,7 @@ class _FileArrays:
     length_unit: str | None
     notes: list[str]
     preset: str | None = None
+    join_key: str | None = None  # the id column several files are joined on side by side (MAPDL listings: NODE)
 
 
 def _unit_of(raw: str | None, name: str, notes: list[str]) -> str | None:
@@ -280,8 +285,23 @@ def _read_one(path: str, sep: str | None, time_column: str | None) -> _FileArray
         out = _to_arrays(path, cols, time_column, n_records=n_rec, record_times=times)
         out.preset = "calculix-dat"  # *EL PRINT: sxx syy szz sxy sxz syz, tensor shear (CalculiX printout.f)
         return out
+    if _is_mapdl(text, head):
+        cols, n_rec, times = _parse_mapdl(path, lines, sep, notes)
+        out = _to_arrays(path, cols, time_column, n_records=n_rec, record_times=times)
+        out.preset = "ansys"  # S: SX SY SZ SXY SYZ SXZ, EPEL: engineering shear (docs/fe-export.md, ANSYS MAPDL)
+        out.join_key = cols.headers[0]
+        return out
     cols = _parse_table(path, lines, sep, notes)
     return _to_arrays(path, cols, time_column, n_records=cols.n_records, record_times=cols.record_times)
+
+
+def _is_mapdl(text: str, head: str) -> bool:
+    """An ANSYS MAPDL listing: a PRNSOL/PRETAB title, NLIST title or POST1 banner at a line start (searched
+    beyond the first MB only when the words occur: a solver's .out file holds its listings after the log)."""
+    if _MAPDL_START.search(head):
+        return True
+    return len(text) > len(head) and ("PRINT" in text or "LIST ALL" in text or "POST1" in text) and bool(
+        _MAPDL_START.search(text))
 
 
 def _normalise_paths(paths) -> list[str]:
@@ -393,10 +413,17 @@ def read_csv(paths, *, sep: str | None = None, time_column: str | None = None,
        each time is one step; blocks of different kinds with the same rows are put side by
        side, shared label columns kept once; the single value column of a block such as
        ``internal energy density (elem, integ.pnt.,energy)`` is named after the block.
+    5. ANSYS MAPDL listings (``PRNSOL``, ``PRETAB``; ``NLIST`` for coordinates): each ``LOAD STEP`` /
+       ``SUBSTEP`` is one step, its ``TIME=`` the step time (``FREQ=``: numbered steps); pages joined,
+       banners and ``MINIMUM``/``MAXIMUM VALUES`` summaries skipped, rows put in ``NODE`` order,
+       values written without a blank between them split; listings of different items in one file
+       side by side, an ``NLIST`` in the same file giving X, Y, Z. ``PRESOL`` (element-nodal) and a
+       node listed twice in a step are refused; PowerGraphics (surface nodes only) warns.
 
     With several files, steps are concatenated in the given order; every file must have the
     same columns and the same number of rows per step; ``times`` is None unless every file
-    states its times.
+    states its times. MAPDL listings of different items (``S`` in one file, ``EPEL`` in another)
+    are joined side by side instead, on ``NODE``: same nodes, same steps and times.
 
     Rows are never dropped silently: empty and ``NaN`` cells stay NaN (the assembler reports
     them); a column with no number at all (a label column such as ``SKIN-1``) is dropped with
@@ -418,10 +445,60 @@ def read_csv(paths, *, sep: str | None = None, time_column: str | None = None,
 
     iterator = progress_bar(files, enabled=progress, desc="Reading SED files", unit="file")
     per_file = [_read_one(p, sep, time_column) for p in iterator]
+    if len(per_file) > 1 and all(fa.join_key for fa in per_file) and _distinct_columns(per_file):
+        return _merge(files, [_side_by_side(files, per_file)], along="side by side")
     return _merge(files, per_file)
 
 
-def _merge(files: list[str], per_file: list[_FileArrays]) -> RawExport:
+#: The columns of an NLIST listing besides NODE (coordinates and rotation angles).
+_NLIST_COLUMNS = ("X", "Y", "Z", "THXY", "THYZ", "THZX")
+
+
+def _distinct_columns(per_file: list[_FileArrays]) -> bool:
+    """Whether the files hold different columns (besides their id column): listings of different items (S in
+    one file, EPEL in another) are joined side by side; files of the same columns are time steps."""
+    seen: set[str] = set()
+    for fa in per_file:
+        own = set(fa.arrays) - {fa.join_key}
+        if own & seen:
+            return False
+        seen |= own
+    return True
+
+
+def _side_by_side(files: list[str], per_file: list[_FileArrays]) -> _FileArrays:
+    """Several MAPDL listings of one run joined on their id column (rows are in id order in each)."""
+    ref, first = per_file[0], files[0]
+    key = ref.join_key
+    ids = ref.arrays[key][1]
+    arrays = dict(ref.arrays)
+    for path, fa in zip(files[1:], per_file[1:]):
+        other = fa.arrays[fa.join_key][1]
+        if fa.join_key != key or other.shape != ids.shape or not np.array_equal(other, ids):
+            nlist = {canonical(n) for n in fa.arrays} <= {canonical(n) for n in (key, *_NLIST_COLUMNS)}
+            raise SEDFormatError(
+                f"ANSYS MAPDL listing {path!r} must list the same {key}s at the same steps as {first!r} to be joined "
+                f"side by side; got {other.shape[1]} {fa.join_key}s at {other.shape[0]} step(s) (or other numbers) "
+                f"against {ids.shape[1]} at {ids.shape[0]} instead."
+                + (" An NLIST listing is a coordinates table: pass it as coordinates= (--coordinates)." if nlist else "")
+            )
+        same_times = (fa.times is None) == (ref.times is None) and (
+            fa.times is None or np.array_equal(fa.times, ref.times))
+        if not same_times:
+            raise SEDFormatError(
+                f"ANSYS MAPDL listing {path!r} must be printed at the times of {first!r} to be joined side by side; "
+                f"got TIME= {None if fa.times is None else fa.times.tolist()} against "
+                f"{None if ref.times is None else ref.times.tolist()} instead."
+            )
+        arrays.update((name, entry) for name, entry in fa.arrays.items() if name != fa.join_key)
+    notes = [n for fa in per_file for n in fa.notes] + [
+        f"joined {len(files)} listings side by side on {key!r}: {', '.join(map(repr, files))}"]
+    return _FileArrays(arrays, ref.times, ref.time_unit, ref.length_unit, notes, ref.preset, key)
+
+
+def _merge(files: list[str], per_file: list[_FileArrays], along: str = "time") -> RawExport:
+    """One RawExport from each file's arrays: stacked along time (one step per file), or ``along='side by side'``
+    (``per_file`` then holds the one joined set of arrays of all ``files``)."""
     first, ref = files[0], per_file[0]
     ref_names = list(ref.arrays)
     n_rows = next(iter(ref.arrays.values()))[1].shape[1] if ref.arrays else 0
@@ -474,7 +551,8 @@ def _merge(files: list[str], per_file: list[_FileArrays]) -> RawExport:
     presets = {fa.preset for fa in per_file}
     return RawExport(
         files=tuple(files), format="csv", points=None, arrays=arrays, times=times,
-        length_unit=length_unit, time_unit=time_unit, notes=_merge_notes(files, per_file),
+        length_unit=length_unit, time_unit=time_unit,
+        notes=_merge_notes(files, per_file) if along == "time" else tuple(dict.fromkeys(ref.notes)),
         preset=presets.pop() if len(presets) == 1 else None,
     )
 

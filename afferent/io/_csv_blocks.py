@@ -1,15 +1,40 @@
-"""Text exports made of records rather than one table: FEBio logfiles and CalculiX ``.dat`` blocks -> columns.
+"""Text exports made of records rather than one table: FEBio logfiles, CalculiX ``.dat`` blocks and ANSYS MAPDL
+listings (PRNSOL, NLIST, PRETAB) -> columns.
 
 See :mod:`afferent.io._csv` for the layouts and the FE-export page for each tool.
+
+Size: just over 600 lines: the three record formats side by side, each a few functions that find its records and
+hand their rows to the same table machinery (``_read_rows``, ``_Columns``); their line patterns are in ``_csv_lines``.
 """
 
 from __future__ import annotations
 
+import warnings
+from collections import Counter
+
 import numpy as np
 
-from ..exceptions import SEDFormatError
+from ..exceptions import AfferentWarning, SEDFormatError
 from ._columns import canonical
-from ._csv_lines import _CCX_LABELS, _CCX_TITLE, _FEBIO_KEY, _SEP_NAMES, _SNIFF_LINES, _is_comment, _join_names, _plural
+from ._csv_lines import (
+    _CCX_LABELS,
+    _CCX_TITLE,
+    _DIGITS,
+    _MAPDL_BANNER,
+    _MAPDL_NLIST,
+    _MAPDL_OTHER_LIST,
+    _MAPDL_STEP,
+    _MAPDL_SUMMARY,
+    _MAPDL_TIME,
+    _MAPDL_TITLE,
+    _FEBIO_KEY,
+    _SEP_NAMES,
+    _SNIFF_LINES,
+    _is_comment,
+    _join_names,
+    _plural,
+    _quote,
+)
 from ._csv_table import _Columns, _read_rows, _sniff
 
 # --------------------------------------------------------------------------------------
@@ -276,3 +301,335 @@ def _parse_ccx(path: str, lines: list[str], sep: str | None, notes: list[str]):
     )
     cols = _Columns(headers, values, np.asarray(blocks[0][3]), records[0]["line"], {}, notes)
     return cols, len(time_keys), times
+
+
+# --------------------------------------------------------------------------------------
+# ANSYS MAPDL listings (PRNSOL, NLIST, PRETAB)
+# --------------------------------------------------------------------------------------
+
+_MAPDL_ID_NAMES = ("NODE", "ELEM")
+_POWERGRAPHICS = "powergraphics is currently enabled"
+
+
+def _mapdl_new(listings: list[dict], i: int, item: str, kind: str) -> dict:
+    cur = {"item": item, "kind": kind, "line": i + 1, "names": None, "header_line": None, "steps": {},
+           "power": False, "shell": False}
+    listings.append(cur)
+    return cur
+
+
+def _mapdl_element_nodal(path: str, line_no: int, what: str):
+    raise SEDFormatError(
+        f"ANSYS MAPDL listing {path!r} must list one value per node (PRNSOL) or per element (ETABLE + PRETAB); got "
+        f"an element-nodal listing ({what}, line {line_no}: PRESOL prints every element's nodes, each node once per "
+        "element it belongs to) instead. Print PRNSOL,S,COMP / PRNSOL,EPEL,COMP / PRNSOL,SEND,ELASTIC for nodal "
+        "values, or ETABLE,SED,SEND,ELASTIC then PRETAB for one value per element."
+    )
+
+
+def _mapdl_text_line(path: str, s: str, i: int, cur: dict | None, listings: list[dict], state: dict) -> dict | None:
+    """Class a line that is not a data row: a title, banner, load step, time, summary or column header."""
+    m = _MAPDL_TITLE.match(s)
+    if m:
+        if m.group("kind") and m.group("kind").upper() == "ELEMENT":
+            _mapdl_element_nodal(path, i + 1, s.strip())
+        item = "ETABLE" if m.group("etable") else m.group("item").upper()
+        state.update(summary=False, step=None, time=None)
+        return _mapdl_new(listings, i, item, "PRETAB" if m.group("etable") else "PRNSOL")
+    m = _MAPDL_NLIST.match(s)
+    if m:
+        dsys = m.group("dsys")
+        if dsys is not None and int(dsys) != 0:
+            raise SEDFormatError(
+                f"NLIST listing {path!r} must give the node coordinates in the global Cartesian system (DSYS= 0); got "
+                f"DSYS= {dsys} at line {i + 1} instead (another display system: cylindrical or local coordinates). "
+                "Issue DSYS,0 before NLIST."
+            )
+        state.update(summary=False, step=None, time=None)
+        return _mapdl_new(listings, i, "NLIST", "NLIST")
+    if _MAPDL_OTHER_LIST.match(s):  # ELIST, DLIST...: its rows are left out
+        state.update(summary=False, step=None, time=None)
+        return _mapdl_new(listings, i, " ".join(s.split()[:4]), "OTHER")
+    m = _MAPDL_BANNER.match(s)
+    if m:
+        what = " ".join(m.group("what").split()).upper()
+        if "ELEMENT NODAL" in what:
+            _mapdl_element_nodal(path, i + 1, f"'***** {what} *****'")
+        same = cur is not None and not state["summary"] and cur.get("banner", what) == what
+        state.update(summary=False)
+        if not same:  # a listing printed without its title line: its page banner starts it
+            cur = _mapdl_new(listings, i, what, "PRNSOL")
+        cur["banner"] = what
+        return cur
+    if cur is None:
+        return None
+    upper = s.upper()
+    if _POWERGRAPHICS in s.lower():
+        cur["power"] = True
+    elif "TOP/BOTTOM" in upper:
+        cur["shell"] = True
+    elif upper.startswith("ELEMENT="):
+        _mapdl_element_nodal(path, i + 1, s)
+    elif (m := _MAPDL_STEP.match(s)) is not None:
+        state.update(step=(m.group("ls"), m.group("sub")), time=None, summary=False)
+    elif (m := _MAPDL_TIME.match(s)) is not None:
+        state.update(time=(m.group("kind").upper(), m.group("t")), summary=False)
+    elif _MAPDL_SUMMARY.match(s):
+        state.update(summary=True)
+    elif not state["summary"] and s.split()[0].upper() in _MAPDL_ID_NAMES:
+        names = s.split()
+        if cur["names"] is not None and names != cur["names"]:
+            raise SEDFormatError(
+                f"Every page of an ANSYS MAPDL listing must have the same columns; got {_join_names(names)} at "
+                f"line {i + 1} of {path!r} after {_join_names(cur['names'])} (line {cur['header_line']}) instead."
+            )
+        cur["names"], cur["header_line"] = names, cur["header_line"] or i + 1
+    return cur
+
+
+def _mapdl_listings(path: str, lines: list[str], notes: list[str]) -> list[dict]:
+    """The listings of a MAPDL output: title, columns, and the row indices of each (load step, substep, time)."""
+    listings: list[dict] = []
+    cur = None
+    state = {"step": None, "time": None, "summary": False}
+    n_text = 0
+    target = None  # the row list of the current listing and step (None after any other line)
+    for i, line in enumerate(lines):
+        s = line.strip()
+        if not s:
+            continue
+        if s[0] in _DIGITS and target is not None and "VERSION=" not in s:  # the fast path: a data row
+            target.append(i)
+            continue
+        if s[0] in _DIGITS and cur is not None and cur["names"] is not None and not state["summary"] \
+                and "VERSION=" not in s:  # the first row after a header, step or page line
+            target = cur["steps"].setdefault((state["step"], state["time"]), [])
+            target.append(i)
+            continue
+        target = None
+        if s[0] in _DIGITS and cur is not None and "VERSION=" not in s and not state["summary"]:
+            raise SEDFormatError(
+                f"ANSYS MAPDL listing {path!r} must name its columns (a 'NODE ...' header row) above its first data "
+                f"row; got line {i + 1} ({_quote(s)}) with no header above it instead. Print the listing with MAPDL's "
+                "default headers (/HEADER,DEFA)."
+            )
+        new = _mapdl_text_line(path, s, i, cur, listings, state)
+        if new is cur and not s.upper().startswith(_MAPDL_ID_NAMES):
+            n_text += 1
+        cur = new
+    if n_text:
+        notes.append(f"skipped {_plural(n_text, 'line')} of MAPDL page headers, notes and MINIMUM/MAXIMUM summaries")
+    return listings
+
+
+def _mapdl_names(cur: dict) -> list[str]:
+    """Column names as MAPDL prints them; a value column not named after the listing's item gets it in front
+    (``PRINT SEND`` and a column ``ELASTIC`` -> ``'SEND ELASTIC'``)."""
+    names = list(cur["names"])
+    item = cur["item"]
+    if cur["kind"] == "PRNSOL" and item.isalnum():
+        names[1:] = [n if n.upper().startswith(item) else f"{item} {n}" for n in names[1:]]
+    return names
+
+
+def _mapdl_blocks(path: str, listings: list[dict]) -> dict[tuple, dict]:
+    """Listings with the same columns joined (pages, several SET + PRNSOL): names -> {step key: row indices}.
+    Several listings of one item without LOAD STEP lines (PRETAB after each SET) are numbered steps."""
+    blocks: dict[tuple, dict] = {}
+    stepless = Counter(tuple(_mapdl_names(c)) for c in listings if (None, None) in c["steps"])
+    for cur in listings:
+        if not cur["steps"]:
+            continue
+        names = tuple(_mapdl_names(cur))
+        block = blocks.setdefault(names, {"steps": {}, "header_line": cur["header_line"], "listings": []})
+        block["listings"].append(cur)
+        for key, rows in cur["steps"].items():
+            if key == (None, None) and stepless[names] > 1:
+                key = (None, ("LISTING", str(sum((None, None) in c["steps"] for c in block["listings"]))))
+            block["steps"].setdefault(key, []).extend(rows)
+    if not blocks:
+        titles = ", ".join(f"{c['item']} (line {c['line']})" for c in listings) or "none"
+        raise SEDFormatError(
+            f"ANSYS MAPDL listing {path!r} must hold data rows under a 'NODE ...' (or 'ELEM ...') header; got none "
+            f"instead (listings found: {titles})."
+        )
+    keys = list(next(iter(blocks.values()))["steps"])
+    for names, block in blocks.items():
+        if list(block["steps"]) != keys:
+            raise SEDFormatError(
+                f"Every listing of ANSYS MAPDL file {path!r} must cover the same load steps to be read side by side; "
+                f"got {_mapdl_steps_text(keys)} for {_join_names(next(iter(blocks)))} and "
+                f"{_mapdl_steps_text(list(block['steps']))} for {_join_names(names)} instead."
+            )
+    return blocks
+
+
+def _mapdl_steps_text(keys: list) -> str:
+    def one(key):
+        step, time = key
+        where = f"load step {step[0]} substep {step[1]}" if step else "no load step"
+        if time and time[0] == "LISTING":
+            return f"listing {time[1]} (no load step)"
+        return where + (f" ({time[0]}= {time[1]})" if time else "")
+    return ", ".join(one(k) for k in keys[:4]) + (f", ... ({len(keys)} in all)" if len(keys) > 4 else "")
+
+
+def _mapdl_sorted(path: str, names: tuple, block: dict, lines: list[str], notes: list[str]):
+    """One block's rows read (pandas), each step's rows put in id order; (headers, values, row lines, ids)."""
+    keys = list(block["steps"])
+    row_idx = [i for k in keys for i in block["steps"][k]]
+    rows = _split_abutting([lines[i] for i in row_idx])
+    row_lines = np.asarray([i + 1 for i in row_idx])
+    headers, values = _read_rows(path, rows, row_lines, "whitespace", list(names), block["header_line"], notes)
+    if headers[0] != names[0]:
+        raise SEDFormatError(f"Column {names[0]!r} of ANSYS MAPDL listing {path!r} must hold node or element numbers.")
+    ids = values[0]
+    order, start, first = [], 0, None
+    for k in keys:
+        n = len(block["steps"][k])
+        step_ids = ids[start:start + n]
+        o = np.argsort(step_ids, kind="stable")
+        sorted_ids = step_ids[o]
+        dup = np.flatnonzero(sorted_ids[1:] == sorted_ids[:-1])
+        if dup.size:
+            _mapdl_repeated(path, names[0], block, k, sorted_ids[dup[0]], row_lines[start:start + n][o])
+        if first is None:
+            first = sorted_ids
+        elif not np.array_equal(sorted_ids, first):
+            raise SEDFormatError(
+                f"Every load step of ANSYS MAPDL listing {path!r} must list the same {names[0]}s; got {first.size} in "
+                f"{_mapdl_steps_text(keys[:1])} and {sorted_ids.size} in {_mapdl_steps_text([k])} (or other numbers) "
+                "instead. Select the same nodes (NSEL) for every SET before PRNSOL."
+            )
+        order.append(start + o)
+        start += n
+    order = np.concatenate(order)
+    if not np.array_equal(order, np.arange(order.size)):
+        notes.append(f"put the rows of every step in {names[0]} order (the listing is sorted otherwise, NSORT)")
+    return headers, [v[order] for v in values], row_lines[order], first
+
+
+def _split_abutting(rows: list[str]) -> list[str]:
+    """The rows with a blank before every sign that follows a digit or a point: two values MAPDL wrote without a blank
+    between them (``-0.70653E+007-0.40380E+007``: 3-digit exponents, or a negative E-format value after another,
+    fill the fixed-width fields) become two; ``E-07`` is left alone. numpy over the bytes: 3x faster than a regex."""
+    buf = np.frombuffer("\n".join(rows).encode("utf-8"), dtype=np.uint8)
+    sign = (buf == 45) | (buf == 43)
+    after = ((buf >= 48) & (buf <= 57)) | (buf == 46)
+    at = np.flatnonzero(sign[1:] & after[:-1]) + 1
+    if not at.size:
+        return rows
+    return np.insert(buf, at, 32).tobytes().decode("utf-8").split("\n")
+
+
+def _mapdl_repeated(path, name, block, key, value, row_lines):
+    shells = any(c["shell"] for c in block["listings"])
+    power = any(c["power"] for c in block["listings"])
+    why = ("shell results listed for the top and bottom surfaces" if shells else
+           "PowerGraphics listing a node once per surface it lies on" if power else "element-nodal values")
+    raise SEDFormatError(
+        f"ANSYS MAPDL listing {path!r} must list each {name} once per load step; got {name} {value:g} more than once "
+        f"in {_mapdl_steps_text([key])} (rows at lines {', '.join(map(str, row_lines[:2]))}, ...) instead ({why}). "
+        "Print PRNSOL with /GRAPHICS,FULL, over solid elements."
+    )
+
+
+def _mapdl_times(path: str, keys: list, notes: list[str]) -> np.ndarray | None:
+    """The ``TIME=`` of each step in the listing's time unit, or None (no times, or frequencies)."""
+    times = [k[1] for k in keys]
+    if all(t is None for t in times):
+        return None
+    if any(t is None for t in times) or any(t[0] != "TIME" for t in times):
+        notes.append("the listing's steps carry no TIME= (FREQ= or none): steps are numbered, not timed")
+        return None
+    try:
+        return np.array([float(t[1]) for t in times])
+    except ValueError as err:
+        raise SEDFormatError(f"'TIME=' of ANSYS MAPDL listing {path!r} must be a number; got {times!r}.") from err
+
+
+def _parse_mapdl(path: str, lines: list[str], sep: str | None, notes: list[str]):
+    """Read ANSYS MAPDL listings (PRNSOL, NLIST, PRETAB); return (_Columns, n_steps, times).
+
+    Pages are joined and their headers, notes and MINIMUM/MAXIMUM/TOTAL summaries skipped; each
+    (LOAD STEP, SUBSTEP, TIME) is one step, its rows put in NODE order; listings of different items
+    with the same nodes and steps (S, then EPEL) are put side by side, the NODE column kept once.
+    Values written without a blank between them (``-0.7E+007-0.4E+007``) are split. PRESOL
+    (element-nodal) listings are refused; a PowerGraphics listing (exterior surfaces only) warns.
+    """
+    if sep not in (None, "whitespace"):
+        raise SEDFormatError(f"ANSYS MAPDL listing {path!r} has blank-separated columns; got sep={sep!r} instead.")
+    listings = _mapdl_listings(path, lines, notes)
+    other = [c for c in listings if c["kind"] == "OTHER"]
+    if other:
+        notes.append(f"skipped {_plural(len(other), 'MAPDL list')} of other items ("
+                     f"{', '.join(repr(c['item']) + ' at line ' + str(c['line']) for c in other[:3])})")
+        listings = [c for c in listings if c["kind"] != "OTHER"]
+        if not any(c["steps"] for c in listings):
+            raise SEDFormatError(
+                f"ANSYS MAPDL file {path!r} must hold results (PRNSOL, PRETAB) or node coordinates (NLIST); got only "
+                f"{other[0]['item']!r} (line {other[0]['line']}), which lists the model, not results, instead."
+            )
+    nlists = [c for c in listings if c["kind"] == "NLIST" and c["steps"]]
+    if nlists and len(nlists) < sum(bool(c["steps"]) for c in listings):
+        listings = [c for c in listings if c not in nlists]  # results with their NLIST: coordinates, below
+    else:
+        nlists = []
+    blocks = _mapdl_blocks(path, listings)
+    headers, values, row_lines, ids, header_line = [], [], None, None, None
+    for names, block in blocks.items():
+        hs, vs, rl, block_ids = _mapdl_sorted(path, names, block, lines, notes)
+        if ids is None:
+            ids, row_lines, header_line = block_ids, rl, block["header_line"]
+        elif not np.array_equal(block_ids, ids):
+            raise SEDFormatError(
+                f"The listings of ANSYS MAPDL file {path!r} must list the same {names[0]}s to be read side by side; got "
+                f"{ids.size} under {_join_names(headers)} and {block_ids.size} under {_join_names(hs)} instead."
+            )
+        for h, v in zip(hs, vs):
+            if h in headers:
+                if h == hs[0]:
+                    continue  # the NODE column, kept once
+                raise SEDFormatError(f"Column {h!r} of ANSYS MAPDL file {path!r} is listed twice with different values.")
+            headers.append(h)
+            values.append(v)
+    keys = list(next(iter(blocks.values()))["steps"])
+    if nlists:
+        for h, v in zip(*_mapdl_coordinates(path, nlists, ids, len(keys), lines, notes)):
+            if h in headers:
+                raise SEDFormatError(f"Column {h!r} of ANSYS MAPDL file {path!r} is both a result and an NLIST column.")
+            headers.append(h)
+            values.append(v)
+    if any(c["power"] for c in listings):
+        notes.append("PowerGraphics was enabled: MAPDL lists the exterior surfaces' nodes only")
+        warnings.warn(
+            f"ANSYS MAPDL listing {path!r} was printed with PowerGraphics enabled: PRNSOL then lists the nodes of the "
+            "model's exterior surfaces only, so SED inside the skin (at the receptors) would be interpolated from "
+            "surface values. Print it again after /GRAPHICS,FULL.", AfferentWarning, stacklevel=2)
+    kinds = list(dict.fromkeys(c["item"] for c in listings if c["steps"]))
+    notes.append(f"read {_plural(len(kinds), 'ANSYS MAPDL listing')} ({', '.join(kinds)}) at "
+                 f"{_plural(len(keys), 'step')}, {_plural(ids.size, 'row')} per step")
+    times = _mapdl_times(path, keys, notes)
+    return _Columns(headers, values, row_lines, header_line, {}, notes), len(keys), times
+
+
+def _mapdl_coordinates(path: str, nlists: list[dict], ids: np.ndarray, n_steps: int, lines: list[str],
+                       notes: list[str]) -> tuple[list[str], list[np.ndarray]]:
+    """The NLIST columns (X, Y, Z, ...) of the nodes that carry results, repeated for every step."""
+    blocks = _mapdl_blocks(path, nlists)
+    if len(blocks) > 1:
+        raise SEDFormatError(f"The NLIST listings of ANSYS MAPDL file {path!r} must have the same columns; got "
+                             f"{' and '.join(_join_names(names) for names in blocks)} instead.")
+    (names, block), = blocks.items()
+    hs, vs, _, node_ids = _mapdl_sorted(path, names, block, lines, notes)
+    pos = np.clip(np.searchsorted(node_ids, ids), 0, node_ids.size - 1)
+    missing = ids[node_ids[pos] != ids]
+    if missing.size:
+        raise SEDFormatError(
+            f"The NLIST listing of ANSYS MAPDL file {path!r} (line {nlists[0]['line']}) must list every node that "
+            f"has results; got {missing.size} without coordinates (first: {', '.join(f'{v:g}' for v in missing[:5])}) "
+            "instead. NLIST the same nodes (NSEL) as PRNSOL."
+        )
+    notes.append(f"coordinates from the NLIST listing (line {nlists[0]['line']}) joined on {names[0]!r}: "
+                 f"{node_ids.size} nodes listed, {ids.size} with results")
+    return list(hs[1:]), [np.tile(v[pos], n_steps) for v in vs[1:]]

@@ -80,6 +80,27 @@ _CCX_START = re.compile(
     re.IGNORECASE | re.MULTILINE,
 )
 _CCX_LABELS = frozenset({"elem", "element", "node", "integpnt"})  # canonical label columns of .dat blocks
+#: ``PRINT S    NODAL SOLUTION PER NODE`` (PRNSOL), ``PRINT S    ELEMENT SOLUTION PER ELEMENT`` (PRESOL),
+#: ``PRINT F    REACTION SOLUTIONS PER NODE`` (PRRSOL), ``PRINT ELEMENT TABLE ITEMS PER ELEMENT`` (PRETAB).
+_MAPDL_TITLE = re.compile(
+    r"^\s*PRINT\s+(?:(?P<etable>ELEMENT\s+TABLE\s+ITEMS)|(?P<item>\S+)\s+(?P<kind>NODAL|ELEMENT|REACTION)\s+"
+    r"SOLUTIONS?)\s+PER\s+(?:NODE|ELEMENT)\b", re.IGNORECASE)
+#: ``LIST ALL SELECTED NODES.   DSYS=      0`` (NLIST).
+_MAPDL_NLIST = re.compile(r"^\s*LIST\s+ALL\s+SELECTED\s+NODES\b[^\n]*?(?:DSYS\s*=\s*(?P<dsys>-?\d+))?\s*$",
+                          re.IGNORECASE)
+#: Other MAPDL lists whose rows are not results (``LIST ALL SELECTED ELEMENTS``, ``LIST CONSTRAINTS ...``): skipped.
+_MAPDL_OTHER_LIST = re.compile(r"^\s*LIST\s+[A-Z]", re.IGNORECASE)
+#: The page banner ``***** POST1 NODAL STRESS LISTING *****``.
+_MAPDL_BANNER = re.compile(r"^\s*\*{5}\s*(?P<what>POST1\b[^*]*?LISTING)\s*\*{5}", re.IGNORECASE)
+#: Where a listing starts (to detect one): a title, an NLIST title or a POST1 page banner at a line start.
+_MAPDL_START = re.compile(
+    r"^[ \t]*(?:PRINT[ \t]+(?:ELEMENT[ \t]+TABLE[ \t]+ITEMS|\S+[ \t]+(?:NODAL|ELEMENT|REACTION)[ \t]+SOLUTIONS?)"
+    r"[ \t]+PER[ \t]|LIST[ \t]+ALL[ \t]+SELECTED[ \t]+(?:NODES|ELEMENTS)\b|\*{5}[ \t]*POST1\b[^*\n]*LISTING[ \t]*\*{5})",
+    re.IGNORECASE | re.MULTILINE)
+_MAPDL_STEP = re.compile(r"^\s*LOAD\s+STEP\s*=\s*(?P<ls>\d+)\s+SUBSTEP\s*=\s*(?P<sub>\d+)", re.IGNORECASE)
+_MAPDL_TIME = re.compile(r"^\s*(?P<kind>TIME|FREQ)\s*=\s*(?P<t>\S+)", re.IGNORECASE)
+#: Summaries after the rows: ``MINIMUM VALUES``, ``MAXIMUM VALUES``, ``MAXIMUM ABSOLUTE VALUES``, ``TOTAL VALUES``.
+_MAPDL_SUMMARY = re.compile(r"^\s*(?:MINIMUM|MAXIMUM|TOTAL)\b[A-Z ]*\bVALUES\s*$", re.IGNORECASE)
 _COMMENT_STRIP = re.compile(r"^\s*(?:\*\*|[#%!])\s?")
 _UNIT_ONLY = re.compile(r"^[\(\[][^\)\]]*[\)\]]$")
 _WIDE_TOKEN = re.compile(r"\S+(?: \S+)*")  # tokens separated by two or more spaces or a tab

@@ -170,6 +170,8 @@ def _find_header(path: str, lines: list[str], lo: int, m: int, delim: str, ncols
             first_data = j
             j -= 1
             continue
+        if _FOOTER.match(s):
+            _raise_summary_only(path, lines, j, first_data)
         return _header_from_lines(path, lines, j, delim, ncols, first_data, lo, rule=False)
     # No text line above the data: COMSOL puts the names on the last '%' line.
     for k in range(first_data - 1, lo - 1, -1):
@@ -196,6 +198,20 @@ def _wrapped_header(path: str, lines: list[str], lo: int, m: int) -> _Header | N
         return None
     names, wrap, top, last = found
     return _Header(names, last + 1, lines[last].strip(), m, n_lines=last - top + 1, wrap=wrap)
+
+
+def _starts_with_number(stripped: str) -> bool:
+    c = stripped[:1]
+    return c in _DIGITS or (c in _SIGNS and stripped[1:2] in _DIGITS)
+
+
+def _raise_summary_only(path: str, lines: list[str], footer: int, first_data: int):
+    """The first row of numbers lies in a summary (a footer such as MAPDL's ``MINIMUM VALUES``): no data above it."""
+    raise SEDFormatError(
+        f"SED file {path!r} must hold data rows above its summary; got none: the first row of numbers (line "
+        f"{first_data + 1}: {_quote(lines[first_data].strip())}) belongs to the summary {_quote(lines[footer].strip())} "
+        f"(line {footer + 1}) instead."
+    )
 
 
 def _names_for(text: str, delim: str, ncols: int, lines: list[str], first_data: int) -> list[str] | None:
@@ -420,15 +436,18 @@ def _collect_rows(path, lines, header: _Header, delim, ncols):
             i += 1
         if i >= n:
             break
-        # Footer rows, then maybe another block of the same report.
+        # Footer rows, then maybe another block of the same report. Lines of a summary that start with a word
+        # (MAPDL's 'MINIMUM VALUES' / 'NODE  1  1' / 'VALUE  -0.2  -91.') are footer rows too.
         j, after, next_m, lo, in_footer = i, [], None, i, False
         while j < n:
             s = lines[j].strip()
-            if _FOOTER.match(s):
+            if _FOOTER.match(s) or (lo == j and s and not _starts_with_number(s) and _is_data_line(lines[j], delim)):
                 tally["footer"] += 1
                 after, lo, in_footer = [], j + 1, True
             elif in_footer and header.wrap and _is_data_line(lines[j], delim):
                 lo = j + 1  # a wrapped footer's continuation line
+            elif not s and lo == j:
+                lo = j + 1
             elif _is_body(s):
                 in_footer = False
                 if _is_data_line(lines[j], delim) and _count_fields(lines[j], delim) == ncols:

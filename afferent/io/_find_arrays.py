@@ -200,10 +200,14 @@ def find_coordinates(raw: RawExport, opts: ReadOptions) -> tuple[np.ndarray, tup
             hit = exact or hit
             if len(hit) != 1:
                 what = "no" if not hit else f"{len(hit)} ({', '.join(repr(a.name) for a in hit)})"
+                rid = _id_array(raw) if not hit else None
+                join = ("" if rid is None else f" or coordinates='NODES' (an id,x,y,z table, an ANSYS NLIST listing, "
+                        f"the run's CalculiX .frd) to join them on {rid.name!r}")
                 raise SEDFormatError(
                     f"SED file {_where(raw)!r} must have one {axis} coordinate column "
                     f"(e.g. '{axis}', '{axis.upper()}', 'COORD{'xyz'.index(axis) + 1}', '{axis.upper()} Location'); "
-                    f"found {what}. Found columns {_names(raw)}. Pass coord_columns=('X', 'Y', 'Z') to name them."
+                    f"found {what}. Found columns {_names(raw)}. Pass coord_columns=('X', 'Y', 'Z') to name them"
+                    f"{join}."
                 )
             cols.append(hit[0])
     xyz = np.stack([c.values for c in cols], axis=-1)  # (n_times, n, 3)
