@@ -586,7 +586,7 @@ def test_summaries_of_label_and_value_rows_are_footers(tmp_path):
             " MAXIMUM VALUES\n NODE 2 2\n VALUE 0.3 0.4\nNODE SX SY\n3 0.5 0.6\n")
     raw = read_csv(_write(tmp_path, text, "a.txt"))
     np.testing.assert_array_equal(raw.arrays["SY"].values, [[0.2, 0.4, 0.6]])
-    assert "dropped 6 footer rows (Minimum/Maximum/At Node/At Element/Total)" in raw.notes
+    assert "dropped 6 footer rows (Minimum/Maximum/At Node/At Element/Int Pt/Total)" in raw.notes
 
 
 def test_a_table_whose_first_row_of_numbers_is_a_summary(tmp_path):
