@@ -7,6 +7,7 @@ The layouts follow real reports (tests/data/csv/README.md names them); the value
 from __future__ import annotations
 
 import re
+import warnings
 
 import numpy as np
 import pytest
@@ -121,6 +122,24 @@ def test_coord_coordinates_warn_that_they_are_deformed_positions_under_nlgeom(tm
             "the nodes' current (deformed) positions when the step ran with NLGEOM")):
         field = read_sed(p, sed_unit="MPa", length_unit="mm")
     assert any("Abaqus' COORD output" in n for n in field.provenance.notes)
+
+
+def test_coord_of_a_first_frame_at_time_0_stands_for_every_frame(tmp_path):
+    """Frames whose COORD moves (NLGEOM) were refused; with the step's first frame (increment 0, time 0:
+    the undeformed model) in the report, its COORD gives the points of every frame, no warning."""
+    moved = [r[:32] + f"{float(r[32:48]) - 0.05:16.4E}" + r[48:64] + r[64:].replace("E-03", "E-02") for r in ROWS]
+    p = _write(tmp_path, _frame("Indent", "Increment      0: Step Time =    0.0000", ROWS)
+               + _frame("Indent", "Increment      5: Step Time =    0.5000", moved))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        field = read_sed(p, sed_unit="MPa", length_unit="mm")
+    np.testing.assert_allclose(field.points[2], [0.0, 1e-3, 0.0])  # frame 0's, not the moved 0.95 mm
+    np.testing.assert_allclose(field.sed[1], [1e4, 2e4, 3e4])
+    assert any("COORD of the first frame (time 0: the undeformed model)" in n for n in field.provenance.notes)
+    later = _write(tmp_path, _frame("Indent", "Increment      2: Step Time =    0.2000", ROWS)
+                   + _frame("Indent", "Increment      5: Step Time =    0.5000", moved), "later.rpt")
+    with pytest.raises(SEDFormatError, match="the coordinates of time step 1 differ from those of step 0"):
+        read_sed(later, sed_unit="MPa", length_unit="mm")
 
 
 @pytest.mark.filterwarnings("ignore:.*Abaqus' COORD output")

@@ -35,6 +35,8 @@ from ._find_arrays import (
     FULL_TENSORS,
     _convention,
     _undecided,
+    abaqus_coordinates,
+    abaqus_reference_frame,
     _where,
     average_per_element,
     drop_nan_rows,
@@ -122,10 +124,6 @@ def _prepared(raw: RawExport, opts: ReadOptions) -> RawExport:
     return raw
 
 
-#: Abaqus' COORD components as a report names them (docs/fe-export.md, Abaqus): current positions under NLGEOM.
-_ABAQUS_COORD = frozenset(C.canonical(f"COORD.COOR{k}") for k in (1, 2, 3))
-
-
 def _coordinates(raw: RawExport, opts: ReadOptions, rec: _Record, *, checked: bool = False):
     """Coordinates in file units, and the length unit: (xyz, factor to m, unit, where the unit came from).
 
@@ -133,11 +131,15 @@ def _coordinates(raw: RawExport, opts: ReadOptions, rec: _Record, *, checked: bo
     """
     xyz, coord_names = find_coordinates(raw, opts)
     rec.columns["coordinates"] = list(coord_names)
-    if not checked and {C.canonical(n) for n in coord_names} & _ABAQUS_COORD:
+    if not checked and abaqus_reference_frame(raw, coord_names):
+        rec.notes.append("Coordinates: Abaqus' COORD of the first frame (time 0: the undeformed model), for every frame "
+                         "(a later frame's COORD is the deformed position when the step ran with NLGEOM).")
+    elif not checked and abaqus_coordinates(coord_names):
         msg = (f"SED file {_where(raw)!r}: the coordinates are Abaqus' COORD output ({', '.join(map(repr, coord_names))}): "
                "the nodes' current (deformed) positions when the step ran with NLGEOM, where receptor sites given in the "
-               "undeformed model fall beside the points they mean. Report COORD from the step's first frame (before "
-               "loading), or give the reference positions with coordinates= (node labels and x, y, z).")
+               "undeformed model fall beside the points they mean. Report the step's first frame (increment 0, time 0) "
+               "with the others, whose COORD then stands for every frame, or give the reference positions with "
+               "coordinates= (node labels and x, y, z).")
         rec.notes.append(msg)
         warnings.warn(msg, AfferentWarning, stacklevel=5)
     if not checked:

@@ -211,6 +211,8 @@ def find_coordinates(raw: RawExport, opts: ReadOptions) -> tuple[np.ndarray, tup
                 )
             cols.append(hit[0])
     xyz = np.stack([c.values for c in cols], axis=-1)  # (n_times, n, 3)
+    if xyz.shape[0] > 1 and abaqus_reference_frame(raw, [c.name for c in cols]):
+        return xyz[0], tuple(c.name for c in cols)  # the undeformed model's positions, for every frame
     if xyz.shape[0] > 1 and not np.array_equal(xyz, np.broadcast_to(xyz[:1], xyz.shape), equal_nan=True):
         step = int(np.argmax([not np.array_equal(xyz[k], xyz[0], equal_nan=True) for k in range(xyz.shape[0])]))
         raise SEDFormatError(
@@ -218,6 +220,23 @@ def find_coordinates(raw: RawExport, opts: ReadOptions) -> tuple[np.ndarray, tup
             "every step must list the same points in the same order."
         )
     return xyz[0], tuple(c.name for c in cols)
+
+
+#: Abaqus' COORD components as a report names them (docs/fe-export.md, Abaqus): the nodes' current
+#: positions, which move from frame to frame when the step runs with NLGEOM.
+ABAQUS_COORD = frozenset(C.canonical(f"COORD.COOR{k}") for k in (1, 2, 3))
+
+
+def abaqus_coordinates(names) -> bool:
+    """Whether coordinate columns ``names`` are Abaqus' COORD output."""
+    return bool({C.canonical(n) for n in names} & ABAQUS_COORD)
+
+
+def abaqus_reference_frame(raw: RawExport, names) -> bool:
+    """Whether the coordinates ``names`` are Abaqus' COORD and the export's first step is a frame at
+    time 0 (increment 0 of a report's one analysis step: the undeformed model), whose positions
+    then stand for every frame."""
+    return abaqus_coordinates(names) and raw.times is not None and len(raw.times) > 0 and float(raw.times[0]) == 0.0
 
 
 def _wrong_location(raw: RawExport, arr: RawArray, what: str, asked: str) -> None:
