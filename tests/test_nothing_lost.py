@@ -369,3 +369,24 @@ def test_the_commands_last_resort_names_an_error_of_the_environment():
         os.stat("/proc/self/cwd/" + "x/" * 1 + "y" * 5000)
     assert _environment_message(loop.value).endswith("the name is too long (ENAMETOOLONG)")
     assert _environment_message(ValueError("a bug")) is None
+
+
+def test_a_handled_ctrl_c_is_not_left_for_cpython_to_report_as_unhandled():
+    """CPython 3.11 marks a KeyboardInterrupt raised inside exec'd code (a dataclass's generated
+    __init__ while a module imports) as unhandled even when it is caught, and then ends the process
+    by SIGINT (exit -2) instead of the command's 130: the Ctrl-C test saw it 1 run in 25 under load.
+    The command line's handler clears the mark where the interpreter exports it."""
+    import ctypes
+
+    from afferent.cli._main import _interrupt_handled
+
+    try:
+        flag = ctypes.c_int.in_dll(ctypes.pythonapi, "_Py_UnhandledKeyboardInterrupt")
+    except (AttributeError, ValueError):
+        pytest.skip("this interpreter keeps no such mark")
+    try:
+        exec("raise KeyboardInterrupt")
+    except KeyboardInterrupt:
+        assert flag.value == 1  # what the interpreter would act on at exit
+        _interrupt_handled()
+    assert flag.value == 0

@@ -182,6 +182,7 @@ def _main(argv: list[str] | None) -> int:
         print(f"afferent: error: {msg}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
+        _interrupt_handled()
         print("afferent: interrupted", file=sys.stderr)
         return 130
     except BrokenPipeError:
@@ -191,6 +192,23 @@ def _main(argv: list[str] | None) -> int:
             print(f"afferent: error: {_environment_message(err)}", file=sys.stderr)
             return 2
         return _internal_error(err)
+
+
+def _interrupt_handled() -> None:
+    """Tell CPython that the KeyboardInterrupt was handled, so the command exits with 130.
+
+    CPython 3.11 notes a KeyboardInterrupt raised inside code it runs from a string (``exec`` of a
+    dataclass's generated ``__init__`` while a module is imported, say) as unhandled even when
+    Python code catches it, and at exit kills itself with SIGINT instead of returning the exit
+    code (seen in tests/test_figure_process.py's Ctrl-C test: 1 run in 25 on a loaded machine,
+    exit -2). The flag is reset where the interpreter exports it; elsewhere nothing is done.
+    """
+    try:
+        import ctypes
+
+        ctypes.c_int.in_dll(ctypes.pythonapi, "_Py_UnhandledKeyboardInterrupt").value = 0
+    except (ImportError, AttributeError, ValueError, OSError):
+        pass
 
 
 def _environment_message(err: BaseException) -> str | None:
