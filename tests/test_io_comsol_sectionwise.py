@@ -154,3 +154,20 @@ def test_grid_and_vertical_layouts_refused_by_name(tmp_path, capsys, text, layou
     assert main(["info", str(path)]) == 2
     err = capsys.readouterr().err
     assert err.startswith("afferent: error: ") and "Traceback" not in err and err.count("\n") == 1
+
+
+def test_sectionwise_found_when_its_elements_start_after_the_first_megabyte(tmp_path):
+    """A real export's coordinates run to megabytes: the '% Elements' title lies beyond the text the reader
+    looks at to tell the layouts apart (it then read the file as a table of one 'Coordinates' column)."""
+    n_extra = 14_000  # points no element uses, far from the skin: 14k lines of 75 characters
+    extra = "".join(f"{100 + k * 1e-3!r:<25}{-50.0!r:<25}{-50.0!r:<25}\n" for k in range(n_extra))
+    text = TEXT.replace("% Nodes:              371", f"% Nodes:              {371 + n_extra}")
+    text = text.replace("% Elements (tetrahedra)", extra + "% Elements (tetrahedra)")
+    parts = text.split("% Data (")
+    text = parts[0] + "".join(f"% Data ({p}" + "7.0\n" * n_extra for p in parts[1:])
+    path = tmp_path / "big.txt"
+    path.write_text(text)
+    assert text.index("% Elements (tetrahedra)") > 1_000_000
+    raw = read_raw(path)
+    assert raw.points.shape == (371 + n_extra, 3) and raw.cells.n_cells == 1296
+    np.testing.assert_array_equal(raw.arrays["solid.Ws"].values[:, :371], read_raw(FILE).arrays["solid.Ws"].values)

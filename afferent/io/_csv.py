@@ -54,6 +54,7 @@ from ._csv_lines import (
     _MAPDL_START,
     _COORD_NAMES,
     _FEBIO_START,
+    _SECTIONWISE_ELEMENTS,
     _SECTIONWISE_START,
     _SEP_ALIASES,
     _SUFFIX,
@@ -293,7 +294,7 @@ def _read_one(path: str, sep: str | None, time_column: str | None) -> _FileArray
         return out
     if "%" in head:
         _refuse_comsol_layout(path, head)
-        if _SECTIONWISE_START.search(head):
+        if _SECTIONWISE_START.search(head) and _SECTIONWISE_ELEMENTS.search(text):  # after MBs of coordinates
             cols, points, cells = _parse_sectionwise(path, lines, notes)
             out = _to_arrays(path, cols, time_column)
             out.points, out.cells = points, cells

@@ -686,29 +686,35 @@ def _sectionwise_sections(path: str, lines: list[str]) -> tuple[list[str], list[
 def _section_numbers(path: str, lines: list[str], section, n_cols: int | None, what: str) -> np.ndarray:
     """The numbers of one section's rows as an (n_rows, n_cols) float array; every row must hold ``n_cols``
     numbers (``None``: as many as the first row), separated by blanks, commas or semicolons."""
+    import io
+
     _, _, title_line, rows = section
     if not rows:
         raise SEDFormatError(f"The {what} section of COMSOL sectionwise file {path!r} (line {title_line}) must hold "
                              "at least one row; got none instead.")
-    split = [_SECTION_SEP.split(lines[i].strip()) for i in rows]
-    n = len(split[0]) if n_cols is None else n_cols
-    for i, cells in zip(rows, split):
+    text = "\n".join(lines[i] for i in rows).replace(",", " ").replace(";", " ")
+    try:  # numpy's C parser (0.12 s for 224k rows of 4); errors found again below, row by row, to name the line
+        values = np.loadtxt(io.StringIO(text), dtype=np.float64, ndmin=2, comments=None)
+    except ValueError:
+        values = None
+    n = len(lines[rows[0]].replace(",", " ").replace(";", " ").split()) if n_cols is None else n_cols
+    if values is not None and values.shape[1] == n:
+        return values
+    for i in rows:
+        cells = _SECTION_SEP.split(lines[i].strip())
         if len(cells) != n:
             raise SEDFormatError(
                 f"Every row of the {what} section of COMSOL sectionwise file {path!r} must hold {_plural(n, 'value')}; "
                 f"got {len(cells)} at line {i + 1} ({_quote(lines[i].strip())}) instead.")
-    try:
-        return np.array(split, dtype=np.float64)
-    except ValueError:
-        for i, cells in zip(rows, split):
-            for c in cells:
-                try:
-                    float(c)
-                except ValueError:
-                    raise SEDFormatError(
-                        f"Every value of the {what} section of COMSOL sectionwise file {path!r} must be a number; "
-                        f"got {_quote(c)} at line {i + 1} instead.") from None
-        raise
+        for c in cells:
+            try:
+                float(c)
+            except ValueError:
+                raise SEDFormatError(
+                    f"Every value of the {what} section of COMSOL sectionwise file {path!r} must be a number; "
+                    f"got {_quote(c)} at line {i + 1} instead.") from None
+    raise SEDFormatError(f"The {what} section of COMSOL sectionwise file {path!r} (line {title_line}) could not be "
+                         "read as numbers.")  # not reached: numpy refuses only what the loop above names
 
 
 def _sectionwise_cells(path: str, lines: list[str], section, n_points: int):

@@ -99,7 +99,8 @@ _MAPDL_START = re.compile(
     re.IGNORECASE | re.MULTILINE)
 #: COMSOL Results > Export > Data with Data format: Sectionwise (docs/fe-export.md, COMSOL): a ``% Coordinates``
 #: section, a ``% Elements (tetrahedra)`` section of 1-based point numbers, ``% Data (expr (unit) @ t=T)`` sections.
-_SECTIONWISE_START = re.compile(r"^[ \t]*%[ \t]*Elements[ \t]*\(", re.IGNORECASE | re.MULTILINE)
+_SECTIONWISE_START = re.compile(r"^[ \t]*%[ \t]*Coordinates\b", re.IGNORECASE | re.MULTILINE)
+_SECTIONWISE_ELEMENTS = re.compile(r"^[ \t]*%[ \t]*Elements[ \t]*\(", re.IGNORECASE | re.MULTILINE)
 _SECTION_TITLE = re.compile(r"^%\s*(?:(?P<coords>Coordinates)\b.*?|Elements\s*\((?P<type>[^()]*)\)|Data\s*\((?P<data>.*)\))\s*$",
                             re.IGNORECASE)
 #: COMSOL's other Data formats afferent refuses: ``Grid`` (``% Grid`` then one line of values per axis) and the
