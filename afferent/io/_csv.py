@@ -48,14 +48,13 @@ from .._validation import check_option, suggest
 from ..exceptions import SEDFormatError
 from ..units import TIME_UNITS, parse_unit
 from ._columns import TIME_ALIASES, canonical, split_unit
-from ._csv_blocks import _parse_ccx, _parse_febio, _parse_mapdl, _parse_sectionwise, _refuse_comsol_layout, _same_mesh
+from ._csv_blocks import (_is_sectionwise, _parse_ccx, _parse_febio, _parse_mapdl, _parse_sectionwise,
+                          _refuse_comsol_layout, _same_mesh)
 from ._csv_lines import (
     _CCX_START,
     _MAPDL_START,
     _COORD_NAMES,
     _FEBIO_START,
-    _SECTIONWISE_ELEMENTS,
-    _SECTIONWISE_START,
     _SEP_ALIASES,
     _SUFFIX,
     SEPARATORS,
@@ -294,7 +293,7 @@ def _read_one(path: str, sep: str | None, time_column: str | None) -> _FileArray
         return out
     if "%" in head:
         _refuse_comsol_layout(path, head)
-        if _SECTIONWISE_START.search(head) and _SECTIONWISE_ELEMENTS.search(text):  # after MBs of coordinates
+        if _is_sectionwise(text, head):
             cols, points, cells = _parse_sectionwise(path, lines, notes)
             out = _to_arrays(path, cols, time_column)
             out.points, out.cells = points, cells

@@ -34,6 +34,8 @@ from ._csv_lines import (
     _COMSOL_GRID,
     _COMSOL_VERTICAL,
     _SECTION_TITLE,
+    _SECTIONWISE_ELEMENTS,
+    _SECTIONWISE_START,
     _SEP_NAMES,
     _SNIFF_LINES,
     _is_comment,
@@ -650,6 +652,12 @@ def _mapdl_coordinates(path: str, nlists: list[dict], ids: np.ndarray, n_steps: 
 #: COMSOL's element section names -> the meshio type they hold. COMSOL exports a simplex mesh: triangles in 2D,
 #: tetrahedra in 3D (COMSOL Reference Manual, Sectionwise Data Format); a 2D model is refused by its dimension.
 _SECTIONWISE_CELLS = {"tetrahedra": ("tetra", 4)}
+
+
+def _is_sectionwise(text: str, head: str) -> bool:
+    """A COMSOL sectionwise export: its ``% Coordinates`` title near the top (``head``), an ``% Elements (`` title
+    anywhere (a real export's coordinates run to megabytes before it)."""
+    return bool(_SECTIONWISE_START.search(head)) and bool(_SECTIONWISE_ELEMENTS.search(text))
 
 
 def _sectionwise_sections(path: str, lines: list[str]) -> tuple[list[str], list[tuple[str, str, int, list[int]]]]:
