@@ -8,7 +8,8 @@ For each file (COMSOL Results > Export > Data, Data format: Sectionwise), with a
 - **layout**: the preamble keys (``% Model:``, ``% Version:``, ``% Dimension:``, ``% Nodes:``, ``% Elements:``,
   ``% Length unit:``), then one ``% Coordinates`` section, one ``% Elements (type)`` section and the ``% Data (...)``
   sections, nothing else;
-- **counts**: the rows of each section against ``% Nodes:`` / ``% Elements:``, one value a point in every
+- **counts**: the rows of each section against ``% Nodes:`` / ``% Elements:`` / ``% Expressions:`` (one data
+  section per expression and time), one value a point in every
   ``% Data`` section;
 - **numbering**: the element rows hold whole numbers from 1 to the number of points, and use both ends (1-based:
   a 0-based file would hold 0 and never the last);
@@ -61,7 +62,7 @@ def check(path: str) -> list[str]:
         failed.append(f"section order {kinds}")
     coords = np.array([lines[i].split() for i in sections[0][3]], dtype=float)
     elems = np.array([lines[i].split() for i in sections[1][3]], dtype=float)
-    for key, n in (("nodes", len(coords)), ("elements", len(elems))):
+    for key, n in (("nodes", len(coords)), ("elements", len(elems)), ("expressions", len(sections) - 2)):
         if key in meta and int(meta[key][0]) != n:
             failed.append(f"% {key}: {meta[key][0]} but {n} rows")
     for _, title, line, rows in sections[2:]:

@@ -65,6 +65,7 @@ def test_sectionwise_samples_like_the_vtu(tmp_path):
 def test_sectionwise_with_commas_and_no_times(tmp_path):
     """Comma-separated rows and an expression without '@ t=' (a stationary study): one step, no times."""
     text = TEXT.split("% Data (solid.Ws (J/m^3) @ t=1)")[0].replace(" @ t=0.5", "")
+    text = text.replace("% Expressions:        2", "% Expressions:        1")
     head, body = text.split("% Coordinates\n")
     coords, rest = body.split("% Elements", 1)
     coords = "".join(",".join(line.split()) + "\n" for line in coords.splitlines())
@@ -88,6 +89,8 @@ def test_sectionwise_with_commas_and_no_times(tmp_path):
     ("% Nodes:              371", "% Nodes:              372",
      r"states '% Nodes: 372' \(line 5\) but holds 371 points"),
     ("% Dimension:          3", "% Dimension:          2", r"must be a 3D export .* got '% Dimension: 2'"),
+    ("% Expressions:        2", "% Expressions:        3",
+     r"states '% Expressions: 3' \(line 7\) but holds 2 data sections; the file is cut short"),
     ("% Data (solid.Ws (J/m^3) @ t=0.5)", "% Results (solid.Ws (J/m^3) @ t=0.5)",
      r"only '% Coordinates', '% Elements \(...\)' and '% Data \(...\)' sections .* got '% Results .* at line 1679"),
 ])

@@ -435,7 +435,7 @@ def read_csv(paths, *, sep: str | None = None, time_column: str | None = None,
        node listed twice in a step are refused; PowerGraphics (surface nodes only) warns.
     6. COMSOL Sectionwise exports: each ``% Data (expr (unit) @ t=T)`` section is one column of one value per
        point (``@ t=`` stacked as in 1); the ``% Coordinates`` rows are ``points``, the ``% Elements (tetrahedra)``
-       rows (1-based, checked against the number of points) the ``cells``; ``% Nodes:`` / ``% Elements:`` counts
+       rows (1-based, checked against the number of points) the ``cells``; ``% Nodes:``, ``% Elements:``, ``% Expressions:``
        and ``% Dimension: 3`` are checked. Other element types and 2D exports are refused.
 
     With several files, steps are concatenated in the given order; every file must have the

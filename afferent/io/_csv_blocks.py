@@ -748,7 +748,9 @@ def _sectionwise_cells(path: str, lines: list[str], section, n_points: int):
 
 
 def _sectionwise_count(path: str, meta: dict, key: str, found: int, what: str) -> None:
-    """The preamble's ``% Nodes:`` / ``% Elements:`` count, when stated, must be the rows found."""
+    """The preamble's ``% Nodes:`` / ``% Elements:`` / ``% Expressions:`` count, when stated, must be what was found
+    (``% Expressions:`` counts an expression once per time step: 30 for 3 expressions at 10 parameter values in a
+    real COMSOL 6.1 spreadsheet export, NEMS-AI/comsol_mesh, tests/data/comsol_fields/stanford_meter_volume.csv)."""
     if key not in meta:
         return
     value, line = meta[key]
@@ -782,6 +784,7 @@ def _parse_sectionwise(path: str, lines: list[str], notes: list[str]):
     if not data:
         raise SEDFormatError(f"COMSOL sectionwise file {path!r} must hold at least one '% Data (...)' section after "
                              "its elements; got none instead. Add the SED expression (solid.Ws) to the export.")
+    _sectionwise_count(path, meta, "expressions", len(data), "data section")  # one per expression and time
     headers, values = [], []
     for sec in data:
         col = _section_numbers(path, lines, sec, 1, f"'% Data ({sec[1]})' (line {sec[2]})")
