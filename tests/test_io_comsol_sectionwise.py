@@ -174,3 +174,11 @@ def test_sectionwise_found_when_its_elements_start_after_the_first_megabyte(tmp_
     raw = read_raw(path)
     assert raw.points.shape == (371 + n_extra, 3) and raw.cells.n_cells == 1296
     np.testing.assert_array_equal(raw.arrays["solid.Ws"].values[:, :371], read_raw(FILE).arrays["solid.Ws"].values)
+
+
+def test_sectionwise_preamble_errors_give_the_file_line(tmp_path):
+    """Blank lines above the preamble count: the wrong count is named at its own line of the file."""
+    path = tmp_path / "blank.txt"
+    path.write_text("\n\n" + TEXT.replace("% Nodes:              371", "% Nodes:              370"))
+    with pytest.raises(SEDFormatError, match=r"states '% Nodes: 370' \(line 7\) but holds 371 points"):
+        read_raw(path)

@@ -665,7 +665,6 @@ def _sectionwise_sections(path: str, lines: list[str]) -> tuple[list[str], list[
 
     ``kind`` is ``'coordinates'``, ``'elements'`` or ``'data'``; rows are the non-blank lines up to the next title.
     """
-    pre: list[str] = []
     sections: list[tuple[str, str, int, list[int]]] = []
     for i, line in enumerate(lines):
         s = line.strip()
@@ -681,14 +680,12 @@ def _sectionwise_sections(path: str, lines: list[str]) -> tuple[list[str], list[
                 raise SEDFormatError(
                     f"COMSOL sectionwise file {path!r} must hold only '% Coordinates', '% Elements (...)' and "
                     f"'% Data (...)' sections after its preamble; got {_quote(s)} at line {i + 1} instead.")
-            else:
-                pre.append(line)
             continue
         if not sections:
             raise SEDFormatError(f"COMSOL sectionwise file {path!r} must start its rows under a '% Coordinates' title; "
                                  f"got the row {_quote(s)} at line {i + 1} first instead.")
         sections[-1][3].append(i)
-    return pre, sections
+    return lines[:sections[0][2] - 1] if sections else list(lines), sections  # the preamble keeps its line numbers
 
 
 def _section_numbers(path: str, lines: list[str], section, n_cols: int | None, what: str) -> np.ndarray:
@@ -722,7 +719,7 @@ def _section_numbers(path: str, lines: list[str], section, n_cols: int | None, w
                     f"Every value of the {what} section of COMSOL sectionwise file {path!r} must be a number; "
                     f"got {_quote(c)} at line {i + 1} instead.") from None
     raise SEDFormatError(f"The {what} section of COMSOL sectionwise file {path!r} (line {title_line}) could not be "
-                         "read as numbers.")  # not reached: numpy refuses only what the loop above names
+                         "read as numbers.")  # text float() reads and numpy does not ('1_000')
 
 
 def _sectionwise_cells(path: str, lines: list[str], section, n_points: int):
