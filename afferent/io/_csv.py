@@ -20,15 +20,18 @@ Layouts handled (see :ref:`fe-checklist` and each tool's section of the FE-expor
 * CalculiX ``.dat`` blocks (``stresses (elem, integ.pnt.,sxx,...) for set X and time t``);
 * ANSYS MAPDL listings (``PRINT S    NODAL SOLUTION PER NODE``, ``LIST ALL SELECTED NODES``,
   ``PRINT ELEMENT TABLE ITEMS PER ELEMENT``, or a ``***** POST1 ... LISTING *****`` banner): pages,
-  summaries, load steps; several listing files of different items joined side by side on ``NODE``.
+  summaries, load steps; several listing files of different items joined side by side on ``NODE``;
+* COMSOL Sectionwise exports (``% Coordinates``, ``% Elements (tetrahedra)`` with 1-based point numbers,
+  ``% Data (solid.Ws (J/m^3) @ t=0.1)`` sections): the points and cells of the mesh, one array per expression.
+  COMSOL's Grid and vertical point-evaluation layouts are refused by name.
 
 Parsing of the rows themselves is done by :func:`pandas.read_csv`; this module only finds
 where the header and the data rows are, counts fields, and checks what pandas returns.
 
 The layers: ``_csv_lines.py`` (bytes -> lines, line classes, delimiters, header names),
 ``_csv_table.py`` (table files: header, units row, data rows -> columns), ``_csv_blocks.py``
-(FEBio logfiles and CalculiX ``.dat`` blocks -> columns), and here: columns -> arrays with a
-time axis, several files merged, :func:`read_csv`.
+(FEBio logfiles, CalculiX ``.dat`` blocks, MAPDL listings, COMSOL sectionwise exports -> columns), and here:
+columns -> arrays with a time axis, several files merged, :func:`read_csv`.
 """
 
 from __future__ import annotations
@@ -45,7 +48,8 @@ from .._validation import check_option, suggest
 from ..exceptions import SEDFormatError
 from ..units import TIME_UNITS, parse_unit
 from ._columns import TIME_ALIASES, canonical, split_unit
-from ._csv_blocks import _parse_ccx, _parse_febio, _parse_mapdl
+from ._csv_blocks import (_is_sectionwise, _parse_ccx, _parse_febio, _parse_mapdl, _parse_sectionwise,
+                          _refuse_comsol_layout, _same_mesh)
 from ._csv_lines import (
     _CCX_START,
     _MAPDL_START,
@@ -77,6 +81,8 @@ class _FileArrays:
     notes: list[str]
     preset: str | None = None
     join_key: str | None = None  # the id column several files are joined on side by side (MAPDL listings: NODE)
+    points: np.ndarray | None = None  # (n_rows, 3) in the file's length unit, with cells (COMSOL sectionwise)
+    cells: object = None  # afferent.field.Cells
 
 
 def _unit_of(raw: str | None, name: str, notes: list[str]) -> str | None:
@@ -285,6 +291,13 @@ def _read_one(path: str, sep: str | None, time_column: str | None) -> _FileArray
         out = _to_arrays(path, cols, time_column, n_records=n_rec, record_times=times)
         out.preset = "calculix-dat"  # *EL PRINT: sxx syy szz sxy sxz syz, tensor shear (CalculiX printout.f)
         return out
+    if "%" in head:
+        _refuse_comsol_layout(path, head)
+        if _is_sectionwise(text, head):
+            cols, points, cells = _parse_sectionwise(path, lines, notes)
+            out = _to_arrays(path, cols, time_column)
+            out.points, out.cells = points, cells
+            return out
     if _is_mapdl(text, head):
         cols, n_rec, times = _parse_mapdl(path, lines, sep, notes)
         out = _to_arrays(path, cols, time_column, n_records=n_rec, record_times=times)
@@ -347,7 +360,8 @@ def read_csv(paths, *, sep: str | None = None, time_column: str | None = None,
     Returns
     -------
     RawExport
-        ``format='csv'``, ``points=None``, ``cells=None``. Every numeric column becomes a
+        ``format='csv'``, ``points=None``, ``cells=None`` (a COMSOL Sectionwise export: its points, in the
+        file's length unit, and its tetrahedra). Every numeric column becomes a
         ``RawArray(name, values, location='point', unit)``:
 
         - ``name``: the header without its unit (``'solid.Ws (J/m^3)'`` -> ``'solid.Ws'``);
@@ -419,11 +433,15 @@ def read_csv(paths, *, sep: str | None = None, time_column: str | None = None,
        values written without a blank between them split; listings of different items in one file
        side by side, an ``NLIST`` in the same file giving X, Y, Z. ``PRESOL`` (element-nodal) and a
        node listed twice in a step are refused; PowerGraphics (surface nodes only) warns.
+    6. COMSOL Sectionwise exports: each ``% Data (expr (unit) @ t=T)`` section is one column of one value per
+       point (``@ t=`` stacked as in 1); the ``% Coordinates`` rows are ``points``, the ``% Elements (tetrahedra)``
+       rows (1-based, checked against the number of points) the ``cells``; ``% Nodes:``, ``% Elements:``, ``% Expressions:``
+       and ``% Dimension: 3`` are checked. Other element types and 2D exports are refused.
 
     With several files, steps are concatenated in the given order; every file must have the
-    same columns and the same number of rows per step; ``times`` is None unless every file
-    states its times. MAPDL listings of different items (``S`` in one file, ``EPEL`` in another)
-    are joined side by side instead, on ``NODE``: same nodes, same steps and times.
+    same columns and the same number of rows per step (sectionwise files: the same points and elements);
+    ``times`` is None unless every file states its times. MAPDL listings of different items (``S`` in one
+    file, ``EPEL`` in another) are joined side by side instead, on ``NODE``: same nodes, same steps and times.
 
     Rows are never dropped silently: empty and ``NaN`` cells stay NaN (the assembler reports
     them); a column with no number at all (a label column such as ``SKIN-1``) is dropped with
@@ -537,6 +555,7 @@ def _merge(files: list[str], per_file: list[_FileArrays], along: str = "time") -
                 f"SED file {without!r} must state its times like {with_t!r} does; got no time column, "
                 f"'@ t=' suffix or '*Time' instead."
             )
+    _same_mesh(files, per_file)
     times = None if ref.times is None else np.concatenate([fa.times for fa in per_file])
     length_unit = _agree(files, [fa.length_unit for fa in per_file], "length unit")
     time_unit = _agree(files, [fa.time_unit for fa in per_file], "time unit")
@@ -550,7 +569,7 @@ def _merge(files: list[str], per_file: list[_FileArrays], along: str = "time") -
                                 location="point", unit=unit)
     presets = {fa.preset for fa in per_file}
     return RawExport(
-        files=tuple(files), format="csv", points=None, arrays=arrays, times=times,
+        files=tuple(files), format="csv", points=ref.points, cells=ref.cells, arrays=arrays, times=times,
         length_unit=length_unit, time_unit=time_unit,
         notes=_merge_notes(files, per_file) if along == "time" else tuple(dict.fromkeys(ref.notes)),
         preset=presets.pop() if len(presets) == 1 else None,

@@ -1,14 +1,16 @@
-"""Text exports made of records rather than one table: FEBio logfiles, CalculiX ``.dat`` blocks and ANSYS MAPDL
-listings (PRNSOL, NLIST, PRETAB) -> columns.
+"""Text exports made of records or sections rather than one table: FEBio logfiles, CalculiX ``.dat`` blocks, ANSYS
+MAPDL listings (PRNSOL, NLIST, PRETAB) and COMSOL Sectionwise exports -> columns (and, for COMSOL, the mesh).
 
 See :mod:`afferent.io._csv` for the layouts and the FE-export page for each tool.
 
-Size: just over 600 lines: the three record formats side by side, each a few functions that find its records and
-hand their rows to the same table machinery (``_read_rows``, ``_Columns``); their line patterns are in ``_csv_lines``.
+Size: about 800 lines: the four record formats side by side, each a few functions that find its records and hand
+their rows to the same table machinery (``_read_rows``, ``_Columns``, then ``_csv._to_arrays`` for times and units);
+their line patterns are in ``_csv_lines``.
 """
 
 from __future__ import annotations
 
+import re
 import warnings
 from collections import Counter
 
@@ -28,6 +30,12 @@ from ._csv_lines import (
     _MAPDL_TIME,
     _MAPDL_TITLE,
     _FEBIO_KEY,
+    _COMSOL_DIM0,
+    _COMSOL_GRID,
+    _COMSOL_VERTICAL,
+    _SECTION_TITLE,
+    _SECTIONWISE_ELEMENTS,
+    _SECTIONWISE_START,
     _SEP_NAMES,
     _SNIFF_LINES,
     _is_comment,
@@ -36,6 +44,8 @@ from ._csv_lines import (
     _quote,
 )
 from ._csv_table import _Columns, _read_rows, _sniff
+
+_SECTION_SEP = re.compile(r"[\s,;]+")
 
 # --------------------------------------------------------------------------------------
 # FEBio logfiles
@@ -633,3 +643,178 @@ def _mapdl_coordinates(path: str, nlists: list[dict], ids: np.ndarray, n_steps: 
     notes.append(f"coordinates from the NLIST listing (line {nlists[0]['line']}) joined on {names[0]!r}: "
                  f"{node_ids.size} nodes listed, {ids.size} with results")
     return list(hs[1:]), [np.tile(v[pos], n_steps) for v in vs[1:]]
+
+
+# --------------------------------------------------------------------------------------
+# COMSOL Sectionwise exports
+# --------------------------------------------------------------------------------------
+
+#: COMSOL's element section names -> the meshio type they hold. COMSOL exports a simplex mesh: triangles in 2D,
+#: tetrahedra in 3D (COMSOL Reference Manual, Sectionwise Data Format); a 2D model is refused by its dimension.
+_SECTIONWISE_CELLS = {"tetrahedra": ("tetra", 4)}
+
+
+def _is_sectionwise(text: str, head: str) -> bool:
+    """A COMSOL sectionwise export: its ``% Coordinates`` title near the top (``head``), an ``% Elements (`` title
+    anywhere (a real export's coordinates run to megabytes before it)."""
+    return bool(_SECTIONWISE_START.search(head)) and bool(_SECTIONWISE_ELEMENTS.search(text))
+
+
+def _sectionwise_sections(path: str, lines: list[str]) -> tuple[list[str], list[tuple[str, str, int, list[int]]]]:
+    """The preamble lines above the first section, and each section: (kind, title text, line, row indices).
+
+    ``kind`` is ``'coordinates'``, ``'elements'`` or ``'data'``; rows are the non-blank lines up to the next title.
+    """
+    sections: list[tuple[str, str, int, list[int]]] = []
+    for i, line in enumerate(lines):
+        s = line.strip()
+        if not s:
+            continue
+        if s.startswith("%"):
+            m = _SECTION_TITLE.match(s)
+            if m:
+                kind = "coordinates" if m.group("coords") else "elements" if m.group("type") is not None else "data"
+                text = m.group("type") if kind == "elements" else m.group("data") if kind == "data" else ""
+                sections.append((kind, (text or "").strip(), i + 1, []))
+            elif sections:
+                raise SEDFormatError(
+                    f"COMSOL sectionwise file {path!r} must hold only '% Coordinates', '% Elements (...)' and "
+                    f"'% Data (...)' sections after its preamble; got {_quote(s)} at line {i + 1} instead.")
+            continue
+        if not sections:
+            raise SEDFormatError(f"COMSOL sectionwise file {path!r} must start its rows under a '% Coordinates' title; "
+                                 f"got the row {_quote(s)} at line {i + 1} first instead.")
+        sections[-1][3].append(i)
+    return lines[:sections[0][2] - 1] if sections else list(lines), sections  # the preamble keeps its line numbers
+
+
+def _section_numbers(path: str, lines: list[str], section, n_cols: int | None, what: str) -> np.ndarray:
+    """The numbers of one section's rows as an (n_rows, n_cols) float array; every row must hold ``n_cols``
+    numbers (``None``: as many as the first row), separated by blanks, commas or semicolons."""
+    import io
+
+    _, _, title_line, rows = section
+    if not rows:
+        raise SEDFormatError(f"The {what} section of COMSOL sectionwise file {path!r} (line {title_line}) must hold "
+                             "at least one row; got none instead.")
+    text = "\n".join(lines[i] for i in rows).replace(",", " ").replace(";", " ")
+    try:  # numpy's C parser (0.12 s for 224k rows of 4); errors found again below, row by row, to name the line
+        values = np.loadtxt(io.StringIO(text), dtype=np.float64, ndmin=2, comments=None)
+    except ValueError:
+        values = None
+    n = len(lines[rows[0]].replace(",", " ").replace(";", " ").split()) if n_cols is None else n_cols
+    if values is not None and values.shape[1] == n:
+        return values
+    for i in rows:
+        cells = _SECTION_SEP.split(lines[i].strip())
+        if len(cells) != n:
+            raise SEDFormatError(
+                f"Every row of the {what} section of COMSOL sectionwise file {path!r} must hold {_plural(n, 'value')}; "
+                f"got {len(cells)} at line {i + 1} ({_quote(lines[i].strip())}) instead.")
+        for c in cells:
+            try:
+                float(c)
+            except ValueError:
+                raise SEDFormatError(
+                    f"Every value of the {what} section of COMSOL sectionwise file {path!r} must be a number; "
+                    f"got {_quote(c)} at line {i + 1} instead.") from None
+    raise SEDFormatError(f"The {what} section of COMSOL sectionwise file {path!r} (line {title_line}) could not be "
+                         "read as numbers.")  # text float() reads and numpy does not ('1_000')
+
+
+def _sectionwise_cells(path: str, lines: list[str], section, n_points: int):
+    """The section ``% Elements (tetrahedra)`` as afferent's cells (0-based point numbers)."""
+    from ._cell_blocks import _Block, cells_from_meshio
+
+    kind = section[1].lower()
+    if kind not in _SECTIONWISE_CELLS:
+        raise SEDFormatError(
+            f"COMSOL sectionwise file {path!r} holds elements of type {_quote(section[1])} (line {section[2]}), which "
+            f"afferent cannot read; it reads {', '.join(map(repr, _SECTIONWISE_CELLS))}, what COMSOL writes for a 3D "
+            "model. Export the 3D solution, or choose Data format: Spreadsheet.")
+    ctype, n_nodes = _SECTIONWISE_CELLS[kind]
+    conn = _section_numbers(path, lines, section, n_nodes, f"'% Elements ({section[1]})'")
+    bad = np.flatnonzero(np.any((conn != np.round(conn)) | (conn < 1) | (conn > n_points), axis=1))
+    if bad.size:
+        i = section[3][bad[0]]
+        raise SEDFormatError(
+            f"The element rows of COMSOL sectionwise file {path!r} must hold point numbers from 1 to {n_points} (the "
+            f"rows of its '% Coordinates' section); got {_quote(lines[i].strip())} at line {i + 1} instead "
+            f"({_plural(bad.size, 'row')} out of range).")
+    return cells_from_meshio([_Block(ctype, conn.astype(np.int64) - 1)], path)
+
+
+def _sectionwise_count(path: str, meta: dict, key: str, found: int, what: str) -> None:
+    """The preamble's ``% Nodes:`` / ``% Elements:`` / ``% Expressions:`` count, when stated, must be what was found
+    (``% Expressions:`` counts an expression once per time step: 30 for 3 expressions at 10 parameter values in a
+    real COMSOL 6.1 spreadsheet export, NEMS-AI/comsol_mesh, tests/data/comsol_fields/stanford_meter_volume.csv)."""
+    if key not in meta:
+        return
+    value, line = meta[key]
+    if value.strip() != str(found):
+        raise SEDFormatError(
+            f"COMSOL sectionwise file {path!r} states '% {key.capitalize()}: {value.strip()}' (line {line}) but holds "
+            f"{_plural(found, what)}; the file is cut short or was edited.")
+
+
+def _parse_sectionwise(path: str, lines: list[str], notes: list[str]):
+    """A COMSOL Sectionwise export -> (columns of the ``% Data`` sections, points (n, 3), cells)."""
+    from ._csv_table import _comsol_meta
+
+    pre, sections = _sectionwise_sections(path, lines)
+    meta = _comsol_meta(pre, 0)
+    kinds = [s[0] for s in sections]
+    if kinds[:2] != ["coordinates", "elements"] or "coordinates" in kinds[2:] or "elements" in kinds[2:]:
+        got = ", ".join(f"'{k}' (line {s[2]})" for k, s in zip(kinds, sections))
+        raise SEDFormatError(f"COMSOL sectionwise file {path!r} must hold one '% Coordinates' section, then one "
+                             f"'% Elements (...)' section, then '% Data (...)' sections; got {got} instead.")
+    dim = meta.get("dimension", ("3", 0))[0].strip()
+    points = _section_numbers(path, lines, sections[0], None, "'% Coordinates'")
+    if dim != "3" or points.shape[1] != 3:
+        raise SEDFormatError(
+            f"COMSOL sectionwise file {path!r} must be a 3D export (3 coordinates a point); got '% Dimension: {dim}' "
+            f"and {points.shape[1]} coordinate(s) a point instead. afferent samples a 3D skin model.")
+    _sectionwise_count(path, meta, "nodes", len(points), "point")
+    _sectionwise_count(path, meta, "elements", len(sections[1][3]), "element")
+    cells = _sectionwise_cells(path, lines, sections[1], len(points))
+    data = sections[2:]
+    if not data:
+        raise SEDFormatError(f"COMSOL sectionwise file {path!r} must hold at least one '% Data (...)' section after "
+                             "its elements; got none instead. Add the SED expression (solid.Ws) to the export.")
+    _sectionwise_count(path, meta, "expressions", len(data), "data section")  # one per expression and time
+    headers, values = [], []
+    for sec in data:
+        col = _section_numbers(path, lines, sec, 1, f"'% Data ({sec[1]})' (line {sec[2]})")
+        if len(col) != len(points):
+            raise SEDFormatError(
+                f"The '% Data ({sec[1]})' section of COMSOL sectionwise file {path!r} (line {sec[2]}) must hold one "
+                f"value for each of the {len(points)} points; got {len(col)} instead.")
+        headers.append(sec[1] or f"Data (line {sec[2]})")
+        values.append(col[:, 0])
+    notes.append(f"read a COMSOL sectionwise export: {_plural(len(points), 'point')}, "
+                 f"{_plural(cells.n_cells, 'element')} ({sections[1][1]}), {_plural(len(data), 'data section')}")
+    return _Columns(headers, values, np.asarray(sections[2][3]) + 1, sections[2][2], meta, notes), points, cells
+
+
+def _refuse_comsol_layout(path: str, head: str) -> None:
+    """Refuse COMSOL's Grid and vertical point-evaluation layouts (Results > Export > Data, Data format), naming them."""
+    layout = ("Grid" if _COMSOL_GRID.search(head) else
+              "the vertical point-evaluation layout ('% Dimension: 0', '% X' over its value)"
+              if _COMSOL_DIM0.search(head) and _COMSOL_VERTICAL.search(head) else None)
+    if layout:
+        raise SEDFormatError(
+            f"SED file {path!r} is a COMSOL export in {layout}, which afferent does not read. Export it again with "
+            "Data format: Spreadsheet (or Sectionwise) on the mesh nodes (docs/fe-export.md, COMSOL).")
+
+
+def _same_mesh(files: list[str], per_file: list) -> None:
+    """Files stacked along time that carry a mesh (COMSOL sectionwise) must carry the same points and cells."""
+    ref = per_file[0]
+    for path, fa in zip(files[1:], per_file[1:]):
+        same = (fa.points is None) == (ref.points is None)
+        if same and ref.points is not None:
+            same = (np.array_equal(fa.points, ref.points) and np.array_equal(fa.cells.tetra, ref.cells.tetra))
+        if not same:
+            raise SEDFormatError(
+                f"SED file {path!r} must hold the points and elements of {files[0]!r} to be read as its next time "
+                "steps; got a different mesh instead. Export all times into one sectionwise file.")

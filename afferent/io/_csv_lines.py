@@ -97,6 +97,17 @@ _MAPDL_START = re.compile(
     r"^[ \t]*(?:PRINT[ \t]+(?:ELEMENT[ \t]+TABLE[ \t]+ITEMS|\S+[ \t]+(?:NODAL|ELEMENT|REACTION)[ \t]+SOLUTIONS?)"
     r"[ \t]+PER[ \t]|LIST[ \t]+ALL[ \t]+SELECTED[ \t]+(?:NODES|ELEMENTS)\b|\*{5}[ \t]*POST1\b[^*\n]*LISTING[ \t]*\*{5})",
     re.IGNORECASE | re.MULTILINE)
+#: COMSOL Results > Export > Data with Data format: Sectionwise (docs/fe-export.md, COMSOL): a ``% Coordinates``
+#: section, a ``% Elements (tetrahedra)`` section of 1-based point numbers, ``% Data (expr (unit) @ t=T)`` sections.
+_SECTIONWISE_START = re.compile(r"^[ \t]*%[ \t]*Coordinates\b", re.IGNORECASE | re.MULTILINE)
+_SECTIONWISE_ELEMENTS = re.compile(r"^[ \t]*%[ \t]*Elements[ \t]*\(", re.IGNORECASE | re.MULTILINE)
+_SECTION_TITLE = re.compile(r"^%\s*(?:(?P<coords>Coordinates)\b.*?|Elements\s*\((?P<type>[^()]*)\)|Data\s*\((?P<data>.*)\))\s*$",
+                            re.IGNORECASE)
+#: COMSOL's other Data formats afferent refuses: ``Grid`` (``% Grid`` then one line of values per axis) and the
+#: vertical layout of point evaluations (``% Dimension: 0``, then ``% X`` over its value, ``% Y``, ...).
+_COMSOL_GRID = re.compile(r"^[ \t]*%[ \t]*Grid[ \t]*$", re.IGNORECASE | re.MULTILINE)
+_COMSOL_DIM0 = re.compile(r"^[ \t]*%[ \t]*Dimension[ \t]*:[ \t]*0[ \t]*$", re.IGNORECASE | re.MULTILINE)
+_COMSOL_VERTICAL = re.compile(r"^[ \t]*%[ \t]*X[ \t]*$", re.MULTILINE)
 _MAPDL_STEP = re.compile(r"^\s*LOAD\s+STEP\s*=\s*(?P<ls>\d+)\s+SUBSTEP\s*=\s*(?P<sub>\d+)", re.IGNORECASE)
 _MAPDL_TIME = re.compile(r"^\s*(?P<kind>TIME|FREQ)\s*=\s*(?P<t>\S+)", re.IGNORECASE)
 #: Summaries after the rows: ``MINIMUM VALUES``, ``MAXIMUM VALUES``, ``MAXIMUM ABSOLUTE VALUES``, ``TOTAL VALUES``.
