@@ -23,7 +23,8 @@ from afferent.cli import main
 from afferent.cli._main import raised_on_purpose
 from conftest import DATA_DIR, SAMPLE_DIR
 
-#: a short ramp on the 0.88 mm sample, SED map, profiles and spikes: all 7 figures of ``afferent run``
+#: a short ramp on the 0.88 mm sample, SED map, profiles, spikes and hot spots: all 7 figures of ``afferent run``
+#: and the hot-spot maps (hotspots.png)
 SCENE_TEXT = f"""[export]
 file = "{(SAMPLE_DIR / "block4" / "indent_0p88mm.vtu").as_posix()}"
 length_unit = "mm"
@@ -45,7 +46,7 @@ dt_ms = 1.0
 input = "rate-sensitive"
 gain_s = 0.2
 [outputs]
-want = ["sed_map", "profiles", "spikes", "plots"]
+want = ["sed_map", "profiles", "spikes", "hotspots", "plots"]
 """
 
 
@@ -115,8 +116,8 @@ def both(tmp_path_factory):
 def test_the_pngs_are_byte_identical_drawn_in_either_process(both):
     sep, same = both["separate"], both["same"]
     pngs = sorted(p.name for p in same.glob("*.png"))
-    assert pngs == ["profiles_x.png", "profiles_z.png", "psth.png", "raster.png", "rates.png", "sed_map.png",
-                    "waveform.png"]
+    assert pngs == ["hotspots.png", "profiles_x.png", "profiles_z.png", "psth.png", "raster.png", "rates.png",
+                    "sed_map.png", "waveform.png"]
     assert sorted(p.name for p in sep.iterdir()) == sorted(p.name for p in same.iterdir())
     for name in pngs:
         assert (sep / name).read_bytes() == (same / name).read_bytes(), name
@@ -492,3 +493,26 @@ def test_the_run_sizes_a_pvd_series_by_its_vtu_steps(tmp_path, monkeypatch):
         assert res.record["figures"]["why"] == (f"the export ({size / 1e6:.3g} MB) is read before a second process "
                                                 "could start (under 16 MB)")
     assert _children() == []
+
+
+@needs_two_cores
+def test_the_figure_process_draws_the_hot_spot_maps_from_numpy_columns(tmp_path):
+    """hotspots.png is drawn with the other figures (in the child here), from hotspot_map_columns: numpy arrays
+    that unpickle without pandas (the child does not import it), the columns of the hotspots.csv tables."""
+    import pandas as pd
+
+    from afferent.hotspots import hotspot_map_columns, receptor_hotspots
+
+    objects = _figure_objects()
+    sed = objects["sed"]
+    objects.update(sed_static=sed, hotspots=hotspot_map_columns(sed, sed, threshold=0.5), hotspot_threshold=0.5)
+    assert b"pandas" not in pickle.dumps(objects)
+    pd.testing.assert_frame_equal(pd.DataFrame(objects["hotspots"][0]), receptor_hotspots(sed, threshold=0.5)[0])
+    drawn = {}
+    for kind, drawer in (("separate", FigureProcess), ("same", SameProcess)):
+        (tmp_path / kind).mkdir()
+        with drawer() as d:
+            d.draw(tmp_path / kind, {"hotspots"}, objects)
+            assert d.result() == ["hotspots.png"]
+        drawn[kind] = (tmp_path / kind / "hotspots.png").read_bytes()
+    assert drawn["separate"] == drawn["same"]
