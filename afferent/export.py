@@ -216,19 +216,13 @@ def write_outputs(folder: str, *, want, plots: bool, sed_static, sed, current=No
         written.append(name)
         return os.path.join(folder, name)
 
-    hotspots = None
-    if "hotspots" in want:
-        from .hotspots import hotspot_map_columns  # numpy arrays: the figure process unpickles them without pandas
-
-        hotspots = hotspot_map_columns(sed_static, sed_beside, threshold=hotspot_threshold)
     if plots:  # the figures' objects, to a second process now (drawn while the tables are written) or kept
         from ._figure_process import SameProcess
 
         figures = SameProcess("write_outputs called without a figure process") if figures is None else figures
         figures.draw(folder, want, dict(sed_static=sed_static, sed=sed, current=current, branching=branching,
                                         afferent=afferent, fit=fit, waveform=waveform, spikes=spikes,
-                                        profile_index=profile_index, hotspots=hotspots,
-                                        hotspot_threshold=hotspot_threshold))
+                                        profile_index=profile_index))
 
     if "sed_map" in want:
         write_table(path("sed_map.csv"), sed_static.columns(sections=True))
@@ -260,10 +254,12 @@ def write_outputs(folder: str, *, want, plots: bool, sed_static, sed, current=No
         else:  # SED only: its own step of the largest total SED
             write_receptor_vtu(path("receptors.vtu"), sed_static,
                                time_index=int(np.argmax(np.nansum(np.asarray(sed_static.values), axis=1))))
-    if hotspots is not None:
+    if "hotspots" in want:  # hotspots.png drawn here, not by _figures: while a figure process draws the other
+        # figures this process would only wait for it; moved there, the run took up to 0.2 s longer (benchmarks/
+        # bench_run.py's export with 'hotspots': its 8 figures outlasted the tables by ~0.9 s)
         from .hotspots import write_hotspots
 
-        write_hotspots(path, hotspots)
+        write_hotspots(path, sed_static, sed_beside, threshold=hotspot_threshold, plots=plots)
     if "cycles" in want and cycles is not None:
         cycles.to_csv(path("cycles.csv"), index=False)
     if waveform is not None:
@@ -501,8 +497,7 @@ def write_spikes_nwb(path: str, spikes, afferent) -> None:
         io.write(nwb)
 
 
-def _figures(path, want, *, sed_static, sed, current, branching, afferent, fit, waveform, spikes, profile_index,
-             hotspots=None, hotspot_threshold=0.6):
+def _figures(path, want, *, sed_static, sed, current, branching, afferent, fit, waveform, spikes, profile_index):
     from . import plotting
 
     if "sed_map" in want:
@@ -540,5 +535,3 @@ def _figures(path, want, *, sed_static, sed, current, branching, afferent, fit, 
         plotting.save_figure(plotting.plot_rates(spikes, positions=afferent, waveform=waveform), path("rates.png"))
         bin_width = max(spikes.duration / 50, spikes.dt)
         plotting.save_figure(plotting.plot_psth(spikes, bin_width), path("psth.png"))
-    if hotspots is not None:
-        plotting.save_figure(plotting.plot_hotspot_maps(hotspots, threshold=hotspot_threshold), path("hotspots.png"))

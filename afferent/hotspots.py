@@ -27,7 +27,7 @@ import os
 import numpy as np
 
 __all__ = ["DEFAULT_THRESHOLD", "normalise_map", "hotspot_table", "map_distance", "distance_table",
-           "nearest_centroid_accuracy", "receptor_hotspots", "hotspot_maps", "hotspot_map_columns", "write_hotspots",
+           "nearest_centroid_accuracy", "receptor_hotspots", "hotspot_maps", "write_hotspots",
            "read_hotspot_runs", "read_run_tables", "group_runs", "compare_runs"]
 
 #: The study's hot-spot threshold on the min-max normalised SED (fig. 4-9).
@@ -73,18 +73,13 @@ def hotspot_table(ids, positions_m, sed_pa, *, threshold: float = DEFAULT_THRESH
     """
     import pandas as pd
 
-    return pd.DataFrame(_columns(ids, positions_m, sed_pa, threshold=threshold, site=site, name=name))
-
-
-def _columns(ids, positions_m, sed_pa, *, threshold: float, site: str, name: str) -> dict:
-    """:func:`hotspot_table`'s columns as numpy arrays (no pandas)."""
     if not 0.0 <= float(threshold) <= 1.0:
         raise ValueError(f"hot-spot threshold must be within 0..1 (normalised SED); got {threshold!r}.")
     pos = np.asarray(positions_m, dtype=float)
     norm = normalise_map(sed_pa, name=name)
-    return {"site_kind": np.full(norm.size, site, dtype=object), "site": np.asarray(ids).astype(str),
-            "x_m": pos[:, 0], "z_m": pos[:, 2], "sed_pa": np.asarray(sed_pa, dtype=float).ravel(), "normalised": norm,
-            "hot": norm >= float(threshold)}
+    return pd.DataFrame({"site_kind": site, "site": np.asarray(ids).astype(str), "x_m": pos[:, 0], "z_m": pos[:, 2],
+                         "sed_pa": np.asarray(sed_pa, dtype=float).ravel(), "normalised": norm,
+                         "hot": norm >= float(threshold)})
 
 
 def map_distance(a, b) -> float:
@@ -145,27 +140,14 @@ def receptor_hotspots(sed, *, threshold: float = DEFAULT_THRESHOLD, time_index: 
     ``time_index`` None: the step of the largest total SED (the export's deepest step).
     Returns (table, time_index).
     """
-    import pandas as pd
-
-    columns, k = _receptor_columns(sed, threshold, time_index)
-    return pd.DataFrame(columns), k
-
-
-def _receptor_columns(sed, threshold: float, time_index: int | None) -> tuple[dict, int]:
-    """:func:`receptor_hotspots`' columns as numpy arrays (no pandas), and the step."""
     v = np.asarray(sed.values, dtype=float)
     k = int(np.argmax(np.nansum(v, axis=1))) if time_index is None else int(time_index)
-    cols = _columns(sed.layout.ids, sed.layout.positions, v[k], threshold=threshold, site=sed.layout.site,
-                    name=f"hot-spot map of the {sed.layout.n_receptors} {sed.layout.site} sites")
+    table = hotspot_table(sed.layout.ids, sed.layout.positions, v[k], threshold=threshold, site=sed.layout.site,
+                          name=f"hot-spot map of the {sed.layout.n_receptors} {sed.layout.site} sites")
+    table.insert(4, "time_s", float(sed.times[k]))
     source = getattr(sed.layout, "source", None)
-    label = sed.layout.site if sed.layout.site != "file" or not source else os.path.basename(str(source))
-    n = cols["x_m"].size
-    cols.update(map=np.full(n, label, dtype=object), time_s=np.full(n, float(sed.times[k])))
-    return {c: cols[c] for c in _MAP_COLUMNS}, k
-
-
-#: the columns of a hot-spot map (:func:`receptor_hotspots`, ``hotspots.csv``), in order
-_MAP_COLUMNS = ("map", "site_kind", "site", "x_m", "z_m", "time_s", "sed_pa", "normalised", "hot")
+    table.insert(0, "map", sed.layout.site if sed.layout.site != "file" or not source else os.path.basename(str(source)))
+    return table, k
 
 
 def hotspot_maps(sed_static, sed_beside=None, *, threshold: float = DEFAULT_THRESHOLD):
@@ -174,34 +156,26 @@ def hotspot_maps(sed_static, sed_beside=None, *, threshold: float = DEFAULT_THRE
     Both at the step of the largest total SED of ``sed_static``. Returns a list of DataFrames
     (:func:`receptor_hotspots`); ``hotspots.csv`` is their concatenation.
     """
-    import pandas as pd
-
-    return [pd.DataFrame(c) for c in hotspot_map_columns(sed_static, sed_beside, threshold=threshold)]
-
-
-def hotspot_map_columns(sed_static, sed_beside=None, *, threshold: float = DEFAULT_THRESHOLD) -> list[dict]:
-    """:func:`hotspot_maps` without pandas: each table as {column: numpy array}, in the tables' column order.
-
-    What a run computes for the ``hotspots`` output and hands its figure process (which does not
-    import pandas, ~0.3 s; ``afferent._figure_process``).
-    """
-    first, k = _receptor_columns(sed_static, threshold, None)
+    first, k = receptor_hotspots(sed_static, threshold=threshold)
     if sed_beside is None:
         return [first]
-    return [first, _receptor_columns(sed_beside, threshold, k)[0]]
+    return [first, receptor_hotspots(sed_beside, threshold=threshold, time_index=k)[0]]
 
 
-def write_hotspots(path, tables) -> None:
-    """The table of the ``hotspots`` output of :func:`afferent.export.write_outputs`: ``hotspots.csv``, the
-    tables of :func:`hotspot_maps` (or :func:`hotspot_map_columns`) one after the other, one row per site.
-    Its figure ``hotspots.png`` (:func:`afferent.plotting.plot_hotspot_maps`) is drawn with the run's other
-    figures.
+def write_hotspots(path, sed_static, sed_beside=None, *, threshold: float = DEFAULT_THRESHOLD, plots: bool = True):
+    """The ``hotspots`` output of :func:`afferent.export.write_outputs`: ``hotspots.csv`` (the tables of
+    :func:`hotspot_maps`, one row per site) and, with ``plots``, ``hotspots.png``.
 
     ``path(name)`` gives the file path of ``name`` in the (temporary) output folder and records it as written.
     """
     import pandas as pd
 
-    pd.concat([pd.DataFrame(t) for t in tables], ignore_index=True).to_csv(path("hotspots.csv"), index=False)
+    tables = hotspot_maps(sed_static, sed_beside, threshold=threshold)
+    pd.concat(tables, ignore_index=True).to_csv(path("hotspots.csv"), index=False)
+    if plots:
+        from .plotting import plot_hotspot_maps, save_figure
+
+        save_figure(plot_hotspot_maps(tables, threshold=threshold), path("hotspots.png"))
 
 
 def read_hotspot_runs(folders) -> dict:

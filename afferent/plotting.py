@@ -75,12 +75,12 @@ def plot_sed_map(sed, *, time_index: int = -1, ax=None, normalise: bool = False,
 def plot_hotspots(table, *, threshold: float, ax=None, title: str | None = None):
     """A hot-spot map (the study's fig. 4-9): every site a grey dot, the hot ones coloured by normalised SED.
 
-    ``table``: :func:`afferent.hotspots.hotspot_table` (x_m, z_m, normalised; or {column: array}); ``threshold``:
-    the colour scale starts there (normalised SED 0..1). Seen from above: x across the ridges, z along them.
+    ``table``: :func:`afferent.hotspots.hotspot_table` (x_m, z_m, normalised); ``threshold``: the
+    colour scale starts there (normalised SED 0..1). Seen from above: x across the ridges, z along them.
     """
     ax = _axes(ax, figsize=(4.2, 4.0))
-    x, z = np.asarray(table["x_m"], dtype=float) * 1e3, np.asarray(table["z_m"], dtype=float) * 1e3
-    v = np.asarray(table["normalised"], dtype=float)
+    x, z = table["x_m"].to_numpy() * 1e3, table["z_m"].to_numpy() * 1e3
+    v = table["normalised"].to_numpy()
     hot = v >= threshold
     ax.scatter(x, z, s=8, c="0.8", edgecolors="none")
     sc = ax.scatter(x[hot], z[hot], c=v[hot], s=46, cmap="inferno_r", vmin=threshold, vmax=1.0, edgecolors="k",
@@ -94,14 +94,14 @@ def plot_hotspots(table, *, threshold: float, ax=None, title: str | None = None)
 
 
 def plot_hotspot_maps(tables, *, threshold: float, title: str = ""):
-    """``hotspots.png``: a hot-spot map per table side by side (RA-I beside SA-I; hotspots.hotspot_map_columns)."""
+    """The ``hotspots.png`` figure: one hot-spot map per table, side by side (e.g. RA-I beside SA-I)."""
     import matplotlib.pyplot as plt
 
     fig, axes = plt.subplots(1, len(tables), figsize=(4.4 * len(tables), 4.2), layout="constrained", squeeze=False)
     for ax, t in zip(axes[0], tables):
-        hot = np.asarray(t["hot"], dtype=bool)
+        n_hot = int(t["hot"].sum())
         plot_hotspots(t, threshold=threshold, ax=ax,
-                      title=f"{np.asarray(t['map'])[0]}: {int(hot.sum())} of {hot.size} sites >= {threshold:g}")
+                      title=f"{t['map'].iloc[0]}: {n_hot} of {len(t)} sites >= {threshold:g}")
     if title:
         fig.suptitle(title)
     return fig

@@ -24,7 +24,7 @@ from afferent.cli._main import raised_on_purpose
 from conftest import DATA_DIR, SAMPLE_DIR
 
 #: a short ramp on the 0.88 mm sample, SED map, profiles, spikes and hot spots: all 7 figures of ``afferent run``
-#: and the hot-spot maps (hotspots.png)
+#: and the hot-spot maps (hotspots.png, drawn in the run's own process: export.write_outputs says why)
 SCENE_TEXT = f"""[export]
 file = "{(SAMPLE_DIR / "block4" / "indent_0p88mm.vtu").as_posix()}"
 length_unit = "mm"
@@ -493,26 +493,3 @@ def test_the_run_sizes_a_pvd_series_by_its_vtu_steps(tmp_path, monkeypatch):
         assert res.record["figures"]["why"] == (f"the export ({size / 1e6:.3g} MB) is read before a second process "
                                                 "could start (under 16 MB)")
     assert _children() == []
-
-
-@needs_two_cores
-def test_the_figure_process_draws_the_hot_spot_maps_from_numpy_columns(tmp_path):
-    """hotspots.png is drawn with the other figures (in the child here), from hotspot_map_columns: numpy arrays
-    that unpickle without pandas (the child does not import it), the columns of the hotspots.csv tables."""
-    import pandas as pd
-
-    from afferent.hotspots import hotspot_map_columns, receptor_hotspots
-
-    objects = _figure_objects()
-    sed = objects["sed"]
-    objects.update(sed_static=sed, hotspots=hotspot_map_columns(sed, sed, threshold=0.5), hotspot_threshold=0.5)
-    assert b"pandas" not in pickle.dumps(objects)
-    pd.testing.assert_frame_equal(pd.DataFrame(objects["hotspots"][0]), receptor_hotspots(sed, threshold=0.5)[0])
-    drawn = {}
-    for kind, drawer in (("separate", FigureProcess), ("same", SameProcess)):
-        (tmp_path / kind).mkdir()
-        with drawer() as d:
-            d.draw(tmp_path / kind, {"hotspots"}, objects)
-            assert d.result() == ["hotspots.png"]
-        drawn[kind] = (tmp_path / kind / "hotspots.png").read_bytes()
-    assert drawn["separate"] == drawn["same"]
