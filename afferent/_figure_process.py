@@ -17,13 +17,17 @@ they land in ``run.json`` as before) and an error, raised again in the run as th
 
 Lifetime: the child dies with the run (an error, Ctrl-C or a kill of the run stops it; on Linux the
 kernel kills it with its parent), ignores Ctrl-C itself (the run stops it), and exits after its one
-drawing.
+drawing. A child that dies before it answers (the out-of-memory killer, a SIGKILL, a crash) fails
+nothing: the run draws the figures itself, over what the child left half done (the same PNGs),
+warns once and says so in ``run.json``'s ``figures`` (``process`` 'same', ``fallback``: why); an
+error the child reports ends the run as it would in the run's own process.
 
-When (:func:`choose`): only for an export of :data:`MIN_EXPORT_BYTES` or more, read while the child
-starts, and with an idle core; a cache hit, a smaller export or a busy machine draws in the run's
-own process, as does a machine with one usable core (``os.sched_getaffinity``, else
-``os.cpu_count``). ``AFFERENT_FIGURE_PROCESS=0``
-draws in the run's own process always, ``1`` in a second process whatever the export.
+When (:func:`choose`): only for an export of :data:`MIN_EXPORT_BYTES` or more (its data files: an
+index's VTU steps or HDF5 files count, :func:`export_bytes`), read while the child starts, and with
+an idle core; a cache hit, a smaller export or a busy machine draws in the run's own process, as
+does a machine with one usable core (``os.sched_getaffinity``, else ``os.cpu_count``).
+``AFFERENT_FIGURE_PROCESS=0`` draws in the run's own process always, ``1`` in a second process
+whatever the export.
 
 multiprocessing's ``spawn`` start (the same on Linux, macOS and Windows) starts the child by
 importing the parent's ``__main__`` module again, unless it is a package's ``__main__`` (``python
@@ -35,14 +39,15 @@ only when asked (``run_scene(..., figure_process=True)``).
 from __future__ import annotations
 
 import contextlib
+import glob
 import os
 import pickle
 import threading
 import time
 import warnings
 
-__all__ = ["ENV", "MIN_EXPORT_BYTES", "usable_cores", "runnable", "choose", "figure_drawer", "FigureProcess", "SameProcess",
-           "die_with_parent"]
+__all__ = ["ENV", "MIN_EXPORT_BYTES", "export_bytes", "usable_cores", "runnable", "choose", "figure_drawer",
+           "FigureProcess", "SameProcess", "die_with_parent"]
 
 #: the environment variable: "0" never a second process, "1" one whatever the export (unset: :func:`choose`)
 ENV = "AFFERENT_FIGURE_PROCESS"
@@ -56,9 +61,35 @@ def usable_cores() -> int:
         return os.cpu_count() or 1
 
 
-#: an export smaller than this (bytes, its files' sizes summed) is read too soon to hide the second process'
-#: start-up (~0.9 s of imports): its figures are drawn in the run's own process
+#: an export smaller than this (bytes, its data files' sizes summed: :func:`export_bytes`) is read too soon to hide
+#: the second process' start-up (~0.9 s of imports): its figures are drawn in the run's own process
 MIN_EXPORT_BYTES = 16_000_000
+
+
+def export_bytes(files, fmt: str | None = None, side=()) -> int:
+    """The bytes a run will read from its export (:func:`choose`'s measure): the sizes of its data files summed.
+
+    An index file counts with the files it names (:func:`afferent.io.data_files`: a ``.pvd``'s
+    VTU steps, a ``.pvtu``'s pieces, a ``.vtm``'s blocks, an XDMF file's HDF5 files), listed from
+    the index alone: a 500 MB series named by a 2 kB ``.pvd`` counts 500 MB. An index that cannot
+    be listed counts as the files named (its reader says what is wrong a moment later).
+
+    Parameters
+    ----------
+    files : sequence of str
+        The export's files (``[export] file``), read as ``fmt`` (a format name of
+        :data:`afferent.io.FORMATS`; None: by their endings).
+    side : sequence of str
+        Other files read with it (``[export] coordinates``), counted as they are.
+    """
+    from .io import data_files
+
+    named = [p for p in files if os.path.isfile(p)]
+    try:
+        listed = data_files(named, format=fmt) if named else ()
+    except (OSError, ValueError, SyntaxError):  # SEDFormatError, an XML ParseError: the reader will say
+        listed = named
+    return sum(os.path.getsize(p) for p in dict.fromkeys([*listed, *side]) if p and os.path.isfile(p))
 
 
 def choose(asked: bool, export_bytes: int | None = None) -> tuple[bool, str]:
@@ -185,7 +216,7 @@ class FigureProcess:
         ctx = multiprocessing.get_context("spawn")
         self._conn, child = ctx.Pipe()
         self._proc = ctx.Process(target=_serve, args=(child, os.getpid()), name="afferent-figures", daemon=True)
-        self._sender = None
+        self._sender, self._job = None, None
         self.record = {"process": "separate", "why": why}
         with _sigint_held_for_children():
             self._proc.start()
@@ -204,7 +235,8 @@ class FigureProcess:
         ``objects`` are :func:`afferent.export._figures`' keyword arguments (pickled here, sent by a thread:
         a child still importing does not hold the run up).
         """
-        data = pickle.dumps((os.fspath(folder), set(want), objects), protocol=pickle.HIGHEST_PROTOCOL)
+        self._job = (os.fspath(folder), set(want), objects)
+        data = pickle.dumps(self._job, protocol=pickle.HIGHEST_PROTOCOL)
         self._sender = threading.Thread(target=self._send, args=(data,), name="afferent-figures-send", daemon=True)
         self._sender.start()
 
@@ -217,12 +249,13 @@ class FigureProcess:
     def result(self) -> list[str]:
         """Wait for the child; returns the PNG names written, after re-emitting its warnings here.
 
+        A child that ends without an answer (killed by the out-of-memory killer, a SIGKILL, a crash)
+        leaves the figures to this process (:meth:`_fall_back`).
+
         Raises
         ------
         Exception
             The child's error, the same exception the run's own process would have raised.
-        RuntimeError
-            The child ended without an answer (killed; its exit code named).
         """
         t = time.perf_counter()
         try:
@@ -231,9 +264,7 @@ class FigureProcess:
                 self.record["start_s"] = reply[1]
                 reply = self._conn.recv()
         except (EOFError, OSError):
-            self._proc.join(timeout=5)
-            raise RuntimeError(f"The figure process (pid {self._proc.pid}) ended with exit code {self._proc.exitcode} "
-                               f"before it had drawn the figures; set {ENV}=0 to draw them in the run's own process.")
+            return self._fall_back(t)
         self.record["waited_s"] = time.perf_counter() - t
         _, names, caught, seconds, error = reply
         self.record["seconds"] = seconds
@@ -243,6 +274,25 @@ class FigureProcess:
         if error is not None:
             _raise(error)
         return list(names)
+
+    def _fall_back(self, t: float) -> list[str]:
+        """The child ended without an answer: draw the figures here, over what it left half done; warn once and
+        say so in ``record`` (``process`` 'same', ``fallback``: why; ``seconds``: drawing here, s)."""
+        from .exceptions import AfferentWarning
+
+        self._proc.join(timeout=5)
+        self.stop()  # reaped (or, still running with its end of the pipe closed, killed): no process left behind
+        code = self._proc.exitcode
+        how = f"was killed by {_signal_name(-code)}" if code is not None and code < 0 else f"ended (exit code {code})"
+        said = f"the figure process (pid {self._proc.pid}) {how} before it had drawn the figures"
+        warnings.warn(f"The figures were drawn in the run's own process: {said} (out of memory?).", AfferentWarning,
+                      stacklevel=3)
+        self.record.update(process="same", fallback=f"{said}; drawn in the run's own process")
+        t_draw = time.perf_counter()
+        names = _figures_into(*self._job, replace=True)
+        self.record["seconds"] = time.perf_counter() - t_draw
+        self.record["waited_s"] = time.perf_counter() - t
+        return names
 
     def stop(self) -> None:
         """Stop the child if it still runs (SIGTERM, then SIGKILL after 2 s) and wait for it; idempotent."""
@@ -286,15 +336,24 @@ class SameProcess:
         """Nothing runs elsewhere."""
 
 
-def _figures_into(folder: str, want, objects: dict) -> list[str]:
-    """:func:`afferent.export._figures` drawing into ``folder``; returns the PNG names written (in order)."""
+def _figures_into(folder: str, want, objects: dict, replace: bool = False) -> list[str]:
+    """:func:`afferent.export._figures` drawing into ``folder``; returns the PNG names written (in order).
+
+    ``replace``: each figure first removes what a figure process that died drawing into ``folder`` (the run's
+    temporary output folder, all written by this package) left of it: the PNG, a temporary ``.NAME.*.part``.
+    """
     from .export import _figures
 
     names: list[str] = []
 
     def path(name: str) -> str:
         names.append(name)
-        return os.path.join(folder, name)
+        target = os.path.join(folder, name)
+        if replace:
+            for left in [target, *glob.glob(os.path.join(glob.escape(folder), f".{glob.escape(name)}.*.part"))]:
+                if os.path.lexists(left):
+                    os.remove(left)
+        return target
 
     _figures(path, want, **objects)
     return names
@@ -308,6 +367,16 @@ def _raise(error) -> None:
         on_purpose = False
     err._afferent_on_purpose = on_purpose
     raise err from _ChildTraceback(text)
+
+
+def _signal_name(number: int) -> str:
+    """'SIGKILL' for 9 (the signal's name where the system knows it, else 'signal N')."""
+    import signal
+
+    try:
+        return signal.Signals(number).name
+    except ValueError:
+        return f"signal {number}"
 
 
 class _ChildTraceback(Exception):
@@ -347,11 +416,14 @@ def _serve(conn, parent_pid: int) -> None:
     if hasattr(signal, "pthread_sigmask"):  # blocked since its start (_sigint_held_for_children): a pending one is dropped
         signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
     t = time.perf_counter()
-    _prepare()
+    try:
+        _prepare()
+    except Exception:  # noqa: BLE001  (raised again while drawing, where it is caught and sent to the run)
+        pass
     try:
         conn.send(("ready", time.perf_counter() - t))
-        folder, want, objects = conn.recv()
-        conn.send(_draw(folder, want, objects))
+        job = conn.recv_bytes()
+        conn.send(_draw(job))
     except (EOFError, OSError):  # the run ended (or failed) before its writing stage: nobody to draw for
         return
 
@@ -365,14 +437,15 @@ def _prepare() -> None:
     plotting._warm_up()
 
 
-def _draw(folder: str, want: set, objects: dict) -> tuple:
-    """Draw the figures (:func:`afferent.export._figures`) catching warnings and any error; the answer to send."""
+def _draw(job: bytes) -> tuple:
+    """Draw the figures of ``job`` (the pickled folder, wanted outputs and :func:`afferent.export._figures`'
+    objects) catching warnings and any error, the unpickling's included; the answer to send."""
     t = time.perf_counter()
     error, names = None, []
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         try:
-            names = _figures_into(folder, want, objects)
+            names = _figures_into(*pickle.loads(job))
         except BaseException as err:  # noqa: BLE001  (sent to the run, raised there)
             error = _portable(err)
     sent = [(str(w.message), w.category if _pickles(w.category) else UserWarning, w.filename, w.lineno)

@@ -254,7 +254,9 @@ def write_outputs(folder: str, *, want, plots: bool, sed_static, sed, current=No
         else:  # SED only: its own step of the largest total SED
             write_receptor_vtu(path("receptors.vtu"), sed_static,
                                time_index=int(np.argmax(np.nansum(np.asarray(sed_static.values), axis=1))))
-    if "hotspots" in want:
+    if "hotspots" in want:  # hotspots.png drawn here, not by _figures: while a figure process draws the other
+        # figures this process would only wait for it; moved there, the run took up to 0.2 s longer (benchmarks/
+        # bench_run.py's export with 'hotspots': its 8 figures outlasted the tables by ~0.9 s)
         from .hotspots import write_hotspots
 
         write_hotspots(path, sed_static, sed_beside, threshold=hotspot_threshold, plots=plots)

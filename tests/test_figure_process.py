@@ -21,9 +21,10 @@ from afferent import _figure_process as figure_process
 from afferent._figure_process import ENV, MIN_EXPORT_BYTES, FigureProcess, SameProcess, choose, usable_cores
 from afferent.cli import main
 from afferent.cli._main import raised_on_purpose
-from conftest import SAMPLE_DIR
+from conftest import DATA_DIR, SAMPLE_DIR
 
-#: a short ramp on the 0.88 mm sample, SED map, profiles and spikes: all 7 figures of ``afferent run``
+#: a short ramp on the 0.88 mm sample, SED map, profiles, spikes and hot spots: all 7 figures of ``afferent run``
+#: and the hot-spot maps (hotspots.png, drawn in the run's own process: export.write_outputs says why)
 SCENE_TEXT = f"""[export]
 file = "{(SAMPLE_DIR / "block4" / "indent_0p88mm.vtu").as_posix()}"
 length_unit = "mm"
@@ -45,7 +46,7 @@ dt_ms = 1.0
 input = "rate-sensitive"
 gain_s = 0.2
 [outputs]
-want = ["sed_map", "profiles", "spikes", "plots"]
+want = ["sed_map", "profiles", "spikes", "hotspots", "plots"]
 """
 
 
@@ -115,8 +116,8 @@ def both(tmp_path_factory):
 def test_the_pngs_are_byte_identical_drawn_in_either_process(both):
     sep, same = both["separate"], both["same"]
     pngs = sorted(p.name for p in same.glob("*.png"))
-    assert pngs == ["profiles_x.png", "profiles_z.png", "psth.png", "raster.png", "rates.png", "sed_map.png",
-                    "waveform.png"]
+    assert pngs == ["hotspots.png", "profiles_x.png", "profiles_z.png", "psth.png", "raster.png", "rates.png",
+                    "sed_map.png", "waveform.png"]
     assert sorted(p.name for p in sep.iterdir()) == sorted(p.name for p in same.iterdir())
     for name in pngs:
         assert (sep / name).read_bytes() == (same / name).read_bytes(), name
@@ -352,3 +353,143 @@ def test_ctrl_c_stops_the_run_and_its_figure_process(tmp_path):
     time.sleep(0.2)
     assert not [k for k in kids if _alive(k)]
     assert os.listdir(tmp_path) == []
+
+
+def _kill_when(ready, out, timeout: float = 60.0):
+    """A thread that SIGKILLs this process's figure process once ``ready(pid, temporary output folders)`` is true;
+    its ``killed`` list gets the pid (Linux /proc)."""
+    import signal
+    import threading
+    import time
+
+    killed: list[int] = []
+
+    def watch():
+        end = time.monotonic() + timeout
+        while time.monotonic() < end and not killed:
+            parts = list(out.parent.glob(f".{out.name}.*.part"))
+            for pid, cmd in _children():
+                if "spawn_main" in cmd and _ignores_sigint(pid) and ready(pid, parts):
+                    os.kill(pid, signal.SIGKILL)
+                    killed.append(pid)
+                    return
+            time.sleep(0.002)
+
+    thread = threading.Thread(target=watch, daemon=True)
+    thread.start()
+    return thread, killed
+
+
+@needs_two_cores
+@linux_only
+@pytest.mark.parametrize("when", ["starting", "drawing"])
+def test_a_figure_process_killed_leaves_the_figures_to_the_run(both, tmp_path, capsys, monkeypatch, when):
+    """SIGKILL (the out-of-memory killer's signal) once the child runs its own code, before it has its objects
+    ('starting'), or once it has written its first PNG ('drawing'): the run draws the figures itself over what the
+    child left, exit 0, the PNGs byte-identical, one warning, run.json says so; no process left."""
+    scene = tmp_path / "ramp.toml"
+    scene.write_text(SCENE_TEXT)
+    out = tmp_path / "o"
+    if when == "starting":
+        ready = lambda pid, parts: True  # noqa: E731
+    else:
+        ready = lambda pid, parts: any(next(p.glob("*.png"), None) for p in parts)  # noqa: E731
+    thread, killed = _kill_when(ready, out)
+    code, err = _run_cli(capsys, monkeypatch, "1", "run", scene, "-o", out, "--quiet", "--no-cache")
+    thread.join(timeout=5)
+    assert killed, "the figure process was not killed"
+    assert code == 0, err
+    assert sorted(p.name for p in out.iterdir()) == sorted(p.name for p in both["same"].iterdir())
+    for png in both["same"].glob("*.png"):
+        assert (out / png.name).read_bytes() == png.read_bytes(), png.name
+    record = json.loads((out / "run.json").read_text())
+    said = f"the figure process (pid {killed[0]}) was killed by SIGKILL before it had drawn the figures"
+    assert record["figures"]["process"] == "same"
+    assert record["figures"]["fallback"] == f"{said}; drawn in the run's own process"
+    assert record["figures"]["why"].startswith(f"{ENV}=1")
+    same = json.loads((both["same"] / "run.json").read_text())
+    fell = {"category": "AfferentWarning", "message": f"The figures were drawn in the run's own process: {said} "
+                                                      "(out of memory?)."}
+    assert record["warnings"] == same["warnings"] + [fell]
+    assert _children() == []
+
+
+def test_a_dead_childs_leftovers_are_replaced_when_the_run_draws(tmp_path):
+    """What a figure process killed while saving leaves in the run's temporary folder (a whole PNG, a temporary
+    '.NAME.*.part') is removed as the run draws that figure itself; the other files stay."""
+    from afferent._figure_process import _figures_into
+
+    objects = _figure_objects()
+    objects["sed_static"] = objects["sed"]
+    stale = {"sed_map.png": b"half a figure", ".sed_map.png.k2j4x_a1.part": b"half", "sed_map.csv": b"a table"}
+    for name, data in stale.items():
+        (tmp_path / name).write_bytes(data)
+    assert _figures_into(str(tmp_path), {"sed_map"}, objects, replace=True) == ["sed_map.png"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["sed_map.csv", "sed_map.png"]
+    assert (tmp_path / "sed_map.csv").read_bytes() == b"a table"
+    assert (tmp_path / "sed_map.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+#: small real index exports (tests/data/*/README.md): each names its data in other files
+INDEXES = ["dealii/block.pvd", "dealii/block_00.pvtu", "kratos/vtu/Structure.vtm.series", "kratos/vtu/Structure_1.vtm",
+           "dolfinx/block.xdmf", "dolfinx/sed_only.xdmf"]
+
+
+@pytest.mark.parametrize("name", INDEXES)
+def test_an_index_export_counts_the_files_its_reader_opens(name):
+    """The gate's size of a .pvd/.pvtu/.vtm/.xdmf is the sum of the files its reader opens (RawExport.files: the
+    VTU steps and pieces, the HDF5 file), counted from the index alone."""
+    from afferent._figure_process import export_bytes
+    from afferent.io import data_files, read_raw
+
+    path = DATA_DIR / name
+    opened = read_raw(path).files
+    assert sorted(map(os.path.abspath, data_files(path))) == sorted(map(os.path.abspath, opened))
+    assert export_bytes([str(path)]) == sum(os.path.getsize(p) for p in opened) > 2 * os.path.getsize(path)
+
+
+def test_a_binary_xdmf_counts_its_bin_files(tmp_path, monkeypatch):
+    """meshio's Format="Binary" XDMF (a .bin file per array, named relative to the folder it was written in)."""
+    import meshio
+
+    from afferent._figure_process import export_bytes
+    from afferent.io import read_raw
+
+    monkeypatch.chdir(tmp_path)
+    cells = [("tetra", np.array([[0, 1, 2, 3]]))]
+    meshio.write("bin.xdmf", meshio.Mesh(np.eye(4, 3), cells, point_data={"sed": np.arange(4.0)}), data_format="Binary")
+    opened = read_raw("bin.xdmf").files
+    assert len(opened) == 4  # the .xdmf, points, cells, sed
+    assert export_bytes(["bin.xdmf"]) == sum(os.path.getsize(p) for p in opened)
+
+
+def test_an_index_that_cannot_be_listed_counts_as_itself(tmp_path):
+    """A broken index is sized as the file named (its reader says what is wrong); a missing file counts 0."""
+    from afferent._figure_process import export_bytes
+
+    bad = DATA_DIR / "bad" / "nan_timestep.pvd"
+    assert export_bytes([str(bad)]) == os.path.getsize(bad)
+    (tmp_path / "broken.xdmf").write_text("<Xdmf><Domain>")
+    assert export_bytes([str(tmp_path / "broken.xdmf")]) == len("<Xdmf><Domain>")
+    assert export_bytes([str(tmp_path / "none.vtu")]) == 0
+    csv = SAMPLE_DIR / "block4" / "receptors.csv"
+    assert export_bytes([str(bad)], side=[str(csv), None]) == os.path.getsize(bad) + os.path.getsize(csv)
+
+
+@linux_only
+def test_the_run_sizes_a_pvd_series_by_its_vtu_steps(tmp_path, monkeypatch):
+    """The bundled 6-step .pvd (554 bytes) names 4.5 MB of VTU files: the run's gate counts those."""
+    from afferent.scene import load_scene, run_scene
+
+    monkeypatch.delenv(ENV, raising=False)
+    series = SAMPLE_DIR / "block4" / "series_0p88mm"
+    size = sum(p.stat().st_size for p in series.iterdir())
+    scene = tmp_path / "s.toml"
+    scene.write_text(f'[export]\nfile = "{(series / "indent.pvd").as_posix()}"\nlength_unit = "mm"\nsed_unit = "MPa"\n'
+                     f'[receptors]\nfile = "{(SAMPLE_DIR / "block4" / "receptors.csv").as_posix()}"\n'
+                     '[outputs]\nwant = ["sed_map", "plots"]\n')
+    res = run_scene(load_scene(scene).with_output(tmp_path / "o"), use_cache=False, figure_process=True)
+    if usable_cores() >= 2:
+        assert res.record["figures"]["why"] == (f"the export ({size / 1e6:.3g} MB) is read before a second process "
+                                                "could start (under 16 MB)")
+    assert _children() == []

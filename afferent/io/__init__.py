@@ -12,7 +12,8 @@ explicit dict :data:`FORMATS`.
 **A reader lists every file it opened** in ``RawExport.files``: the export file(s) first, then
 each side file (VTU files of a ``.pvd``, HDF5 and ``.bin`` files of an XDMF, targets of HDF5
 external links, ...) in the order first opened, recorded where it is really opened
-(``_raw.files_read``, ``_raw.h5_files``), never found by parsing the export for names. The
+(``_raw.files_read``, ``_raw.h5_files``), never found by parsing the export for names (only
+``data_files`` lists them so, from an index file, to size a read before it starts). The
 list becomes :attr:`~afferent.field.Provenance.files`; the sampled-SED cache
 (:mod:`afferent.cache`) re-checks each listed file's hash before serving an entry and
 ``run.json`` records each with its SHA-256. A new reader must do the same (details in
@@ -120,6 +121,43 @@ def _paths(path_or_paths) -> list[str]:
         if os.path.isdir(p):
             raise SEDFormatError(f"SED file {p!r} is a directory; pass the export file(s) inside it.")
     return paths
+
+
+def data_files(path_or_paths, *, format: str | None = None) -> tuple[str, ...]:
+    """The files a read of the export will open, listed from its index files alone (no data read), each once.
+
+    A ``.pvd`` or JSON file series: itself and its entries (:func:`afferent.io._meshio.pvd_entries`);
+    a ``.pvtu``: its pieces; a ``.vtm``: its blocks (an entry of either kind with its own files);
+    an XDMF file: its HDF5 and binary heavy-data files (:func:`afferent.io._xdmf.heavy_files`; not
+    the targets of HDF5 external links); any other export: its files. For sizing a read before it
+    starts (``afferent._figure_process``): the record of what was read is the files each reader
+    lists as it opens them (:attr:`RawExport.files`), not this.
+
+    Raises
+    ------
+    FileNotFoundError, SEDFormatError
+        A file named is missing, or an index file cannot be parsed (as its reader says).
+    """
+    from . import _meshio
+    from ._raw import files_read
+    from ._vtk import _member_files
+    from ._xdmf import heavy_files
+
+    def members(path: str) -> tuple[str, ...]:  # a .pvtu's pieces, a .vtm's blocks, else the file
+        return _member_files(path) if os.path.isfile(path) else (path,)
+
+    out = []
+    for p in _paths(path_or_paths):
+        kind = _format_of(p, format)
+        if kind == "pvd":
+            out += [p, *(f for entry in _meshio.pvd_entries(p)[0] for f in members(entry))]
+        elif kind in ("pvtu", "vtm"):
+            out += members(p)
+        elif kind == "xdmf":
+            out += [p, *heavy_files(p)]
+        else:
+            out.append(p)
+    return files_read(out)
 
 
 def read_raw(path_or_paths, *, format: str | None = None, progress: bool = False, **csv_kwargs) -> RawExport:

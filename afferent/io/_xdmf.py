@@ -33,7 +33,7 @@ import numpy as np
 from ..exceptions import SEDFormatError
 from ._raw import RawArray, RawExport, files_read
 
-__all__ = ["read_xdmf_collections", "has_collections", "read_single_grid"]
+__all__ = ["read_xdmf_collections", "has_collections", "read_single_grid", "heavy_files"]
 
 #: xi:include, under the 2001 namespace (DOLFINx) or the 2003 one (meshio's time series writer).
 _XI_TAGS = ("{http://www.w3.org/2001/XInclude}include", "{http://www.w3.org/2003/XInclude}include")
@@ -139,8 +139,8 @@ class _Heavy:
         if ":" not in text:
             raise SEDFormatError(f"SED file {self.path!r}: the HDF DataItem of {what} must read 'file.h5:/path'; "
                                  f"got {text!r} instead.")
-        name, dataset = text.split(":", 1)
-        h5path = os.path.join(self.folder, name)
+        dataset = text.split(":", 1)[1]
+        h5path = _hdf_file(self.folder, text)
         if h5path not in self.files:
             if not os.path.isfile(h5path):
                 raise SEDFormatError(f"SED file {self.path!r}: the heavy-data file {h5path!r} of {what} is missing "
@@ -204,13 +204,10 @@ class _Heavy:
         return frozenset(hard)
 
     def _binary(self, item: ET.Element, text: str, what: str, count: int) -> np.ndarray:
-        """A raw binary file (XDMF ``Format="Binary"``): relative to the XDMF file's folder, as XDMF defines it;
-        meshio writes the name relative to the folder it was run in, used when only that one exists."""
+        """A raw binary file (XDMF ``Format="Binary"``, :func:`_binary_file`)."""
         from meshio.xdmf.common import xdmf_to_numpy_type
 
-        binpath = os.path.join(self.folder, text)
-        if not os.path.isfile(binpath) and os.path.isfile(text):
-            binpath = text
+        binpath = _binary_file(self.folder, text)
         if not os.path.isfile(binpath):
             raise SEDFormatError(f"SED file {self.path!r}: the binary data file {text!r} of {what} is missing "
                                  f"(looked for {os.path.join(self.folder, text)!r}).")
@@ -230,6 +227,33 @@ class _Heavy:
     def close(self):
         for f in self.files.values():
             f.close()
+
+
+def _hdf_file(folder: str, text: str) -> str:
+    """The HDF5 file of an HDF DataItem's ``file.h5:/dataset``: relative to ``folder``, the XDMF file's."""
+    return os.path.join(folder, text.split(":", 1)[0])
+
+
+def _binary_file(folder: str, text: str) -> str:
+    """The file of a Binary DataItem: relative to ``folder`` (the XDMF file's), as XDMF defines it; meshio writes
+    the name relative to the folder it was run in, used when only that one exists."""
+    path = os.path.join(folder, text)
+    return text if not os.path.isfile(path) and os.path.isfile(text) else path
+
+
+def heavy_files(path: str) -> list[str]:
+    """The heavy-data files an XDMF file's DataItems name (HDF5 files, ``Format="Binary"`` files), each once, in
+    file order, from its XML alone: nothing opened but the XDMF file (the targets of HDF5 external links are
+    not listed). For sizing a read before it starts (:func:`afferent.io.data_files`); the files a read opens
+    are recorded as it opens them (:class:`_Heavy`)."""
+    folder, out = os.path.dirname(path), []
+    for item in _parse(path).iter("DataItem"):
+        fmt, text = item.get("Format", "XML").upper(), (item.text or "").strip()
+        if fmt == "HDF" and ":" in text:
+            out.append(_hdf_file(folder, text))
+        elif fmt == "BINARY" and text:
+            out.append(_binary_file(folder, text))
+    return list(dict.fromkeys(out))
 
 
 def read_single_grid(path: str, opened: list):

@@ -143,7 +143,8 @@ def run_scene(scene: Scene, *, overwrite: bool = False, cache_dir=None, progress
     and wall times in s), ``skipped`` (stage -> why), ``cache``, ``receptors`` (counts in and
     out of the region), ``field`` (the export's provenance), ``transduction``,
     ``saturation``, ``fit``, ``spikes``, ``time_span``, ``warnings``, ``outputs``, ``figures``
-    (with ``plots``: drawn in the ``'same'`` or a ``'separate'`` process, why, seconds),
+    (with ``plots``: drawn in the ``'same'`` or a ``'separate'`` process, why, seconds; ``fallback``:
+    why a figure process that died left them to the run's),
     ``started_utc`` and ``wall_seconds``.
     """
     from contextlib import nullcontext
@@ -220,10 +221,10 @@ def _start_figures(run: _Run) -> None:
     enough to hide its start-up (:func:`afferent._figure_process.choose`)."""
     if not run.figure_process or run.figures is not None:
         return
-    from .._figure_process import figure_drawer
+    from .._figure_process import export_bytes, figure_drawer
 
-    size = sum(os.path.getsize(p) for p in run.scene.export.files if os.path.isfile(p))
-    run.figures = figure_drawer(True, size)
+    ex = run.scene.export
+    run.figures = figure_drawer(True, export_bytes(ex.files, ex.format, side=[ex.coordinates]))
 
 
 def _compute(run: _Run, *, cache_dir, use_cache: bool, progress: bool) -> None:
