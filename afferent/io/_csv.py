@@ -427,13 +427,13 @@ def read_csv(paths, *, sep: str | None = None, time_column: str | None = None,
        each time is one step; blocks of different kinds with the same rows are put side by
        side, shared label columns kept once; the single value column of a block such as
        ``internal energy density (elem, integ.pnt.,energy)`` is named after the block.
-    5. ANSYS MAPDL listings (``PRNSOL``, ``PRETAB``; ``NLIST`` for coordinates): each ``LOAD STEP`` /
+    6. ANSYS MAPDL listings (``PRNSOL``, ``PRETAB``; ``NLIST`` for coordinates): each ``LOAD STEP`` /
        ``SUBSTEP`` is one step, its ``TIME=`` the step time (``FREQ=``: numbered steps); pages joined,
        banners and ``MINIMUM``/``MAXIMUM VALUES`` summaries skipped, rows put in ``NODE`` order,
        values written without a blank between them split; listings of different items in one file
        side by side, an ``NLIST`` in the same file giving X, Y, Z. ``PRESOL`` (element-nodal) and a
        node listed twice in a step are refused; PowerGraphics (surface nodes only) warns.
-    6. COMSOL Sectionwise exports: each ``% Data (expr (unit) @ t=T)`` section is one column of one value per
+    7. COMSOL Sectionwise exports: each ``% Data (expr (unit) @ t=T)`` section is one column of one value per
        point (``@ t=`` stacked as in 1); the ``% Coordinates`` rows are ``points``, the ``% Elements (tetrahedra)``
        rows (1-based, checked against the number of points) the ``cells``; ``% Nodes:``, ``% Elements:``, ``% Expressions:``
        and ``% Dimension: 3`` are checked. Other element types and 2D exports are refused.
