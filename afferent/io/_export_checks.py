@@ -34,7 +34,6 @@ def _check_values(raw: RawExport, values: np.ndarray, what: str) -> None:
         )
 
 
-
 def _merge_duplicate_points(raw: RawExport, xyz: np.ndarray, sed: np.ndarray):
     """A point table listing a point twice: merged if the values agree, refused if not.
 
