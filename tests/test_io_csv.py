@@ -901,7 +901,7 @@ def test_the_line_patterns_fail_in_linear_time(pattern, text):
 
 def test_the_linear_patterns_read_what_the_old_ones_read():
     from afferent.io._columns import split_unit
-    from afferent.io._csv_lines import _CCX_TITLE, _FEBIO_KEY, _META, _SUFFIX
+    from afferent.io._csv_lines import _CCX_TITLE, _FEBIO_KEY, _META, _SUFFIX, step_suffix
 
     assert split_unit("solid.Ws (J/m^3)") == ("solid.Ws", "J/m^3")
     assert split_unit("a [b] (c)") == ("a [b]", "c") and split_unit("a ((mm)") == ("a", "(mm")
@@ -914,4 +914,61 @@ def test_the_linear_patterns_read_what_the_old_ones_read():
     m = _CCX_TITLE.match("stresses (elem, integ.pnt.,sxx) for set EALL and time  0.1E+01")
     assert (m["what"].strip(), m["set"], m["time"]) == ("stresses", "EALL", "0.1E+01")
     m = _SUFFIX.match("SENER @Loc 1 @ t=0.02")
-    assert (m["base"].rstrip(), m["var"], m["val"]) == ("SENER @Loc 1", "t", "0.02")
+    assert (m["base"].rstrip(), m["pairs"]) == ("SENER @Loc 1", "t=0.02")
+    assert step_suffix("SENER @Loc 1 @ t=0.02") == ("SENER @Loc 1", (("t", 0.02, None),))
+    assert step_suffix("w (m) @ d=0.5[mm], F=1") == ("w (m)", (("d", 0.5, "mm"), ("F", 1.0, None)))
+    assert step_suffix("w (m) @ d=x") == ("w (m) @ d=x", ())
+
+
+# --------------------------------------------------------------------------------------
+# COMSOL parametric sweeps: '@ d=0.5' columns are steps of the parameter, not times
+# --------------------------------------------------------------------------------------
+
+
+def test_comsol_parametric_sweep_is_steps_not_times():
+    """One column per expression and value of d, grouped by value as a real COMSOL 6.1 export groups them
+    (tests/data/csv/README.md): stacked into 3 steps with no times, the values of d in a note."""
+    raw = read_csv(_path("comsol_sweep.csv"))
+    assert raw.times is None and raw.time_unit is None
+    assert list(raw.arrays) == ["x", "y", "z", "solid.Ws", "solid.mises"]
+    np.testing.assert_array_equal(raw.arrays["solid.Ws"].values,
+                                  [[1.0, 1.5, 0.5], [2.0, 3.0, 1.0], [3.0, 4.5, 1.5]])
+    np.testing.assert_array_equal(raw.arrays["solid.mises"].values[:, 0], [10.0, 20.0, 30.0])
+    assert "stacked '@ d=' columns into 3 steps" in raw.notes
+    assert ("steps are values of parameter d, not times: d = 0.5, 1, 1.5; pass times= (--times) to give the steps "
+            "times") in raw.notes
+
+
+def test_comsol_parametric_sweep_assembled_as_step_numbers():
+    """read_sed takes the path of an export without times: steps numbered 0, 1, 2 with the time unit 'step' (which
+    spiking refuses to read as seconds without --times), the parameter's values in the record's notes."""
+    from afferent.io import read_sed
+
+    field = read_sed(_path("comsol_sweep.csv"))
+    assert field.n_times == 3
+    np.testing.assert_array_equal(field.times, [0.0, 1.0, 2.0])
+    assert field.provenance.units["time"] == "step"
+    assert any(n.startswith("steps are values of parameter d, not times") for n in field.provenance.notes)
+
+
+def test_comsol_parametric_sweep_unit_named(tmp_path):
+    p = tmp_path / "sweep.csv"
+    p.write_text("% Length unit,mm\n% x,y,z,solid.Ws (J/m^3) @ d=0.5[mm],solid.Ws (J/m^3) @ d=1[mm]\n"
+                 "0,0,0,1,2\n1,0,0,3,4\n")
+    raw = read_csv(str(p))
+    assert any(n.startswith("steps are values of parameter d (mm), not times: d = 0.5, 1;") for n in raw.notes)
+
+
+@pytest.mark.parametrize("titles, message", [
+    ('"solid.Ws (J/m^3) @ d=0.5, F=1","solid.Ws (J/m^3) @ d=1, F=1"',
+     r"sweeps 2 parameters \('d', 'F'\) in its '@ name=value' column suffixes \(e.g. 'solid.Ws \(J/m\^3\) @ d=0.5, "
+     r"F=1'\); afferent reads the steps of one parameter or of the time per file. Export one value"),
+    ("solid.Ws (J/m^3) @ t=0,solid.Ws (J/m^3) @ d=1",
+     r"sweeps 1 parameter \('d'\) and the time \('t'\) in its '@ name=value' column suffixes \(e.g. "
+     r"'solid.Ws \(J/m\^3\) @ d=1'\)"),
+])
+def test_comsol_sweep_of_several_parameters_refused(tmp_path, titles, message):
+    p = tmp_path / "sweep.csv"
+    p.write_text(f"% Length unit,mm\n% x,y,z,{titles}\n0,0,0,1,2\n1,0,0,3,4\n")
+    with pytest.raises(SEDFormatError, match=message):
+        read_csv(str(p))
