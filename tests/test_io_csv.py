@@ -107,11 +107,12 @@ LAYOUTS = {
         notes=["dropped 4 footer rows (Minimum/Maximum/At Node/At Element/Int Pt/Total)"],
     ),
     "abaqus_frames.rpt": dict(
-        names=["Node Label", "COORD.COOR1", "COORD.COOR2", "COORD.COOR3", "SENER"],
+        names=["Node Label", "COORD.COOR1", "COORD.COOR2", "COORD.COOR3", "SENER", "Part"],
         units={"SENER": None, "COORD.COOR1": None},
         shape=(2, 6), times=[0.5, 1.0], length_unit=None, time_unit=None,
         values={
             "Node Label": [[1.0, 2.0, 3.0, 4.0, 1.0, 2.0]] * 2,
+            "Part": [[0.0, 0.0, 0.0, 0.0, 1.0, 1.0]] * 2,  # labels repeat across the parts: a row is (part, label)
             "COORD.COOR1": [[0.0, 1.0, 0.0, 1.0, 0.0, 0.5]] * 2,
             "COORD.COOR3": [[-1.0, -1.0, -1.0, -1.0, 0.0, -0.0]] * 2,
             "SENER": [[100e-6, 200e-6, 300e-6, 1.11111e-3, 33.3333e-6, 2.5e-3],
@@ -219,11 +220,11 @@ LAYOUTS = {
                "skipped 1 comment or preamble line above the header (line 2)"],
     ),
     "label_column.csv": dict(
-        names=["x", "y", "z", "sed"],
+        names=["part", "x", "y", "z", "sed"],
         units={"sed": None},
         shape=(1, 3), times=None, length_unit=None, time_unit=None,
-        values={"sed": [[0.1111111111111111, 0.2222222222222222, 0.3333333333333333]]},
-        notes=["dropped column 'part': it holds text, not numbers (e.g. 'SKIN-1')"],
+        values={"sed": [[0.1111111111111111, 0.2222222222222222, 0.3333333333333333]], "part": [[0.0, 0.0, 1.0]]},
+        notes=["column 'part' numbers the rows' part instances: 0 = 'SKIN-1', 1 = 'BONE-1'"],
     ),
     "gzipped.dat": dict(
         names=["x", "y", "z", "sed"],

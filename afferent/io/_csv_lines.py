@@ -17,7 +17,7 @@ import numpy as np
 import pandas as pd
 
 from ..exceptions import SEDFormatError
-from ._columns import COORD_ALIASES, ID_ALIASES, canonical
+from ._columns import COORD_ALIASES, ID_ALIASES, canonical, part_note
 
 # --------------------------------------------------------------------------------------
 # Line classification
@@ -59,6 +59,8 @@ _NA_SET = frozenset(v.lower() for v in _NA_VALUES)
 _SUFFIX = re.compile(r"^(?P<base>.*)@\s*(?P<pairs>[A-Za-z_][\w.]*\s*=[^=@,]+(?:,\s*[A-Za-z_][\w.]*\s*=[^=@,]+)*)$")
 #: One ``name=value`` of a suffix, the value optionally with a bracketed unit: ``d=0.5``, ``d=0.5[mm]``.
 _PAIR = re.compile(r"^\s*(?P<var>[A-Za-z_][\w.]*)\s*=\s*(?P<val>[^\s\[\]]+)\s*(?:\[(?P<unit>[^\]]*)\])?\s*$")
+#: The title of an Abaqus report block of one part instance: ``Field Output reported at nodes for part: DERMIS-1``.
+_RPT_PART = re.compile(r"reported at .* for part:\s*(\S.*)$")
 #: Abaqus position qualifier in report column titles: ``SENER @Loc 1``.
 _LOC = re.compile(r"@\s*Loc\s*\d+", re.IGNORECASE)
 #: Abaqus report header lines naming the analysis step and the frame of the table below them:
@@ -225,8 +227,7 @@ def sweep_parameter(path: str, swept: dict[str, list[str]], time_names) -> str |
     parameters, or of a parameter and the time, which afferent cannot lay out as one series of steps."""
     if len(swept) <= 1:
         return next(iter(swept), None)
-    params = [n for n in swept if n not in time_names]
-    time = [n for n in swept if n in time_names]
+    params, time = [n for n in swept if n not in time_names], [n for n in swept if n in time_names]
     raise SEDFormatError(
         f"SED file {path!r} sweeps {_plural(len(params), 'parameter')} ({_join_names(params)})"
         + (f" and the time ({_join_names(time)})" if time else "")
@@ -245,6 +246,22 @@ def parameter_steps(headers: list[str], values: np.ndarray, notes: list[str]) ->
     notes.append(f"steps are values of parameter {var}{unit}, not times: {var} = {', '.join(f'{v:g}' for v in values)}; "
                  f"pass times= (--times) to give the steps times")
     return None
+
+
+def _add_parts(lines: list[str], row_lines: np.ndarray, headers: list, values: list, notes: list, n_records: int):
+    """Add the column ``Part`` (codes 0, 1, ..., the names in a note) to the columns of an Abaqus report whose blocks
+    are of two or more part instances (``Field Output reported at nodes for part: DERMIS-1`` above each) and whose
+    labels (first column) repeat within a frame across them: each part instance numbers its nodes from 1, so a row
+    is its part and its label. ``row_lines``: the rows' 1-based line numbers."""
+    found = [(i + 1, m.group(1).strip()) for i, line in enumerate(lines)
+             if "for part:" in line and (m := _RPT_PART.search(line))]
+    names = list(dict.fromkeys(n for _, n in found))
+    at = np.searchsorted(np.asarray([ln for ln, _ in found]), row_lines) - 1  # the last part line above each row
+    labels = values[0][: len(row_lines) // n_records] if values else np.empty(0)
+    if len(names) > 1 and (at >= 0).all() and len(np.unique(labels)) < labels.size:
+        headers.append("Part")
+        values.append(np.asarray([names.index(n) for _, n in found], dtype=np.float64)[at])
+        notes.append(part_note("Part", names))
 
 
 def _plural(n: int, word: str) -> str:
