@@ -364,3 +364,19 @@ def test_coord_of_a_first_frame_at_time_0_with_two_parts(tmp_path):
         field = read_sed(p, sed_unit="MPa", length_unit="mm")
     np.testing.assert_allclose(field.points[[2, 5]], [[0.0, 1e-3, 0.0], [0.0, 1e-3, -1e-3]])
     assert any("0 = 'SKIN-1', 1 = 'BONE-1'" in n for n in field.provenance.notes)
+
+
+def test_integration_points_of_two_parts_averaged_per_part_and_element(tmp_path):
+    """Element 1 of SKIN-1 and element 1 of BONE-1 are two elements: their integration points are averaged apart
+    (grouping by label alone would mix them into one wrong mean)."""
+    title = ("Element   Int        SENER\nLabel     Pt        @Loc 1\n" + "-" * 26 + "\n")
+    skin = _frame("Indent", "Increment 1: Step Time = 1.", ["    1     1  1.0E-03", "    1     2  3.0E-03"],
+                  position="Integration point", title=title)
+    bone = ("Field Output reported at integration points for part: BONE-1\n\n" + title
+            + "    1     1  5.0E-03\n    1     2  7.0E-03\n\n\n  Minimum        5.0E-03\n\n")
+    p = _write(tmp_path, skin + bone)
+    cells = tmp_path / "centroids.csv"
+    cells.write_text("Instance,Element Label,X,Y,Z\nBONE-1,1,0,0,-1\nSKIN-1,1,0,0,0\n")
+    field = read_sed(p, coordinates=str(cells), sed_unit="MPa", length_unit="mm")
+    np.testing.assert_allclose(field.points, [[0, 0, 0], [0, 0, -1e-3]])
+    np.testing.assert_allclose(field.sed[0], [2e3, 6e3])

@@ -66,15 +66,19 @@ _POINT_IDS = frozenset(C.canonical(n) for n in ("ip", "intpt", "integrationpoint
 def integration_point_groups(raw: RawExport) -> np.ndarray | None:
     """For an integration-point table (element ids repeat, an integration-point column such as
     CalculiX's ``integ.pnt.`` or Abaqus' ``Int Pt``), the element of each row as an index into
-    the unique element ids; None for any other table."""
+    the unique element ids (of (part, element) pairs when the rows name their part instances); None for any other
+    table."""
     rid = _id_array(raw)
     ip = next((a for a in raw.arrays.values() if a.ndim == 2 and C.canonical(a.name) in _POINT_IDS), None)
     if rid is None or ip is None or C.canonical(rid.name) not in _ELEMENT_IDS:
         return None
-    ids = rid.values[0]
-    if np.unique(ids).size == ids.size:
+    ids = rid.values[0][:, None]
+    parts = C.part_names(raw.notes)
+    if parts is not None and parts[0] in raw.arrays:  # element labels repeat across part instances: (part, label)
+        ids = np.column_stack([raw.arrays[parts[0]].values[0], ids])
+    if np.unique(ids, axis=0).shape[0] == ids.shape[0]:
         return None
-    return np.unique(ids, return_inverse=True)[1].ravel()
+    return np.unique(ids, axis=0, return_inverse=True)[1].ravel()
 
 
 def average_per_element(values: np.ndarray, groups: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
