@@ -973,3 +973,13 @@ def test_comsol_sweep_of_several_parameters_refused(tmp_path, titles, message):
     p.write_text(f"% Length unit,mm\n% x,y,z,{titles}\n0,0,0,1,2\n1,0,0,3,4\n")
     with pytest.raises(SEDFormatError, match=message):
         read_csv(str(p))
+
+
+def test_comsol_sectionwise_sweep_is_steps_not_times(tmp_path):
+    """The Sectionwise layout's '% Data (solid.Ws (J/m^3) @ d=0.5)' sections take the same path as the columns."""
+    p = tmp_path / "sweep.txt"
+    p.write_text(Path(_path("comsol_sectionwise.txt")).read_text().replace("@ t=", "@ d="))
+    raw = read_csv(str(p))
+    assert raw.times is None and raw.arrays["solid.Ws"].values.shape == (2, 371)
+    assert "steps are values of parameter d, not times: d = 0.5, 1; pass times= (--times) to give the steps times" \
+        in raw.notes
