@@ -107,11 +107,12 @@ LAYOUTS = {
         notes=["dropped 4 footer rows (Minimum/Maximum/At Node/At Element/Int Pt/Total)"],
     ),
     "abaqus_frames.rpt": dict(
-        names=["Node Label", "COORD.COOR1", "COORD.COOR2", "COORD.COOR3", "SENER"],
+        names=["Node Label", "COORD.COOR1", "COORD.COOR2", "COORD.COOR3", "SENER", "Part"],
         units={"SENER": None, "COORD.COOR1": None},
         shape=(2, 6), times=[0.5, 1.0], length_unit=None, time_unit=None,
         values={
             "Node Label": [[1.0, 2.0, 3.0, 4.0, 1.0, 2.0]] * 2,
+            "Part": [[0.0, 0.0, 0.0, 0.0, 1.0, 1.0]] * 2,  # labels repeat across the parts: a row is (part, label)
             "COORD.COOR1": [[0.0, 1.0, 0.0, 1.0, 0.0, 0.5]] * 2,
             "COORD.COOR3": [[-1.0, -1.0, -1.0, -1.0, 0.0, -0.0]] * 2,
             "SENER": [[100e-6, 200e-6, 300e-6, 1.11111e-3, 33.3333e-6, 2.5e-3],
@@ -219,11 +220,11 @@ LAYOUTS = {
                "skipped 1 comment or preamble line above the header (line 2)"],
     ),
     "label_column.csv": dict(
-        names=["x", "y", "z", "sed"],
+        names=["part", "x", "y", "z", "sed"],
         units={"sed": None},
         shape=(1, 3), times=None, length_unit=None, time_unit=None,
-        values={"sed": [[0.1111111111111111, 0.2222222222222222, 0.3333333333333333]]},
-        notes=["dropped column 'part': it holds text, not numbers (e.g. 'SKIN-1')"],
+        values={"sed": [[0.1111111111111111, 0.2222222222222222, 0.3333333333333333]], "part": [[0.0, 0.0, 1.0]]},
+        notes=["column 'part' numbers the rows' part instances: 0 = 'SKIN-1', 1 = 'BONE-1'"],
     ),
     "gzipped.dat": dict(
         names=["x", "y", "z", "sed"],
@@ -901,7 +902,7 @@ def test_the_line_patterns_fail_in_linear_time(pattern, text):
 
 def test_the_linear_patterns_read_what_the_old_ones_read():
     from afferent.io._columns import split_unit
-    from afferent.io._csv_lines import _CCX_TITLE, _FEBIO_KEY, _META, _SUFFIX
+    from afferent.io._csv_lines import _CCX_TITLE, _FEBIO_KEY, _META, _SUFFIX, step_suffix
 
     assert split_unit("solid.Ws (J/m^3)") == ("solid.Ws", "J/m^3")
     assert split_unit("a [b] (c)") == ("a [b]", "c") and split_unit("a ((mm)") == ("a", "(mm")
@@ -914,4 +915,71 @@ def test_the_linear_patterns_read_what_the_old_ones_read():
     m = _CCX_TITLE.match("stresses (elem, integ.pnt.,sxx) for set EALL and time  0.1E+01")
     assert (m["what"].strip(), m["set"], m["time"]) == ("stresses", "EALL", "0.1E+01")
     m = _SUFFIX.match("SENER @Loc 1 @ t=0.02")
-    assert (m["base"].rstrip(), m["var"], m["val"]) == ("SENER @Loc 1", "t", "0.02")
+    assert (m["base"].rstrip(), m["pairs"]) == ("SENER @Loc 1", "t=0.02")
+    assert step_suffix("SENER @Loc 1 @ t=0.02") == ("SENER @Loc 1", (("t", 0.02, None),))
+    assert step_suffix("w (m) @ d=0.5[mm], F=1") == ("w (m)", (("d", 0.5, "mm"), ("F", 1.0, None)))
+    assert step_suffix("w (m) @ d=x") == ("w (m) @ d=x", ())
+
+
+# --------------------------------------------------------------------------------------
+# COMSOL parametric sweeps: '@ d=0.5' columns are steps of the parameter, not times
+# --------------------------------------------------------------------------------------
+
+
+def test_comsol_parametric_sweep_is_steps_not_times():
+    """One column per expression and value of d, grouped by value as a real COMSOL 6.1 export groups them
+    (tests/data/csv/README.md): stacked into 3 steps with no times, the values of d in a note."""
+    raw = read_csv(_path("comsol_sweep.csv"))
+    assert raw.times is None and raw.time_unit is None
+    assert list(raw.arrays) == ["x", "y", "z", "solid.Ws", "solid.mises"]
+    np.testing.assert_array_equal(raw.arrays["solid.Ws"].values,
+                                  [[1.0, 1.5, 0.5], [2.0, 3.0, 1.0], [3.0, 4.5, 1.5]])
+    np.testing.assert_array_equal(raw.arrays["solid.mises"].values[:, 0], [10.0, 20.0, 30.0])
+    assert "stacked '@ d=' columns into 3 steps" in raw.notes
+    assert ("steps are values of parameter d, not times: d = 0.5, 1, 1.5; pass times= (--times) to give the steps "
+            "times") in raw.notes
+
+
+def test_comsol_parametric_sweep_assembled_as_step_numbers():
+    """read_sed takes the path of an export without times: steps numbered 0, 1, 2 with the time unit 'step' (which
+    spiking refuses to read as seconds without --times), the parameter's values in the record's notes."""
+    from afferent.io import read_sed
+
+    field = read_sed(_path("comsol_sweep.csv"))
+    assert field.n_times == 3
+    np.testing.assert_array_equal(field.times, [0.0, 1.0, 2.0])
+    assert field.provenance.units["time"] == "step"
+    assert any(n.startswith("steps are values of parameter d, not times") for n in field.provenance.notes)
+
+
+def test_comsol_parametric_sweep_unit_named(tmp_path):
+    p = tmp_path / "sweep.csv"
+    p.write_text("% Length unit,mm\n% x,y,z,solid.Ws (J/m^3) @ d=0.5[mm],solid.Ws (J/m^3) @ d=1[mm]\n"
+                 "0,0,0,1,2\n1,0,0,3,4\n")
+    raw = read_csv(str(p))
+    assert any(n.startswith("steps are values of parameter d (mm), not times: d = 0.5, 1;") for n in raw.notes)
+
+
+@pytest.mark.parametrize("titles, message", [
+    ('"solid.Ws (J/m^3) @ d=0.5, F=1","solid.Ws (J/m^3) @ d=1, F=1"',
+     r"sweeps 2 parameters \('d', 'F'\) in its '@ name=value' column suffixes \(e.g. 'solid.Ws \(J/m\^3\) @ d=0.5, "
+     r"F=1'\); afferent reads the steps of one parameter or of the time per file. Export one value"),
+    ("solid.Ws (J/m^3) @ t=0,solid.Ws (J/m^3) @ d=1",
+     r"sweeps 1 parameter \('d'\) and the time \('t'\) in its '@ name=value' column suffixes \(e.g. "
+     r"'solid.Ws \(J/m\^3\) @ d=1'\)"),
+])
+def test_comsol_sweep_of_several_parameters_refused(tmp_path, titles, message):
+    p = tmp_path / "sweep.csv"
+    p.write_text(f"% Length unit,mm\n% x,y,z,{titles}\n0,0,0,1,2\n1,0,0,3,4\n")
+    with pytest.raises(SEDFormatError, match=message):
+        read_csv(str(p))
+
+
+def test_comsol_sectionwise_sweep_is_steps_not_times(tmp_path):
+    """The Sectionwise layout's '% Data (solid.Ws (J/m^3) @ d=0.5)' sections take the same path as the columns."""
+    p = tmp_path / "sweep.txt"
+    p.write_text(Path(_path("comsol_sectionwise.txt")).read_text().replace("@ t=", "@ d="))
+    raw = read_csv(str(p))
+    assert raw.times is None and raw.arrays["solid.Ws"].values.shape == (2, 371)
+    assert "steps are values of parameter d, not times: d = 0.5, 1; pass times= (--times) to give the steps times" \
+        in raw.notes

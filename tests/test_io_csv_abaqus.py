@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import re
 import warnings
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -273,3 +274,109 @@ def test_integration_points_with_coord_are_points_of_their_own():
     assert field.n_points == 4
     np.testing.assert_allclose(field.points[:, 0], [211.325e-6, 788.675e-6, 1.21132e-3, 1.78868e-3])
     np.testing.assert_allclose(field.sed[0], [1.5e3, 2.5e3, 750.0, 333.333])
+
+
+# --------------------------------------------------------------------------------------
+# Reports of several part instances: a node is (part, label); --coordinates joins on both
+# --------------------------------------------------------------------------------------
+
+PARTS_RPT = str(Path(__file__).parent / "data" / "csv" / "abaqus_parts.rpt")
+PARTS_NODES = str(Path(__file__).parent / "data" / "csv" / "abaqus_parts_nodes.csv")
+
+
+def test_report_keeps_each_rows_part_instance():
+    """Two frames of two parts whose labels both start at 1 (no COORD): each row keeps its part as column 'Part'
+    (codes in order of appearance, the names in a note)."""
+    raw = read_csv(PARTS_RPT)
+    np.testing.assert_array_equal(raw.arrays["Part"].values, [[0, 0, 0, 0, 1, 1]] * 2)
+    np.testing.assert_array_equal(raw.arrays["Node Label"].values[0], [1, 2, 3, 4, 1, 2])
+    assert "column 'Part' numbers the rows' part instances: 0 = 'DERMIS-1', 1 = 'EPIDERMIS-1'" in raw.notes
+
+
+def test_coordinates_join_on_part_and_label():
+    """The coordinates table lists the parts in another order: each row gets the position of its (part, label)."""
+    from afferent.io._find_arrays import join_coordinates
+
+    joined = join_coordinates(read_csv(PARTS_RPT), PARTS_NODES)
+    np.testing.assert_array_equal(joined.points, [[0, 0, -1], [1, 0, -1], [0, 1, -1], [1, 1, -1],
+                                                   [0, 0, 0], [0.5, 0.5, 0]])
+    np.testing.assert_array_equal(joined.times, [0.5, 1.0])
+    assert any("keyed by part instance (column 'Part') and label" in n for n in joined.notes)
+
+
+def test_sampled_through_read_sed_with_parts():
+    field = read_sed(PARTS_RPT, coordinates=PARTS_NODES, length_unit="mm", sed_unit="MPa")
+    assert field.n_times == 2 and field.points.shape == (6, 3)
+    np.testing.assert_allclose(field.points[5], [0.5e-3, 0.5e-3, 0.0])
+
+
+def test_coordinates_without_parts_refused(tmp_path):
+    from afferent.io._find_arrays import join_coordinates
+
+    nodes = tmp_path / "nodes.csv"
+    nodes.write_text("Node Label,X,Y,Z\n1,0,0,0\n2,1,0,0\n3,0,1,0\n4,1,1,0\n")
+    with pytest.raises(SEDFormatError, match=r"its node labels \('Node Label'\) repeat across its part instances "
+                       r"\('DERMIS-1', 'EPIDERMIS-1': each numbers its nodes from 1\), so coordinates file .*nodes.csv' "
+                       r"must name the part of each row: give it a 'Part' \(or 'Instance'\) column"):
+        join_coordinates(read_csv(PARTS_RPT), str(nodes))
+
+
+def test_coordinates_missing_a_part_named(tmp_path):
+    from afferent.io._find_arrays import join_coordinates
+
+    nodes = tmp_path / "nodes.csv"
+    nodes.write_text("".join(Path(PARTS_NODES).read_text().splitlines(keepends=True)[:3]).replace("Part,", "Instance,"))
+    with pytest.raises(SEDFormatError, match=r"lacks 4 id\(s\) of SED file .*\(first: label 1 of part DERMIS-1, "
+                       r"label 2 of part DERMIS-1"):
+        join_coordinates(read_csv(PARTS_RPT), str(nodes))
+
+
+def test_coordinates_with_parts_for_a_report_of_one_part(tmp_path):
+    """A table naming parts given to a report of one part: its labels alone when they are unique, else refused."""
+    from afferent.io._find_arrays import join_coordinates
+
+    rpt = tmp_path / "one.rpt"
+    title = "            Node           SENER\n           Label          @Loc 1\n" + "-" * 33 + "\n"
+    rpt.write_text(_frame("Indent", "Increment      1: Step Time =    1.000",
+                          ["               1        1.E-03", "               2        2.E-03"], title=title))
+    nodes = tmp_path / "nodes.csv"
+    nodes.write_text("Part,Node Label,X,Y,Z\nSKIN-1,2,1,0,0\nSKIN-1,1,0,0,0\n")
+    np.testing.assert_array_equal(join_coordinates(read_csv(str(rpt)), str(nodes)).points, [[0, 0, 0], [1, 0, 0]])
+    nodes.write_text("Part,Node Label,X,Y,Z\nSKIN-1,1,1,0,0\nBONE-1,1,0,0,0\nSKIN-1,2,0,0,0\n")
+    with pytest.raises(SEDFormatError, match=r"names the part instances 'SKIN-1', 'BONE-1', whose labels repeat, but "
+                       r"SED file .* names none"):
+        join_coordinates(read_csv(str(rpt)), str(nodes))
+
+
+def test_coord_of_a_first_frame_at_time_0_with_two_parts(tmp_path):
+    """The time-0 COORD rule with two part instances whose labels both run 1..3: frame 0's positions for every frame,
+    the rows' parts kept."""
+    def frame(inc: str, rows: list[str], deeper: list[str]) -> str:
+        bone = [r[:48] + f"{float(r[48:64]) - 1:16.4E}" + r[64:] for r in deeper]
+        return (_frame("Indent", inc, rows) + "Field Output reported at nodes for part: BONE-1\n\n" + TITLE
+                + "\n".join(bone) + "\n\n\n  Minimum           0.           0.           0.       1.0000E-03\n\n")
+
+    moved = [r[:32] + f"{float(r[32:48]) - 0.05:16.4E}" + r[48:] for r in ROWS]
+    p = _write(tmp_path, frame("Increment      0: Step Time =    0.0000", ROWS, ROWS)
+               + frame("Increment      5: Step Time =    0.5000", moved, moved))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        field = read_sed(p, sed_unit="MPa", length_unit="mm")
+    np.testing.assert_allclose(field.points[[2, 5]], [[0.0, 1e-3, 0.0], [0.0, 1e-3, -1e-3]])
+    assert any("0 = 'SKIN-1', 1 = 'BONE-1'" in n for n in field.provenance.notes)
+
+
+def test_integration_points_of_two_parts_averaged_per_part_and_element(tmp_path):
+    """Element 1 of SKIN-1 and element 1 of BONE-1 are two elements: their integration points are averaged apart
+    (grouping by label alone would mix them into one wrong mean)."""
+    title = ("Element   Int        SENER\nLabel     Pt        @Loc 1\n" + "-" * 26 + "\n")
+    skin = _frame("Indent", "Increment 1: Step Time = 1.", ["    1     1  1.0E-03", "    1     2  3.0E-03"],
+                  position="Integration point", title=title)
+    bone = ("Field Output reported at integration points for part: BONE-1\n\n" + title
+            + "    1     1  5.0E-03\n    1     2  7.0E-03\n\n\n  Minimum        5.0E-03\n\n")
+    p = _write(tmp_path, skin + bone)
+    cells = tmp_path / "centroids.csv"
+    cells.write_text("Instance,Element Label,X,Y,Z\nBONE-1,1,0,0,-1\nSKIN-1,1,0,0,0\n")
+    field = read_sed(p, coordinates=str(cells), sed_unit="MPa", length_unit="mm")
+    np.testing.assert_allclose(field.points, [[0, 0, 0], [0, 0, -1e-3]])
+    np.testing.assert_allclose(field.sed[0], [2e3, 6e3])

@@ -148,3 +148,30 @@ TENSOR_ARRAY_NAMES: dict[str, frozenset[str]] = {
 #: steps within :data:`afferent.io._read_options.SMALL_STRAIN_BOUND`.
 FINITE_STRAIN_NAMES: frozenset[str] = _c("Lagrange strain", "Green-Lagrange strain", "GREEN_LAGRANGE_STRAIN_VECTOR",
                                          "GREEN_LAGRANGE_STRAIN_TENSOR", "LE")
+
+
+# --------------------------------------------------------------------------------------
+# Part instances: Abaqus numbers the nodes of each part instance from 1, so a label names a node only with its part
+# --------------------------------------------------------------------------------------
+
+#: Names of a column of part-instance names in a table (canonical): ``Part``, ``Instance``, ``Part Instance``.
+PART_ALIASES = frozenset({"part", "instance", "partinstance", "partname", "instancename"})
+#: The note that keeps the names of a part column's codes (arrays are float): ``column 'Part' numbers the rows' part
+#: instances: 0 = 'DERMIS-1', 1 = 'EPIDERMIS-1'``.
+_PART_NOTE = re.compile(r"^column '(?P<col>[^']*)' numbers the rows' part instances: (?P<names>.*)$")
+_PART_NAME = re.compile(r"(\d+) = '([^']*)'")
+
+
+def part_note(column: str, names) -> str:
+    """The note naming the codes 0, 1, ... of part column ``column`` (parsed back by :func:`part_names`)."""
+    return f"column '{column}' numbers the rows' part instances: " + ", ".join(
+        f"{k} = '{n}'" for k, n in enumerate(names))
+
+
+def part_names(notes) -> tuple[str, tuple[str, ...]] | None:
+    """(column, part names in code order) from the notes of a table with a part column, or None."""
+    for note in notes:
+        m = _PART_NOTE.match(note)
+        if m:
+            return m.group("col"), tuple(n for _, n in _PART_NAME.findall(m.group("names")))
+    return None

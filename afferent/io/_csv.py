@@ -56,11 +56,13 @@ from ._csv_lines import (
     _COORD_NAMES,
     _FEBIO_START,
     _SEP_ALIASES,
-    _SUFFIX,
     SEPARATORS,
     _join_names,
     _load_text,
     _plural,
+    step_suffix,
+    parameter_steps,
+    sweep_parameter,
 )
 from ._csv_table import _Columns, _parse_table
 from ._raw import RawArray, RawExport
@@ -96,24 +98,18 @@ def _unit_of(raw: str | None, name: str, notes: list[str]) -> str | None:
     return unit
 
 
-def _time_suffix(header: str) -> tuple[str, float | None]:
-    m = _SUFFIX.match(header)
-    if m and canonical(m.group("var")) in TIME_ALIASES:
-        try:
-            return m.group("base").rstrip(), float(m.group("val"))
-        except ValueError:
-            pass
-    return header, None
-
-
 def _to_arrays(path: str, cols: _Columns, time_column: str | None, *, n_records: int = 1,
                record_times: np.ndarray | None = None) -> _FileArrays:
     notes = cols.notes
     entries = []  # (header, name, unit, t, values)
     seen: dict[tuple[str, float | None], str] = {}
+    swept: dict[str, list[str]] = {}  # '@ name=value' suffix name -> its column titles
     for header, vals in zip(cols.headers, cols.values):
-        base, t = _time_suffix(header)
-        name, raw_unit = split_unit(base)
+        base, pairs = step_suffix(header)
+        for var, _, _ in pairs:
+            swept.setdefault(var, []).append(header)
+        t = pairs[0][1] if pairs else None
+        name, raw_unit = split_unit(base if pairs else header)
         unit = _unit_of(raw_unit, name, notes)
         key = (name, t)
         if key in seen:
@@ -124,6 +120,7 @@ def _to_arrays(path: str, cols: _Columns, time_column: str | None, *, n_records:
         seen[key] = header
         entries.append((header, name, unit, t, vals))
 
+    param = sweep_parameter(path, swept, {v for v in swept if canonical(v) in TIME_ALIASES})
     suffixed = [e for e in entries if e[3] is not None]
     tcol = _find_time_column(path, entries, time_column, notes, auto=record_times is None and n_records == 1)
     if tcol is not None and suffixed:
@@ -142,6 +139,8 @@ def _to_arrays(path: str, cols: _Columns, time_column: str | None, *, n_records:
     time_unit = None
     if suffixed:
         times, arrays = _stack_suffixed(path, entries, notes)
+        if canonical(param) not in TIME_ALIASES:
+            times = parameter_steps(swept[param], times, notes)
     elif tcol is not None:
         times, time_unit, arrays = _group_by_time(path, cols, entries, tcol, notes)
     else:

@@ -17,7 +17,7 @@ import numpy as np
 import pandas as pd
 
 from ..exceptions import SEDFormatError
-from ._columns import COORD_ALIASES, ID_ALIASES, canonical
+from ._columns import COORD_ALIASES, ID_ALIASES, canonical, part_note
 
 # --------------------------------------------------------------------------------------
 # Line classification
@@ -54,8 +54,13 @@ _DECIMAL_COMMA = re.compile(r"^[+-]?\d+,\d+(?:[eE][+-]?\d+)?$")
 #: Cells read as missing values (NaN), on top of empty cells.
 _NA_VALUES = ["", "nan", "NaN", "NAN", "-nan", "-NaN", "+nan", "+NaN", "NA", "N/A", "n/a", "null", "NULL"]
 _NA_SET = frozenset(v.lower() for v in _NA_VALUES)
-#: COMSOL-style per-step column suffix: ``solid.Ws (J/m^3) @ t=0.02``.
-_SUFFIX = re.compile(r"^(?P<base>.*)@\s*(?P<var>[A-Za-z_][\w.]*)\s*=\s*(?P<val>\S+)\s*$")
+#: COMSOL per-step column suffix: ``solid.Ws (J/m^3) @ t=0.02``; a parametric sweep writes ``@ d=0.5`` (a real
+#: COMSOL 6.1 export: ``u (m) @ lambda=1``), a sweep of several parameters ``@ d=0.5, F=1``.
+_SUFFIX = re.compile(r"^(?P<base>.*)@\s*(?P<pairs>[A-Za-z_][\w.]*\s*=[^=@,]+(?:,\s*[A-Za-z_][\w.]*\s*=[^=@,]+)*)$")
+#: One ``name=value`` of a suffix, the value optionally with a bracketed unit: ``d=0.5``, ``d=0.5[mm]``.
+_PAIR = re.compile(r"^\s*(?P<var>[A-Za-z_][\w.]*)\s*=\s*(?P<val>[^\s\[\]]+)\s*(?:\[(?P<unit>[^\]]*)\])?\s*$")
+#: The title of an Abaqus report block of one part instance: ``Field Output reported at nodes for part: DERMIS-1``.
+_RPT_PART = re.compile(r"reported at .* for part:\s*(\S.*)$")
 #: Abaqus position qualifier in report column titles: ``SENER @Loc 1``.
 _LOC = re.compile(r"@\s*Loc\s*\d+", re.IGNORECASE)
 #: Abaqus report header lines naming the analysis step and the frame of the table below them:
@@ -197,6 +202,66 @@ def _is_data(fields: list[str]) -> bool:
             n_full += 1
             n_num += bool(_NUMBER.match(f) or _NUMBERISH.match(f))
     return n_num > 0 and 2 * n_num > n_full
+
+
+def step_suffix(header: str) -> tuple[str, tuple[tuple[str, float, str | None], ...]]:
+    """Split ``'solid.Ws (J/m^3) @ d=0.5, F=1'`` into its base ``'solid.Ws (J/m^3)'`` and its ``(name, value, unit)``
+    pairs (``(('d', 0.5, None), ('F', 1.0, None))``); a title without such a suffix (or with a value that is not a
+    number) is its own base with no pairs."""
+    m = _SUFFIX.match(header)
+    if not m:
+        return header, ()
+    pairs = []
+    for part in m.group("pairs").split(","):
+        p = _PAIR.match(part)
+        try:
+            pairs.append((p.group("var"), float(p.group("val")), (p.group("unit") or "").strip() or None))
+        except (AttributeError, ValueError):
+            return header, ()
+    return m.group("base").rstrip(), tuple(pairs)
+
+
+def sweep_parameter(path: str, swept: dict[str, list[str]], time_names) -> str | None:
+    """The one name the ``@ name=value`` column suffixes of SED file ``path`` step over (``swept``: name -> the column
+    titles naming it; ``time_names``: the names that mean time), or None without suffixes; refuses a sweep of several
+    parameters, or of a parameter and the time, which afferent cannot lay out as one series of steps."""
+    if len(swept) <= 1:
+        return next(iter(swept), None)
+    params, time = [n for n in swept if n not in time_names], [n for n in swept if n in time_names]
+    raise SEDFormatError(
+        f"SED file {path!r} sweeps {_plural(len(params), 'parameter')} ({_join_names(params)})"
+        + (f" and the time ({_join_names(time)})" if time else "")
+        + f" in its '@ name=value' column suffixes (e.g. {swept[params[0]][0]!r}); afferent reads the steps of one "
+        "parameter or of the time per file. Export one value of the others at a time (COMSOL: Results > Export > Data, "
+        "a single parameter value or time in the data set's selection) and read each file on its own."
+    )
+
+
+def parameter_steps(headers: list[str], values: np.ndarray, notes: list[str]) -> None:
+    """A parametric sweep's steps (COMSOL ``@ d=0.5`` columns) have no times: None, with a note naming the values."""
+    var, _, unit = step_suffix(headers[0])[1][0]
+    units = {step_suffix(h)[1][0][2] for h in headers} - {None}
+    unit = f" ({', '.join(sorted(units))})" if units else ""
+    notes[:] = [n.replace("'@ t='", f"'@ {var}='").replace("time step", "step") for n in notes]
+    notes.append(f"steps are values of parameter {var}{unit}, not times: {var} = {', '.join(f'{v:g}' for v in values)}; "
+                 f"pass times= (--times) to give the steps times")
+    return None
+
+
+def _add_parts(lines: list[str], row_lines: np.ndarray, headers: list, values: list, notes: list, n_records: int):
+    """Add the column ``Part`` (codes 0, 1, ..., the names in a note) to the columns of an Abaqus report whose blocks
+    are of two or more part instances (``Field Output reported at nodes for part: DERMIS-1`` above each) and whose
+    labels (first column) repeat within a frame across them: each part instance numbers its nodes from 1, so a row
+    is its part and its label. ``row_lines``: the rows' 1-based line numbers."""
+    found = [(i + 1, m.group(1).strip()) for i, line in enumerate(lines)
+             if "for part:" in line and (m := _RPT_PART.search(line))]
+    names = list(dict.fromkeys(n for _, n in found))
+    at = np.searchsorted(np.asarray([ln for ln, _ in found]), row_lines) - 1  # the last part line above each row
+    labels = values[0][: len(row_lines) // n_records] if values else np.empty(0)
+    if len(names) > 1 and (at >= 0).all() and len(np.unique(labels)) < labels.size:
+        headers.append("Part")
+        values.append(np.asarray([names.index(n) for _, n in found], dtype=np.float64)[at])
+        notes.append(part_note("Part", names))
 
 
 def _plural(n: int, word: str) -> str:

@@ -18,7 +18,7 @@ import pandas as pd
 
 from ..exceptions import SEDFormatError
 from ..units import parse_unit
-from ._columns import split_unit
+from ._columns import PART_ALIASES, canonical, part_note, split_unit
 from ._csv_lines import (
     _COMMENT_STRIP,
     _DECIMAL_COMMA,
@@ -53,7 +53,7 @@ from ._csv_lines import (
     _check_frame_labels,
     _frame_records,
     _join_wrapped,
-    _report_frame,
+    _report_frame, _add_parts,
     _report_position_note,
     _spans,
     _split,
@@ -381,6 +381,8 @@ def _parse_table(path: str, lines: list[str], sep: str | None, notes: list[str])
     if names != [re.sub(r"\s+", " ", n.strip()) for n in header.names]:
         notes.append("removed Abaqus position qualifiers ('@Loc N') from column names")
     headers, values = _read_rows(path, rows, row_lines, delim, names, header.line, notes)
+    if tally["blocks"] > 1:
+        _add_parts(lines, np.asarray(row_lines), headers, values, notes, n_records)
     if n_records > 1:
         _check_frame_labels(path, headers, values, row_lines, n_records)
     return _Columns(headers, values, np.asarray(row_lines), header.line, meta, notes, n_records, times)
@@ -561,6 +563,10 @@ def _read_rows(path, rows, row_lines, delim, names, header_line, notes):
         if bad_rows.size:
             r = int(bad_rows[0])
             cell = str(raw[r]).strip()
+            if n_valid == 0 and canonical(name) in PART_ALIASES:  # part instance names: codes, the names in a note
+                codes, uniq = pd.factorize(col.astype(str).str.strip())
+                headers.append(name), values.append(codes.astype(np.float64)), notes.append(part_note(name, uniq))
+                continue
             if n_valid == 0 and name and not _NUMBERISH.match(cell):
                 notes.append(f"dropped column {_quote(name)}: it holds text, not numbers (e.g. {_quote(cell)})")
                 continue

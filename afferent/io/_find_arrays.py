@@ -66,15 +66,19 @@ _POINT_IDS = frozenset(C.canonical(n) for n in ("ip", "intpt", "integrationpoint
 def integration_point_groups(raw: RawExport) -> np.ndarray | None:
     """For an integration-point table (element ids repeat, an integration-point column such as
     CalculiX's ``integ.pnt.`` or Abaqus' ``Int Pt``), the element of each row as an index into
-    the unique element ids; None for any other table."""
+    the unique element ids (of (part, element) pairs when the rows name their part instances); None for any other
+    table."""
     rid = _id_array(raw)
     ip = next((a for a in raw.arrays.values() if a.ndim == 2 and C.canonical(a.name) in _POINT_IDS), None)
     if rid is None or ip is None or C.canonical(rid.name) not in _ELEMENT_IDS:
         return None
-    ids = rid.values[0]
-    if np.unique(ids).size == ids.size:
+    ids = rid.values[0][:, None]
+    parts = C.part_names(raw.notes)
+    if parts is not None and parts[0] in raw.arrays:  # element labels repeat across part instances: (part, label)
+        ids = np.column_stack([raw.arrays[parts[0]].values[0], ids])
+    if np.unique(ids, axis=0).shape[0] == ids.shape[0]:
         return None
-    return np.unique(ids, return_inverse=True)[1].ravel()
+    return np.unique(ids, axis=0, return_inverse=True)[1].ravel()
 
 
 def average_per_element(values: np.ndarray, groups: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -124,7 +128,42 @@ def _coordinate_table(path: str, rid: RawArray):
             f"Coordinates file {path!r} must have an id column (e.g. 'Node Label', 'node', 'id') and x, y, z; "
             f"found {_names(table)}."
         )
-    return tid.values[0], xyz, table.length_unit, f"{tid.name!r} ({', '.join(names)})"
+    ids = tid.values[0]
+    parts = C.part_names(table.notes)
+    if parts is not None:  # (part, label) keys: the labels as text behind the part name
+        code = table.arrays[parts[0]].values[0].astype(int)
+        ids = np.asarray([f"{parts[1][c]}\0{i:g}" for c, i in zip(code, ids)])
+    return ids, xyz, table.length_unit, f"{tid.name!r} ({', '.join(names)})" + (f" keyed by part instance (column {parts[0]!r}) and label" if parts else "")
+
+
+def _part_keys(raw: RawExport, path: str, rid: RawArray, t_ids: np.ndarray) -> np.ndarray:
+    """The report's ids as (part, label) keys when its labels repeat across its part instances and the coordinates
+    table ``path`` names the parts; refuses when it does not."""
+    col, names = C.part_names(raw.notes)
+    code = raw.arrays[col].values[0].astype(int)
+    if t_ids.dtype.kind != "U":
+        raise SEDFormatError(
+            f"SED file {_where(raw)!r}: its node labels ({rid.name!r}) repeat across its part instances "
+            f"({', '.join(map(repr, names))}: each numbers its nodes from 1), so coordinates file {path!r} must name "
+            "the part of each row: give it a 'Part' (or 'Instance') column, e.g. 'Part,Node Label,X,Y,Z' with rows "
+            f"'{names[0]},1,...' (Abaqus: report the reference node coordinates of every part instance)."
+        )
+    return np.asarray([f"{names[c]}\0{i:g}" for c, i in zip(code, rid.values[0])])
+
+
+
+
+def _one_part(raw: RawExport, path: str, t_ids: np.ndarray, xyz: np.ndarray, what: str):
+    """The coordinates of a table that names parts, for a report of one part (labels unique): its labels alone."""
+    parts, labels = zip(*(k.split("\0") for k in t_ids))
+    ids = np.asarray(labels, dtype=np.float64)
+    if len(np.unique(ids)) != ids.size:
+        raise SEDFormatError(
+            f"Coordinates file {path!r} names the part instances {', '.join(map(repr, dict.fromkeys(parts)))}, whose "
+            f"labels repeat, but SED file {_where(raw)!r} names none (a report of one part): keep the rows of its part "
+            "only."
+        )
+    return ids, xyz, what
 
 
 def join_coordinates(raw: RawExport, path: str) -> RawExport:
@@ -140,6 +179,10 @@ def join_coordinates(raw: RawExport, path: str) -> RawExport:
         )
     t_ids, xyz, length_unit, what = _coordinate_table(path, rid)
     r_ids = rid.values[0]
+    if len(np.unique(r_ids)) != r_ids.size and C.part_names(raw.notes) is not None:
+        r_ids = _part_keys(raw, path, rid, t_ids)
+    elif t_ids.dtype.kind == "U":  # a report of one part: the table's labels of that part
+        t_ids, xyz, what = _one_part(raw, path, t_ids, xyz, what)
     if len(np.unique(t_ids)) != t_ids.size:
         raise SEDFormatError(f"Coordinates file {path!r}: the ids of its {what} must be unique.")
     if len(np.unique(r_ids)) != r_ids.size and integration_point_groups(raw) is None:
@@ -155,8 +198,9 @@ def join_coordinates(raw: RawExport, path: str) -> RawExport:
     if not found.all():
         missing = r_ids[~found][:5]
         raise SEDFormatError(
-            f"Coordinates file {path!r} lacks {int((~found).sum())} id(s) of SED file {_where(raw)!r} "
-            f"(first: {', '.join(f'{v:g}' for v in missing)})."
+            f"Coordinates file {path!r} lacks {int((~found).sum())} id(s) of SED file {_where(raw)!r} (first: "
+            + ", ".join(f"{v:g}" if r_ids.dtype.kind != "U" else "label {1} of part {0}".format(*v.split("\0"))
+                        for v in missing) + ")."
         )
     points = xyz[order][pos]
     return RawExport(

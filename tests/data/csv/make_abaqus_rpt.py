@@ -1,4 +1,5 @@
-"""Write the Abaqus report files abaqus_frames.rpt and abaqus_wrapped.rpt of this folder.
+"""Write the Abaqus report files abaqus_frames.rpt, abaqus_parts.rpt (+ abaqus_parts_nodes.csv) and abaqus_wrapped.rpt
+of this folder.
 
 Run from anywhere: ``python tests/data/csv/make_abaqus_rpt.py``. No Abaqus is needed: the layouts
 imitate real Abaqus/CAE field reports (Report > Field Output) printed in the Abaqus Getting Started
@@ -26,27 +27,35 @@ def _source(step: str, increment: int, step_time: str, position: str, sort: str)
     )
 
 
-def _frames() -> str:
-    """Two frames of step 'Indent', each with two parts (instances) whose node labels both start at 1."""
-    parts = {
-        "DERMIS-1": [(1, "0.", "0.", "-1.", ["100.E-06", "400.E-06"]),
-                     (2, "1.", "0.", "-1.", ["200.E-06", "800.E-06"]),
-                     (3, "0.", "1.", "-1.", ["300.E-06", "1.2E-03"]),
-                     (4, "1.", "1.", "-1.", ["1.11111E-03", "4.44444E-03"])],
-        "EPIDERMIS-1": [(1, "0.", "0.", "0.", ["33.3333E-06", "133.333E-06"]),
-                        (2, "500.E-03", "500.E-03", "-0.", ["2.5E-03", "10.E-03"])],
-    }
+PARTS = {
+    "DERMIS-1": [(1, "0.", "0.", "-1.", ["100.E-06", "400.E-06"]),
+                 (2, "1.", "0.", "-1.", ["200.E-06", "800.E-06"]),
+                 (3, "0.", "1.", "-1.", ["300.E-06", "1.2E-03"]),
+                 (4, "1.", "1.", "-1.", ["1.11111E-03", "4.44444E-03"])],
+    "EPIDERMIS-1": [(1, "0.", "0.", "0.", ["33.3333E-06", "133.333E-06"]),
+                    (2, "500.E-03", "500.E-03", "-0.", ["2.5E-03", "10.E-03"])],
+}
+
+
+def _frames(coord: bool = True) -> str:
+    """Two frames of step 'Indent', each with two parts (instances) whose node labels both start at 1; with the
+    nodes' COORD columns, or (``coord=False``) SENER alone, the reference positions then given by
+    abaqus_parts_nodes.csv."""
     out = []
     for k, (inc, t) in enumerate(((5, "0.5000"), (10, "1.000"))):
         out.append(_source("Indent", inc, t, "Nodal", "Node Label"))
-        for part, rows in parts.items():
+        for part, rows in PARTS.items():
             out.append(f"Field Output reported at nodes for part: {part}\n\n")
-            out.append("            Node     COORD.COOR1     COORD.COOR2     COORD.COOR3           SENER\n"
-                       "           Label          @Loc 1          @Loc 1          @Loc 1          @Loc 1\n"
-                       + "-" * 81 + "\n")
+            if coord:
+                out.append("            Node     COORD.COOR1     COORD.COOR2     COORD.COOR3           SENER\n"
+                           "           Label          @Loc 1          @Loc 1          @Loc 1          @Loc 1\n"
+                           + "-" * 81 + "\n")
+            else:
+                out.append("            Node           SENER\n           Label          @Loc 1\n" + "-" * 33 + "\n")
             for label, x, y, z, sed in rows:
-                out.append(f"{label:16d}{x:>16s}{y:>16s}{z:>16s}{sed[k]:>16s}\n")
-            cols = [[r[1] for r in rows], [r[2] for r in rows], [r[3] for r in rows], [r[4][k] for r in rows]]
+                out.append(f"{label:16d}" + (f"{x:>16s}{y:>16s}{z:>16s}" if coord else "") + f"{sed[k]:>16s}\n")
+            cols = ([[r[1] for r in rows], [r[2] for r in rows], [r[3] for r in rows]] if coord else []) + [
+                [r[4][k] for r in rows]]
             lo = [min(range(len(c)), key=lambda i, c=c: float(c[i])) for c in cols]
             hi = [max(range(len(c)), key=lambda i, c=c: float(c[i])) for c in cols]
             out.append("\n\n  Minimum       " + "".join(f"{c[i]:>16s}" for c, i in zip(cols, lo)) + "\n"
@@ -54,6 +63,13 @@ def _frames() -> str:
                        "  Maximum       " + "".join(f"{c[i]:>16s}" for c, i in zip(cols, hi)) + "\n"
                        "         At Node" + "".join(f"{rows[i][0]:>16d}" for i in hi) + "\n\n\n")
     return "".join(out)
+
+
+def _part_nodes() -> str:
+    """The reference positions of both parts' nodes, keyed by (part, label): the table --coordinates reads."""
+    return "Part,Node Label,X,Y,Z\n" + "".join(
+        f"{part},{label},{float(x):g},{float(y):g},{float(z):g}\n"
+        for part, rows in reversed(PARTS.items()) for label, x, y, z, _ in rows)
 
 
 def _wrapped() -> str:
@@ -86,4 +102,6 @@ def _wrapped() -> str:
 
 if __name__ == "__main__":
     (HERE / "abaqus_frames.rpt").write_text(_frames())
+    (HERE / "abaqus_parts.rpt").write_text(_frames(coord=False))
+    (HERE / "abaqus_parts_nodes.csv").write_text(_part_nodes())
     (HERE / "abaqus_wrapped.rpt").write_text(_wrapped())
