@@ -497,10 +497,21 @@ def write_spikes_nwb(path: str, spikes, afferent) -> None:
         io.write(nwb)
 
 
-def _figures(path, want, *, sed_static, sed, current, branching, afferent, fit, waveform, spikes, profile_index):
+#: The PNGs :func:`_figures` can draw, in the order it draws them.
+FIGURE_ORDER = ("sed_map.png", "profiles_x.png", "profiles_z.png", "fit.png", "waveform.png", "raster.png", "rates.png",
+                "psth.png")
+
+
+def _figures(path, want, *, sed_static, sed, current, branching, afferent, fit, waveform, spikes, profile_index,
+             only=None, skip=frozenset()):
+    """Draw the run's PNGs (:func:`write_outputs`), in this order; ``only`` / ``skip``: the PNG names to draw /
+    to leave out (the figure process and the run each draw a part: afferent._figure_process.RUN_DRAWS)."""
     from . import plotting
 
-    if "sed_map" in want:
+    def drawn(name: str) -> bool:
+        return (only is None or name in only) and name not in skip
+
+    if "sed_map" in want and drawn("sed_map.png"):
         import matplotlib.pyplot as plt
 
         fig, axes = plt.subplots(1, 2, figsize=(10, 4.2), layout="constrained")
@@ -520,18 +531,22 @@ def _figures(path, want, *, sed_static, sed, current, branching, afferent, fit, 
 
         layout = sed.layout
         for axis, kind, name in (("x", "longitudinal", "profiles_x.png"), ("z", "cross", "profiles_z.png")):
+            if not drawn(name):
+                continue
             aff = afferent if branching.kind == kind else synthesize(
                 current, Branching.longitudinal(layout) if kind == "longitudinal" else Branching.cross(layout))
             ax = plotting.plot_section_profiles(sed, current, aff, axis=axis, time_index=profile_index,
                                                 title=step_title(f"Profiles along {axis}", sed.times, profile_index,
                                                                  sed.values.shape[0]))
             plotting.save_figure(ax, path(name))
-    if "fit" in want and fit is not None:
+    if "fit" in want and fit is not None and drawn("fit.png"):
         plotting.save_figure(plotting.plot_fit(fit), path("fit.png"))
-    if waveform is not None:
+    if waveform is not None and drawn("waveform.png"):
         plotting.save_figure(plotting.plot_waveform(waveform), path("waveform.png"))
     if "spikes" in want and spikes is not None:
-        plotting.save_figure(plotting.plot_raster(spikes), path("raster.png"))
-        plotting.save_figure(plotting.plot_rates(spikes, positions=afferent, waveform=waveform), path("rates.png"))
-        bin_width = max(spikes.duration / 50, spikes.dt)
-        plotting.save_figure(plotting.plot_psth(spikes, bin_width), path("psth.png"))
+        if drawn("raster.png"):
+            plotting.save_figure(plotting.plot_raster(spikes), path("raster.png"))
+        if drawn("rates.png"):
+            plotting.save_figure(plotting.plot_rates(spikes, positions=afferent, waveform=waveform), path("rates.png"))
+        if drawn("psth.png"):
+            plotting.save_figure(plotting.plot_psth(spikes, max(spikes.duration / 50, spikes.dt)), path("psth.png"))

@@ -129,6 +129,7 @@ def test_run_json_records_where_the_figures_were_drawn(both):
     if usable_cores() >= 2:  # two usable cores
         assert sep["figures"]["process"] == "separate"
         assert sep["figures"]["seconds"] > 0 and sep["figures"]["start_s"] > 0 and sep["figures"]["waited_s"] >= 0
+        assert sep["figures"]["here_s"] > 0  # the run drew its part (RUN_DRAWS: raster, rates) while the child drew
     assert same["figures"] == {"process": "same", "why": f"{ENV}=0", "seconds": same["figures"]["seconds"]}
     assert sorted(sep["outputs"]) == sorted(same["outputs"])
     assert [w["message"] for w in sep["warnings"]] == [w["message"] for w in same["warnings"]]
