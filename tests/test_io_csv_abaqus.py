@@ -380,3 +380,29 @@ def test_integration_points_of_two_parts_averaged_per_part_and_element(tmp_path)
     field = read_sed(p, coordinates=str(cells), sed_unit="MPa", length_unit="mm")
     np.testing.assert_allclose(field.points, [[0, 0, 0], [0, 0, -1e-3]])
     np.testing.assert_allclose(field.sed[0], [2e3, 6e3])
+
+
+def test_one_frame_per_file_of_several_parts_joins_with_coordinates_or_is_refused_when_parts_are_reordered(tmp_path):
+    """Reports of several part instances, one frame per file: the same parts in the same order join with a
+    coordinates table on (part, label); before, the joined notes ('all 2 files: column ...') hid the part names and
+    the join refused the files as 'a report of one part'. Parts in another order in a later file number the rows
+    otherwise (its codes would name other parts): refused, naming the orders."""
+    data = Path(__file__).parent / "data" / "csv"
+    lines = (data / "abaqus_parts.rpt").read_text().split("\n")
+    start = [k for k, line in enumerate(lines) if line.startswith("*****")][1]  # the second frame's report
+    first, second = "\n".join(lines[:start]) + "\n", "\n".join(lines[start:])
+    a, b = tmp_path / "f5.rpt", tmp_path / "f10.rpt"
+    a.write_text(first)
+    b.write_text(second)
+    nodes = str(data / "abaqus_parts_nodes.csv")
+    both = read_sed([str(a), str(b)], coordinates=nodes, length_unit="mm", sed_unit="MPa")
+    whole = read_sed(str(data / "abaqus_parts.rpt"), coordinates=nodes, length_unit="mm", sed_unit="MPa")
+    np.testing.assert_array_equal(both.sed, whole.sed)
+    np.testing.assert_array_equal(both.points, whole.points)
+    i, j = second.index("Field Output reported at nodes for part: DERMIS-1"), second.index(
+        "Field Output reported at nodes for part: EPIDERMIS-1")
+    b.write_text(second[:i] + second[j:].rstrip("\n") + "\n\n\n" + second[i:j])  # EPIDERMIS-1 first
+    msg = (f"SED file {str(b)!r} must report the part instances of {str(a)!r} in the same order ('DERMIS-1', "
+           "'EPIDERMIS-1'); got 'EPIDERMIS-1', 'DERMIS-1' instead.")
+    with pytest.raises(SEDFormatError, match=re.escape(msg)):
+        read_csv([str(a), str(b)])

@@ -158,7 +158,7 @@ FINITE_STRAIN_NAMES: frozenset[str] = _c("Lagrange strain", "Green-Lagrange stra
 PART_ALIASES = frozenset({"part", "instance", "partinstance", "partname", "instancename"})
 #: The note that keeps the names of a part column's codes (arrays are float): ``column 'Part' numbers the rows' part
 #: instances: 0 = 'DERMIS-1', 1 = 'EPIDERMIS-1'``.
-_PART_NOTE = re.compile(r"^column '(?P<col>[^']*)' numbers the rows' part instances: (?P<names>.*)$")
+_PART_NOTE = re.compile(r"^(?:all \d+ files: )?column '(?P<col>[^']*)' numbers the rows' part instances: (?P<names>.*)$")
 _PART_NAME = re.compile(r"(\d+) = '([^']*)'")
 
 

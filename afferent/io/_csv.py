@@ -49,7 +49,7 @@ from ..exceptions import SEDFormatError
 from ..units import TIME_UNITS, parse_unit
 from ._columns import TIME_ALIASES, canonical, split_unit
 from ._csv_blocks import (_is_sectionwise, _parse_ccx, _parse_febio, _parse_mapdl, _parse_sectionwise,
-                          _refuse_comsol_layout, _same_mesh)
+                          _refuse_comsol_layout, _same_mesh, _same_parts)
 from ._csv_lines import (
     _CCX_START,
     _MAPDL_START,
@@ -555,6 +555,7 @@ def _merge(files: list[str], per_file: list[_FileArrays], along: str = "time") -
                 f"'@ t=' suffix or '*Time' instead."
             )
     _same_mesh(files, per_file)
+    _same_parts(files, per_file)
     times = None if ref.times is None else np.concatenate([fa.times for fa in per_file])
     length_unit = _agree(files, [fa.length_unit for fa in per_file], "length unit")
     time_unit = _agree(files, [fa.time_unit for fa in per_file], "time unit")

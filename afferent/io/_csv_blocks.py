@@ -807,6 +807,19 @@ def _refuse_comsol_layout(path: str, head: str) -> None:
             "Data format: Spreadsheet (or Sectionwise) on the mesh nodes (docs/fe-export.md, COMSOL).")
 
 
+def _same_parts(files, per_file) -> None:
+    """Files stacked along time must number the same part instances alike (an Abaqus report's ``Part`` codes)."""
+    from ._columns import part_names
+
+    first = part_names(per_file[0].notes)
+    for path, fa in zip(files[1:], per_file[1:]):
+        other = part_names(fa.notes)
+        if other != first:
+            said = lambda p: "none" if p is None else ", ".join(map(repr, p[1]))  # noqa: E731
+            raise SEDFormatError(f"SED file {path!r} must report the part instances of {files[0]!r} in the same order "
+                                 f"({said(first)}); got {said(other)} instead.")
+
+
 def _same_mesh(files: list[str], per_file: list) -> None:
     """Files stacked along time that carry a mesh (COMSOL sectionwise) must carry the same points and cells."""
     ref = per_file[0]
