@@ -17,7 +17,7 @@ the materials the interface site finders and ``side=`` use.
 MOOSE writes tensor components as separate scalar variables (``stress_xx``, ``stress_xy``, ...
 from RankTwoAux); afferent matches them by name. Their shear is tensor shear (stress =
 C : elastic_strain with tensor shear, checked during development on MOOSE's test files with
-tools/check_exodus_files.py; docs/fe-export.md). Exodus has no units: the user declares them.
+benchmarks/check_exodus_files.py; docs/fe-export.md). Exodus has no units: the user declares them.
 """
 
 from __future__ import annotations
@@ -42,7 +42,7 @@ EXODUS_ELEMENTS = {
 #: Exodus II node order -> VTK/meshio's, for the types where they differ (the columns of VTK's order
 #: in Exodus's): Exodus numbers the vertical edges' mid-nodes before the top face's (HEX20, HEX27,
 #: WEDGE15, WEDGE18: HEX20 checked on VTK 9.7.2's IOSS writer, tests/data/exodus/hex20_ioss.e, and on MOOSE's
-#: HEX20 patch test with tools/check_exodus_files.py)
+#: HEX20 patch test with benchmarks/check_exodus_files.py)
 #: and a HEX27's centre node before its face nodes (-z, +z, -x, +x, -y, +y; VTK: -x, +x, -y, +y,
 #: -z, +z, centre), per the Exodus II manual's table of higher-order nodes (as libMesh's Exodus
 #: reader maps them; no HEX27 file in the tests).
