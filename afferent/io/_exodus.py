@@ -26,7 +26,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..exceptions import SEDFormatError
-from ._raw import RawArray, RawExport, check_export_file
+from ._raw import RawArray, RawExport, check_export_file, material_array
 
 __all__ = ["read_exodus", "EXODUS_ELEMENTS"]
 
@@ -263,11 +263,12 @@ def _material_array(nc, volume: list, n_t: int) -> tuple[RawArray | None, str | 
     if len(set(block_ids)) < 2:
         return None, None
     values = np.concatenate([np.full(n, float(b)) for b, (_, n) in zip(block_ids, volume)])
+    material = material_array(values, n_t)
     labels = [f"{b} {names[j - 1]!r}" if j - 1 < len(names) and names[j - 1] else str(b)
               for b, (j, _) in zip(block_ids, volume)]
     note = (f"cell array 'material': the element block id of each cell ({len(set(block_ids))} blocks: "
             f"{', '.join(labels)})")
-    return RawArray("material", np.broadcast_to(values, (max(n_t, 1), values.size)), "cell"), note
+    return material, note
 
 
 def read_exodus(path: str, *, progress: bool = False) -> RawExport:

@@ -30,7 +30,7 @@ import zlib
 import numpy as np
 
 from ..exceptions import SEDFormatError
-from ._raw import RawArray, RawExport, drop_valueless_nodes
+from ._raw import RawArray, RawExport, drop_valueless_nodes, material_array
 
 __all__ = ["read_frd", "frd_mesh"]
 
@@ -309,10 +309,9 @@ def _material_array(numbers: list[int], n_times: int) -> RawArray | None:
     several, the interface between two of them can be found (``--grid tips --material-array
     material``); one material (or none, 0) gives no array.
     """
-    material = np.asarray(numbers, dtype=float)
-    if material.size == 0 or material.min() < 1 or np.unique(material).size < 2:
+    if len(numbers) == 0 or min(numbers) < 1:
         return None
-    return RawArray("material", np.broadcast_to(material, (n_times, material.size)), "cell")
+    return material_array(numbers, n_times)
 
 
 def read_frd(path: str, *, progress: bool = False) -> RawExport:

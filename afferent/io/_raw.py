@@ -34,7 +34,7 @@ import numpy as np
 from ..exceptions import SEDFormatError
 from ..field import Cells
 
-__all__ = ["RawExport", "RawArray", "Deferred", "check_export_file", "drop_valueless_nodes", "split_steps", "stack_steps", "files_read", "h5_files"]
+__all__ = ["RawExport", "RawArray", "Deferred", "check_export_file", "material_array", "drop_valueless_nodes", "split_steps", "stack_steps", "files_read", "h5_files"]
 
 
 class Deferred:
@@ -208,6 +208,25 @@ class RawExport:
         for arr in self.arrays.values():
             return arr.shape[0]
         return 0
+
+
+def material_array(ids, n_times: int = 1) -> RawArray | None:
+    """Each cell's material id (cell order, the same at every step) as the cell array ``material``, or None
+    when the cells carry fewer than two ids: the array the interface site finders (``--material-array``)
+    and ``side=`` use. For readers whose format states materials (a CalculiX ``.frd``'s material
+    numbers, an FEBio ``.xplt``'s parts, an Exodus file's element blocks).
+
+    Parameters
+    ----------
+    ids : array_like of shape (n_cells,)
+        Material id of each volume cell (a number).
+    n_times : int
+        Time steps of the export (the array is broadcast over them, not copied).
+    """
+    ids = np.asarray(ids, dtype=float).ravel()
+    if ids.size == 0 or np.unique(ids).size < 2:
+        return None
+    return RawArray("material", np.broadcast_to(ids, (max(n_times, 1), ids.size)), "cell")
 
 
 def check_export_file(path: str) -> None:

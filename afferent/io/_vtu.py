@@ -130,12 +130,12 @@ def _raw_appended(path: str):
             by_offset.setdefault(int(a.get("offset")), []).append(a)
     compressor = root.attrib.pop("compressor", None)
     unzip = {"vtkLZMADataCompressor": lzma, "vtkZLibDataCompressor": zlib, None: None}[compressor]
-    encoded, i = [], 0
+    encoded, i, at = [], 0, 0  # at: where the next array starts in the base64 text
     for offset in sorted(by_offset):
         if offset != i:
             raise ReadError(f"appended data: an array at byte {offset}, the previous one ends at {i}")
         for a in by_offset[offset]:
-            a.set("offset", str(sum(len(e) for e in encoded)))
+            a.set("offset", str(at))
         if unzip is None:
             size = int(np.frombuffer(data[i:i + head.itemsize], head)[0])
             block, i = data[i:i + head.itemsize + size], i + head.itemsize + size
@@ -147,6 +147,7 @@ def _raw_appended(path: str):
                             for a, b in zip(np.r_[0, np.cumsum(sizes)[:-1]], np.cumsum(sizes)))
             block, i = np.array([len(body)]).astype(head).tobytes() + body, i + int(sizes.sum())
         encoded.append(base64.b64encode(block).decode())
+        at += len(encoded[-1])
     tag = root.find("AppendedData")
     tag.set("encoding", "base64")
     tag.text = "_" + "".join(encoded)

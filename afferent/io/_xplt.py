@@ -44,7 +44,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ._raw import RawArray, RawExport, stack_steps
+from ._raw import RawArray, RawExport, material_array, stack_steps
 from ._xplt_file import _BY_CORNERS, _Model, _Variable, _File, _err, _model, _states
 
 __all__ = ["read_xplt", "iter_xplt", "xplt_step_count"]
@@ -157,9 +157,9 @@ def _arrays(model: _Model, volume: list, data: dict, path: str, time: float, els
             elsewhere.append(var.name)
         elif note := _partial_note(var, blocks, volume):
             partial.append(note)
-    material = np.concatenate([np.full(d.conn.shape[0], float(d.part)) for d in volume]) if volume else None
-    if material is not None and np.unique(material).size > 1 and "material" not in arrays:
-        arrays["material"] = RawArray("material", material[None], "cell")
+    material = material_array(np.repeat([d.part for d in volume], [d.conn.shape[0] for d in volume])) if volume else None
+    if material is not None and "material" not in arrays:
+        arrays["material"] = material
     return arrays
 
 
