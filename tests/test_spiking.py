@@ -161,8 +161,9 @@ def test_brian2_and_fast_engines_agree_spike_for_spike(mode, params, dt):
 
 
 def test_brian2_leaves_global_codegen_target_alone():
-    import brian2
+    from afferent.spiking._brian2 import import_brian2
 
+    brian2 = import_brian2()
     before = brian2.prefs.codegen.target
     simulate_lif(constant([3 * RA.rheobase], 50), RA, dt=1e-4, engine="brian2")
     assert brian2.prefs.codegen.target == before

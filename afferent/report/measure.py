@@ -269,8 +269,10 @@ def spike_errors(trains, ref) -> dict:
 
 
 def _has_brian2() -> bool:
+    from ..spiking._brian2 import import_brian2
+
     try:
-        import brian2  # noqa: F401
+        import_brian2()
     except Exception:  # noqa: BLE001 - brian2 can fail to import in several ways (numpy too new)
         return False
     return True

@@ -1,7 +1,8 @@
 """The grid engines of :func:`afferent.spiking.simulate_lif`: 'fast' (numba or numpy) and 'brian2'.
 
 Both follow brian2's grid semantics, step for step (see :mod:`afferent.spiking`). This is the
-only module of :mod:`afferent` that imports brian2, inside :func:`_run_brian2`.
+only module of :mod:`afferent` that runs brian2, inside :func:`_run_brian2` (imported through
+:func:`afferent.spiking._brian2.import_brian2`, which keeps the process's warnings as they were).
 """
 
 from __future__ import annotations
@@ -275,7 +276,9 @@ def _run_brian2(plan: _Plan, cols: np.ndarray, params: LIFParams, links=None):
     a spike of ``pre`` resets ``post`` and makes it refractory in the same step (a
     ``Synapses`` without delay, applied before the resets).
     """
-    import brian2 as b2
+    from ._brian2 import import_brian2, quiet
+
+    b2 = import_brian2()
     from brian2.codegen.runtime.numpy_rt import NumpyCodeObject
 
     dt = plan.dt
@@ -289,32 +292,35 @@ def _run_brian2(plan: _Plan, cols: np.ndarray, params: LIFParams, links=None):
         table = plan.values[: last_row + 1][:, cols]
     else:  # irregular input: resample onto the simulation grid (per-step constant)
         table, ta_dt = plan.values[np.ix_(plan.idx, cols)], dt
-    timed = b2.TimedArray(table * b2.amp, dt=ta_dt * b2.second)
-    group = b2.NeuronGroup(
-        cols.size,
-        _BRIAN2_EQS,
-        threshold="v >= v_thresh",
-        reset="v = v_reset",
-        refractory=params.t_ref * b2.second,
-        method="exact",
-        dt=dt * b2.second,
-        namespace={"I_in": timed},
-        codeobj_class=NumpyCodeObject,
-    )
-    group.v_rest = params.v_rest * b2.volt
-    group.v_thresh = params.v_thresh * b2.volt
-    group.v_reset = params.v_reset * b2.volt
-    group.r_m = params.r_m * b2.ohm
-    group.tau_m = params.tau_m * b2.second
-    group.v = params.v_rest * b2.volt
-    monitor = b2.SpikeMonitor(group, codeobj_class=NumpyCodeObject)
-    net = b2.Network(group, monitor)
-    if links is not None and len(links[0]):
-        syn = b2.Synapses(group, group, on_pre="v_post = v_reset_post\nlastspike_post = t\nnot_refractory_post = False",
-                          codeobj_class=NumpyCodeObject)
-        syn.connect(i=np.asarray(links[0]), j=np.asarray(links[1]))
-        net.add(syn)
-    net.run(plan.n_steps * dt * b2.second, namespace={})
+    with quiet():  # brian2's equation parser provokes pyparsing's deprecation warnings
+        timed = b2.TimedArray(table * b2.amp, dt=ta_dt * b2.second)
+        group = b2.NeuronGroup(
+            cols.size,
+            _BRIAN2_EQS,
+            threshold="v >= v_thresh",
+            reset="v = v_reset",
+            refractory=params.t_ref * b2.second,
+            method="exact",
+            dt=dt * b2.second,
+            namespace={"I_in": timed},
+            codeobj_class=NumpyCodeObject,
+        )
+        group.v_rest = params.v_rest * b2.volt
+        group.v_thresh = params.v_thresh * b2.volt
+        group.v_reset = params.v_reset * b2.volt
+        group.r_m = params.r_m * b2.ohm
+        group.tau_m = params.tau_m * b2.second
+        group.v = params.v_rest * b2.volt
+        monitor = b2.SpikeMonitor(group, codeobj_class=NumpyCodeObject)
+        net = b2.Network(group, monitor)
+        if links is not None and len(links[0]):
+            # on the neurons' clock (brian2's default 0.1 ms clock would put the reset zones' lastspike on
+            # its own grid: they left refractory up to 5 steps late at dt < 0.1 ms, issue 32)
+            syn = b2.Synapses(group, group, on_pre="v_post = v_reset_post\nlastspike_post = t\nnot_refractory_post = False",
+                              dt=dt * b2.second, codeobj_class=NumpyCodeObject)
+            syn.connect(i=np.asarray(links[0]), j=np.asarray(links[1]))
+            net.add(syn)
+        net.run(plan.n_steps * dt * b2.second, namespace={})
     steps = np.rint(np.asarray(monitor.t_) / dt).astype(np.int64)
     return _group_numpy(steps, np.asarray(monitor.i, dtype=np.int64), cols.size)
 
