@@ -21,8 +21,10 @@ Lifetime: the child dies with the run (an error, Ctrl-C or a kill of the run sto
 kernel kills it with its parent), ignores Ctrl-C itself (the run stops it), and exits after its one
 drawing. A child that dies before it answers (the out-of-memory killer, a SIGKILL, a crash) fails
 nothing: the run draws the figures itself, over what the child left half done (the same PNGs),
-warns once and says so in ``run.json``'s ``figures`` (``process`` 'same', ``fallback``: why); an
-error the child reports ends the run as it would in the run's own process.
+warns once and says so in ``run.json``'s ``figures`` (``process`` 'same', ``fallback``: why); so
+does a child alive but stuck, killed first: stopped (SIGSTOP, a debugger; Linux ``/proc``) for
+:data:`STOPPED_S` s, or silent for :data:`WAIT_S` s. An error the child reports ends the run as it
+would in the run's own process.
 
 When (:func:`choose`): only for an export of :data:`MIN_EXPORT_BYTES` or more (its data files: an
 index's VTU steps or HDF5 files count, :func:`export_bytes`), read while the child starts, and with
@@ -271,12 +273,14 @@ class FigureProcess:
         t = time.perf_counter()
         self.record["here_s"] = t - t_here
         try:
-            reply = self._conn.recv()
+            reply = self._answer(t)
             if reply[0] == "ready":
                 self.record["start_s"] = reply[1]
-                reply = self._conn.recv()
+                reply = self._answer(t)
         except (EOFError, OSError):
             return _in_order(self._fall_back(t) + mine)
+        except _Stuck as stuck:
+            return _in_order(self._fall_back(t, stuck=str(stuck)) + mine)
         self.record["waited_s"] = time.perf_counter() - t
         _, names, caught, seconds, error = reply
         self.record["seconds"] = seconds
@@ -287,18 +291,37 @@ class FigureProcess:
             _raise(error)
         return _in_order(list(names) + mine)
 
-    def _fall_back(self, t: float) -> list[str]:
-        """The child ended without an answer: draw the figures here, over what it left half done; warn once and
-        say so in ``record`` (``process`` 'same', ``fallback``: why; ``seconds``: drawing here, s)."""
+    def _answer(self, t: float):
+        """The child's next message, waited for at most :data:`WAIT_S` s from ``t`` (``time.perf_counter``), and
+        not while it is stopped (SIGSTOP, a debugger) for :data:`STOPPED_S` s: then :class:`_Stuck`."""
+        stopped = None
+        while not self._conn.poll(0.1):
+            now = time.perf_counter()
+            if _stopped(self._proc.pid):
+                stopped = now if stopped is None else stopped
+                if now - stopped >= STOPPED_S:
+                    raise _Stuck(f"was stopped (state T: SIGSTOP or a debugger) for {STOPPED_S:g} s")
+            else:
+                stopped = None
+            if now - t >= WAIT_S:
+                raise _Stuck(f"had not answered after {WAIT_S:g} s")
+        return self._conn.recv()
+
+    def _fall_back(self, t: float, stuck: str | None = None) -> list[str]:
+        """The child ended without an answer, or is stuck (``stuck``: how; it is killed): draw the figures here,
+        over what it left half done; warn once and say so in ``record`` (``process`` 'same', ``fallback``: why;
+        ``seconds``: drawing here, s)."""
         from .exceptions import AfferentWarning
 
+        if stuck is not None:
+            self._proc.kill()  # SIGKILL ends a stopped process too (SIGTERM would wait until it continues)
         self._proc.join(timeout=5)
         self.stop()  # reaped (or, still running with its end of the pipe closed, killed): no process left behind
         code = self._proc.exitcode
         how = f"was killed by {_signal_name(-code)}" if code is not None and code < 0 else f"ended (exit code {code})"
-        said = f"the figure process (pid {self._proc.pid}) {how} before it had drawn the figures"
-        warnings.warn(f"The figures were drawn in the run's own process: {said} (out of memory?).", AfferentWarning,
-                      stacklevel=3)
+        said = f"the figure process (pid {self._proc.pid}) {stuck or how} before it had drawn the figures"
+        why = " (out of memory?)" if stuck is None else "; it was killed"
+        warnings.warn(f"The figures were drawn in the run's own process: {said}{why}.", AfferentWarning, stacklevel=3)
         self.record.update(process="same", fallback=f"{said}; drawn in the run's own process")
         t_draw = time.perf_counter()
         names = _figures_into(*self._job, replace=True, skip=RUN_DRAWS)
@@ -317,6 +340,25 @@ class FigureProcess:
         if self._sender is not None:
             self._sender.join(timeout=2)
         self._conn.close()
+
+
+#: the longest a run waits for its figure process (s, from the end of its own drawing): a child alive but hung
+WAIT_S = 600.0
+#: how long a run waits for a figure process that is stopped (SIGSTOP, a debugger; Linux /proc), s
+STOPPED_S = 5.0
+
+
+class _Stuck(Exception):
+    """The figure process is alive but does not answer (stopped, or hung): the run draws the figures itself."""
+
+
+def _stopped(pid: int) -> bool:
+    """Process ``pid`` is stopped (state T) or stopped by a tracer (t) (Linux /proc; False where unknown)."""
+    try:
+        with open(f"/proc/{pid}/stat", "rb") as f:
+            return f.read().rsplit(b")", 1)[1].split()[0] in (b"T", b"t")
+    except (OSError, IndexError):
+        return False
 
 
 class SameProcess:

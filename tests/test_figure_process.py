@@ -356,14 +356,15 @@ def test_ctrl_c_stops_the_run_and_its_figure_process(tmp_path):
     assert os.listdir(tmp_path) == []
 
 
-def _kill_when(ready, out, timeout: float = 60.0):
-    """A thread that SIGKILLs this process's figure process once ``ready(pid, temporary output folders)`` is true;
-    its ``killed`` list gets the pid (Linux /proc)."""
+def _kill_when(ready, out, timeout: float = 60.0, sig: int | None = None):
+    """A thread that SIGKILLs (or sends ``sig``) this process's figure process once ``ready(pid, temporary output
+    folders)`` is true; its ``killed`` list gets the pid (Linux /proc)."""
     import signal
     import threading
     import time
 
     killed: list[int] = []
+    sig = signal.SIGKILL if sig is None else sig
 
     def watch():
         end = time.monotonic() + timeout
@@ -371,7 +372,7 @@ def _kill_when(ready, out, timeout: float = 60.0):
             parts = list(out.parent.glob(f".{out.name}.*.part"))
             for pid, cmd in _children():
                 if "spawn_main" in cmd and _ignores_sigint(pid) and ready(pid, parts):
-                    os.kill(pid, signal.SIGKILL)
+                    os.kill(pid, sig)
                     killed.append(pid)
                     return
             time.sleep(0.002)
@@ -413,6 +414,42 @@ def test_a_figure_process_killed_leaves_the_figures_to_the_run(both, tmp_path, c
                                                       "(out of memory?)."}
     assert record["warnings"] == same["warnings"] + [fell]
     assert _children() == []
+
+
+@needs_two_cores
+@linux_only
+def test_a_stopped_figure_process_is_not_waited_for_forever(both, tmp_path, capsys, monkeypatch):
+    """Issue 33.9: a figure process alive but stopped (SIGSTOP) made the run wait forever. Stopped for STOPPED_S
+    (here 0.5 s), it is killed and the run draws the figures itself, as for a child that died: exit 0, the same
+    PNGs, run.json says why. (A watchdog continues the child after 60 s, so that a run without the bound ends.)"""
+    import signal
+    import threading
+
+    monkeypatch.setattr(figure_process, "STOPPED_S", 0.5, raising=False)
+    scene = tmp_path / "ramp.toml"
+    scene.write_text(SCENE_TEXT)
+    out = tmp_path / "o"
+    thread, stopped = _kill_when(lambda pid, parts: True, out, sig=signal.SIGSTOP)
+
+    def watchdog():
+        thread.join(timeout=60)
+        for _ in range(600):
+            if stopped and _alive(stopped[0]):
+                threading.Event().wait(0.1)
+        if stopped and _alive(stopped[0]):
+            os.kill(stopped[0], signal.SIGCONT)
+
+    threading.Thread(target=watchdog, daemon=True).start()
+    code, err = _run_cli(capsys, monkeypatch, "1", "run", scene, "-o", out, "--quiet", "--no-cache")
+    assert stopped, "the figure process was not stopped"
+    assert code == 0, err
+    for png in both["same"].glob("*.png"):
+        assert (out / png.name).read_bytes() == png.read_bytes(), png.name
+    record = json.loads((out / "run.json").read_text())["figures"]
+    assert record["process"] == "same"
+    assert record["fallback"] == (f"the figure process (pid {stopped[0]}) was stopped (state T: SIGSTOP or a "
+                                  "debugger) for 0.5 s before it had drawn the figures; drawn in the run's own process")
+    assert not _alive(stopped[0]) and _children() == []
 
 
 def test_a_dead_childs_leftovers_are_replaced_when_the_run_draws(tmp_path):

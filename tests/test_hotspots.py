@@ -181,5 +181,5 @@ def test_cli_hotspots_tabulates_runs_and_errors_in_one_line(tmp_path, capsys):
     assert main(["hotspots", *runs, "-o", str(tmp_path / "out2"), "--group", "nonsense"]) == 2
     assert capsys.readouterr().err.strip() == ("afferent: error: --group must be NAME=PATTERN (e.g. 3d='ridged3d_*'); "
                                                "got 'nonsense' instead.")
-    assert main(["hotspots", str(tmp_path), "-o", str(tmp_path / "out3")]) == 2
+    assert main(["hotspots", str(tmp_path / "runs"), "-o", str(tmp_path / "out3")]) == 2
     assert "no hotspots.csv; expected the output folder of a run" in capsys.readouterr().err

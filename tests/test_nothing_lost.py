@@ -70,6 +70,8 @@ def test_a_run_killed_at_any_moment_leaves_complete_results_or_none(tmp_path, si
             assert after == before or json.loads(after)["outputs"]
     leftovers = [p.name for p in tmp_path.iterdir() if not p.name.startswith((".", "fresh_", "previous", "cache"))]
     assert not leftovers
+    if sig != signal.SIGKILL:  # SIGINT, SIGTERM: the temporaries removed too (issue 33.5); SIGKILL cannot be
+        assert not [p.name for p in tmp_path.rglob(".*.part")]
 
 
 @pytest.mark.slow
@@ -136,10 +138,10 @@ def project(tmp_path, monkeypatch):
 
 
 @pytest.mark.parametrize("cwd, argv, message", [
-    ("data", [*RUN, "-o", "..", "--overwrite"], r"Output folder '.*/proj' is a folder holding the working folder"),
-    ("data", [*RUN, "-o", ".", "--overwrite"], r"Output folder '.*/proj/data' is the working folder"),
-    (".", [*RUN, "-o", "data", "--overwrite"], r"Output folder '.*/proj/data' holds the input '.*/data/ex.vtu'"),
-    (".", [*RUN, "-o", "data/ex.vtu", "--overwrite"], r"Output folder '.*/data/ex.vtu' is the input"),
+    ("data", [*RUN, "-o", "..", "--overwrite"], r"Output folder '\.\.' is a folder holding the working folder"),
+    ("data", [*RUN, "-o", ".", "--overwrite"], r"Output folder '\.' is the working folder"),
+    (".", [*RUN, "-o", "data", "--overwrite"], r"Output folder 'data' holds the input 'data/ex.vtu'"),
+    (".", [*RUN, "-o", "data/ex.vtu", "--overwrite"], r"Output folder 'data/ex.vtu' is the input 'data/ex.vtu'"),
     (".", [*RUN, "-o", "thesis.tex", "--overwrite"], r"Output folder '.*/thesis.tex' is a file, not a folder"),
     (".", [*RUN, "-o", "data/sub", "--overwrite"], r"Output folder '.*/data/sub' was not written by afferent \(it has "
                                                    r"no \.afferent-output\.json"),
@@ -148,9 +150,9 @@ def project(tmp_path, monkeypatch):
     (".", ["sample", "data/ex.vtu", "--receptors", "data/receptors.csv", "--length-unit", "mm", "--sed-unit", "MPa",
            "-o", "data", "--overwrite"], r"Output file 'data' is the working folder|Output file 'data' holds the input"),
     ("data", ["sweep", "s.toml", "-o", ".", "--overwrite", "--scheduler", "serial", "-q"],
-     r"Output folder '.*/proj/data' is the working folder"),
+     r"Output folder '\.' is the working folder"),
     (".", ["sweep", "data/s.toml", "-o", "data", "--overwrite", "--scheduler", "serial", "-q"],
-     r"Output folder '.*/proj/data' holds the input '.*/data/s.toml'"),
+     r"Output folder 'data' holds the input 'data/s.toml'"),
 ])
 def test_a_refused_overwrite_leaves_every_file_as_it_was(project, monkeypatch, capsys, cwd, argv, message):
     """Issue 26.1: `-o ..`, `-o .`, `-o DATA` (the inputs' folder) and `-o data/ex.vtu` with --overwrite
@@ -184,18 +186,25 @@ def test_overwrite_replaces_only_a_folder_afferent_wrote_whole(project, capsys):
     assert (project / "out" / "run.json").read_bytes() != before
     assert (project / "thesis.tex").is_file() and (project / "data" / "sub" / "notes.txt").is_file()
     assert sorted(p.name for p in project.iterdir()) == ["data", "out", "thesis.tex"]  # no temporary left
-    # a folder of an afferent before the list (no .afferent-output.json): its run.json says whose it is, and only
-    # the kinds of file afferent writes count as its own
-    (project / "out" / ".afferent-output.json").unlink()
-    (project / "out" / "notes.txt").write_text("mine\n")
+    # a file of afferent's changed since: not its any more (issue 33.2: the record holds each file's SHA-256)
+    (project / "out" / "run.json").write_text("{}")
     assert main([*RUN, "-o", "out", "--overwrite"]) == 2
-    assert "holds files afferent did not write ('notes.txt')" in capsys.readouterr().err
-    (project / "out" / "notes.txt").unlink()
-    assert main([*RUN, "-o", "out", "--overwrite"]) == 0 and (project / "out" / ".afferent-output.json").is_file()
-    (project / "link").symlink_to("out")
+    assert "holds files changed since afferent wrote them ('run.json')" in capsys.readouterr().err
+    # a folder without the record (a user's, or one of an afferent before the record): never replaced, the user
+    # deletes it (issue 33.1: a run.json below or the kinds of file afferent writes proved nothing)
+    (project / "out" / ".afferent-output.json").unlink()
+    kept = _snapshot(project / "out")
+    assert main([*RUN, "-o", "out", "--overwrite"]) == 2
+    assert re.fullmatch(r"afferent: error: Output folder '.*/out' was not written by afferent \(it has no "
+                        r"\.afferent-output\.json, .*: move its contents away or delete it yourself, or choose another "
+                        r"folder\.\n", capsys.readouterr().err)
+    assert _snapshot(project / "out") == kept
+    assert main([*RUN, "-o", "out2"]) == 0
+    before = (project / "out2" / "run.json").read_bytes()
+    (project / "link").symlink_to("out2")
     assert main([*RUN, "-o", "link", "--overwrite"]) == 2
-    assert "Output folder '" in (err := capsys.readouterr().err) and "is a symbolic link (to 'out')" in err
-    assert (project / "link").is_symlink() and (project / "out" / "run.json").read_bytes() != before
+    assert "Output folder '" in (err := capsys.readouterr().err) and "is a symbolic link (to 'out2')" in err
+    assert (project / "link").is_symlink() and (project / "out2" / "run.json").read_bytes() == before
 
 
 def test_a_sweep_replaces_only_its_own_folder_and_refuses_a_link(project, capsys):
@@ -204,13 +213,14 @@ def test_a_sweep_replaces_only_its_own_folder_and_refuses_a_link(project, capsys
 
     sweep = ["sweep", "data/s.toml", "--scheduler", "serial", "-q"]
     assert main([*sweep, "-o", "out"]) == 0
-    manifest = json.loads((project / "out" / ".afferent-output.json").read_text())
-    assert "tasks/*.jsonl" in manifest["patterns"]
+    record = json.loads((project / "out" / ".afferent-output.json").read_text())
+    assert record["task_records"] is True and "patterns" not in record
+    assert sorted(record["files"]) == sorted(p.name for p in (project / "out").glob("*.*") if p.name[0] != ".")
     (project / "sweep_link").symlink_to("out")
     before = _snapshot(project)
     for extra in ([], ["--overwrite"]):
         assert main([*sweep, "-o", "sweep_link", *extra]) == 2
-        assert re.fullmatch(r"afferent: error: Output folder '.*/sweep_link' is a symbolic link \(to 'out'\); afferent "
+        assert re.fullmatch(r"afferent: error: Output folder '(?:.*/)?sweep_link' is a symbolic link \(to 'out'\); afferent "
                             r"writes only to a real path: give '.*/out' itself, or another name.\n", capsys.readouterr().err)
     assert _snapshot(project) == before
     (project / "out" / "notes.txt").write_text("mine\n")

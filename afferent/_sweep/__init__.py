@@ -117,16 +117,15 @@ def _note(message: str) -> None:
 
 
 def _write_json(path: str, data: dict) -> None:
+    """Write sweep.json atomically and record it in its folder's record of afferent's files (afferent._owned)."""
     from .._output import atomic_file
+    from .._owned import add_to_record
     from ..export import jsonable
 
     with atomic_file(path, overwrite=True) as tmp:
         with open(tmp, "w") as f:
             json.dump(jsonable(data), f, indent=1)
-
-
-#: what a sweep writes in its folder (fnmatch patterns, for the folder's list of afferent's files)
-SWEEP_FILES = ("sweep.json", "table.parquet", "table.csv", "tasks/*.jsonl")
+    add_to_record(os.path.dirname(path), [os.path.basename(path)], task_records=True)
 
 
 def _inputs(spec: SweepSpec, probe) -> tuple:
@@ -189,8 +188,10 @@ def _inputs_unchanged(inputs, hashes: dict) -> bool:
 
 
 def _open_folder(output: str, existed: bool) -> None:
-    """Create the sweep's folder (refused if it appeared since the check) and its list of afferent's files."""
-    from .._output import MARKER, _appeared, mark_folder
+    """Create the sweep's folder (refused if it appeared since the check) and its record of afferent's files
+    (afferent._owned: the task records are proven by their names, sweep.json and the table recorded as written)."""
+    from .._output import MARKER, _appeared
+    from .._owned import add_to_record
 
     if not existed:
         try:
@@ -199,7 +200,7 @@ def _open_folder(output: str, existed: bool) -> None:
             raise _appeared(output, "Output folder") from None
     os.makedirs(os.path.join(output, "tasks"), exist_ok=True)
     if not os.path.exists(os.path.join(output, MARKER)):
-        mark_folder(output, patterns=SWEEP_FILES, files=())
+        add_to_record(output, task_records=True)
 
 
 class _Sink:
@@ -448,7 +449,7 @@ def sweep(sources, output, *, scheduler=None, overwrite: bool = False, cache_dir
     run = dict(scheduler=scheduler, cache_dir=cache_dir, use_cache=use_cache, batch_size=batch_size,
                shared_disk=shared_disk, progress=progress, head=head, t0=t0, probe=probe)
     if overwrite and os.path.lexists(output):  # the previous sweep stays whole until this one is complete
-        with atomic_dir(output, overwrite=True, inputs=inputs, patterns=SWEEP_FILES) as tmp:
+        with atomic_dir(output, overwrite=True, inputs=inputs, task_records=True) as tmp:
             os.mkdir(os.path.join(tmp, "tasks"))
             table, table_path, full = _execute(spec, tmp, done, **run)
         table_path = os.path.join(output, os.path.basename(table_path))

@@ -89,18 +89,24 @@ def table_format() -> str:
 
 
 def write_table(df, folder: str) -> str:
-    """Write the table atomically as ``table.parquet`` (pyarrow installed) or ``table.csv``; returns the path."""
+    """Write the table atomically as ``table.parquet`` (pyarrow installed) or ``table.csv``; returns the path.
+
+    The table of the other format, left by an earlier run of the sweep, is removed only if the folder's record
+    proves afferent wrote it (:mod:`afferent._owned`); both are recorded there as written or removed."""
     import os
 
     from .._output import write_csv
+    from .._owned import add_to_record, recorded
 
     fmt = table_format()
     path = os.path.join(folder, f"table.{fmt}")
     other = os.path.join(folder, "table.csv" if fmt == "parquet" else "table.parquet")
     writer = (lambda d, p: d.to_parquet(p, index=False)) if fmt == "parquet" else None
     write_csv(df, path, overwrite=True, writer=writer)  # derived from the task records: rewritten on every run
-    if os.path.exists(other):
+    gone = [os.path.basename(other)] if recorded(folder, os.path.basename(other)) else []
+    if gone:
         os.remove(other)
+    add_to_record(folder, [os.path.basename(path)], drop=gone, task_records=True)
     return path
 
 

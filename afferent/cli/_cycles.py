@@ -29,11 +29,12 @@ import argparse
 import os
 import sys
 
-from ._options import add_run_comparison_options
+from ._options import add_run_comparison_options, reads
 
 
 def add_args(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("runs", nargs="+", metavar="RUN_DIR", help="output folders of runs (or sweeps) wanting 'cycles'")
+    reads(parser.add_argument("runs", nargs="+", metavar="RUN_DIR", help="output folders of runs (or sweeps) wanting "
+                                                                         "'cycles'"))
     add_run_comparison_options(parser, verb="draw")
 
 

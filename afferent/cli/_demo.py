@@ -39,6 +39,7 @@ import numpy as np
 
 from .._output import atomic_dir
 from ..exceptions import AfferentError
+from ._options import add_output_options, reads
 
 #: (case name, block folder, file, indenter width mm)
 CASES = [
@@ -66,11 +67,10 @@ def default_sample_dir() -> Path:
 
 
 def add_args(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("-o", "--output", required=True, metavar="OUTDIR", help="output folder (created whole, or not at all)")
-    parser.add_argument("--overwrite", action="store_true", help="replace an existing output folder")
-    parser.add_argument("--sample-dir", metavar="DIR",
-                        help="the sample folder, laid out as sample_sed/ (default: the sample installed with the package, "
-                             "a crop of sample_sed/ with the same SED at the receptors)")
+    add_output_options(parser, what="output folder (created whole, or not at all)", metavar="OUTDIR")
+    reads(parser.add_argument("--sample-dir", metavar="DIR",
+                              help="the sample folder, laid out as sample_sed/ (default: the sample installed with the "
+                                   "package, a crop of sample_sed/ with the same SED at the receptors)"))
     parser.add_argument("--peak-prominence", type=float, default=PEAK_PROMINENCE, metavar="FRACTION",
                         help="a local maximum of a profile counts as a peak when it stands out by this fraction of the "
                              f"profile's range (default {PEAK_PROMINENCE}); recorded in summary.csv, findings.csv and the figure")

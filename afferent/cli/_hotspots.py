@@ -24,11 +24,11 @@ import argparse
 import os
 import sys
 
-from ._options import add_run_comparison_options
+from ._options import add_run_comparison_options, reads
 
 
 def add_args(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("runs", nargs="+", metavar="RUN_DIR", help="output folders of runs wanting 'hotspots'")
+    reads(parser.add_argument("runs", nargs="+", metavar="RUN_DIR", help="output folders of runs wanting 'hotspots'"))
     add_run_comparison_options(parser, verb="compare")
     parser.add_argument("--noise", default="0.1,0.3,0.5", metavar="S[,S...]",
                         help="classifier noise, standard deviation(s) in normalised SED units (default 0.1,0.3,0.5)")

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
 import os
 import re
 import sys
@@ -63,7 +64,7 @@ def build_parser(argv: list[str] | None = None) -> argparse.ArgumentParser:
         p = sub.add_parser(name, help=doc.strip().splitlines()[0], description=doc,
                            formatter_class=argparse.RawDescriptionHelpFormatter)
         module.add_args(p)
-        p.set_defaults(func=module.run)
+        p.set_defaults(func=module.run, _reads=tuple(a for a in p._actions if hasattr(a, "afferent_reads")))
     return parser
 
 
@@ -168,7 +169,8 @@ def _main(argv: list[str] | None) -> int:
         if not getattr(args, "func", None):
             parser.print_help(sys.stderr)
             return 2
-        return args.func(args)
+        with _ended_by_signals():
+            return _guarded(args)
     except _UsageError as err:
         print(f"afferent: error: {err}", file=sys.stderr)
         return 2
@@ -181,8 +183,13 @@ def _main(argv: list[str] | None) -> int:
             msg = speak_cli(msg, flags, choices)  # in the command's own words; a scene's errors name its TOML keys
         print(f"afferent: error: {msg}", file=sys.stderr)
         return 2
-    except KeyboardInterrupt:
+    except KeyboardInterrupt as err:
         _interrupt_handled()
+        from .._output import Terminated
+
+        if isinstance(err, Terminated):  # SIGTERM, SIGHUP: the temporary outputs removed as for Ctrl-C
+            print(f"afferent: terminated by {err.name}", file=sys.stderr)
+            return 128 + err.signum
         print("afferent: interrupted", file=sys.stderr)
         return 130
     except BrokenPipeError:
@@ -192,6 +199,47 @@ def _main(argv: list[str] | None) -> int:
             print(f"afferent: error: {_environment_message(err)}", file=sys.stderr)
             return 2
         return _internal_error(err)
+
+
+def _guarded(args: argparse.Namespace) -> int:
+    """Run the command with every path it reads (``_options.reads``) handed to the output guard: its ``-o`` is
+    checked against them now, before any work, and every writer checks its output against them too
+    (``afferent._output.command_inputs``), whatever the command. A new command inherits this."""
+    from .._output import check_place, command_inputs
+    from ._options import input_paths
+
+    inputs = input_paths(args)
+    with command_inputs(inputs):
+        if getattr(args, "output", None) is not None:
+            check_place(args.output, (), getattr(args, "_output_what", "Output"))
+        return args.func(args)
+
+
+@contextlib.contextmanager
+def _ended_by_signals():
+    """While the command runs (in the main thread): SIGINT, SIGTERM and SIGHUP go to ``afferent._output.on_signal``
+    (KeyboardInterrupt, or :class:`~afferent._output.Terminated`, raised at once or as soon as a writer has made,
+    renamed or removed a temporary); the previous handlers are put back after. A signal whose exception some code
+    swallowed still ends the command. (A sweep's local workers add their own SIGTERM handler while they run.)"""
+    import signal
+    import threading
+
+    from .._output import on_signal, signals_seen
+
+    wanted = [getattr(signal, n) for n in ("SIGINT", "SIGTERM", "SIGHUP") if hasattr(signal, n)]
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    signals_seen(reset=True)
+    previous = {sig: signal.signal(sig, on_signal) for sig in wanted}
+    try:
+        yield
+        if signals_seen():  # received, raised, and swallowed somewhere (a weakref callback): the command still ends
+            on_signal(signals_seen()[0])
+    finally:
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)
+        signals_seen(reset=True)
 
 
 def _interrupt_handled() -> None:

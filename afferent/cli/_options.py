@@ -27,7 +27,7 @@ def add_input_options(parser: argparse.ArgumentParser) -> None:
     g.add_argument("--stress-columns", metavar="NAMES", help="stress array name, or 6 comma-separated column names xx,yy,zz,xy,yz,xz")
     g.add_argument("--strain-columns", metavar="NAMES", help="strain array name, or 6 comma-separated column names xx,yy,zz,xy,yz,xz")
     g.add_argument("--coord-columns", metavar="X,Y,Z", help="names of the coordinate columns of a CSV")
-    g.add_argument("--coordinates", metavar="NODES.csv", help="node/element table id,x,y,z (or an ANSYS NLIST listing, a CalculiX .frd) to join on a table that has only labels")
+    reads(g.add_argument("--coordinates", metavar="NODES.csv", help="node/element table id,x,y,z (or an ANSYS NLIST listing, a CalculiX .frd) to join on a table that has only labels"))
     g.add_argument("--on-nan", choices=("raise", "drop"), default="raise", help="NaN rows of a point table: error (default) or leave them out")
     g.add_argument("--negative-tolerance", type=float, default=0.25, metavar="R",
                    help="accept negative SED down to -R x the largest SED, summing to at most R x the positive values "
@@ -74,9 +74,38 @@ def add_side_option(parser: argparse.ArgumentParser) -> None:
                              "id to take that material's SED alone (the dermis for Meissner corpuscles)")
 
 
-def add_output_options(parser: argparse.ArgumentParser, *, what: str, required: bool = True) -> None:
-    parser.add_argument("-o", "--output", required=required, metavar="OUT", help=what)
+def add_output_options(parser: argparse.ArgumentParser, *, what: str, required: bool = True, folder: bool = True,
+                       metavar: str = "OUT") -> None:
+    """``-o`` (a folder, or a file when not ``folder``) and ``--overwrite``; ``afferent.cli`` checks ``-o`` against
+    every path the command reads (:func:`reads`) before the command starts."""
+    parser.add_argument("-o", "--output", required=required, metavar=metavar, help=what)
     parser.add_argument("--overwrite", action="store_true", help="replace an existing output (never done silently)")
+    parser.set_defaults(_output_what="Output folder" if folder else "Output file")
+
+
+def reads(action: argparse.Action, paths=None) -> argparse.Action:
+    """Mark an option or positional as naming files or folders the command reads: ``paths(value)`` gives the paths
+    one value names (default: the value itself). :func:`input_paths` gathers them; ``afferent.cli`` checks the
+    output against them before the command starts and hands them to every writer
+    (``afferent._output.command_inputs``), so that no output is, holds or lies inside one of them."""
+    action.afferent_reads = paths or (lambda value: (value,))
+    return action
+
+
+def after_prefix(prefix: str):
+    """``paths`` for :func:`reads`: the file after ``prefix`` (``map:FILE``), nothing for other values."""
+    return lambda value: (value[len(prefix):],) if str(value).startswith(prefix) else ()
+
+
+def input_paths(args: argparse.Namespace) -> list[str]:
+    """Every path the parsed command reads (its options and positionals marked with :func:`reads`)."""
+    out = []
+    for action in getattr(args, "_reads", ()):
+        value = getattr(args, action.dest, None)
+        for v in value if isinstance(value, list) else [value]:
+            if v is not None:
+                out.extend(p for p in action.afferent_reads(v) if p)
+    return out
 
 
 def add_run_comparison_options(parser: argparse.ArgumentParser, *, verb: str) -> None:
@@ -99,7 +128,8 @@ def add_receptor_options(parser: argparse.ArgumentParser, *, required: bool = Tr
     """Where the receptors are: a CSV, or a grid generated on the export."""
     g = parser.add_argument_group("receptor sites")
     m = g.add_mutually_exclusive_group(required=required)
-    m.add_argument("--receptors", metavar="R.csv", help="receptor sites: columns x, y, z (optional id, longitudinal, cross)")
+    reads(m.add_argument("--receptors", metavar="R.csv", help="receptor sites: columns x, y, z (optional id, longitudinal, "
+                                                              "cross)"))
     m.add_argument("--grid", metavar="SPEC",
                    help="generate the sites: 'tips' = papilla tips (RA-I) found on the export's epidermis/dermis "
                         "interface (cell array --material-array, ids --upper/--lower); 'bases' = the intermediate-ridge "

@@ -45,7 +45,8 @@ import argparse
 import os
 import shlex
 
-from ._options import add_input_options, add_output_options, add_quiet, add_receptor_options, input_kwargs, unit_type
+from ._options import add_input_options, add_output_options, add_quiet, add_receptor_options, after_prefix, input_kwargs, \
+    reads, unit_type
 
 # the stage modules (pandas, scipy) load when the run needs them, not to parse the command line
 SYNTHESES = ("longitudinal", "cross", "map:FILE", "random:N")  # afferent.synthesis.SYNTHESES
@@ -55,12 +56,12 @@ CLASSES = ("RA-I", "SA-I")  # the keys of afferent.classes.AFFERENT_CLASSES
 
 
 def add_args(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("exports", nargs="+", metavar="EXPORT",
-                        help="FE export file(s) (several files are one time step each), or one SCENE.toml")
+    reads(parser.add_argument("exports", nargs="+", metavar="EXPORT",
+                              help="FE export file(s) (several files are one time step each), or one SCENE.toml"))
     parser.add_argument("--method", choices=METHODS, default="linear", help="sampling: interpolate in the mesh cells, or nearest node")
     parser.add_argument("--on-outside", choices=("raise", "warn", "nan"), default="raise", help="receptors outside the mesh")
-    parser.add_argument("--synthesis", default="longitudinal", metavar="|".join(SYNTHESES),
-                        help="receptor -> afferent grouping (default longitudinal)")
+    reads(parser.add_argument("--synthesis", default="longitudinal", metavar="|".join(SYNTHESES),
+                              help="receptor -> afferent grouping (default longitudinal)"), after_prefix("map:"))
     parser.add_argument("--seed", type=int, default=0, help="seed for --synthesis random:N")
     g = parser.add_argument_group("transduction (sigmoid) parameters, SI units")
     g.add_argument("--params", choices=STUDY_ROWS, help="the study's table-5.2 row")
@@ -68,14 +69,15 @@ def add_args(parser: argparse.ArgumentParser) -> None:
     g.add_argument("--gamma", type=float, metavar="G", help="slope, 1/Pa")
     g.add_argument("--lambda", dest="lambda_", type=float, metavar="L", help="midpoint SED, Pa")
     g = parser.add_argument_group("comparison with a recording")
-    g.add_argument("--observed", metavar="OBS.csv", help="recorded profile: columns position, response")
+    reads(g.add_argument("--observed", metavar="OBS.csv", help="recorded profile: columns position, response"))
     g.add_argument("--observed-unit", metavar="U", type=unit_type("length"), help="length unit of the observed positions (m, mm, um); required with --observed")
     g.add_argument("--normalise", choices=("both", "prediction", "observation", "neither"), default="both",
                    help="what is min-max normalised before comparing (the study: both)")
     g = parser.add_argument_group("stimulus over time (for a static export)")
-    g.add_argument("--waveform", metavar="SPEC",
-                   help="indentation depth over time: 'ramp:DEPTH_MM,SPEED_MM_PER_S,HOLD_S' (ramp-and-hold with release), "
-                        "'sine:FREQ_HZ,AMPLITUDE_MM,DURATION_S', or a CSV 'FILE' with columns time, depth")
+    reads(g.add_argument("--waveform", metavar="SPEC",
+                         help="indentation depth over time: 'ramp:DEPTH_MM,SPEED_MM_PER_S,HOLD_S' (ramp-and-hold with "
+                              "release), 'sine:FREQ_HZ,AMPLITUDE_MM,DURATION_S', or a CSV 'FILE' with columns time, depth"),
+          lambda v: () if v.strip().partition(":")[0] in ("ramp", "sine") else (v.strip(),))
     g.add_argument("--waveform-unit", default="mm", metavar="U", type=unit_type("length"), help="depth unit of a waveform CSV (default mm; time in s)")
     g.add_argument("--reference-step", type=int, metavar="K",
                    help="with --waveform on a multi-step export: the step solved at --d-ref-mm (-1: the last); required there")
@@ -112,9 +114,9 @@ def add_args(parser: argparse.ArgumentParser) -> None:
                         "per spike-initiation zone, the first at threshold fires the afferent and resets all its zones")
     g.add_argument("--zones-per-afferent", type=int, metavar="K",
                    help="with --branching zones: each afferent's receptors split into K groups along it (default 4)")
-    g.add_argument("--zone-map", metavar="ZONES.csv",
-                   help="with --branching zones: each receptor's zone (columns receptor, zone) instead of "
-                        "--zones-per-afferent")
+    reads(g.add_argument("--zone-map", metavar="ZONES.csv",
+                         help="with --branching zones: each receptor's zone (columns receptor, zone) instead of "
+                              "--zones-per-afferent"))
     parser.add_argument("--no-plots", action="store_true", help="skip the PNG figures")
     parser.add_argument("--results-format", choices=("netcdf", "csv"),
                         help="time courses of receptors and afferents: one NetCDF-4 file currents.nc (default) or the "

@@ -21,17 +21,18 @@ from .._interfaces import check_side
 from ..io import iter_sed
 from ..sampling import METHODS, sample_steps
 from ._options import add_input_options, add_receptor_options, layout_from_args, add_output_options, add_quiet, input_kwargs, \
-    add_side_option
+    add_side_option, reads
 
 
 def add_args(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("exports", nargs="+", metavar="EXPORT", help="FE export file(s); several files are one time step each")
+    reads(parser.add_argument("exports", nargs="+", metavar="EXPORT", help="FE export file(s); several files are one time "
+                                                                           "step each"))
     parser.add_argument("--method", choices=METHODS, default="linear", help="interpolate inside the mesh cells (linear) or take the nearest node (nearest)")
     parser.add_argument("--on-outside", choices=("raise", "warn", "nan"), default="raise", help="receptors outside the mesh: error (default) or NaN")
     add_side_option(parser)
     add_receptor_options(parser)
     add_input_options(parser)
-    add_output_options(parser, what="output CSV (long form)")
+    add_output_options(parser, what="output CSV (long form)", folder=False)
     add_quiet(parser)
 
 

@@ -27,12 +27,12 @@ import argparse
 import shlex
 import sys
 
-from ._options import add_output_options, add_quiet, show_progress
+from ._options import add_output_options, add_quiet, reads, show_progress
 
 
 def add_args(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("sources", nargs="+", metavar="SWEEP",
-                        help="sweep file (a scene with [sweep]), scene file(s) or folder(s) of them")
+    reads(parser.add_argument("sources", nargs="+", metavar="SWEEP",
+                              help="sweep file (a scene with [sweep]), scene file(s) or folder(s) of them"))
     parser.add_argument("--scheduler", metavar="ADDRESS",
                         help="'processes' (default), 'threads', 'serial', or a Dask scheduler address (tcp://HOST:PORT)")
     parser.add_argument("--batch-size", type=int, metavar="N",
