@@ -49,8 +49,9 @@ def run(args: argparse.Namespace) -> int:
     with atomic_dir(args.output, overwrite=args.overwrite) as tmp:
         summary.to_csv(os.path.join(tmp, "frequency.csv"), index=False)
         save_figure(plot_frequency(summary), os.path.join(tmp, "frequency.png"))
-    print(f"afferent cycles: wrote {args.output}: frequency.csv, frequency.png", file=sys.stderr)
-    print(summary.to_string(index=False))
+    if not args.quiet:
+        print(f"afferent cycles: wrote {args.output}: frequency.csv, frequency.png", file=sys.stderr)
+        print(summary.to_string(index=False))
     return 0
 
 

@@ -72,9 +72,10 @@ def run(args: argparse.Namespace) -> int:
         members = group_runs(list(runs), groups)
         save_figure(plot_hotspot_summary(runs, members, threshold=args.threshold), os.path.join(tmp, "summary.png"))
         _distance_figure(dist, members, os.path.join(tmp, "distances.png"), plot_distance_table, save_figure)
-    print(f"afferent hotspots: wrote {args.output}: distances.csv, accuracy.csv, summary.png, distances.png",
-          file=sys.stderr)
-    print(acc.to_string(index=False))
+    if not args.quiet:
+        print(f"afferent hotspots: wrote {args.output}: distances.csv, accuracy.csv, summary.png, distances.png",
+              file=sys.stderr)
+        print(acc.to_string(index=False))
     return 0
 
 

@@ -45,7 +45,7 @@ import argparse
 import os
 import shlex
 
-from ._options import add_input_options, add_output_options, add_quiet, add_receptor_options, input_kwargs, unit_type
+from ._options import add_input_options, add_output_options, add_receptor_options, input_kwargs, unit_type
 
 # the stage modules (pandas, scipy) load when the run needs them, not to parse the command line
 SYNTHESES = ("longitudinal", "cross", "map:FILE", "random:N")  # afferent.synthesis.SYNTHESES
@@ -128,7 +128,6 @@ def add_args(parser: argparse.ArgumentParser) -> None:
     add_input_options(parser)
     add_output_options(parser, what="output folder (created whole, or not at all); for a scene, overrides its [outputs] dir",
                        required=False)
-    add_quiet(parser)
     parser.set_defaults(_options=parser._actions)
 
 
