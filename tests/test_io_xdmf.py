@@ -84,7 +84,7 @@ def test_missing_heavy_data_and_damaged_files_are_named(tmp_path):
         read_raw(tmp_path / "block.xdmf")
     text = (DX / "block.xdmf").read_text()
     (tmp_path / "cut.xdmf").write_text(text[: len(text) // 2])
-    with pytest.raises(SEDFormatError, match=re.escape(f"SED file {str(tmp_path / 'cut.xdmf')!r} is not valid XDMF (XML)")):
+    with pytest.raises(SEDFormatError, match=re.escape(f"SED file {str(tmp_path / 'cut.xdmf')!r} is not a valid XDMF (XML) file")):
         read_raw(tmp_path / "cut.xdmf")
 
 

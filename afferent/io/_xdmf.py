@@ -32,16 +32,14 @@ import numpy as np
 
 from ..exceptions import SEDFormatError
 from ._raw import RawArray, RawExport, files_read
+from ._xml import parse_xml
 
 __all__ = ["read_xdmf_collections", "has_collections", "read_single_grid", "heavy_files"]
 
 #: xi:include, under the 2001 namespace (DOLFINx) or the 2003 one (meshio's time series writer).
 _XI_TAGS = ("{http://www.w3.org/2001/XInclude}include", "{http://www.w3.org/2003/XInclude}include")
 def _parse(path: str) -> ET.Element:
-    try:
-        return ET.parse(path).getroot()
-    except ET.ParseError as err:
-        raise SEDFormatError(f"SED file {path!r} is not valid XDMF (XML): {err}") from err
+    return parse_xml(path, "XDMF")
 
 
 def _counts(text: str | None, what: str, path: str) -> tuple[int, ...]:
