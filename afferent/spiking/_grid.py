@@ -11,10 +11,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .._validation import check_positive
+from .._validation import check_positive, check_step_count
 from ._group import _group_numpy, _numba_group
 from ._input import _read_input
-from ._params import _CLOCK_EPS, _MAX_STEPS, _SAMPLE_EPS, LIFParams, _n_steps, _refractory_steps
+from ._params import _CLOCK_EPS, _SAMPLE_EPS, LIFParams, _n_steps, _refractory_steps
 
 
 @dataclass
@@ -52,11 +52,7 @@ def _plan(current, dt, duration, times) -> _Plan:
         duration = default_duration
     else:
         duration = check_positive("duration", duration, unit="s")
-    if not duration / dt < _MAX_STEPS:
-        raise ValueError(
-            f"duration / dt must be below {_MAX_STEPS:.0f} steps; got {duration / dt:.3g} steps "
-            f"(duration {duration!r} s, dt {dt!r} s) instead."
-        )
+    check_step_count(duration, dt)
     n_steps = max(_n_steps(duration, dt), 1)
     if abs(n_steps * dt - duration) > _CLOCK_EPS * dt:
         notes.append(f"duration {duration!r} s is not a whole number of steps; simulated {n_steps} steps.")
