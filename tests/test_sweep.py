@@ -470,3 +470,16 @@ def test_resume_after_an_interruption_equals_an_uninterrupted_run(tmp_path, monk
     assert rec["specification"][0]["params"]["spikes.gain_ms"] == {"start": 100, "stop": 300, "num": 4,
                                                                     "spacing": "linear"}
     assert rec["engine"]["windows"] == 2 and rec["n_sampling_groups"] == 1
+
+
+def test_resume_reruns_a_task_whose_record_is_not_utf8(tmp_path):
+    """Issue 33, item 11. Before: the resume stopped with UnicodeDecodeError (an internal error, exit 1) on a task
+    record holding bytes that are not UTF-8; now that line is not a record (the task runs again), the others are."""
+    src = write_sweep(tmp_path, SMALL)
+    out = tmp_path / "out"
+    first = sweep(src, out, scheduler="serial")
+    damaged = next(f for f in (out / "tasks").glob("*.jsonl") if first.table.task.iloc[0] in f.read_text())
+    damaged.write_bytes(damaged.read_bytes().replace(b'"status"', b'"st\xffatus"', 1))
+    again = sweep(src, out, scheduler="serial")
+    assert (again.n_ran, again.n_skipped) == (1, 3)
+    pd.testing.assert_frame_equal(again.table, first.table)
