@@ -58,7 +58,10 @@ def add_args(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("exports", nargs="+", metavar="EXPORT",
                         help="FE export file(s) (several files are one time step each), or one SCENE.toml")
     parser.add_argument("--method", choices=METHODS, default="linear", help="sampling: interpolate in the mesh cells, or nearest node")
-    parser.add_argument("--on-outside", choices=("raise", "warn", "nan"), default="raise", help="receptors outside the mesh")
+    parser.add_argument("--on-outside", choices=("raise", "warn", "nan"), default="raise",
+                        help="receptors outside the mesh: an error (raise), or NaN in the SED tables and left out of "
+                             "every stage from transduction on, with a warning naming them and the afferents they "
+                             "shorten (warn, nan; run.json 'outside')")
     parser.add_argument("--synthesis", default="longitudinal", metavar="|".join(SYNTHESES),
                         help="receptor -> afferent grouping (default longitudinal)")
     parser.add_argument("--seed", type=int, default=0, help="seed for --synthesis random:N")
