@@ -19,6 +19,8 @@ __all__ = [
     "check_positive",
     "check_finite_array",
     "check_rng",
+    "check_step_count",
+    "MAX_STEPS",
     "suggest",
     "describe_array",
 ]
@@ -80,6 +82,23 @@ def check_positive(name: str, value, *, unit: str = "", strict: bool = True, own
     if not ok:
         raise ValueError(f"{subject} must be {'>' if strict else '>='} 0{unit_txt}; got {value!r} instead.")
     return v
+
+
+#: The most time steps (duration / dt) a waveform is sampled on or a spiking engine simulates: step indices are
+#: int32 in the spike buffers, and a waveform's times alone are 8 bytes a step.
+MAX_STEPS = 2.0**31 - 1
+
+
+def check_step_count(duration: float, dt: float, *, what: str = "") -> None:
+    """Refuse ``duration / dt`` (both in s) of :data:`MAX_STEPS` steps or more, before anything is allocated.
+
+    ``what`` names the time grid (``"the waveform's"``), for the message.
+    """
+    if not duration / dt < MAX_STEPS:
+        raise ValueError(
+            f"{what + ' ' if what else ''}duration / dt must be below {MAX_STEPS:.0f} steps; got {duration / dt:.3g} "
+            f"steps (duration {duration!r} s, dt {dt!r} s) instead."
+        )
 
 
 def describe_array(a) -> str:

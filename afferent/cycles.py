@@ -25,11 +25,18 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["cycle_bounds", "edge_sites", "cycle_table", "receptor_cycles", "frequency_summary", "CYCLE_COLUMNS"]
+__all__ = ["cycle_bounds", "edge_sites", "cycle_table", "receptor_cycles", "frequency_summary", "CYCLE_COLUMNS",
+           "CYCLE_CHECKS"]
 
 #: the columns of ``cycles.csv`` (SI units)
 CYCLE_COLUMNS = ("cycle", "frequency_hz", "t_start_s", "t_end_s", "deepest_step", "deepest_time_s", "site",
                  "site_x_m", "site_z_m", "sed_pa", "max_sed_pa", "spikes", "n_afferents", "rate_hz")
+
+#: What a cycles table read back must hold (``afferent._run_folder.check_table``): every column of
+#: :data:`CYCLE_COLUMNS`, the site's coordinates, spikes and rate empty when not known, at least one cycle.
+CYCLE_CHECKS = {"finite": ("cycle", "frequency_hz", "t_start_s", "t_end_s", "deepest_step", "deepest_time_s", "sed_pa",
+                           "n_afferents"),
+                "numbers": ("site_x_m", "site_z_m", "max_sed_pa", "spikes", "rate_hz"), "columns": ("site",)}
 
 
 def cycle_bounds(times_s, frequency_hz: float) -> np.ndarray:
@@ -160,7 +167,7 @@ def frequency_summary(runs: dict, groups: dict):
     ``group, run, frequency_hz, site, n_cycles, sed_first_pa, sed_last_pa`` (SED at the site at the first and
     the last cycle's deepest point, Pa), ``first_vs_lowest, last_vs_lowest`` (each over the group's lowest
     frequency's), ``spikes`` (all cycles), ``rate_hz`` (mean of the cycles' rates, Hz). Two runs of a group at
-    one frequency, or a table without the columns of :data:`CYCLE_COLUMNS`, are errors naming them.
+    one frequency, or a table that fails :data:`CYCLE_CHECKS` or ``_check_cycles``, are errors naming them.
     """
     import pandas as pd
 
@@ -168,11 +175,7 @@ def frequency_summary(runs: dict, groups: dict):
     for g, labels in groups.items():
         seen = {}
         for lb in labels:
-            t = runs[lb]
-            missing = [c for c in CYCLE_COLUMNS if c not in t.columns]
-            if missing or t.empty:
-                raise ValueError(f"run {lb!r}: cycles.csv lacks {missing or 'rows'}; expected the table of the "
-                                 "'cycles' output (afferent.cycles.CYCLE_COLUMNS).")
+            t = _check_cycles(runs[lb], lb)
             f = float(t["frequency_hz"].iloc[0])
             if f in seen:
                 raise ValueError(f"group {g!r}: runs {seen[f]!r} and {lb!r} are both at {f:g} Hz; one run per "
@@ -187,6 +190,24 @@ def frequency_summary(runs: dict, groups: dict):
         lowest = out.groupby("group")[f"sed_{col}_pa"].transform("first")
         out.insert(out.columns.get_loc("spikes"), f"{col}_vs_lowest", out[f"sed_{col}_pa"] / lowest)
     return out.reset_index(drop=True)
+
+
+def _check_cycles(table, label: str):
+    """``table`` checked as a cycles table of run ``label``: :data:`CYCLE_CHECKS`, one frequency > 0 (Hz) in every
+    row, spikes and rates >= 0 (or empty: not counted)."""
+    from ._run_folder import check_table
+
+    where, what = f"run {label!r}: the cycles table", "the table of the 'cycles' output (afferent.cycles.CYCLE_COLUMNS)"
+    t = check_table(table, where=where, what=what, **CYCLE_CHECKS)
+    f = t["frequency_hz"].to_numpy()
+    if not (f[0] > 0 and (f == f[0]).all()):
+        raise ValueError(f"{where}: column 'frequency_hz' must hold one frequency > 0 Hz in every row; got "
+                         f"{sorted(set(f.tolist()))} instead.")
+    for c in ("spikes", "rate_hz"):
+        if (t[c] < 0).any():
+            raise ValueError(f"{where}: column {c!r} must be >= 0 (or empty: not counted); got {float(t[c].min())!r} "
+                             f"in cycle {int(t['cycle'][t[c].idxmin()])} instead.")
+    return t
 
 
 def _group_order(names):

@@ -397,50 +397,66 @@ def load_results(folder):
     ------
     FileNotFoundError
         ``folder`` is not a folder, or holds no ``run.json``.
+    SEDFormatError
+        A damaged file (``afferent._run_folder``): ``run.json`` not a UTF-8 JSON object, a table not UTF-8
+        CSV or without its columns or numbers, ``currents.nc`` not a readable netCDF-4 file (or a folder).
 
     Notes
     -----
     The ``tables`` and ``run`` attributes are Python objects, not netCDF attributes: remove
     them before writing the Dataset back (``ds.attrs.pop('tables'); ds.attrs.pop('run')``).
     """
-    import pandas as pd
-    import xarray as xr
+    from ._run_folder import read_run_record, read_run_table
 
     folder = os.fspath(folder)
-    record = os.path.join(folder, "run.json")
-    if not os.path.isfile(record):
-        raise FileNotFoundError(f"{folder!r} is not an afferent output folder: it holds no run.json.")
+    record = read_run_record(folder)
     nc = os.path.join(folder, RESULTS_NC)
-    if os.path.isfile(nc):
-        with xr.open_dataset(nc, engine="h5netcdf") as f:
-            ds = f.load()
-    else:
-        ds = _dataset_from_csv(folder)
+    ds = _read_nc(nc) if os.path.lexists(nc) else _dataset_from_csv(folder)
     tables = {}
     for name in sorted(os.listdir(folder)):
         if name.endswith(".csv") and name not in ("receptors.csv", "afferents.csv"):
-            tables[name[:-4]] = pd.read_csv(os.path.join(folder, name))
-    with open(record, encoding="utf-8") as f:
-        ds.attrs["run"] = json.load(f)
+            tables[name[:-4]] = read_run_table(os.path.join(folder, name), what="a table afferent wrote", rows=False)
+    ds.attrs["run"] = record
     ds.attrs["tables"] = tables
     return ds
 
 
-def _dataset_from_csv(folder: str):
-    """The Dataset of :func:`results_dataset` from the long CSV tables of ``results_format='csv'``."""
-    import pandas as pd
+def _read_nc(nc: str):
+    """``currents.nc`` (:func:`results_dataset`) loaded; a file that is not readable netCDF-4 (or not a file) is
+    an error naming it."""
     import xarray as xr
 
+    from .exceptions import SEDFormatError
+
+    if not os.path.isfile(nc):
+        raise SEDFormatError(f"Results file {nc!r} is not a file; expected the netCDF-4 file of a run's time courses.")
+    try:
+        with xr.open_dataset(nc, engine="h5netcdf") as f:
+            return f.load()
+    except (OSError, ValueError, KeyError, TypeError) as err:
+        raise SEDFormatError(f"Results file {nc!r} could not be read as netCDF-4 ({' '.join(str(err).split())}); "
+                             "expected the time courses a run wrote.") from err
+
+
+def _dataset_from_csv(folder: str):
+    """The Dataset of :func:`results_dataset` from the long CSV tables of ``results_format='csv'``."""
+    import xarray as xr
+
+    from ._run_folder import read_run_table
+
     rec, aff = os.path.join(folder, "receptors.csv"), os.path.join(folder, "afferents.csv")
-    if not os.path.isfile(rec):
+    if not os.path.lexists(rec):
         return xr.Dataset()
-    df = pd.read_csv(rec, dtype={"receptor": str})
+    df = read_run_table(rec, what="the long table of results_format='csv'", rows=False, text=("receptor",),
+                        finite=("time_s", "x_m", "y_m", "z_m"), numbers=("sed_pa", "current_a"),
+                        columns=("longitudinal", "cross"), unique=("time_s", "receptor"))
     ds = df.set_index(["time_s", "receptor"])[["sed_pa", "current_a"]].to_xarray().rename(time_s="time")
     first = df.drop_duplicates("receptor").set_index("receptor")
     ds = ds.assign_coords({c: ("receptor", first.loc[ds.receptor.values, c].to_numpy())
                            for c in ("x_m", "y_m", "z_m", "longitudinal", "cross")})
-    if os.path.isfile(aff):
-        da = pd.read_csv(aff, dtype={"afferent": str})
+    if os.path.lexists(aff):
+        da = read_run_table(aff, what="the long table of results_format='csv'", rows=False, text=("afferent",),
+                            finite=("time_s", "position_m"), numbers=("current_a",), unique=("time_s", "afferent"))
         a = da.set_index(["time_s", "afferent"])["current_a"].to_xarray().rename(time_s="time")
         ds["afferent_current_a"] = a.reindex(time=ds.time)
         pos = da.drop_duplicates("afferent").set_index("afferent")["position_m"]

@@ -28,7 +28,7 @@ import numpy as np
 
 __all__ = ["DEFAULT_THRESHOLD", "normalise_map", "hotspot_table", "map_distance", "distance_table",
            "nearest_centroid_accuracy", "receptor_hotspots", "hotspot_maps", "write_hotspots",
-           "read_hotspot_runs", "read_run_tables", "group_runs", "compare_runs"]
+           "read_hotspot_runs", "read_run_tables", "group_runs", "compare_runs", "HOTSPOT_COLUMNS"]
 
 #: The study's hot-spot threshold on the min-max normalised SED (fig. 4-9).
 DEFAULT_THRESHOLD = 0.6
@@ -178,18 +178,22 @@ def write_hotspots(path, sed_static, sed_beside=None, *, threshold: float = DEFA
         save_figure(plot_hotspot_maps(tables, threshold=threshold), path("hotspots.png"))
 
 
+#: What a ``hotspots.csv`` read back must hold (``afferent._run_folder.check_table``): a row per site.
+HOTSPOT_COLUMNS = {"finite": ("x_m", "z_m", "sed_pa"), "columns": ("map",)}
+
+
 def read_hotspot_runs(folders) -> dict:
     """{run label: hotspots.csv table} of ``afferent run`` output folders (:func:`read_run_tables`)."""
-    return read_run_tables(folders, "hotspots.csv", "hotspots")
+    return read_run_tables(folders, "hotspots.csv", "hotspots", HOTSPOT_COLUMNS)
 
 
-def read_run_tables(folders, filename: str, want: str) -> dict:
+def read_run_tables(folders, filename: str, want: str, checks: dict) -> dict:
     """{run label: the table ``filename``} of ``afferent run`` output folders whose scenes want ``want`` (the label:
     run.json's scene name, else the folder's name); ``afferent hotspots`` and ``afferent cycles`` read runs so.
-    A folder without the table or two runs of one label are errors naming them."""
-    import json
-
-    import pandas as pd
+    Each table is read by ``afferent._run_folder.read_run_table`` with ``checks`` (its ``finite``, ``numbers``,
+    ``columns``) and must have rows. A folder without the table, a damaged table or run.json, or two runs of one
+    label are errors naming them."""
+    from ._run_folder import read_run_table, run_label
 
     runs = {}
     for folder in folders:
@@ -197,14 +201,10 @@ def read_run_tables(folders, filename: str, want: str) -> dict:
         if not os.path.isfile(csv):
             raise FileNotFoundError(f"{folder!r}: no {filename}; expected the output folder of a run whose scene "
                                     f"wants {want!r}.")
-        label = os.path.basename(os.path.normpath(folder))
-        meta = os.path.join(folder, "run.json")
-        if os.path.isfile(meta):
-            with open(meta) as f:
-                label = (json.load(f).get("scene", {}).get("scene", {}) or {}).get("name") or label
+        label = run_label(folder)
         if label in runs:
             raise ValueError(f"{folder!r}: a second run named {label!r}; give runs of distinct scene names.")
-        runs[label] = pd.read_csv(csv)
+        runs[label] = read_run_table(csv, what=f"the {want!r} output of a run ({filename})", **checks)
     return runs
 
 
@@ -230,7 +230,8 @@ def compare_runs(runs: dict, groups: dict | None = None, *, noise: float = 0.1, 
 
     Returns (distances, accuracy) DataFrames: ``group, map, a, b, distance`` for every pair of runs
     of a group (:func:`map_distance` of their normalised SED), and ``group, map, n_maps, noise, trials,
-    accuracy, chance`` (:func:`nearest_centroid_accuracy`). Runs of a group must map the same sites.
+    accuracy, chance`` (:func:`nearest_centroid_accuracy`). Runs of a group must map the same sites; a run of the
+    group without a map the others have is left out of that map's rows with an :class:`AfferentWarning`.
     """
     import pandas as pd
 
@@ -239,6 +240,14 @@ def compare_runs(runs: dict, groups: dict | None = None, *, noise: float = 0.1, 
         kinds = list(dict.fromkeys(k for lb in labels for k in runs[lb]["map"]))
         for kind in kinds:
             maps = {lb: runs[lb][runs[lb]["map"] == kind] for lb in labels if kind in set(runs[lb]["map"])}
+            if len(maps) < len(labels):  # said, not silently left out of the distances and the chance level
+                import warnings
+
+                from .exceptions import AfferentWarning
+
+                warnings.warn(f"group {g!r}, map {kind!r}: run(s) {[lb for lb in labels if lb not in maps]} have no "
+                              f"sites of that map; compared without them ({len(maps)} of {len(labels)} runs).",
+                              AfferentWarning, stacklevel=2)
             ref = next(iter(maps.values()))[["x_m", "z_m"]].to_numpy()
             for lb, t in maps.items():
                 if len(t) != len(ref) or not np.allclose(t[["x_m", "z_m"]].to_numpy(), ref, atol=1e-9):

@@ -216,8 +216,15 @@ def _zone_table(source):
         raise (ValueError if isinstance(source, pd.DataFrame) else SEDFormatError)(
             f"{where} must have columns 'receptor' and 'zone'; missing {', '.join(map(repr, missing))}. "
             f"Found columns {found}.")
-    rec = df[cols["receptor"]].astype(str).str.strip().to_numpy()
-    zone = df[cols["zone"]].astype(str).str.strip().to_numpy()
+    rec, zone = (df[cols[c]].astype(str).str.strip().where(df[cols[c]].notna(), "").to_numpy()
+                 for c in ("receptor", "zone"))
+    for name, cells in (("zone", zone), ("receptor", rec)):  # an empty cell is not a label of its own
+        empty = np.flatnonzero(cells == "")
+        if empty.size:
+            k = int(empty[0])
+            raise ValueError(f"{where}: {empty.size} row(s) have an empty {name!r} cell (the first on data row {k + 1}"
+                             f"{f', receptor {rec[k]!r}' if name == 'zone' else ''}); give every receptor its id and "
+                             "a zone label.")
     return rec, zone, where
 
 
@@ -247,8 +254,9 @@ def zones_from_map(branching, source) -> Zones:
     FileNotFoundError, SEDFormatError
         The file is missing, unreadable or lacks the columns.
     ValueError
-        A receptor listed twice, or receptors of the branching without a zone (the message
-        counts and names them), or a branching without receptor ids.
+        A receptor listed twice, an empty receptor or zone cell (not a zone of its own), or
+        receptors of the branching without a zone (the message counts and names them), or a
+        branching without receptor ids.
     """
     from .synthesis import Branching, _preview
 

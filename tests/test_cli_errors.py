@@ -127,3 +127,31 @@ def test_a_reader_that_goes_away_stops_the_command_quietly():
     finally:
         os.close(write_end)
     assert proc.returncode == 141 and proc.stderr == "", (proc.returncode, proc.stderr)
+
+
+# ------------------------------------------------------------- issue 33, item 13: -q and the doubled prefix
+@pytest.mark.parametrize("command", sorted(COMMANDS))
+def test_every_subcommand_takes_the_common_quiet_option(command):
+    """Before: 'afferent hotspots ... -q' and 'afferent cycles ... -q' were refused ('unrecognized arguments: -q')."""
+    import argparse
+
+    from afferent.cli._main import build_parser
+
+    parser = build_parser([command])
+    sub = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
+    actions = sub.choices[command]._option_string_actions
+    assert actions["-q"] is actions["--quiet"] and actions["-q"].help == "no progress bars or summaries"
+
+
+@pytest.mark.parametrize("argv, line", [
+    (["hotspots", "r1", "-o", "out", "-q", "--bogus"], "afferent: error: afferent hotspots: unrecognized arguments: --bogus"),
+    (["cycles", "r1", "-o", "out", "-q", "--bogus"], "afferent: error: afferent cycles: unrecognized arguments: --bogus"),
+    (["--bogus"], "afferent: error: unrecognized arguments: --bogus"),
+    (["sample"], "afferent: error: afferent sample: the following arguments are required: EXPORT, -o/--output"),
+])
+def test_a_usage_error_names_the_program_once(tmp_path, capsys, monkeypatch, argv, line):
+    """Before: 'afferent: error: afferent: unrecognized arguments: -q --bogus' (the program named twice,
+    and -q refused by hotspots and cycles)."""
+    monkeypatch.chdir(tmp_path)
+    assert main(argv) == 2
+    assert capsys.readouterr().err == line + "\n"

@@ -121,7 +121,7 @@ def test_two_runs_at_one_frequency_in_a_group_is_an_error(tmp_path):
     tab = cycle_table(t, v, 20.0)[0]
     with pytest.raises(ValueError, match=r"group 'all': runs 'a' and 'b' are both at 20 Hz"):
         frequency_summary({"a": tab, "b": tab}, {"all": ["a", "b"]})
-    with pytest.raises(ValueError, match=r"run 'a': cycles.csv lacks \['rate_hz'\]"):
+    with pytest.raises(ValueError, match=r"run 'a': the cycles table lacks the column\(s\) \['rate_hz'\]; expected the table"):
         frequency_summary({"a": tab.drop(columns="rate_hz")}, {"all": ["a"]})
     assert isinstance(frequency_summary({"a": tab}, {"all": ["a"]}), pd.DataFrame)
 
@@ -170,3 +170,33 @@ def test_command_reads_the_vibration_sweep_as_its_runs(tmp_path):
         deep = info[row.group]["series"][f"{row.group}_{int(row.frequency_hz)}Hz"]["deepest"]
         assert [row.sed_first_pa, row.sed_last_pa] == pytest.approx(deep["site_SED_Pa"][::2], rel=1e-6)
     assert summ.groupby("group")["rate_hz"].apply(lambda r: r.is_monotonic_increasing).all()
+
+
+# ------------------------------------------------------------ issue 33, items 11 and 13: damaged cycles tables
+@pytest.mark.parametrize("column, value, message", [
+    ("frequency_hz", np.nan, "Run table '{csv}': column 'frequency_hz' must hold finite numbers; got nan on data row 1 "
+                             "instead; expected the 'cycles' output of a run (cycles.csv)."),
+    ("frequency_hz", 0.0, "run 'r': the cycles table: column 'frequency_hz' must hold one frequency > 0 Hz in every "
+                          "row; got [0.0] instead."),
+    ("rate_hz", -5.0, "run 'r': the cycles table: column 'rate_hz' must be >= 0 (or empty: not counted); got -5.0 in "
+                      "cycle 1 instead."),
+    ("spikes", -1.0, "run 'r': the cycles table: column 'spikes' must be >= 0 (or empty: not counted); got -1.0 in "
+                     "cycle 1 instead."),
+    ("sed_pa", "abc", "Run table '{csv}': column 'sed_pa' must hold finite numbers; got 'abc' on data row 1 instead; "
+                      "expected the 'cycles' output of a run (cycles.csv)."),
+])
+def test_cli_cycles_refuses_a_table_of_no_frequency_or_negative_rates(tmp_path, capsys, column, value, message):
+    """Before: NaN or 0 frequency_hz and negative rates were tabulated (exit 0); text in sed_pa was an internal
+    error (ValueError from float(), exit 1)."""
+    from afferent.cli import main
+
+    t, v = _series()
+    tab = cycle_table(t, v, 20.0, spike_times=[0.01, 0.06], n_afferents=1)[0]
+    tab[column] = tab[column].astype(object)
+    tab.loc[0 if column != "frequency_hz" else slice(None), column] = value  # a frequency: the whole column
+    (tmp_path / "r").mkdir()
+    tab.to_csv(tmp_path / "r" / "cycles.csv", index=False)
+    assert main(["cycles", str(tmp_path / "r"), "-o", str(tmp_path / "out"), "-q"]) == 2
+    err = capsys.readouterr().err
+    assert err == "afferent: error: " + message.format(csv=tmp_path / "r" / "cycles.csv") + "\n", err
+    assert not (tmp_path / "out").exists()

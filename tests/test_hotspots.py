@@ -183,3 +183,58 @@ def test_cli_hotspots_tabulates_runs_and_errors_in_one_line(tmp_path, capsys):
                                                "got 'nonsense' instead.")
     assert main(["hotspots", str(tmp_path / "runs"), "-o", str(tmp_path / "out3")]) == 2
     assert "no hotspots.csv; expected the output folder of a run" in capsys.readouterr().err
+
+
+# ------------------------------------------------------------ issue 33, items 11 and 13: damaged runs
+def _run_folders(tmp_path, n=3):
+    folders = []
+    for k in range(n):
+        d = tmp_path / "runs" / f"r{k}"
+        d.mkdir(parents=True)
+        values = np.roll([1.0, 2.0, 3.0], k)
+        hotspot_table(["1", "2", "3"], np.eye(3) * 1e-3, values, site="RA-I").assign(map="RA-I").to_csv(
+            d / "hotspots.csv", index=False)
+        folders.append(d)
+    return folders
+
+
+@pytest.mark.parametrize("damage, message", [
+    (lambda d: (d / "hotspots.csv").write_text((d / "hotspots.csv").read_text().replace(",2.0,", ",abc,")),
+     "Run table '{d}/hotspots.csv': column 'sed_pa' must hold finite numbers; got 'abc' on data row "),
+    (lambda d: (d / "hotspots.csv").write_bytes((d / "hotspots.csv").read_bytes() + b"RA-I,\xe9,0,0,1,0,False,RA-I\n"),
+     "Run table '{d}/hotspots.csv' could not be read as UTF-8 CSV ("),
+    (lambda d: (d / "hotspots.csv").write_text(""),
+     "Run table '{d}/hotspots.csv' is empty; expected the 'hotspots' output of a run (hotspots.csv)."),
+    (lambda d: (d / "hotspots.csv").write_text((d / "hotspots.csv").read_text().splitlines()[0] + "\n"),
+     "Run table '{d}/hotspots.csv' has no rows; expected the 'hotspots' output of a run (hotspots.csv)."),
+    (lambda d: (d / "hotspots.csv").write_text("site,x_m\n1,0\n"),
+     "Run table '{d}/hotspots.csv' lacks the column(s) ['z_m', 'sed_pa', 'map']; expected the 'hotspots' output"),
+    (lambda d: (d / "run.json").write_text("{broken"),
+     "Run record '{d}/run.json' is not UTF-8 JSON text (Expecting property name enclosed in double quotes: line 1 "
+     "column 2 (char 1)); expected the run record afferent writes."),
+])
+def test_cli_hotspots_names_a_damaged_run_file(tmp_path, capsys, damage, message):
+    """Before: 'internal error (please report)' with ValueError (text in sed_pa), UnicodeDecodeError, EmptyDataError,
+    JSONDecodeError (exit 1); a run whose hotspots.csv had a header and no rows was left out without a word (the
+    chance level then 1/2, not 1/3)."""
+    from afferent.cli import main
+
+    folders = _run_folders(tmp_path)
+    damage(folders[2])
+    assert main(["hotspots", *map(str, folders), "-o", str(tmp_path / "out"), "--trials", "50", "-q"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("afferent: error: " + message.format(d=folders[2])) and err.count("\n") == 1, err
+    assert not (tmp_path / "out").exists()
+
+
+def test_a_run_without_a_map_the_others_have_is_left_out_with_a_warning(tmp_path, capsys):
+    from afferent.cli import main
+
+    folders = _run_folders(tmp_path)
+    t = pd.read_csv(folders[2] / "hotspots.csv")
+    t.assign(map="SA-I").to_csv(folders[2] / "hotspots.csv", index=False)
+    assert main(["hotspots", *map(str, folders), "-o", str(tmp_path / "out"), "--trials", "50", "-q"]) == 0
+    assert capsys.readouterr().err == ("afferent: warning: group 'all', map 'RA-I': run(s) ['r2'] have no sites of that "
+                                       "map; compared without them (2 of 3 runs).\n"
+                                       "afferent: warning: group 'all', map 'SA-I': run(s) ['r0', 'r1'] have no sites of "
+                                       "that map; compared without them (1 of 3 runs).\n")

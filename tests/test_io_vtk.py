@@ -366,3 +366,45 @@ def test_a_series_whose_pieces_part_between_first_and_last_steps_is_refused(tmp_
             f"SED file {files[1]!r}: nodes its pieces share carry different values here but equal ones at the first and "
             "last steps ('s0.pvtu', 's2.pvtu')")):
         read_sed(files, length_unit="mm", sed_unit="Pa")
+
+
+# ------------------------------------------------------------- issue 33, item 11: malformed index files
+def test_a_vtm_with_an_undefined_entity_is_named_not_an_internal_error(tmp_path):
+    """VTK's parser skips an undefined entity under an external DTD; Python's refused it unguarded while
+    listing the blocks: before, 'internal error (please report): ParseError: undefined entity &foo;'."""
+    import shutil
+
+    shutil.copytree(os.path.join(DATA, "kratos", "vtu", "Structure"), tmp_path / "Structure")
+    text = open(KRATOS_VTM).read().replace('<?xml version="1.0"?>', '<?xml version="1.0"?>\n<!DOCTYPE VTKFile SYSTEM "x.dtd">')
+    p = tmp_path / "ent.vtm"
+    p.write_text(text.replace('name="Structure_elements">', 'name="Structure_elements">&foo;'))
+    with pytest.raises(SEDFormatError, match=re.escape(f"SED file {str(p)!r} is not a valid .vtm (XML) file: "
+                                                       "undefined entity &foo;: line 5, column")):
+        read_raw(p)
+
+
+def test_a_pvtu_listing_itself_is_refused_not_recursed(tmp_path):
+    """Before: RecursionError (exit 1), from the reader and from data_files."""
+    from afferent.io import data_files
+
+    (tmp_path / "block_00.0.vtu").write_bytes(open(os.path.join(DATA, "dealii", "block_00.0.vtu"), "rb").read())
+    p = tmp_path / "self.pvtu"
+    p.write_text(open(DEALII_PVTU[0]).read().replace("block_00.1.vtu", "self.pvtu"))
+    message = re.escape(f"SED file {str(p)!r} lists the piece {str(p)!r}, a parallel record itself; the pieces of a "
+                        ".pvtu are .vtu files.")
+    for read in (read_raw, data_files):
+        with pytest.raises(SEDFormatError, match=message):
+            read(str(p))
+
+
+def test_vtm_blocks_leading_back_to_the_vtm_are_refused(tmp_path):
+    """Before: data_files (which sizes a run's read) recursed without end: RecursionError, exit 1."""
+    from afferent.io import data_files
+
+    text = open(KRATOS_VTM).read()
+    (tmp_path / "a.vtm").write_text(text.replace("Structure/Structure_elements_1.vtu", "b.vtm"))
+    (tmp_path / "b.vtm").write_text(text.replace("Structure/Structure_elements_1.vtu", "a.vtm"))
+    a, b = str(tmp_path / "a.vtm"), str(tmp_path / "b.vtm")
+    with pytest.raises(SEDFormatError, match=re.escape(f"SED file {a!r} leads back to {a!r} through its blocks "
+                                                       f"({a!r} -> {b!r} -> {a!r}); a .vtm's blocks must not list it again.")):
+        data_files(a)

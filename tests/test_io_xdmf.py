@@ -84,7 +84,7 @@ def test_missing_heavy_data_and_damaged_files_are_named(tmp_path):
         read_raw(tmp_path / "block.xdmf")
     text = (DX / "block.xdmf").read_text()
     (tmp_path / "cut.xdmf").write_text(text[: len(text) // 2])
-    with pytest.raises(SEDFormatError, match=re.escape(f"SED file {str(tmp_path / 'cut.xdmf')!r} is not valid XDMF (XML)")):
+    with pytest.raises(SEDFormatError, match=re.escape(f"SED file {str(tmp_path / 'cut.xdmf')!r} is not a valid XDMF (XML) file")):
         read_raw(tmp_path / "cut.xdmf")
 
 
@@ -229,3 +229,72 @@ def test_datasets_stored_in_other_files_list_those_files(tmp_path, monkeypatch):
     assert "raw.bin" in names[2] and "source.h5" in names[3]
     for k, step in enumerate(steps):
         np.testing.assert_array_equal(step.arrays["SED"].values[0], sed * (k + 1))
+
+
+# ------------------------------------------------------------- issue 33, item 11: malformed heavy data
+def _binary_series(folder, sed_item: str) -> str:
+    """A temporal collection of one grid whose data are raw binary files (meshio's Binary XDMF, wrapped in a
+    collection so that afferent's own reader reads it), the SED DataItem's attributes replaced by ``sed_item``."""
+    import meshio
+
+    pts = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1.0]])
+    mesh = meshio.Mesh(pts, [("tetra", np.array([[0, 1, 2, 3]]))], point_data={"sed": np.arange(1.0, 5.0)})
+    meshio.xdmf.write(os.path.join(folder, "b.xdmf"), mesh, data_format="Binary")
+    grid = re.search(r'<Grid Name="Grid">(.*)</Grid>', open(os.path.join(folder, "b.xdmf")).read()).group(1)
+    grid = grid.replace('DataType="Float" Dimensions="4" Format="Binary"', sed_item)
+    path = os.path.join(folder, "series.xdmf")
+    with open(path, "w") as f:
+        f.write('<Xdmf Version="3.0"><Domain><Grid Name="T" GridType="Collection" CollectionType="Temporal">'
+                f'<Grid Name="mesh" GridType="Uniform"><Time Value="0.5"/>{grid}</Grid></Grid></Domain></Xdmf>')
+    return path
+
+
+@pytest.mark.parametrize("item, message", [
+    ('DataType="Float" Dimensions="4" Format="Binary"', None),
+    ('DataType="Float" Dimensions="4" Seek="-5" Format="Binary"',
+     "the Seek of attribute 'sed' at t = 0.5 must be a byte offset, a whole number >= 0; got '-5' instead."),
+    ('DataType="Float" Dimensions="4" Seek="abc" Format="Binary"',
+     "the Seek of attribute 'sed' at t = 0.5 must be a byte offset, a whole number >= 0; got 'abc' instead."),
+    ('DataType="Float" Dimensions="100000000000" Format="Binary"',
+     "attribute 'sed' at t = 0.5 must hold 100000000000 values of 8 byte(s) (its Dimensions) from byte 0 of "
+     "'{folder}/b2.bin'; the file holds 32 byte(s) from there."),
+    ('DataType="Float" Dimensions="4" Seek="24" Format="Binary"',
+     "attribute 'sed' at t = 0.5 must hold 4 values of 8 byte(s) (its Dimensions) from byte 24 of "
+     "'{folder}/b2.bin'; the file holds 8 byte(s) from there."),
+    ('DataType="Float" Dimensions="²" Format="Binary"',
+     "the Dimensions of attribute 'sed' at t = 0.5 must be whole numbers separated by spaces; got '²' instead."),
+])
+def test_a_binary_data_item_is_checked_against_its_file_before_it_is_read(tmp_path, item, message):
+    """Before: OSError 'Invalid argument' (Seek -5), ValueError from int() (Seek abc), MemoryError allocating
+    745 GiB (Dimensions 1e11 over a 32-byte file), ValueError from int('²'): each an internal error, exit 1."""
+    path = _binary_series(str(tmp_path), item)
+    if message is None:
+        np.testing.assert_array_equal(read_raw(path).arrays["sed"].values.ravel(), [1, 2, 3, 4])
+        return
+    with pytest.raises(SEDFormatError, match=re.escape(f"SED file {path!r}: " + message.format(folder=tmp_path))):
+        read_raw(path)
+
+
+@pytest.mark.parametrize("target, meaning", [
+    (("notes.txt", "/x"), "an external link on its path points to a file that is not HDF5 ("),
+    (("s.h5", "/nothing"), "an external link on its path points to an object its file does not hold ("),
+    (("s.h5", "/data3"), "an external link on its path leads back to itself ("),
+])
+def test_an_external_link_that_cannot_be_followed_is_named(tmp_path, monkeypatch, target, meaning):
+    """Links inside the export's folder to a text file, to a missing object, to itself: before, OSError or KeyError
+    from h5py, an internal error (exit 1)."""
+    import meshio
+
+    monkeypatch.chdir(tmp_path)
+    pts = np.array([[x, y, z] for z in (0, 1) for y in (0, 1) for x in (0, 1)], float)
+    with meshio.xdmf.TimeSeriesWriter("s.xdmf") as w:
+        w.write_points_cells(pts, [("hexahedron", np.array([[0, 1, 3, 2, 4, 5, 7, 6]]))])
+        for k in range(2):
+            w.write_data(float(k), point_data={"SED": 1e-4 * (k + 1) * (1.0 + pts[:, 0])})
+    (tmp_path / "notes.txt").write_text("not HDF5\n" * 100)
+    with h5py.File("s.h5", "r+") as f:
+        del f["/data3"]
+        f["/data3"] = h5py.ExternalLink(*target)
+    with pytest.raises(SEDFormatError, match=re.escape("SED file 's.xdmf': dataset '/data3' of attribute 'SED' at t = 1 "
+                                                       f"in 's.h5' could not be reached: {meaning}")):
+        read_raw("s.xdmf")

@@ -394,3 +394,93 @@ def test_cli_errors_found_by_the_scene_speak_the_commands_options(capsys, tmp_pa
     assert capsys.readouterr().err.startswith("afferent: error: --receptors needs the unit of R.csv's x, y, z: "
                                               "--receptor-unit U or --length-unit U")
     assert not (tmp_path / "o").exists()
+
+
+# ------------------------------------------------------------- issue 33, item 13: --on-outside nan|warn
+def _corner_cut_bump(folder):
+    """write_bump's block without its cells beyond x = z = 3 mm: the papilla grid there lies outside the field."""
+    vtu, receptors, *_ = write_bump(folder, 8)
+    mesh = meshio.read(vtu)
+    hexes = mesh.cells_dict["hexahedron"]
+    centre = mesh.points[hexes].mean(axis=1)
+    hexes = hexes[~((centre[:, 0] > 3.0) & (centre[:, 2] > 3.0))]
+    used = np.unique(hexes)
+    index = np.full(len(mesh.points), -1)
+    index[used] = np.arange(used.size)
+    meshio.write(vtu, meshio.Mesh(mesh.points[used], [("hexahedron", index[hexes])],
+                                  point_data={"SED": mesh.point_data["SED"][used]}))
+    return vtu, receptors
+
+
+@pytest.mark.parametrize("mode", ["file", "grid"])
+@pytest.mark.parametrize("on_outside", ["nan", "warn"])
+def test_receptors_outside_the_field_are_left_out_of_every_stage_and_said(tmp_path, capsys, mode, on_outside):
+    """Before: 'afferent: error: 'sed' must not contain NaN; ... must be dropped before transduction' (exit 2) for
+    every input mode, although the refusal of on_outside='raise' offers --on-outside nan and warn. Now the receptors
+    outside are NaN in the SED table and left out from transduction on, the afferents that lose receptors are named
+    in a warning and run.json, and every current and spike count is finite: an afferent's current is the sum of its
+    receptors inside."""
+    import xarray as xr
+
+    vtu, receptors = _corner_cut_bump(tmp_path)
+    where = ["--receptors", str(receptors)] if mode == "file" else ["--grid", "y=2.35"]
+    out = tmp_path / "out"
+    code = main(["run", str(vtu), *where, "--length-unit", "mm", "--sed-unit", "MPa", "--params", "start", "--spikes",
+                 "--drive", "rheobase", "--no-plots", "--no-cache", "--on-outside", on_outside, "-o", str(out)])
+    err = capsys.readouterr().err
+    assert code == 0, err
+    record = json.loads((out / "run.json").read_text())["outside"]
+    n_out, n = record["n_receptors"], record["of"]
+    partly = record["afferents_partly_outside"]
+    assert 0 < n_out < n and partly and all(0 < k < m for k, m in partly.values())
+    warned = [line for line in err.splitlines() if line.startswith("afferent: warning: ")]
+    assert len([w for w in warned if "outside the SED field" in w]) == 1, err
+    assert (f"afferent: warning: {n_out} of {n} receptors lie outside the SED field (" in err
+            and f": their SED is NaN in the SED tables, and they are left out of every stage from transduction on. "
+                f"{len(partly)} afferent(s) keep only their receptors "
+                "inside, so their currents sum fewer receptors than they have: " in err), err
+    with xr.open_dataset(out / "currents.nc", engine="h5netcdf") as ds:
+        assert ds.sizes["receptor"] == n - n_out and not set(record["receptors"]) & set(ds.receptor.values.tolist())
+        for v in ("sed_pa", "current_a", "afferent_current_a"):
+            assert np.isfinite(ds[v].values).all(), v
+        by_section = ds.current_a.groupby("longitudinal").sum().values
+        np.testing.assert_allclose(by_section, ds.afferent_current_a.values, rtol=1e-12)
+    summary = pd.read_csv(out / "spike_summary.csv")
+    assert len(summary) == ds.sizes["afferent"] and summary["n_spikes"].notna().all()
+    sed_map = pd.read_csv(out / "sed_map.csv", dtype={"receptor": str})  # the SED table: NaN where outside
+    assert sorted(sed_map.loc[sed_map["sed_pa"].isna(), "receptor"]) == sorted(record["receptors"])
+
+
+def test_sites_found_on_the_export_outside_the_field_are_left_out_too(tmp_path, capsys, monkeypatch):
+    """The site finder's mode (--grid tips): its sites lie on the mesh, so three of them are lifted 1 mm above it
+    here (as a finder working on another file than the sampled one would place them). Before: the same refusal
+    "'sed' must not contain NaN" (exit 2)."""
+    import xarray as xr
+
+    import afferent.receptors
+    from afferent.receptors import ReceptorLayout
+    from conftest import ROOT
+
+    found = afferent.receptors.sites_from_export
+
+    def lifted(*args, **kwargs):
+        tips = found(*args, **kwargs)
+        pos = tips.positions.copy()
+        pos[:3, 1] += 1e-3
+        return ReceptorLayout(pos, tips.ids, tips.longitudinal, tips.cross, source=tips.source, site=tips.site)
+
+    monkeypatch.setattr(afferent.receptors, "sites_from_export", lifted)
+    out = tmp_path / "out"
+    code = main(["run", str(ROOT / "afferent" / "data" / "sample" / "block4" / "indent_0p88mm.vtu"), "--grid", "tips",
+                 "--length-unit", "mm", "--sed-unit", "MPa", "--params", "start", "--spikes", "--drive", "rheobase",
+                 "--no-plots", "--no-cache", "--on-outside", "nan", "-o", str(out)])
+    err = capsys.readouterr().err
+    assert code == 0, err
+    record = json.loads((out / "run.json").read_text())["outside"]
+    assert record["n_receptors"] == 3 and f"afferent: warning: 3 of {record['of']} receptors lie outside" in err
+    assert record["afferents_partly_outside"] or record["afferents_all_outside"]
+    assert record["receptors"] == [str(i) for i in found(ROOT / "afferent" / "data" / "sample" / "block4" /
+                                                         "indent_0p88mm.vtu", length_unit="mm", kind="tips", upper=1,
+                                                         lower=2, pitch_x=0.44e-3, pitch_z=0.22e-3).ids[:3]]
+    with xr.open_dataset(out / "currents.nc", engine="h5netcdf") as ds:
+        assert ds.sizes["receptor"] == record["of"] - 3 and np.isfinite(ds["afferent_current_a"].values).all()

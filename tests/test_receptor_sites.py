@@ -301,3 +301,17 @@ def test_a_sweep_over_the_site_kind_records_it_per_task(tmp_path):
     assert sites["tips"]["site"] == "RA-I" and sites["tips"]["n_receptors_total"] == 210
     assert sites["bases"]["site"] == "SA-I" and sites["bases"]["n_receptors_total"] == 231
     assert set(out.table["receptors.grid"]) == {"tips", "bases"}
+
+
+def test_no_bases_on_a_mesh_without_floors_is_a_sentence_not_numpys():
+    """Found testing issue 33's input modes: on the packaged crop (no wide floors), 'bases' ended in numpy's
+    'zero-size array to reduction operation minimum' (the mask of floors was tested by its size, not its content)."""
+    import re
+    from pathlib import Path
+
+    from afferent.receptors import sites_from_export
+
+    crop = Path(__file__).resolve().parents[1] / "afferent" / "data" / "sample" / "block4" / "indent_0p88mm.vtu"
+    with pytest.raises(ValueError, match=re.escape("must have intermediate-ridge bases (lows sinking >= 1e-05 m "
+                                                   "within pitch 0.00044 x 0.00022 m windows); got none on its ")):
+        sites_from_export(crop, length_unit="mm", kind="bases", upper=1, lower=2)

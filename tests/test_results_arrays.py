@@ -99,3 +99,57 @@ def test_spike_trains_as_nwb_read_back_with_positions_and_parameters(tmp_path, b
     lif = record["spikes"]["lif"]
     assert (units["tau_m_s"] == lif["tau_m"]).all() and (units["v_thresh_v"] == lif["v_thresh"]).all()
     assert all(np.allclose(iv, [[0.0, record["spikes"]["duration_s"]]]) for iv in units["obs_intervals"])
+
+
+# ------------------------------------------------------------- issue 33, item 11: damaged output folders
+def _damaged(folder, how: str):
+    """Damage a copy of a run's output folder as ``how`` says; return the file named in the error."""
+    if how == "run.json broken":
+        (folder / "run.json").write_text('{"outputs": [')
+        return folder / "run.json"
+    if how == "run.json too deep":
+        (folder / "run.json").write_text("[" * 100_000 + "]" * 100_000)
+        return folder / "run.json"
+    if how == "run.json a list":
+        (folder / "run.json").write_text("[1, 2]")
+        return folder / "run.json"
+    if how in ("currents.nc garbage", "currents.nc a folder"):
+        (folder / "currents.nc").unlink()
+        if how.endswith("garbage"):
+            (folder / "currents.nc").write_bytes(b"CDF\x01" + b"\x00" * 100)
+        else:
+            (folder / "currents.nc").mkdir()
+        return folder / "currents.nc"
+    if how == "table ragged":
+        (folder / "waveform.csv").write_text("time_s,depth_m\n0,0\n1,2,3,4\n")
+        return folder / "waveform.csv"
+    (folder / "waveform.csv").write_bytes(b"time_s,depth_m\n0,\xe9\n")  # "table not UTF-8"
+    return folder / "waveform.csv"
+
+
+@pytest.mark.parametrize("how, message", [
+    ("run.json broken", "Run record {path!r} is not UTF-8 JSON text (Expecting value: line 1 column 14 (char 13)); "
+                        "expected the run record afferent writes."),
+    ("run.json too deep", "Run record {path!r} nests arrays or objects too deeply to be read; expected the run record "
+                          "afferent writes."),
+    ("run.json a list", "Run record {path!r} holds a JSON list, not an object; expected the run record afferent writes."),
+    ("currents.nc garbage", "Results file {path!r} could not be read as netCDF-4 ("),
+    ("currents.nc a folder", "Results file {path!r} is not a file; expected the netCDF-4 file of a run's time courses."),
+    ("table ragged", "Run table {path!r} could not be read as UTF-8 CSV (Error tokenizing data. C error: Expected 2 "
+                     "fields in line 3, saw 4); expected a table afferent wrote."),
+    ("table not UTF-8", "Run table {path!r} could not be read as UTF-8 CSV ("),
+])
+def test_load_results_names_the_damaged_file(tmp_path, bump, how, message):
+    """Before: JSONDecodeError, RecursionError, AttributeError later, OSError, an empty Dataset (currents.nc a
+    folder: no error at all), ParserError, UnicodeDecodeError: the parsers' own exceptions."""
+    import shutil
+
+    from afferent.exceptions import SEDFormatError
+
+    out = _run(tmp_path, bump, "nc")
+    folder = tmp_path / "damaged"
+    shutil.copytree(out, folder)
+    path = str(_damaged(folder, how))
+    with pytest.raises(SEDFormatError) as err:
+        afferent.load_results(folder)
+    assert str(err.value).startswith(message.format(path=path)), str(err.value)

@@ -652,3 +652,21 @@ def test_grid_engine_warns_at_the_refractory_ceiling(engine):
     assert exact.peak_rate()[0] == pytest.approx(RA.steady_rate(158.0 * RA.rheobase), rel=1e-9)
     assert exact.peak_rate()[0] < 815.0  # 814.07 Hz
     assert low.n_spikes[0] > 3
+
+
+# ------------------------------------------------------------- issue 33, item 13: a grid of one step
+@pytest.mark.parametrize("engine", ["fast", "fast-numpy", "brian2"])
+@pytest.mark.parametrize("dt, kwargs", [
+    (1.0, {"duration": 1.0}),
+    (2.0, {"duration": 1.0}),
+    (1.5, {"times": np.arange(5) * 0.25}),  # the samples span 1.25 s
+])
+def test_a_grid_step_at_or_above_the_duration_is_refused(engine, dt, kwargs):
+    """Before: exit 0 with every spike stamped at t = 0, their count set by dt (afferent run --engine fast --dt-ms
+    1000 on a 1 s static input: 5 spikes, all at t = 0; --dt-ms 500: 10)."""
+    n = len(kwargs.get("times", [0]))
+    duration = kwargs.get("duration", 1.25)
+    with pytest.raises(ValueError, match=re.escape(
+            f"'dt' must be below the simulated duration of {duration:g} s, so that the grid has more than one step; "
+            f"got {dt!r} s instead. Use a smaller dt, or engine='exact' (no time step).")):
+        simulate_lif(constant([2 * RA.rheobase], n), RA, dt=dt, engine=engine, **kwargs)

@@ -507,3 +507,32 @@ def test_lowpass_rate_on_a_uniform_grid_is_scipys_lfilter_bit_for_bit():
         slope_all = np.vstack([slope, np.zeros((1, values.shape[1]))])
         c = (tau / dt_all) * -np.expm1(-dt_all / tau)
         np.testing.assert_array_equal(_lowpass_rate(values, times, tau), slope_all + (r - slope_all) * c[:, None])
+
+
+# ------------------------------------------------------------- issue 33, item 11: too many samples
+@pytest.mark.parametrize("make, steps, duration, dt", [
+    (lambda: ramp_and_hold(0.5e-3, 5e-3, 2.0, dt=1e-13), "2.2e+13", "2.2", "1e-13"),
+    (lambda: ramp_and_hold(0.5e-3, 1e-12, 2.0, dt=1e-3), "1e+12", "1000000002.0", "0.001"),
+    (lambda: sinusoid(20.0, 0.5e-3, duration=1.0, dt=1e-13), "1e+13", "1.0", "1e-13"),
+])
+def test_a_waveform_of_too_many_samples_is_refused_before_it_is_allocated(make, steps, duration, dt):
+    """The spiking engines' limit and sentence (afferent._validation.check_step_count). Before: numpy's
+    MemoryError allocating 171 GiB to 7 TiB (afferent run --waveform-dt-ms 1e-7, ramp:0.5,1e-9,2), exit 1."""
+    with pytest.raises(ValueError, match=re.escape(
+            f"The waveform's duration / dt must be below 2147483647 steps; got {steps} steps (duration {duration}")) as err:
+        make()
+    assert err.value.args[0].endswith(f" s, dt {dt} s) instead.")
+
+
+def test_run_refuses_a_waveform_of_too_many_samples(tmp_path, capsys):
+    from afferent.cli import main
+    from conftest import SAMPLE_DIR
+
+    block = SAMPLE_DIR / "block4"
+    code = main(["run", str(block / "indent_0p88mm.vtu"), "--receptors", str(block / "receptors.csv"), "--length-unit",
+                 "mm", "--sed-unit", "MPa", "--params", "start", "--waveform", "ramp:0.5,5,2", "--waveform-dt-ms", "1e-7",
+                 "--d-ref-mm", "0.88", "--no-plots", "-q", "-o", str(tmp_path / "out")])
+    err = capsys.readouterr().err
+    assert code == 2 and err.startswith("afferent: error: The waveform's duration / dt must be below 2147483647 steps; "
+                                        "got 2.3e+10 steps (duration 2.3"), err
+    assert not (tmp_path / "out").exists()

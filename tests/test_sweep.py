@@ -361,6 +361,36 @@ def test_a_killed_worker_is_named_with_its_signal(tmp_path):
     assert "run the same sweep again to resume" in err and "__main__" not in err
 
 
+@pytest.mark.slow
+def test_a_worker_killed_in_the_first_task_is_named_with_its_own_signal(tmp_path):
+    """Issue 33, item 13: the workers were known from what ran when a task started; one killed while the first
+    task (the export's sampling) ran was not, and its death was blamed on a calling script without
+    `if __name__ == '__main__'` (internal error, exit 1), or on the SIGTERM the pool sends the others."""
+    import signal
+    import subprocess
+    import time
+
+    psutil = pytest.importorskip("psutil")
+    src = write_sweep(tmp_path, SMALL)
+    proc = subprocess.Popen([sys.executable, "-m", "afferent", "sweep", str(src), "-o", str(tmp_path / "out"),
+                             "--scheduler", "processes", "--no-cache", "-q"], stderr=subprocess.PIPE, text=True,
+                            cwd=ROOT)
+    parent, t0, workers = psutil.Process(proc.pid), time.monotonic(), []
+    while not workers and proc.poll() is None and time.monotonic() - t0 < 180:
+        kids = parent.children(recursive=True)
+        workers = [k for k in kids if "resource_tracker" not in " ".join(k.cmdline())]
+        time.sleep(0.02)
+    assert workers, proc.stderr.read()
+    workers[0].send_signal(signal.SIGSEGV)  # the first worker, at once: before or while it samples the export
+    code = proc.wait(120)
+    _, alive = psutil.wait_procs(kids, timeout=10)
+    for p in alive:
+        p.kill()
+    err = proc.stderr.read()
+    assert code == 2 and not alive, err
+    assert err.startswith("afferent: error: a sweep worker died (signal 11, SIGSEGV) while running tasks"), err
+
+
 # --------------------------------------------------------- the task count (issue 26, item 7)
 def test_a_huge_sweep_is_counted_and_refused_before_anything_is_built(tmp_path, capsys):
     """2 x 10^10 parameter sets were built in memory (MemoryError at 3.8 GB, exit 1)."""
@@ -470,3 +500,16 @@ def test_resume_after_an_interruption_equals_an_uninterrupted_run(tmp_path, monk
     assert rec["specification"][0]["params"]["spikes.gain_ms"] == {"start": 100, "stop": 300, "num": 4,
                                                                     "spacing": "linear"}
     assert rec["engine"]["windows"] == 2 and rec["n_sampling_groups"] == 1
+
+
+def test_resume_reruns_a_task_whose_record_is_not_utf8(tmp_path):
+    """Issue 33, item 11. Before: the resume stopped with UnicodeDecodeError (an internal error, exit 1) on a task
+    record holding bytes that are not UTF-8; now that line is not a record (the task runs again), the others are."""
+    src = write_sweep(tmp_path, SMALL)
+    out = tmp_path / "out"
+    first = sweep(src, out, scheduler="serial")
+    damaged = next(f for f in (out / "tasks").glob("*.jsonl") if first.table.task.iloc[0] in f.read_text())
+    damaged.write_bytes(damaged.read_bytes().replace(b'"status"', b'"st\xffatus"', 1))
+    again = sweep(src, out, scheduler="serial")
+    assert (again.n_ran, again.n_skipped) == (1, 3)
+    pd.testing.assert_frame_equal(again.table, first.table)

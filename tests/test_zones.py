@@ -17,6 +17,7 @@ the last common reset, ends before the faster zone's next crossing.
 from __future__ import annotations
 
 import json
+import re
 
 import numpy as np
 import pytest
@@ -439,3 +440,27 @@ def test_cli_zone_map_runs_and_conflicts_are_errors(tmp_path, capsys):
     capsys.readouterr()
     assert main(base + ["--zone-map", str(zmap), "--zones-per-afferent", "2", "-o", str(tmp_path / "bad")]) == 2
     assert "give --zone-map (each receptor's zone) or --zones-per-afferent" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("text, message", [
+    ("receptor,zone\n0,a\n1,\n2,b\n", "Zone map '{path}': 1 row(s) have an empty 'zone' cell (the first on data row 2, "
+                                      "receptor '1'); give every receptor its id and a zone label."),
+    ("receptor,zone\n0,a\n,b\n", "Zone map '{path}': 1 row(s) have an empty 'receptor' cell (the first on data row 2); "
+                                 "give every receptor its id and a zone label."),
+])
+def test_an_empty_zone_cell_is_not_a_zone_of_its_own(tmp_path, text, message):
+    """Issue 33, item 13. Before: the receptors with an empty zone cell made one more zone (labelled ''): 5 zones
+    instead of 4, and other spikes, without a word. A DataFrame's missing value (NaN) was the zone 'nan'."""
+    import pandas as pd
+
+    from afferent.zones import zones_from_map
+
+    b = Branching.longitudinal(_strip(2, 4))
+    path = tmp_path / "zones.csv"
+    path.write_text(text + "".join(f"{r},a\n" for r in range(3, 8)))
+    with pytest.raises(ValueError, match=re.escape(message.format(path=path))):
+        zones_from_map(b, path)
+    frame = pd.DataFrame({"receptor": [str(r) for r in range(8)], "zone": ["a", None] + ["b"] * 6})
+    with pytest.raises(ValueError, match=re.escape("Zone map: 1 row(s) have an empty 'zone' cell (the first on data "
+                                                   "row 2, receptor '1')")):
+        zones_from_map(b, frame)

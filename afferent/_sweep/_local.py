@@ -7,7 +7,6 @@ The worker processes die with the sweep (``engine.worker_init``); SIGTERM ends t
 from __future__ import annotations
 
 import contextlib
-import multiprocessing
 import os
 import sys
 import threading
@@ -48,35 +47,71 @@ def _run_window(groups, sink, sampled, *, kind, n, cache_dir, use_cache, batch_s
             keys.append(k)
             members[k] = b
 
-    workers: dict = {}  # pid -> multiprocessing process: the 'processes' workers seen running
+    workers: dict = {}  # id -> multiprocessing process: every 'processes' worker, recorded as the pool makes it
 
     class _Collect(Callback):
-        def _pretask(self, key, dsk, state):
-            if kind == "processes":
-                workers.update((p.pid, p) for p in multiprocessing.active_children())
-
         def _posttask(self, key, result, dsk, state, worker_id):
             if key in members:
                 sink(result)
 
-    if kind == "processes":
-        from dask.multiprocessing import get
-
-        get = partial(get, initializer=partial(engine.worker_init, os.getpid()))  # workers die with this process
-    else:
-        from dask.threaded import get
     info.update(batches=info["batches"] + len(keys), sampling_tasks=info["sampling_tasks"] + len(new),
                 windows=info["windows"] + 1)
     from concurrent.futures.process import BrokenProcessPool
 
-    try:
-        with _Collect(), _sigterm_ends(workers) if kind == "processes" else contextlib.nullcontext():
-            results = get(dsk, keys + list(new), num_workers=n)
-    except BrokenProcessPool as err:
-        raise _worker_death(workers, sink) from err
+    with _pool(kind, n, workers, partial(engine.worker_init, os.getpid())) as get:  # workers die with this process
+        try:
+            with _Collect(), _sigterm_ends(workers) if kind == "processes" else contextlib.nullcontext():
+                results = get(dsk, keys + list(new), num_workers=n)
+        except BrokenProcessPool as err:
+            raise _worker_death(workers, sink) from err
     for k, recs in zip(keys, results):  # anything a callback missed
         sink(recs)
     sampled.update((g, s) for s, g in zip(results[len(keys):], new.values()))
+
+
+@contextlib.contextmanager
+def _pool(kind: str, n: int, workers: dict, init):
+    """Dask's ``get`` for ``kind``; for 'processes', on a process pool made here as dask makes its own (its context,
+    its worker initializer around ``init``), whose every worker process goes into ``workers`` as it is made. A
+    worker killed before a task of this window started is then known too, with its signal (before, only the
+    workers seen when a task started were: one killed during the first task was not, and the death was blamed
+    on an unguarded calling script, or on the SIGTERM the pool sends the others)."""
+    from functools import partial
+
+    if kind != "processes":
+        from dask.threaded import get
+
+        yield get
+        return
+    from concurrent.futures import ProcessPoolExecutor
+
+    from dask.multiprocessing import get, get_context, initialize_worker_process
+
+    if os.environ.get("PYTHONHASHSEED") in (None, "0"):  # as dask.multiprocessing.get does for its own pool
+        os.environ["PYTHONHASHSEED"] = "6640"
+    pool = ProcessPoolExecutor(n, mp_context=_Recording(get_context(), workers),
+                               initializer=partial(initialize_worker_process, user_initializer=init))
+    try:
+        yield partial(get, pool=pool)
+    except BaseException:
+        pool.shutdown(wait=False, cancel_futures=True)
+        raise
+    pool.shutdown()
+
+
+class _Recording:
+    """A multiprocessing context that puts every process it makes into ``workers`` (id -> process)."""
+
+    def __init__(self, context, workers: dict):
+        self._context, self._workers = context, workers
+
+    def __getattr__(self, name):
+        return getattr(self._context, name)
+
+    def Process(self, *args, **kwargs):  # noqa: N802 (multiprocessing's name)
+        process = self._context.Process(*args, **kwargs)
+        self._workers[id(process)] = process
+        return process
 
 
 @contextlib.contextmanager
@@ -94,7 +129,7 @@ def _sigterm_ends(workers: dict):
 
     def on_sigterm(signum, frame):
         for p in list(workers.values()):
-            if p.exitcode is None:
+            if p.pid is not None and p.exitcode is None:  # started, still running
                 p.kill()
         raise SystemExit(128 + signum)
 
@@ -112,6 +147,9 @@ def _worker_death(workers: dict, sink) -> Exception:
 
     from ..exceptions import WorkerLostError
 
+    for p in workers.values():  # the pool marks the tasks failed before it has ended and reaped its workers
+        if p.exitcode is None and p.pid is not None:
+            p.join(timeout=5)
     codes = [p.exitcode for p in workers.values() if p.exitcode]
     killed = [-c for c in codes if c < 0]
     if killed:  # the pool ends the other workers with SIGTERM: the odd one out is the cause

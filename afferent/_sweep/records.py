@@ -64,20 +64,21 @@ def _windows(spec, done: _Ids, ids: bytearray, counts: dict):
 
 
 def _iter_records(output: str):
-    """Every task record of ``tasks/*.jsonl``, one at a time (a line that is not a record is skipped: it runs again)."""
+    """Every task record of ``tasks/*.jsonl``, one at a time (a line that is not a record is skipped: it runs again;
+    so is a line that is not UTF-8 JSON, read as bytes: a damaged file's other lines are still records)."""
     folder = os.path.join(output, "tasks")
     for name in sorted(os.listdir(folder)) if os.path.isdir(folder) else ():
         if not name.endswith(".jsonl"):
             continue
         try:
-            with open(os.path.join(folder, name)) as f:
+            with open(os.path.join(folder, name), "rb") as f:
                 lines = f.read().splitlines()
         except OSError:
             continue
         for line in lines:
             try:
                 rec = json.loads(line)
-            except json.JSONDecodeError:
+            except ValueError:  # json.JSONDecodeError, or UnicodeDecodeError: bytes that are not UTF-8
                 continue
             if isinstance(rec, dict) and isinstance(rec.get("task"), str):
                 yield rec

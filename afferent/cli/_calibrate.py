@@ -39,7 +39,7 @@ import warnings
 from ..exceptions import AfferentWarning
 from ..sampling import read_receptor_sed
 from ..transduction import STUDY_PARAMS, SigmoidParams
-from ._options import add_output_options, add_quiet, after_prefix, reads, show_progress, unit_type
+from ._options import add_output_options, show_progress, unit_type, after_prefix, reads
 
 _METHOD_CHOICES = ("rsm1", "rsm2", "least_squares", "all")
 
@@ -72,7 +72,6 @@ def add_args(parser: argparse.ArgumentParser) -> None:
     g.add_argument("--no-reference", action="store_true", help="do not run the least-squares reference beside the method")
     parser.add_argument("--no-plots", action="store_true", help="skip the PNG figures")
     add_output_options(parser, what="output folder (created whole, or not at all)")
-    add_quiet(parser)
 
 
 # ------------------------------------------------------------------------------ reading

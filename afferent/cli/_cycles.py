@@ -50,8 +50,9 @@ def run(args: argparse.Namespace) -> int:
     with atomic_dir(args.output, overwrite=args.overwrite) as tmp:
         summary.to_csv(os.path.join(tmp, "frequency.csv"), index=False)
         save_figure(plot_frequency(summary), os.path.join(tmp, "frequency.png"))
-    print(f"afferent cycles: wrote {args.output}: frequency.csv, frequency.png", file=sys.stderr)
-    print(summary.to_string(index=False))
+    if not args.quiet:
+        print(f"afferent cycles: wrote {args.output}: frequency.csv, frequency.png", file=sys.stderr)
+        print(summary.to_string(index=False))
     return 0
 
 
@@ -60,23 +61,40 @@ def read_cycle_runs(folders) -> dict:
     :func:`afferent.hotspots.read_run_tables`) and ``afferent sweep`` output folders (holding ``sweep.json``:
     every finished task's table, from its record ``cycles``, labelled by its scene name). A sweep without a
     task that wants ``cycles``, or one label twice, are errors naming the folder."""
-    import pandas as pd
-
-    from .._sweep.records import _iter_records
+    from ..cycles import CYCLE_CHECKS
     from ..hotspots import read_run_tables
 
     runs = {}
     for folder in folders:
         if os.path.isfile(os.path.join(folder, "sweep.json")):
-            found = {rec["scene"]: pd.DataFrame(rec["record"]["cycles"]["table"]) for rec in _iter_records(folder)
-                     if rec.get("status") == "ok" and "table" in ((rec.get("record") or {}).get("cycles") or {})}
+            found = _sweep_tables(folder)
             if not found:
                 raise ValueError(f"{folder!r}: a sweep with no finished task wanting 'cycles'; add 'cycles' to its "
                                  "scenes' [outputs] want.")
         else:
-            found = read_run_tables([folder], "cycles.csv", "cycles")
+            found = read_run_tables([folder], "cycles.csv", "cycles", CYCLE_CHECKS)
         for label, table in sorted(found.items()):
             if label in runs:
                 raise ValueError(f"{folder!r}: a second run named {label!r}; give runs of distinct scene names.")
             runs[label] = table
     return runs
+
+
+def _sweep_tables(folder: str) -> dict:
+    """{scene name: cycles table} of the finished tasks of the sweep in ``folder`` that want ``cycles``; a record
+    whose table is not a table (columns of equal length) is an error naming the task."""
+    import pandas as pd
+
+    from .._sweep.records import _iter_records
+
+    found = {}
+    for rec in _iter_records(folder):
+        cycles = rec.get("record", {}).get("cycles") if isinstance(rec.get("record"), dict) else None
+        if rec.get("status") != "ok" or not isinstance(cycles, dict) or "table" not in cycles:
+            continue
+        try:
+            found[str(rec.get("scene"))] = pd.DataFrame(cycles["table"])
+        except (ValueError, TypeError) as err:
+            raise ValueError(f"{folder!r}: the record of task {rec['task']} holds a 'cycles' table that is not a "
+                             f"table of columns ({err}); expected the record afferent sweep writes.") from err
+    return found

@@ -74,7 +74,6 @@ def add_args(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--peak-prominence", type=float, default=PEAK_PROMINENCE, metavar="FRACTION",
                         help="a local maximum of a profile counts as a peak when it stands out by this fraction of the "
                              f"profile's range (default {PEAK_PROMINENCE}); recorded in summary.csv, findings.csv and the figure")
-    parser.add_argument("-q", "--quiet", action="store_true", help="no progress output")
 
 
 #: Default peak-decision threshold (dimensionless): a local maximum of a profile counts as a peak

@@ -20,7 +20,7 @@ from __future__ import annotations
 import argparse
 
 from ..io import describe_raw, read_raw
-from ._options import add_input_options, add_quiet, add_receptor_options, input_kwargs, layout_from_args, reads, show_progress
+from ._options import add_input_options, add_receptor_options, input_kwargs, layout_from_args, show_progress, reads
 
 describe = describe_raw  # the name notebooks/01_read_fe_export.ipynb imports
 
@@ -31,7 +31,6 @@ def add_args(parser: argparse.ArgumentParser) -> None:
     add_receptor_options(parser, required=False)  # say what the sites are, which materials meet there, what --side does
     parser.add_argument("--method", choices=("linear", "nearest"), default="linear", help="sampling method for --receptors")
     add_input_options(parser)
-    add_quiet(parser)
 
 
 def run(args: argparse.Namespace) -> int:

@@ -14,6 +14,7 @@ import importlib
 
 from .. import __version__
 from ..exceptions import AfferentError, raised_on_purpose
+from ._options import add_common_options
 
 #: subcommand -> module with add_args(parser) and run(args) -> int (a module, or its name: imported when
 #: needed, so that ``afferent run`` does not pay for the imports of ``afferent calibrate``); help comes
@@ -42,11 +43,22 @@ def _chosen(argv: list[str]) -> str | None:
 
 class _Parser(argparse.ArgumentParser):
     def error(self, message):  # argparse's own usage errors: one line, exit code 2
-        raise _UsageError(f"{self.prog}: {message}")
+        raise _UsageError(message, self.prog)
 
 
 class _UsageError(Exception):
-    pass
+    """argparse's usage error ``message`` raised by the parser named ``prog`` ('afferent', 'afferent run')."""
+
+    def __init__(self, message: str, prog: str):
+        super().__init__(message)
+        self.prog = prog
+
+    def line(self, command: str | None) -> str:
+        """The text after ``afferent: error: ``: the message under the subcommand's name (``afferent run:
+        ...``; the top parser's 'unrecognized arguments' too, when a subcommand was chosen), the
+        program's name never twice."""
+        prog = self.prog if self.prog != "afferent" or command is None else f"afferent {command}"
+        return str(self) if prog == "afferent" else f"{prog}: {self}"
 
 
 def build_parser(argv: list[str] | None = None) -> argparse.ArgumentParser:
@@ -64,6 +76,7 @@ def build_parser(argv: list[str] | None = None) -> argparse.ArgumentParser:
         p = sub.add_parser(name, help=doc.strip().splitlines()[0], description=doc,
                            formatter_class=argparse.RawDescriptionHelpFormatter)
         module.add_args(p)
+        add_common_options(p)
         p.set_defaults(func=module.run, _reads=tuple(a for a in p._actions if hasattr(a, "afferent_reads")))
     return parser
 
@@ -172,7 +185,7 @@ def _main(argv: list[str] | None) -> int:
         with _ended_by_signals():
             return _guarded(args)
     except _UsageError as err:
-        print(f"afferent: error: {err}", file=sys.stderr)
+        print(f"afferent: error: {err.line(_chosen(sys.argv[1:] if argv is None else argv))}", file=sys.stderr)
         return 2
     except (AfferentError, FileNotFoundError, FileExistsError, ValueError, TypeError, PermissionError,
             IsADirectoryError, NotADirectoryError) as err:

@@ -115,7 +115,9 @@ def add_run_comparison_options(parser: argparse.ArgumentParser, *, verb: str) ->
                         help=f"{verb} the runs whose label matches PATTERN (fnmatch) as group NAME; repeatable")
 
 
-def add_quiet(parser: argparse.ArgumentParser) -> None:
+def add_common_options(parser: argparse.ArgumentParser) -> None:
+    """The options every subcommand takes (added by :func:`afferent.cli._main.build_parser`, not by the
+    subcommands): ``-q/--quiet``."""
     parser.add_argument("-q", "--quiet", action="store_true", help="no progress bars or summaries")
 
 

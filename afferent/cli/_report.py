@@ -27,7 +27,6 @@ def add_args(parser: argparse.ArgumentParser) -> None:
 
     add_output_options(parser, what="output folder (created whole, or not at all)", metavar="OUTDIR")
     parser.add_argument("--full", action="store_true", help="larger sizes (about a minute on two cores) instead of the quick ones")
-    parser.add_argument("-q", "--quiet", action="store_true", help="no progress output")
 
 
 def run(args: argparse.Namespace) -> int:

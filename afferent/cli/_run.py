@@ -45,8 +45,8 @@ import argparse
 import os
 import shlex
 
-from ._options import add_input_options, add_output_options, add_quiet, add_receptor_options, after_prefix, input_kwargs, \
-    reads, unit_type
+from ._options import add_input_options, add_output_options, add_receptor_options, input_kwargs, unit_type, \
+    after_prefix, reads
 
 # the stage modules (pandas, scipy) load when the run needs them, not to parse the command line
 SYNTHESES = ("longitudinal", "cross", "map:FILE", "random:N")  # afferent.synthesis.SYNTHESES
@@ -59,7 +59,10 @@ def add_args(parser: argparse.ArgumentParser) -> None:
     reads(parser.add_argument("exports", nargs="+", metavar="EXPORT",
                               help="FE export file(s) (several files are one time step each), or one SCENE.toml"))
     parser.add_argument("--method", choices=METHODS, default="linear", help="sampling: interpolate in the mesh cells, or nearest node")
-    parser.add_argument("--on-outside", choices=("raise", "warn", "nan"), default="raise", help="receptors outside the mesh")
+    parser.add_argument("--on-outside", choices=("raise", "warn", "nan"), default="raise",
+                        help="receptors outside the mesh: an error (raise), or NaN in the SED tables and left out of "
+                             "every stage from transduction on, with a warning naming them and the afferents they "
+                             "shorten (warn, nan; run.json 'outside')")
     reads(parser.add_argument("--synthesis", default="longitudinal", metavar="|".join(SYNTHESES),
                               help="receptor -> afferent grouping (default longitudinal)"), after_prefix("map:"))
     parser.add_argument("--seed", type=int, default=0, help="seed for --synthesis random:N")
@@ -130,7 +133,6 @@ def add_args(parser: argparse.ArgumentParser) -> None:
     add_input_options(parser)
     add_output_options(parser, what="output folder (created whole, or not at all); for a scene, overrides its [outputs] dir",
                        required=False)
-    add_quiet(parser)
     parser.set_defaults(_options=parser._actions)
 
 

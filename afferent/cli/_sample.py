@@ -20,7 +20,7 @@ from itertools import chain
 from .._interfaces import check_side
 from ..io import iter_sed
 from ..sampling import METHODS, sample_steps
-from ._options import add_input_options, add_receptor_options, layout_from_args, add_output_options, add_quiet, input_kwargs, \
+from ._options import add_input_options, add_receptor_options, layout_from_args, add_output_options, input_kwargs, \
     add_side_option, reads
 
 
@@ -33,7 +33,6 @@ def add_args(parser: argparse.ArgumentParser) -> None:
     add_receptor_options(parser)
     add_input_options(parser)
     add_output_options(parser, what="output CSV (long form)", folder=False)
-    add_quiet(parser)
 
 
 def run(args: argparse.Namespace) -> int:

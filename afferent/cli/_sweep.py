@@ -27,7 +27,7 @@ import argparse
 import shlex
 import sys
 
-from ._options import add_output_options, add_quiet, reads, show_progress
+from ._options import add_output_options, show_progress, reads
 
 
 def add_args(parser: argparse.ArgumentParser) -> None:
@@ -42,7 +42,6 @@ def add_args(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--no-cache", action="store_true",
                         help="neither read nor write the sampled-SED cache ($AFFERENT_CACHE_DIR or ~/.cache/afferent)")
     add_output_options(parser, what="output folder (table, tasks/, sweep.json); an existing one of the same sweep is resumed")
-    add_quiet(parser)
 
 
 def run(args: argparse.Namespace) -> int:

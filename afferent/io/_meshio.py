@@ -14,7 +14,6 @@ import io
 import math
 import os
 import warnings
-from xml.etree import ElementTree as ET
 
 import numpy as np
 
@@ -26,6 +25,7 @@ from ._cell_blocks import (_complete_meshio_dimensions, _volume_blocks, _volume_
                            volume_type_blocks)
 from ._raw import Deferred, RawArray, RawExport, check_export_file, files_read, stack_steps
 from ._vtu import VtuCountError, read_vtu
+from ._xml import parse_xml
 
 __all__ = ["read_mesh_file", "read_vtu_series", "read_pvd", "read_xdmf", "cells_from_meshio"]
 
@@ -110,8 +110,8 @@ def _well_formed(path: str, ext: str) -> bool:
     if ext not in (".vtu", ".xdmf", ".xmf"):
         return True
     try:
-        ET.parse(path)
-    except ET.ParseError:
+        parse_xml(path, ext)
+    except SEDFormatError:
         return False
     return True
 
@@ -383,10 +383,7 @@ def _series_entries(path: str) -> list[tuple[float | None, int, str]]:
 
 def _pvd_xml_entries(path: str) -> list[tuple[float | None, int, str]]:
     """(timestep or None, part, file) of each ``<DataSet>`` of a .pvd."""
-    try:
-        root = ET.parse(path).getroot()
-    except ET.ParseError as err:
-        raise SEDFormatError(f"SED file {path!r} is not a valid .pvd (XML) file: {err}") from err
+    root = parse_xml(path, ".pvd")
     datasets = root.findall(".//DataSet")
     if not datasets:
         raise SEDFormatError(f"SED file {path!r} lists no <DataSet> entries; expected a ParaView collection.")

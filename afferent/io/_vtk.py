@@ -32,12 +32,12 @@ from __future__ import annotations
 import os
 import threading
 from dataclasses import dataclass
-from xml.etree import ElementTree as ET
 
 import numpy as np
 
 from ..exceptions import SEDFormatError
 from ._raw import files_read
+from ._xml import parse_xml
 
 __all__ = ["EXTRA", "read_vtk_file", "vtk_version", "merge_piece_nodes", "series_merge_plan", "MergePlan", "MERGE_RTOL",
            "VALUE_RTOL"]
@@ -130,11 +130,9 @@ def _datasets(path: str, mods, warned: list) -> list:
 
 
 def _pvtu_pieces(path: str) -> list[str]:
-    """The piece files a .pvtu record lists (``<Piece Source=...>``), each checked to exist."""
-    try:
-        root = ET.parse(path).getroot()
-    except ET.ParseError as err:
-        raise SEDFormatError(f"SED file {path!r} is not a valid .pvtu (XML) file: {err}") from err
+    """The piece files a .pvtu record lists (``<Piece Source=...>``), each checked to exist and to be a
+    piece, not a parallel record again (a .pvtu listing itself recursed without end)."""
+    root = parse_xml(path, ".pvtu")
     sources = [p.attrib.get("Source") for p in root.iter("Piece")]
     if not sources or None in sources:
         raise SEDFormatError(f"SED file {path!r} lists no <Piece Source=...> entries; expected a parallel VTU record.")
@@ -143,6 +141,9 @@ def _pvtu_pieces(path: str) -> list[str]:
     for p in pieces:
         if not os.path.isfile(p):
             raise FileNotFoundError(f"SED file {path!r} lists the piece {p!r}, which does not exist.")
+        if p.lower().endswith(".pvtu"):
+            raise SEDFormatError(f"SED file {path!r} lists the piece {p!r}, a parallel record itself; the pieces of a "
+                                 ".pvtu are .vtu files.")
     return pieces
 
 
@@ -420,14 +421,18 @@ def read_vtk_file(path: str, *, meshio_error: Exception | None = None, plan: Mer
     return raw_from_mesh(mesh, path, fmt, components, notes, reader=f"VTK {vtk_version()}", files=_member_files(path))
 
 
-def _member_files(path: str) -> tuple[str, ...]:
-    """Every file VTK opens for ``path``: the file, a .pvtu's pieces, a .vtm's block files (recursively)."""
+def _member_files(path: str, chain: tuple[str, ...] = ()) -> tuple[str, ...]:
+    """Every file VTK opens for ``path``: the file, a .pvtu's pieces, a .vtm's block files (recursively;
+    ``chain``: the files that led here, a block leading back to one of them is refused)."""
+    if os.path.realpath(path) in map(os.path.realpath, chain):
+        raise SEDFormatError(f"SED file {chain[0]!r} leads back to {path!r} through its blocks "
+                             f"({' -> '.join(map(repr, (*chain, path)))}); a .vtm's blocks must not list it again.")
     ext = os.path.splitext(path)[1].lower()
     if ext == ".pvtu":
         members = _pvtu_pieces(path)
     elif ext == ".vtm":  # VTK's multiblock reader opens each <DataSet file=...>, relative to the .vtm
         folder = os.path.dirname(path)
-        members = [os.path.join(folder, e.get("file")) for e in ET.parse(path).getroot().iter("DataSet") if e.get("file")]
+        members = [os.path.join(folder, e.get("file")) for e in parse_xml(path, ".vtm").iter("DataSet") if e.get("file")]
     else:
         members = []
-    return files_read([path], *(_member_files(m) for m in members if os.path.isfile(m)))
+    return files_read([path], *(_member_files(m, (*chain, path)) for m in members if os.path.isfile(m)))

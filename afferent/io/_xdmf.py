@@ -32,22 +32,20 @@ import numpy as np
 
 from ..exceptions import SEDFormatError
 from ._raw import RawArray, RawExport, files_read
+from ._xml import parse_xml
 
 __all__ = ["read_xdmf_collections", "has_collections", "read_single_grid", "heavy_files"]
 
 #: xi:include, under the 2001 namespace (DOLFINx) or the 2003 one (meshio's time series writer).
 _XI_TAGS = ("{http://www.w3.org/2001/XInclude}include", "{http://www.w3.org/2003/XInclude}include")
 def _parse(path: str) -> ET.Element:
-    try:
-        return ET.parse(path).getroot()
-    except ET.ParseError as err:
-        raise SEDFormatError(f"SED file {path!r} is not valid XDMF (XML): {err}") from err
+    return parse_xml(path, "XDMF")
 
 
 def _counts(text: str | None, what: str, path: str) -> tuple[int, ...]:
     """The whole numbers of an XDMF attribute (``Dimensions="32 8"``, ``NumberOfElements="32"``)."""
     words = (text or "").split()
-    if not all(w.isdigit() for w in words):
+    if not all(re.fullmatch("[0-9]+", w) for w in words):  # not str.isdigit: '²' is a digit int() refuses
         shown = text if len(text) <= 40 else text[:40] + "..."
         raise SEDFormatError(f"SED file {path!r}: {what} must be whole numbers separated by spaces; got {shown!r} instead.")
     return tuple(int(w) for w in words)
@@ -186,7 +184,11 @@ class _Heavy:
         if not found:
             raise SEDFormatError(f"SED file {self.path!r}: dataset {dataset!r} of {what} is not in {h5path!r} (or "
                                  "an external link on its path points to a missing file).")
-        files = h5_files(h5, dataset)
+        try:
+            files = h5_files(h5, dataset)
+        except (OSError, KeyError) as err:  # a link's target not HDF5, its object missing, a link back to itself
+            raise SEDFormatError(f"SED file {self.path!r}: dataset {dataset!r} of {what} in {h5path!r} could not be "
+                                 f"reached: {_link_failure(err)}") from err
         self._note(*(h5path if f == h5.filename else f for f in files))
         if files == [h5.filename] and dataset.startswith("/") and group not in self.plain_groups:
             self.plain_groups[group] = self._hard_links(h5, group[1] or "/")  # no external link on the way
@@ -219,14 +221,35 @@ class _Heavy:
                                  "afferent reads Raw binary data.")
         endian = {"big": ">", "little": "<"}.get((item.get("Endian") or "Native").lower(), "=")
         dtype = np.dtype(xdmf_to_numpy_type[kind]).newbyteorder(endian)
+        seek = item.get("Seek", "0").strip()
+        if not re.fullmatch("[0-9]+", seek):
+            raise SEDFormatError(f"SED file {self.path!r}: the Seek of {what} must be a byte offset, a whole number "
+                                 f">= 0; got {seek[:40]!r} instead.")
+        seek = int(seek)
         self._note(binpath)
         with open(binpath, "rb") as f:
-            f.seek(int(item.get("Seek", 0)))
+            held = max(0, os.fstat(f.fileno()).st_size - seek)  # bytes from Seek to the end
+            if count > held // dtype.itemsize:  # checked before numpy allocates the count asked for
+                raise SEDFormatError(f"SED file {self.path!r}: {what} must hold {count} values of {dtype.itemsize} "
+                                     f"byte(s) (its Dimensions) from byte {seek} of {binpath!r}; the file holds "
+                                     f"{held} byte(s) from there.")
+            f.seek(seek)
             return np.fromfile(f, dtype=dtype, count=count).astype(dtype.newbyteorder("="))
 
     def close(self):
         for f in self.files.values():
             f.close()
+
+
+def _link_failure(err: Exception) -> str:
+    """What h5py's error on following an external link means, in words (its own text kept)."""
+    text = str(err.args[0] if isinstance(err, KeyError) and err.args else err)
+    for clue, meaning in (("file signature not found", "an external link on its path points to a file that is not HDF5"),
+                          ("too many links", "an external link on its path leads back to itself"),
+                          ("doesn't exist", "an external link on its path points to an object its file does not hold")):
+        if clue in text:
+            return f"{meaning} ({text})."
+    return f"an external link on its path cannot be followed ({text})."
 
 
 def _hdf_file(folder: str, text: str) -> str:

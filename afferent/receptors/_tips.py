@@ -501,7 +501,7 @@ def interface_sites(
     width = _flat_widths(cand, x, h, z, pitch_x, noise, max(min_prominence, np.finfo(float).tiny),
                          sides=1 if keep_edge else 2)
     narrow, wide = _apexes(cand, width, h, max_flat, noise)
-    refused = None if narrow.size or not wide.size else (
+    refused = None if narrow.size or not wide.any() else (
         cand.size, float(width[wide].min()), float(y[cand[wide][np.argmin(width[wide])]]), max_flat)
     sites = []
     if narrow.size:

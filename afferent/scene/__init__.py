@@ -35,7 +35,7 @@ A full example, every key with its default (``#`` marks optional keys)::
 
     [sampling]
     method = "linear"             # or "nearest"
-    on_outside = "raise"          # or "warn", "nan"
+    on_outside = "raise"          # or "warn", "nan": outside the field, NaN SED, left out from transduction on
 
     [region]                      # region of interest; default: everything
     x_range_mm = [1.5, 2.5]       # across the ridges

@@ -22,7 +22,7 @@ from .planning import plan, skip_reasons
 from .record import _QUIET_CATEGORIES, build_record, reemit, summary_lines
 from .defaults import class_record, resolve
 from .schema import _LIF_FIELDS, Scene, SceneError, _plain_json
-from .stages import (_beside_scene, _branching, _crop, _hash_all, _layout_before_reading, _layout_from_field, _params, _restrict,
+from .stages import (_beside_scene, _branching, _crop, _hash_all, _inside_field, _layout_before_reading, _layout_from_field, _params, _restrict,
                      _trim, _waveform)
 
 @dataclass(frozen=True)
@@ -141,7 +141,9 @@ def run_scene(scene: Scene, *, overwrite: bool = False, cache_dir=None, progress
     ``run.json`` holds: ``scene`` (as resolved), ``scene_file`` (path, sha256), ``plan``,
     ``inputs`` (every file read, with its sha256), ``versions``, ``stages`` (executed steps
     and wall times in s), ``skipped`` (stage -> why), ``cache``, ``receptors`` (counts in and
-    out of the region), ``field`` (the export's provenance), ``transduction``,
+    out of the region), ``outside`` (with ``[sampling] on_outside`` 'nan' or 'warn': the receptors
+    sampled outside the FE field, NaN in the SED tables and left out of every stage from transduction on,
+    and the afferents that lost some or all of their receptors to it; also said in a warning), ``field`` (the export's provenance), ``transduction``,
     ``saturation``, ``fit``, ``spikes``, ``time_span``, ``warnings``, ``outputs``, ``figures``
     (with ``plots``: drawn in the ``'same'`` or a ``'separate'`` process, why, seconds; ``fallback``:
     why a figure process that died left them to the run's),
@@ -238,17 +240,19 @@ def _compute(run: _Run, *, cache_dir, use_cache: bool, progress: bool) -> None:
     beside = _beside_scene(scene)
     if beside is not None:  # the second hot-spot map: its sites sampled as the scene's are (region, cache)
         sub = _Run(beside, run.planned, {}, run.steps, inputs=run.inputs)
-        run.out["sed_beside"] = _receptor_sed(sub, exp_files, hashes, cache_dir=cache_dir, use_cache=use_cache,
-                                              progress=progress)
+        run.out["sed_beside"] = _leave_outside(run, _receptor_sed(sub, exp_files, hashes, cache_dir=cache_dir,
+                                                                  use_cache=use_cache, progress=progress), "outside_beside",
+                                              drop=False)
         run.record["hotspots_beside"] = {k: sub.record.get(k) for k in ("receptors", "cache", "sampling")}
 
 
 def _compute_downstream(run: _Run, sed) -> None:
     """The planned stages after sampling, from SED at the region's receptors (J/m^3); also :mod:`afferent.sweep`'s tasks."""
-    run.out.update(sed_static=sed, sed=sed, current=None, branching=None, afferent=None, fit=None, waveform=None,
+    inside = _leave_outside(run, sed, "outside", drop="transduction" in run.planned)
+    run.out.update(sed_static=sed, sed=inside, current=None, branching=None, afferent=None, fit=None, waveform=None,
                    spikes=None, profile_index=-1)
     run.record["afferent_class"] = class_record(run.scene, getattr(sed.layout, "site", None))
-    sed_t = _stimulus(run, sed) if "stimulus" in run.planned else sed
+    sed_t = _stimulus(run, inside) if "stimulus" in run.planned else inside
     if "transduction" not in run.planned:
         return _cycles(run)
     _transduce_and_synthesize(run, sed_t)
@@ -259,6 +263,19 @@ def _compute_downstream(run: _Run, sed) -> None:
     if run.span:
         run.record["time_span"] = run.span
     _cycles(run)
+
+
+def _leave_outside(run: _Run, sed, key: str, *, drop: bool):
+    """``sed``, with ``drop`` without the receptors outside the FE field (``stages._inside_field``); those receptors
+    said in a warning and in run.json under ``key``."""
+    full_ids = None if run.full_layout is None else run.full_layout.ids
+    sed, record, message = _inside_field(run.scene, sed, full_ids, drop=drop)
+    if record is not None:
+        from ..exceptions import AfferentWarning
+
+        run.record[key] = record
+        warnings.warn(message, AfferentWarning, stacklevel=3)
+    return sed
 
 
 def _cycles(run: _Run) -> None:
@@ -417,7 +434,7 @@ def _from_cache(run: _Run, entry, layout, key: str):
     sed = entry.to_receptor_sed(layout)
     if layout is None:
         run.region_info.update(entry.meta.get("region_info", {}))
-    report_outside(sed.layout, sed.outside, run.scene.sampling.on_outside, where="from the sampling cache",
+    report_outside(sed.layout, sed.outside, _sampling_outside(run.scene), where="from the sampling cache",
                    hint="Set [sampling] on_outside = 'nan' or 'warn' to continue.", stacklevel=5)
     why = (f"cache hit: SED at these {sed.layout.n_receptors} receptors was sampled before from identical export "
            f"content with the same read options and method (key {key[:12]}, {entry.path})")
@@ -426,6 +443,12 @@ def _from_cache(run: _Run, entry, layout, key: str):
     run.record["sampling"] = {"method": sed.method, "placement": sed.placement, "side": run.scene.sampling.side,
                               "interface": entry.meta.get("interface")}
     return sed
+
+
+def _sampling_outside(scene: Scene) -> str:
+    """The sampler's ``on_outside``: 'raise' as the scene says; 'warn' and 'nan' both sample NaN outside, the
+    receptors then said and left out once, after sampling (:func:`_leave_outside`)."""
+    return "raise" if scene.sampling.on_outside == "raise" else "nan"
 
 
 def _read_and_sample(run: _Run, layout, *, progress: bool):
@@ -458,7 +481,7 @@ def _read_and_sample(run: _Run, layout, *, progress: bool):
         cropped, crop_info = _crop(first, layout.positions, method)
         sampler = build_sampler(cropped, layout, method=method)
         sed = sample_steps(recorded(chain([first], steps)), layout, method=method,
-                           on_outside=scene.sampling.on_outside, sampler=sampler, side=scene.sampling.side)
+                           on_outside=_sampling_outside(scene), sampler=sampler, side=scene.sampling.side)
     run.record["field"] = dict(series_provenance(provenances).to_dict(), n_points=int(first.n_points),
                                n_cells=int(first.cells.n_cells) if first.cells is not None else 0,
                                n_times=int(sed.values.shape[0]))

@@ -231,7 +231,7 @@ def _branching(scene: Scene, layout, full_ids):
         from ..exceptions import AfferentWarning
 
         warnings.warn(f"{cut} afferent(s) of the branching map {sy.map!r} have receptors both inside and outside "
-                      "[region]; their currents count only the receptors inside.", AfferentWarning, stacklevel=3)
+                      "[region] (or the SED field); their currents count only the receptors inside.", AfferentWarning, stacklevel=3)
     return Branching.from_map(df[keep].reset_index(drop=True), layout), {
         "map_rows_outside_region": int((~keep).sum()), "afferents_cut_by_region": cut}
 
@@ -241,3 +241,60 @@ def _hash_all(paths: dict) -> dict:
 
     return {p: (h if h is not None else file_sha256(p)) for p, h in paths.items()}
 
+
+
+def _inside_field(scene: Scene, sed, full_ids, *, drop: bool):
+    """(SED at the receptors inside the FE field, the run record's ``outside`` entry or None, its warning or None).
+
+    Receptors sampled outside the field (``[sampling] on_outside`` 'nan' or 'warn': NaN SED) keep their NaN in the
+    SED tables (``sed_map``, ``receptors.vtu``); with ``drop`` (the run transduces) they are left out of every
+    stage from there on (transduction, synthesis, spikes, their tables), as receptors outside ``[region]`` are.
+    The entry and the warning name them, and, for the scene's branching built on all the sampled receptors, the
+    afferents that lose some of their receptors (their currents sum only the receptors inside: smaller than with
+    every receptor) and those left with none (no afferent). A random branching is drawn from the receptors inside.
+    """
+    import numpy as np
+
+    from ..exceptions import FieldCoverageError
+    from ..synthesis import _preview
+
+    out = np.asarray(sed.outside, bool)
+    if not out.any():
+        return sed, None, None
+    layout, n_out = sed.layout, int(out.sum())
+    ids = [str(i) for i in layout.ids[out]]
+    if not drop:
+        return sed, {"n_receptors": n_out, "of": int(layout.n_receptors), "receptors": ids,
+                     "how": "NaN in the SED tables; no stage after sampling runs"}, (
+            f"{n_out} of {layout.n_receptors} receptors lie outside the SED field ({_preview(ids)}): their SED is NaN "
+            "in the SED tables. run.json 'outside' lists them all.")
+    if out.all():
+        raise FieldCoverageError(f"All {layout.n_receptors} receptors lie outside the SED field (first: {ids[0]!r}); "
+                                 "no stage after sampling has a receptor to work on.")
+    partly, none = {}, []
+    if scene.synthesis.kind != "random":
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            w = _branching(scene, layout, full_ids)[0]
+        for a, aid in enumerate(w.afferent_ids):
+            cols = w.weights.indices[w.weights.indptr[a]:w.weights.indptr[a + 1]]
+            k = int(out[cols].sum())
+            if k == cols.size and k:
+                none.append(str(aid))
+            elif k:
+                partly[str(aid)] = [k, int(cols.size)]
+    record = {"n_receptors": n_out, "of": int(layout.n_receptors), "receptors": ids,
+              "afferents_partly_outside": partly, "afferents_all_outside": none,
+              "how": "NaN in the SED tables, left out of every stage from transduction on; an afferent sums only its "
+                     "receptors inside the field"}
+    msg = (f"{n_out} of {layout.n_receptors} receptors lie outside the SED field ({_preview(ids)}): their SED is NaN in "
+           "the SED tables, and they are left out of every stage from transduction on.")
+    if partly:
+        shown = ", ".join(f"{a!r} ({k} of {n} outside)" for a, (k, n) in list(partly.items())[:5])
+        msg += (f" {len(partly)} afferent(s) keep only their receptors inside, so their currents sum fewer receptors "
+                f"than they have: {shown}{', ...' if len(partly) > 5 else ''}.")
+    if none:
+        msg += f" {len(none)} afferent(s) have no receptor inside and are left out: {_preview(none)}."
+    keep = ~out
+    inside = replace(sed, values=sed.values[:, keep], layout=layout.subset(keep), outside=np.zeros(int(keep.sum()), bool))
+    return inside, record, msg + " run.json 'outside' lists them all."

@@ -375,7 +375,8 @@ def simulate_lif(current, params: LIFParams, *, dt: float | None = None, engine:
         If ``current`` is not numeric or a parameter has the wrong type.
     ValueError
         If a shape, a time or a parameter value is invalid, ``r_m * |current|`` would
-        overflow, a grid engine is given no ``dt`` or ``input_hold='linear'``, or (exact
+        overflow, a grid engine is given no ``dt``, a ``dt`` not below the duration (a grid of one
+        step) or ``input_hold='linear'``, or (exact
         engine) the intervals between spikes would fall below the time resolution of the
         window (``t_ref = 0`` with an enormous drive).
     ImportError

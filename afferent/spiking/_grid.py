@@ -12,10 +12,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .._validation import check_positive
+from .._validation import check_positive, check_step_count
 from ._group import _group_numpy, _numba_group
 from ._input import _read_input
-from ._params import _CLOCK_EPS, _MAX_STEPS, _SAMPLE_EPS, LIFParams, _n_steps, _refractory_steps
+from ._params import _CLOCK_EPS, _SAMPLE_EPS, LIFParams, _n_steps, _refractory_steps
 
 
 @dataclass
@@ -49,15 +49,16 @@ def _plan(current, dt, duration, times) -> _Plan:
         last = float(t[-1] - t[-2]) if n_times >= 2 else dt
         default_duration = float(t[-1] - t[0]) + last
 
+    # a duration of its own (given, or the span of two or more sample times), not one sample's dt by definition
+    own = duration is not None or (t is not None and n_times >= 2)
     if duration is None:
         duration = default_duration
     else:
         duration = check_positive("duration", duration, unit="s")
-    if not duration / dt < _MAX_STEPS:
-        raise ValueError(
-            f"duration / dt must be below {_MAX_STEPS:.0f} steps; got {duration / dt:.3g} steps "
-            f"(duration {duration!r} s, dt {dt!r} s) instead."
-        )
+    check_step_count(duration, dt)
+    if own and not dt < duration * (1 - _CLOCK_EPS):  # one step: every spike stamped at the start, counts set by dt
+        raise ValueError(f"'dt' must be below the simulated duration of {duration:g} s, so that the grid has more than "
+                         f"one step; got {dt!r} s instead. Use a smaller dt, or engine='exact' (no time step).")
     n_steps = max(_n_steps(duration, dt), 1)
     if abs(n_steps * dt - duration) > _CLOCK_EPS * dt:
         notes.append(f"duration {duration!r} s is not a whole number of steps; simulated {n_steps} steps.")

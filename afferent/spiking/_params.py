@@ -20,8 +20,6 @@ _CLOCK_EPS = 1e-4
 _SAMPLE_EPS = 1e-3
 # |r_m * I| above this (in V) would overflow the update to inf/NaN.
 _MAX_DRIVE_V = 1e300
-# Step indices are int32 in the spike buffers; the step -> sample map alone is 8 bytes a step.
-_MAX_STEPS = 2.0**31 - 1
 
 
 def _check_voltage(name: str, value) -> float:

@@ -10,7 +10,7 @@ from types import MappingProxyType
 
 import numpy as np
 
-from .._validation import check_option, check_positive
+from .._validation import check_option, check_positive, check_step_count
 from .._validation import plain as _plain
 
 
@@ -208,7 +208,9 @@ def _finite_1d(name: str, a, unit: str) -> np.ndarray:
 
 
 def _time_grid(total: float, dt: float) -> np.ndarray:
-    """Times 0, dt, 2 dt, ... up to ``total`` (s), the last sample exactly at ``total``."""
+    """Times 0, dt, 2 dt, ... up to ``total`` (s), the last sample exactly at ``total``; at most
+    :data:`afferent._validation.MAX_STEPS` steps, checked before the times are allocated."""
+    check_step_count(total, dt, what="The waveform's")
     n = int(np.floor(total / dt + 1e-9))
     t = np.arange(n + 1) * dt
     if abs(n * dt - total) <= 1e-6 * dt:

@@ -1,0 +1,162 @@
+"""A run's output folder read back (``afferent run``, :func:`afferent.scene.run_scene`): its ``run.json``
+and its CSV tables, one way for :func:`afferent.export.load_results`, ``afferent hotspots`` and
+``afferent cycles``.
+
+A damaged file (text where a number belongs, bytes that are not UTF-8, a broken or deeply
+nested ``run.json``, a table without rows) is one :class:`~afferent.exceptions.SEDFormatError`
+naming the file and what was expected, never a parser's own exception (issue 33, item 11).
+:func:`check_table` checks a table's columns wherever it came from (a CSV here, or a sweep's
+task record).
+"""
+
+from __future__ import annotations
+
+import os
+
+from .exceptions import SEDFormatError
+
+__all__ = ["RUN_RECORD", "read_run_record", "read_run_table", "check_table", "run_label"]
+
+#: The record every run writes into its folder.
+RUN_RECORD = "run.json"
+
+
+def read_run_record(folder) -> dict:
+    """The ``run.json`` of a run's output folder, as a dict.
+
+    Raises
+    ------
+    FileNotFoundError
+        ``folder`` holds no ``run.json``.
+    SEDFormatError
+        ``run.json`` is not UTF-8 JSON text, nests too deeply to be read, or is not a JSON object.
+    """
+    import json
+
+    path = os.path.join(os.fspath(folder), RUN_RECORD)
+    if not os.path.isfile(path):
+        raise FileNotFoundError(f"{os.fspath(folder)!r} is not an afferent output folder: it holds no {RUN_RECORD}.")
+    expected = "expected the run record afferent writes"
+    try:
+        with open(path, encoding="utf-8") as f:
+            record = json.load(f)
+    except (UnicodeDecodeError, json.JSONDecodeError) as err:
+        raise SEDFormatError(f"Run record {path!r} is not UTF-8 JSON text ({err}); {expected}.") from err
+    except RecursionError as err:
+        raise SEDFormatError(f"Run record {path!r} nests arrays or objects too deeply to be read; {expected}.") from err
+    if not isinstance(record, dict):
+        raise SEDFormatError(f"Run record {path!r} holds a JSON {type(record).__name__}, not an object; {expected}.")
+    return record
+
+
+def run_label(folder) -> str:
+    """A run's label: its scene's name in ``run.json`` (``scene.scene.name``), else the folder's name."""
+    label = os.path.basename(os.path.normpath(os.fspath(folder)))
+    if not os.path.isfile(os.path.join(os.fspath(folder), RUN_RECORD)):
+        return label
+    scene = read_run_record(folder).get("scene")
+    name = ((scene.get("scene") if isinstance(scene, dict) else None) or {})
+    name = name.get("name") if isinstance(name, dict) else None
+    return name if isinstance(name, str) and name else label
+
+
+def read_run_table(path, *, what: str, finite=(), numbers=(), columns=(), text=(), rows: bool = True, unique=()):
+    """A CSV table a run wrote, read back with :func:`check_table`'s checks.
+
+    Parameters
+    ----------
+    path : str or path-like
+        The table (e.g. ``'runs/a/hotspots.csv'``).
+    what : str
+        What the table is, for the messages: ``"the 'hotspots' output of a run"``.
+    finite, numbers, columns, rows, unique
+        As :func:`check_table`.
+    text : sequence of str
+        Columns read as text as written (ids: ``'007'`` stays ``'007'``), which must be there.
+
+    Returns
+    -------
+    pandas.DataFrame
+        The table, the columns of ``finite`` and ``numbers`` as floats.
+
+    Raises
+    ------
+    FileNotFoundError
+        No such file.
+    SEDFormatError
+        The file is empty, not UTF-8 CSV, or fails :func:`check_table`.
+    """
+    import csv
+
+    import pandas as pd
+
+    path = os.fspath(path)
+    if not os.path.isfile(path):
+        raise FileNotFoundError(f"Run table {path!r} not found; expected {what}.")
+    where = f"Run table {path!r}"
+    try:
+        df = pd.read_csv(path, encoding="utf-8", dtype={c: str for c in text})
+    except pd.errors.EmptyDataError as err:
+        raise SEDFormatError(f"{where} is empty; expected {what}.") from err
+    except (pd.errors.ParserError, UnicodeDecodeError, csv.Error, ValueError) as err:  # ValueError: pyarrow's too
+        raise SEDFormatError(f"{where} could not be read as UTF-8 CSV ({' '.join(str(err).split())}); "
+                             f"expected {what}.") from err
+    return check_table(df, where=where, what=what, finite=finite, numbers=numbers, columns=(*columns, *text), rows=rows,
+                       unique=unique)
+
+
+def check_table(df, *, where: str, what: str, finite=(), numbers=(), columns=(), rows: bool = True, unique=()):
+    """``df`` with the columns of ``finite`` and ``numbers`` as floats, once checked.
+
+    Parameters
+    ----------
+    df : pandas.DataFrame
+    where : str
+        Names the table in the messages: ``"Run table 'a/cycles.csv'"``.
+    what : str
+        What the table should be, for the messages.
+    finite : sequence of str
+        Columns that must hold finite numbers in every row.
+    numbers : sequence of str
+        Columns that must hold finite numbers, or be empty (NaN: not measured).
+    columns : sequence of str
+        Further columns that must be there (of any content).
+    rows : bool, default=True
+        The table must have at least one row.
+    unique : sequence of str
+        Columns whose values together name one row (``('time_s', 'receptor')``): no two rows alike.
+
+    Raises
+    ------
+    SEDFormatError
+        ``<where> lacks the column(s) [...]``, ``<where>: column 'c' must hold (finite) numbers; got 'abc' on
+        data row N instead``, ``<where> has no rows``, ``<where> holds the row of (...) twice``; each ending with
+        ``expected <what>``.
+    """
+    import numpy as np
+    import pandas as pd
+
+    missing = [c for c in (*finite, *numbers, *columns) if c not in df.columns]
+    if missing:
+        raise SEDFormatError(f"{where} lacks the column(s) {missing}; expected {what}.")
+    if rows and df.empty:
+        raise SEDFormatError(f"{where} has no rows; expected {what}.")
+    df = df.copy()
+    for names, need_finite in ((finite, True), (numbers, False)):
+        for c in names:
+            values = pd.to_numeric(df[c], errors="coerce").to_numpy(float)
+            bad = ~np.isfinite(values) if need_finite else ~np.isfinite(values) & df[c].notna().to_numpy()
+            if bad.any():
+                row = int(np.flatnonzero(bad)[0])
+                cell = df[c].iloc[row]
+                cell = cell.item() if hasattr(cell, "item") else cell
+                kind = "finite numbers" if need_finite else "finite numbers (or nothing)"
+                raise SEDFormatError(f"{where}: column {c!r} must hold {kind}; got {cell!r} on data row {row + 1} "
+                                     f"instead; expected {what}.")
+            df[c] = values
+    twice = df.duplicated(list(unique)) if unique else None
+    if twice is not None and twice.any():
+        row = df[twice].iloc[0]
+        raise SEDFormatError(f"{where} holds the row of {', '.join(f'{c} {row[c]!r}' for c in unique)} twice; "
+                             f"expected {what}.")
+    return df
