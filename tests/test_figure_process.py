@@ -261,6 +261,7 @@ def test_a_bad_switch_is_one_line_from_the_command(capsys, monkeypatch, tmp_path
 def test_the_command_draws_a_small_exports_figures_in_its_own_process(tmp_path, capsys, monkeypatch):
     """Unset switch, the bundled 4 MB sample: a second process would start after the reading is done."""
     monkeypatch.delenv(ENV, raising=False)
+    monkeypatch.setenv("AFFERENT_CACHE_DIR", str(tmp_path / "cache"))  # empty: the worker's may hold this scene
     whys = []
     for out in ("o1", "o2"):  # the second from the sampled-SED cache: nothing read
         assert main(["run", str(SAMPLE_DIR / "scenes" / "sed_map.toml"), "-o", str(tmp_path / out), "-q"]) == 0
