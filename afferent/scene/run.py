@@ -23,7 +23,7 @@ from .record import _QUIET_CATEGORIES, build_record, reemit, summary_lines
 from .defaults import class_record, resolve
 from .schema import _LIF_FIELDS, Scene, SceneError, _plain_json
 from .stages import (_beside_scene, _branching, _crop, _hash_all, _layout_before_reading, _layout_from_field, _params, _restrict,
-                     _trim, _waveform)
+                     _refuse_rate_keys_without_rate, _refuse_step_numbers, _trim, _waveform)
 
 @dataclass(frozen=True)
 class SceneResult:
@@ -268,6 +268,7 @@ def _cycles(run: _Run) -> None:
         return
     from ..cycles import receptor_cycles
 
+    _refuse_step_numbers(run.scene, run.out["sed"], "the cycles output")
     given = o.cycles_frequency_hz is not None
     f = o.cycles_frequency_hz if given else run.scene.stimulus.frequency_hz
     run.out["cycles"], run.record["cycles"] = receptor_cycles(  # SED over the stimulus' times, as the spikes
@@ -492,7 +493,7 @@ def _stimulus(run: _Run, sed):
                 run.span["why"] = (f"only spikes are wanted and [spikes] duration is {dur:g} s: the stimulus beyond "
                                    "it is neither transduced nor simulated")
         sed_t, scaling = apply_waveform(sed, waveform, d_ref=st.d_ref_m, reference_step=st.reference_step,
-                                        series_depths=st.series_depths_m)
+                                        series_depths=st.series_depths_m, accept=scene.info.accept)
     run.record["stimulus"] = {
         "waveform": {"kind": waveform.kind, "parameters": dict(waveform.parameters), "notes": list(waveform.notes)},
         "scaling": scaling}
@@ -575,12 +576,8 @@ def _spike(run: _Run) -> None:
     duration = sp.duration_s
     if duration is None and out["afferent"].n_times == 1:
         duration = 1.0
-    if (run.record.get("field", {}).get("units") or {}).get("time") == "step" and out["afferent"].n_times > 1:
-        from ..exceptions import AfferentWarning
-
-        warnings.warn("The export states no step times: its steps are numbered 0, 1, ... (time unit 'step'), and "
-                      "spiking reads those numbers as seconds; give the steps' times ([export] times, --times).",
-                      AfferentWarning, stacklevel=2)
+    _refuse_step_numbers(run.scene, out["sed"], "spiking")  # not when a waveform's times drive the run
+    _refuse_rate_keys_without_rate(run.scene, out["afferent"])
     zones = None
     if sp.branching == "zones":
         from ..zones import split_zones, zones_from_map
