@@ -490,9 +490,12 @@ def _sample_field(field: SEDField, layout: ReceptorLayout, *, method: str, on_ou
         lo, hi = field.bounds
         bounds = " ".join(f"{a} [{l:.6g}, {h:.6g}]" for a, l, h in zip("xyz", lo, hi))
         where = f"{sampler.domain}; field bounds {bounds} m" if sampler.domain else f"field bounds {bounds} m"
+        from ._placement import swap_hint
+
+        swapped = "" if units else swap_hint(layout, field)
         report_outside(layout, sampler.outside, on_outside, where=where,
-                       hint="Pass on_outside='nan' to keep them as NaN or on_outside='warn' to continue."
-                       + (f" {units}" if units else ""), stacklevel=4)
+                       hint=(f"{swapped} " if swapped else "") + "Pass on_outside='nan' to keep them as NaN or "
+                       "on_outside='warn' to continue." + (f" {units}" if units else ""), stacklevel=4)
     return ReceptorSED(sampler.apply(field.sed), field.times.copy(), layout, method, sampler.outside.copy(),
                        sampler.placement, time_unit="step" if field.provenance.units.get("time") == "step" else "s")
 

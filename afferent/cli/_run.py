@@ -45,7 +45,8 @@ import argparse
 import os
 import shlex
 
-from ._options import add_input_options, add_output_options, add_quiet, add_receptor_options, input_kwargs, unit_type
+from ._options import (add_accept_option, add_input_options, add_output_options, add_quiet, add_receptor_options,
+                       input_kwargs, unit_type)
 
 # the stage modules (pandas, scipy) load when the run needs them, not to parse the command line
 SYNTHESES = ("longitudinal", "cross", "map:FILE", "random:N")  # afferent.synthesis.SYNTHESES
@@ -116,11 +117,7 @@ def add_args(parser: argparse.ArgumentParser) -> None:
     g.add_argument("--zone-map", metavar="ZONES.csv",
                    help="with --branching zones: each receptor's zone (columns receptor, zone) instead of "
                         "--zones-per-afferent")
-    from .._validation import ACCEPTS
-
-    parser.add_argument("--accept", action="append", metavar="CHECK[,CHECK]",
-                        help="confirm the unusual case a check refuses as a likely mistake (repeatable; [scene] accept "
-                             f"in a scene file): {'; '.join(f'{k}: {v}' for k, v in ACCEPTS.items())}")
+    add_accept_option(parser)
     parser.add_argument("--no-plots", action="store_true", help="skip the PNG figures")
     parser.add_argument("--results-format", choices=("netcdf", "csv"),
                         help="time courses of receptors and afferents: one NetCDF-4 file currents.nc (default) or the "
@@ -256,7 +253,7 @@ _FLAGS = {
     ("spikes", "gain_s"): "--gain-s", ("spikes", "tau_ms"): "--tau-ms", ("spikes", "static_gain"): "--static-gain",
     ("afferent", "class"): "--class", ("fit", "observed"): "--observed",
     ("spikes", "zones_per_afferent"): "--zones-per-afferent", ("spikes", "branching"): "--branching",
-    ("spikes", "zone_map"): "--zone-map",
+    ("spikes", "zone_map"): "--zone-map", ("spikes", "input"): "--input",
     ("fit", "length_unit"): "--observed-unit",
 }
 

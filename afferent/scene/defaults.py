@@ -364,10 +364,10 @@ def _spikes(scene: Scene, err, out):
     if rate and sp.input == "static":  # the RA-I class's input, or given: a static input has no rate term
         key = _given(scene, "spikes", rate[0])
         whose = (f"the {scene.afferent.afferent_class} class's input" if scene.spikes.input is None
-                 else "[spikes] input")
+                 else "[spikes] 'input'")
         raise err("spikes", key, f"[spikes] {key!r} applies to input = 'rate-sensitive' or 'slowly-adapting', not "
                   f"'static' ({whose}), which has no rate term: every value of it gives the same spikes; set [spikes] "
-                  f"input or leave {key!r} out.")
+                  f"'input' or leave {key!r} out.")
     if "spikes" in out.want:
         from ..spiking import LIF_PRESETS  # light: brian2 is imported only by the brian2 engine
 

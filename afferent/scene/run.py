@@ -23,7 +23,7 @@ from .record import _QUIET_CATEGORIES, build_record, reemit, summary_lines
 from .defaults import class_record, resolve
 from .schema import _LIF_FIELDS, Scene, SceneError, _plain_json
 from .stages import (_beside_scene, _branching, _crop, _hash_all, _layout_before_reading, _layout_from_field, _params, _restrict,
-                     _refuse_rate_keys_without_rate, _refuse_step_numbers, _trim, _waveform)
+                     _judge_placement, _refuse_rate_keys_without_rate, _refuse_step_numbers, _trim, _waveform)
 
 @dataclass(frozen=True)
 class SceneResult:
@@ -360,6 +360,7 @@ def _receptor_sed(run: _Run, exp_files, hashes, *, cache_dir, use_cache: bool, p
     else:
         sed = _read_sample_store(run, layout, key, cache, cache_info, progress=progress)
     run.record["cache"] = cache_info
+    _judge_placement(scene, run.record.get("receptor_sites"), run.planned)
     run.region_info["n_receptors_sampled"] = int(sed.layout.n_receptors)
     rec = scene.receptors
     source = rec.file or f"grid = {rec.grid!r}" + (f", rows = {rec.rows!r}" if rec.grid == "regular" else "")
@@ -392,7 +393,8 @@ def _read_sample_store(run: _Run, layout, key: str, cache, cache_info: dict, *, 
     with run.steps("cache"):
         try:
             path = cache.put(key, sed, meta={"field": run.record["field"], "region_info": {
-                k: v for k, v in run.region_info.items() if k != "region"}, "interface": sed.interface}, files=records,
+                k: v for k, v in run.region_info.items() if k != "region"}, "interface": sed.interface,
+                "receptor_sites": run.record.get("receptor_sites")}, files=records,
                 base=_base(run.scene))
             cache_info["written"] = str(path)
         except OSError as err:  # a read-only or full cache disk must not fail the run
@@ -424,6 +426,7 @@ def _from_cache(run: _Run, entry, layout, key: str):
            f"content with the same read options and method (key {key[:12]}, {entry.path})")
     run.skipped["reading"] = run.skipped["sampling"] = why
     run.record["field"] = dict(entry.meta.get("field", {}), from_cache=True)
+    run.record["receptor_sites"] = entry.meta.get("receptor_sites")
     run.record["sampling"] = {"method": sed.method, "placement": sed.placement, "side": run.scene.sampling.side,
                               "interface": entry.meta.get("interface")}
     return sed
@@ -436,6 +439,7 @@ def _read_and_sample(run: _Run, layout, *, progress: bool):
     """
     from itertools import chain
 
+    from .._placement import placement_record
     from ..io import iter_sed, series_provenance
     from ..sampling import build_sampler, sample_steps
 
@@ -465,6 +469,7 @@ def _read_and_sample(run: _Run, layout, *, progress: bool):
                                n_times=int(sed.values.shape[0]))
     run.record["sampling"] = {"method": sed.method, "placement": sed.placement, "side": scene.sampling.side,
                               "interface": sed.interface}
+    run.record["receptor_sites"] = placement_record(first, layout, sed.outside)
     if crop_info:
         run.record["sampling"]["mesh_cropped_to_receptors"] = crop_info
     return sed

@@ -178,6 +178,16 @@ def _waveform(scene: Scene):
                                   on_negative=st.on_negative)
 
 
+def _judge_placement(scene: Scene, record, planned) -> None:
+    """Receptors away from where the scene's afferent class has them (:func:`afferent._placement.judge_placement`),
+    judged when their SED becomes receptor currents (a map of SED alone may sample anywhere)."""
+    if "transduction" not in planned:
+        return
+    from .._placement import judge_placement
+
+    judge_placement(record, scene.afferent.afferent_class, scene.info.accept, stacklevel=4)
+
+
 def _refuse_step_numbers(scene: Scene, sed, what: str) -> None:
     """``what`` (spiking, the cycles output) on the step numbers 0, 1, ... of an export that states no times
     (``sed.time_unit`` 'step', several steps; not when a waveform's times drive the run): refused unless the
