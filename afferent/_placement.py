@@ -93,7 +93,8 @@ def _skin_layers(field):
     """(upper, lower, interface nodes): the material at the top of the block (the epidermis), the one it meets
     below (the dermis, first among the others by height that shares interface nodes with it), the nodes they
     share; None without material ids, with one material, or when the top material meets none; 'tilted' when
-    their interface does not face up along y (a model with another thickness axis: where "up" is, is not known)."""
+    they are not layers one above the other in y or their interface does not face up along y (a model with
+    another thickness axis: where "up" is, is not known)."""
     from .receptors import interface_nodes
 
     cells = field.cells
@@ -112,8 +113,17 @@ def _skin_layers(field):
             nodes = interface_nodes(field.points, cells, cells.materials, upper=upper, lower=lower)
         except ValueError:
             continue
-        return (upper, lower, nodes) if _faces_up(field.points[nodes]) else "tilted"
+        layered = _layered(field, mat_of_tet, upper, lower, nodes)
+        return (upper, lower, nodes) if layered and _faces_up(field.points[nodes]) else "tilted"
     return None
+
+
+def _layered(field, mat_of_tet: np.ndarray, upper: int, lower: int, nodes: np.ndarray) -> bool:
+    """Whether ``upper`` lies above ``lower`` as layers do: their mean heights apart by more than the
+    spread in y of the interface between them (materials mixed cell by cell meet everywhere, at every height)."""
+    y = field.points[:, 1]
+    mean = [float(y[np.unique(field.cells.tetra[mat_of_tet == m])].mean()) for m in (upper, lower)]
+    return mean[0] - mean[1] > float(np.std(y[nodes]))
 
 
 def _faces_up(iface: np.ndarray) -> bool:
@@ -166,7 +176,8 @@ def placement_record(field, layout, outside=None) -> dict:
         return rec
     layers = _skin_layers(field)
     if layers == "tilted":
-        rec["note"] = "not judged: the material interface does not face up along y (the thickness axis is another)"
+        rec["note"] = ("not judged: the materials are not layers one above the other in y (another thickness axis, "
+                       "or materials mixed cell by cell)")
         return rec
     if layers is None:
         y = float(np.median(pos[inside, 1]))

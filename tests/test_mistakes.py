@@ -161,6 +161,22 @@ def test_receptor_heights_given_as_depths_below_the_surface_are_refused_naming_t
     assert pd.read_csv(tmp_path / "ok" / "sed_map.csv")["sed_pa"].max() < 0.3 * sed.max()  # the subcutis
 
 
+def test_a_cached_sampling_of_misplaced_receptors_is_judged_again(tmp_path, capsys, monkeypatch):
+    """Row 1 through the sampled-SED cache: an entry written by a run that confirmed the placement does not let
+    a later run without the confirmation through (the placement record is kept with the entry)."""
+    monkeypatch.setenv("AFFERENT_CACHE_DIR", str(tmp_path / "cache"))
+    depth = _moved(tmp_path, "depth.csv", lambda df: df.__setitem__("y", 3.13 - df["y"]))
+    argv = ["run", str(B4 / "indent_0p88mm.vtu"), "--receptors", str(depth), "--length-unit", "mm", "--sed-unit",
+            "MPa", "--params", "start", "--no-plots"]
+    assert main(argv + ["--accept", "placement", "-o", str(tmp_path / "first")]) == 0
+    assert json.loads((tmp_path / "first" / "run.json").read_text())["cache"]["written"]
+    capsys.readouterr()
+    assert main(argv + ["-o", str(tmp_path / "second")]) == 2
+    assert "lie more than 0.2 mm from the epidermis/dermis interface" in capsys.readouterr().err
+    assert main(argv + ["--accept", "placement", "-o", str(tmp_path / "third")]) == 0
+    assert json.loads((tmp_path / "third" / "run.json").read_text())["cache"]["hit"]
+
+
 def test_swapped_receptor_axes_are_named_inside_and_outside_the_field(tmp_path, capsys):
     """Row 1: y and z swapped. Receptors that fall outside: the refusal names the swap that puts them all inside;
     receptors that stay inside (z < 3 mm): the placement refusal names it as the likely cause."""

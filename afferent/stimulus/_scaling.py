@@ -493,10 +493,10 @@ def apply_waveform(sed, waveform: Waveform, *, d_ref: float, reference_step: int
         between the steps (:func:`afferent.stimulus.interpolate_series`) instead of scaled by
         (d / d_ref)^2 (:func:`afferent.stimulus.scale_static`).
     accept : str or sequence of str, optional
-        Checks whose unusual case is confirmed (:data:`afferent._validation.ACCEPTS`):
-        ``'reference-step'`` (a reference step that is not the deepest step of the series:
-        :func:`check_reference_step`), ``'d-ref'`` (``d_ref`` more than 10 x from the waveform's
-        deepest point: :func:`check_d_ref`).
+        Checks whose unusual case is confirmed (``afferent._validation.ACCEPTS``):
+        ``'reference-step'`` (a reference step that is not the deepest step of a series scaled by
+        (d / d_ref)^2, the one of the largest SED), ``'d-ref'`` (``d_ref`` more than 10 x from the
+        waveform's deepest point).
 
     Returns
     -------
