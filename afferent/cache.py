@@ -238,7 +238,9 @@ class CachedSED:
 
         layout = self.layout() if layout is None else layout
         return ReceptorSED(self.values.copy(), self.times.copy(), layout, self.meta["method"], self.outside.copy(),
-                           self.meta.get("placement", ""))
+                           self.meta.get("placement", ""), time_unit=self.meta.get("time_unit") or (
+                               "step" if ((self.meta.get("field") or {}).get("units") or {}).get("time") == "step"
+                               else "s"))  # an entry written before time_unit was: its field's time unit
 
 
 class SEDCache:
@@ -347,7 +349,8 @@ class SEDCache:
         lay = sed.layout
         info = dict(meta or {})
         info.update({"key": key, "cache_version": CACHE_VERSION, "method": sed.method,
-                     "placement": getattr(sed, "placement", ""), "files": list(files), "site": lay.site,
+                     "placement": getattr(sed, "placement", ""), "time_unit": getattr(sed, "time_unit", "s"),
+                     "files": list(files), "site": lay.site,
                      "base": None if base is None else os.path.abspath(base)})
         fd, tmp = tempfile.mkstemp(prefix=f".{key[:16]}.", suffix=".part", dir=path.parent)
         try:

@@ -32,6 +32,10 @@ cycles   ``cycles.csv`` (per cycle: deepest point, SED
          :mod:`afferent.cycles`)
 ======== ================================================== ===========================================
 
+An export that states no step times and drives the run with its own steps numbers them 0, 1, ...: the
+column ``time_s`` is then ``step`` (and ``currents.nc``'s ``time`` is in units ``1``): a column named
+``time_s`` never holds step numbers.
+
 With a stimulus waveform, ``waveform.csv`` (and ``waveform.png``) too; with spikes and pynwb
 installed (the ``nwb`` extra) and the output ``nwb``, ``spikes.nwb`` (:func:`write_spikes_nwb`).
 
@@ -224,6 +228,7 @@ def write_outputs(folder: str, *, want, plots: bool, sed_static, sed, current=No
                                         afferent=afferent, fit=fit, waveform=waveform, spikes=spikes,
                                         profile_index=profile_index))
 
+    time_s = "step" if getattr(sed, "numbered", False) else "time_s"  # never step numbers under time_s
     if "sed_map" in want:
         write_table(path("sed_map.csv"), sed_static.columns(sections=True))
     if "currents" in want:
@@ -231,12 +236,12 @@ def write_outputs(folder: str, *, want, plots: bool, sed_static, sed, current=No
     if "profiles" in want:
         t = afferent.times[profile_index] if afferent.times is not None else np.nan
         write_table(path("profiles.csv"), {"afferent": afferent.afferent_ids, "position_m": afferent.positions,
-                                           "time_s": np.full(len(afferent.positions), t, dtype=float),
+                                           time_s: np.full(len(afferent.positions), t, dtype=float),
                                            "current_a": np.asarray(afferent.values)[profile_index]})
     if "fit" in want and fit is not None:
         row = {"synthesis": branching.kind, "normalise": fit.normalise, "r2_study": fit.r2_study, "r2": fit.r2,
                "ssd": fit.ssd, "n_afferents": len(fit.predicted), "dropped": fit.dropped,
-               "time_s": np.nan if fit.time is None else fit.time}
+               time_s: np.nan if fit.time is None else fit.time}
         write_table(path("fit.csv"), {k: [v] for k, v in row.items()})  # None (unknown) as an empty cell, as pandas
         positions = np.full(len(fit.predicted), np.nan) if fit.positions is None else fit.positions
         write_table(path("profile_fit.csv"), {"position_m": positions, "predicted": fit.predicted,
@@ -276,7 +281,10 @@ def _write_currents(path, sed, current, afferent, results_format: str) -> None:
                          f"got {results_format!r}.")
     if results_format == "csv":
         receptors_table(SimpleNamespace(sed=sed, current=current)).to_csv(path("receptors.csv"), index=False)
-        afferent.to_dataframe()[["afferent", "position_m", "time_s", "current_a"]].to_csv(path("afferents.csv"), index=False)
+        table = afferent.to_dataframe()[["afferent", "position_m", "time_s", "current_a"]]
+        if getattr(sed, "numbered", False):  # step numbers of an export without times: not seconds
+            table = table.rename(columns={"time_s": "step"})
+        table.to_csv(path("afferents.csv"), index=False)
         return
     _write_netcdf(path(RESULTS_NC), *_results_variables(sed, current, afferent))
 
@@ -321,7 +329,9 @@ def _results_variables(sed, current=None, afferent=None) -> tuple[dict, dict]:
     layout = sed.layout
     pos = np.asarray(layout.positions, dtype=float)
     tr = ("time", "receptor")
-    out = {"time": (("time",), np.asarray(sed.times, dtype=float), {"units": "s", "long_name": "time"}),
+    clock = ({"units": "1", "long_name": "step number (the export states no times)"}
+             if getattr(sed, "numbered", False) else {"units": "s", "long_name": "time"})
+    out = {"time": (("time",), np.asarray(sed.times, dtype=float), clock),
            "receptor": (("receptor",), np.asarray(layout.ids).astype(str), {"long_name": "receptor id"})}
     for k, name in enumerate(("x_m", "y_m", "z_m")):
         out[name] = (("receptor",), pos[:, k], {"units": "m", "long_name": f"receptor {name[0]} coordinate"})
@@ -438,6 +448,13 @@ def _read_nc(nc: str):
                              "expected the time courses a run wrote.") from err
 
 
+def _time_column(path: str) -> str:
+    """'step' when the long table's header names steps (an export without times), else 'time_s'."""
+    with open(path, "rb") as f:
+        names = [n.strip().strip(b'"') for n in f.readline(65536).split(b",")]
+    return "step" if b"step" in names and b"time_s" not in names else "time_s"
+
+
 def _dataset_from_csv(folder: str):
     """The Dataset of :func:`results_dataset` from the long CSV tables of ``results_format='csv'``."""
     import xarray as xr
@@ -447,16 +464,18 @@ def _dataset_from_csv(folder: str):
     rec, aff = os.path.join(folder, "receptors.csv"), os.path.join(folder, "afferents.csv")
     if not os.path.lexists(rec):
         return xr.Dataset()
+    tcol = _time_column(rec)  # 'step' in the tables of an export without times: step numbers as the time axis
     df = read_run_table(rec, what="the long table of results_format='csv'", rows=False, text=("receptor",),
-                        finite=("time_s", "x_m", "y_m", "z_m"), numbers=("sed_pa", "current_a"),
-                        columns=("longitudinal", "cross"), unique=("time_s", "receptor"))
+                        finite=(tcol, "x_m", "y_m", "z_m"), numbers=("sed_pa", "current_a"),
+                        columns=("longitudinal", "cross"), unique=(tcol, "receptor")).rename(columns={"step": "time_s"})
     ds = df.set_index(["time_s", "receptor"])[["sed_pa", "current_a"]].to_xarray().rename(time_s="time")
     first = df.drop_duplicates("receptor").set_index("receptor")
     ds = ds.assign_coords({c: ("receptor", first.loc[ds.receptor.values, c].to_numpy())
                            for c in ("x_m", "y_m", "z_m", "longitudinal", "cross")})
     if os.path.lexists(aff):
         da = read_run_table(aff, what="the long table of results_format='csv'", rows=False, text=("afferent",),
-                            finite=("time_s", "position_m"), numbers=("current_a",), unique=("time_s", "afferent"))
+                            finite=(tcol, "position_m"), numbers=("current_a",), unique=(tcol, "afferent"))
+        da = da.rename(columns={"step": "time_s"})
         a = da.set_index(["time_s", "afferent"])["current_a"].to_xarray().rename(time_s="time")
         ds["afferent_current_a"] = a.reindex(time=ds.time)
         pos = da.drop_duplicates("afferent").set_index("afferent")["position_m"]

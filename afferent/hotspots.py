@@ -133,7 +133,8 @@ def nearest_centroid_accuracy(maps: dict, *, noise: float, trials: int = 2000, s
 
 
 def receptor_hotspots(sed, *, threshold: float = DEFAULT_THRESHOLD, time_index: int | None = None):
-    """:func:`hotspot_table` of a ReceptorSED (J/m^3) at one step, with ``time_s`` and ``map`` columns.
+    """:func:`hotspot_table` of a ReceptorSED (J/m^3) at one step, with ``time_s`` (``step`` for step numbers)
+    and ``map`` columns.
 
     ``map`` names the site set: its kind ('RA-I', 'SA-I'), or for sites read from a file, the file's name.
 
@@ -144,7 +145,7 @@ def receptor_hotspots(sed, *, threshold: float = DEFAULT_THRESHOLD, time_index: 
     k = int(np.argmax(np.nansum(v, axis=1))) if time_index is None else int(time_index)
     table = hotspot_table(sed.layout.ids, sed.layout.positions, v[k], threshold=threshold, site=sed.layout.site,
                           name=f"hot-spot map of the {sed.layout.n_receptors} {sed.layout.site} sites")
-    table.insert(4, "time_s", float(sed.times[k]))
+    table.insert(4, "step" if getattr(sed, "numbered", False) else "time_s", float(sed.times[k]))
     source = getattr(sed.layout, "source", None)
     table.insert(0, "map", sed.layout.site if sed.layout.site != "file" or not source else os.path.basename(str(source)))
     return table, k

@@ -66,6 +66,7 @@ def run_pipeline(
     d_ref: float | None = None,
     reference_step: int | None = None,
     series_depths=None,
+    accept=None,
 ) -> PipelineResult:
     """SED field -> receptor SED -> receptor current -> afferent current [-> fit].
 
@@ -102,6 +103,9 @@ def run_pipeline(
         in depth between the series' steps (:func:`afferent.stimulus.interpolate_series`) instead
         of scaled by d^2, and the d^2 law is measured against the series and recorded in
         ``scaling`` (:func:`afferent.stimulus.scaling_record`).
+    accept : str or sequence of str, optional
+        The stimulus checks whose unusual case is confirmed (``'reference-step'``, ``'d-ref'``:
+        :func:`afferent.stimulus.apply_waveform`).
 
     Returns
     -------
@@ -123,7 +127,7 @@ def run_pipeline(
             raise ValueError("A waveform needs d_ref, the indentation depth (m) of the static export; got d_ref=None.")
         t = time.perf_counter()
         sed, scaling = apply_waveform(sed, waveform, d_ref=d_ref, reference_step=reference_step,
-                                      series_depths=series_depths)
+                                      series_depths=series_depths, accept=accept)
         timings["stimulus"] = time.perf_counter() - t
     t = time.perf_counter()
     current = transduce(sed, params)

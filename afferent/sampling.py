@@ -87,6 +87,9 @@ class ReceptorSED:
         linear'``); empty when unknown (a table read back).
     interface : dict or None
         Receptors on a material interface, each side's SED, the side used (see :ref:`fe-interfaces`).
+    time_unit : {'s', 'step'}, default='s'
+        ``'step'``: ``times`` are the step numbers 0, 1, ... of an export that states no times
+        (tables of several such steps name the column ``step``, never ``time_s``: :attr:`numbered`).
     """
 
     values: np.ndarray
@@ -96,6 +99,12 @@ class ReceptorSED:
     outside: np.ndarray
     placement: str = ""
     interface: dict | None = None
+    time_unit: str = "s"
+
+    @property
+    def numbered(self) -> bool:
+        """Whether ``times`` are the step numbers of a multi-step export that states no times (not seconds)."""
+        return self.time_unit == "step" and self.values.shape[0] > 1
 
     def __array__(self, dtype=None, copy=None):
         return np.asarray(self.values, dtype=dtype)
@@ -105,7 +114,8 @@ class ReceptorSED:
 
         ``receptor, x_m, y_m, z_m, time_s, sed_pa`` (positions in m, time in s, SED in J/m^3 = Pa);
         with ``sections=True`` also ``longitudinal`` and ``cross`` section labels. What
-        :meth:`to_dataframe` holds and ``sed_map.csv`` is written from (without pandas).
+        :meth:`to_dataframe` holds and ``sed_map.csv`` is written from (without pandas). Step numbers
+        (:attr:`numbered`) go into a column ``step`` instead of ``time_s``.
         """
         n_t, n_r = self.values.shape
         pos = self.layout.positions
@@ -118,7 +128,7 @@ class ReceptorSED:
         if sections:
             cols["longitudinal"] = np.tile(self.layout.longitudinal, n_t)
             cols["cross"] = np.tile(self.layout.cross, n_t)
-        cols["time_s"] = np.repeat(self.times, n_r)
+        cols["step" if self.numbered else "time_s"] = np.repeat(self.times, n_r)
         cols["sed_pa"] = self.values.reshape(-1)
         return cols
 
@@ -480,11 +490,14 @@ def _sample_field(field: SEDField, layout: ReceptorLayout, *, method: str, on_ou
         lo, hi = field.bounds
         bounds = " ".join(f"{a} [{l:.6g}, {h:.6g}]" for a, l, h in zip("xyz", lo, hi))
         where = f"{sampler.domain}; field bounds {bounds} m" if sampler.domain else f"field bounds {bounds} m"
+        from ._placement import swap_hint
+
+        swapped = "" if units else swap_hint(layout, field)
         report_outside(layout, sampler.outside, on_outside, where=where,
-                       hint="Pass on_outside='nan' to keep them as NaN or on_outside='warn' to continue."
-                       + (f" {units}" if units else ""), stacklevel=4)
+                       hint=(f"{swapped} " if swapped else "") + "Pass on_outside='nan' to keep them as NaN or "
+                       "on_outside='warn' to continue." + (f" {units}" if units else ""), stacklevel=4)
     return ReceptorSED(sampler.apply(field.sed), field.times.copy(), layout, method, sampler.outside.copy(),
-                       sampler.placement)
+                       sampler.placement, time_unit="step" if field.provenance.units.get("time") == "step" else "s")
 
 
 def sample_steps(fields, layout: ReceptorLayout, *, method: str = "linear", on_outside: str = "raise",
@@ -552,7 +565,7 @@ def sample_steps(fields, layout: ReceptorLayout, *, method: str = "linear", on_o
     if first is None:
         raise ValueError("'fields' must hold at least one SEDField; got none.")
     sed = ReceptorSED(np.concatenate(values), np.concatenate(times), layout, method, sampler.outside.copy(),
-                      sampler.placement)
+                      sampler.placement, time_unit=head.time_unit)
     return sided(sed, first, isamp, side_values, side)
 
 
@@ -566,8 +579,8 @@ def read_receptor_sed(path):
     Parameters
     ----------
     path : str or path-like
-        CSV with columns receptor, x_m, y_m, z_m (m), time_s (s), sed_pa (Pa = J/m^3); one
-        row per receptor and time step. Receptors keep the order of their first appearance;
+        CSV with columns receptor, x_m, y_m, z_m (m), time_s (s) or step (the step numbers of an
+        export without times), sed_pa (Pa = J/m^3); one row per receptor and time step. Receptors keep the order of their first appearance;
         sections (longitudinal by x, cross by z) are recomputed from the positions.
 
     Returns
@@ -590,6 +603,8 @@ def read_receptor_sed(path):
     path = os.fspath(path)
     df, _ = read_table(path, what="SED file", expected=", ".join(SED_TABLE_COLUMNS))
     df.columns = [str(c).strip().lower() for c in df.columns]
+    numbered = "time_s" not in df.columns and "step" in df.columns  # step numbers of an export without times
+    df = df.rename(columns={"step": "time_s"}) if numbered else df
     missing = [c for c in SED_TABLE_COLUMNS if c not in df.columns]
     if missing:
         found = ", ".join(repr(str(c)) for c in df.columns) or "none"
@@ -636,6 +651,6 @@ def read_receptor_sed(path):
                 span_warning(positions, what=f"SED file {path!r} (receptor positions)", unit_hint="that x_m, y_m, z_m are in m")):
         if msg:
             warnings.warn(msg, AfferentWarning, stacklevel=2)
-    return ReceptorSED(values, times, layout, "csv", np.zeros(n_r, bool))
+    return ReceptorSED(values, times, layout, "csv", np.zeros(n_r, bool), time_unit="step" if numbered else "s")
 
 

@@ -68,7 +68,9 @@ def test_run_json_holds_the_same_warnings_whichever_engine_ran_and_q_hides_them(
         assert res.returncode == 0, res.stderr
         assert res.stderr == "", (engine, res.stderr[:500])
         got[engine] = [w["message"] for w in json.loads((tmp_path / engine / "run.json").read_text())["warnings"]]
-    assert len(got["fast"]) == 3 and any(m.startswith("All 7 afferents fire at >= 90%") for m in got["fast"])
+    # 2: the false "states no step times" warning (the waveform's times drive the run, issue 34/37) is gone
+    assert len(got["fast"]) == 2 and any(m.startswith("All 7 afferents fire at >= 90%") for m in got["fast"])
+    assert not any("step times" in m for m in got["fast"] + got["exact"])
     assert got["brian2"] == got["fast"]
     grid_only = [m for m in got["fast"] if m.startswith("The grid engine at dt = ")]
     assert len(grid_only) == 1 and got["exact"] == [m for m in got["fast"] if m not in grid_only]
@@ -76,4 +78,4 @@ def test_run_json_holds_the_same_warnings_whichever_engine_ran_and_q_hides_them(
     loud = _run("brian2", tmp_path / "loud")  # without -q: afferent's own one-line form, nothing else
     warned = [line for line in loud.stderr.splitlines() if "warning" in line.lower()]
     assert loud.returncode == 0 and "py.warnings" not in loud.stderr and "Deprecat" not in loud.stderr
-    assert len(warned) == 3 and all(line.startswith("afferent: warning: ") for line in warned), warned
+    assert len(warned) == 2 and all(line.startswith("afferent: warning: ") for line in warned), warned

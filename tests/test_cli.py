@@ -268,7 +268,8 @@ def test_warnings_printed_by_the_cli_name_its_flags_not_python_keywords(capsys, 
     block = SAMPLE_DIR / "block4"
     out = tmp_path / ("sed.csv" if command == "sample" else "run")
     argv = [command, str(block / "indent_0p88mm_tensors.vtu"), "--receptors", str(block / "receptors.csv"),
-            "--length-unit", "mm", "--stress-unit", "MPa", "--sed-from", "exact", "--preset", "vtk", "-o", str(out)]
+            "--length-unit", "mm", "--stress-unit", "MPa", "--sed-from", "exact", "--preset", "vtk", "--shear", "tensor",
+            "-o", str(out)]  # the tensor convention confirmed (--shear): warned about, not refused (issue 34)
     if command == "run":
         argv += ["--params", "start", "--no-plots", "--no-cache"]
     assert main(argv) == 0

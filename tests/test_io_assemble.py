@@ -269,11 +269,16 @@ def test_a_wrong_shear_convention_is_caught_against_the_exports_own_sed(tmp_path
     shear = right.provenance.checks["shear_convention"]
     assert shear["consistent"] and shear["ratio"] == pytest.approx(1.0, abs=1e-12)
     assert shear["k_shear"] == pytest.approx(1e6 / 1.3, rel=1e-12)  # 2G in Pa
-    with pytest.warns(AfferentWarning, match=re.escape(
+    with pytest.raises(SEDFormatError, match=re.escape(
             "with the shear strain read as tensor (preset='comsol'), the shear components of stress and strain are "
-            "0.5 x as stiff as the normal ones (1 for an isotropic solid): the file's shear strain looks engineering. "
-            "Check the preset or pass shear='engineering'.")):
-        wrong = read_sed(path, preset="comsol", **kw)
+            "0.5 x as stiff as the normal ones (1 for an isotropic solid): the file's shear strain looks engineering, "
+            "and read as tensor the SED from its tensors is wrong (its shear terms doubled)")):
+        read_sed(path, preset="comsol", **kw)
+    with pytest.warns(AfferentWarning, match=re.escape(
+            "with the shear strain read as tensor (preset='comsol' shear='tensor'), the shear components of stress "
+            "and strain are 0.5 x as stiff as the normal ones (1 for an isotropic solid): the file's shear strain "
+            "looks engineering. Check the preset or pass shear='engineering'.")):
+        wrong = read_sed(path, preset="comsol", shear="tensor", **kw)  # the convention confirmed: a warning
     assert not wrong.provenance.checks["shear_convention"]["consistent"]
     # at the nodes 1/2 sigma:eps and an SED array differ by nodal averaging alone (10-40 %): no alarm from it there
     assert wrong.provenance.checks["tensor_sed_vs_export_sed"]["agree"]

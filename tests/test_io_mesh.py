@@ -58,7 +58,7 @@ def test_provenance_records_where_the_values_live_and_why(box_vtu, tmp_path, sam
     assert (prov.location, prov.location_source) == ("point", "only point data")
     # tensors: the bundled tensor file holds stress and strain as cell data only
     prov = read_sed(sample_sed_dir / "block4" / "indent_0p88mm_tensors.vtu", length_unit="mm", stress_unit="MPa",
-                    sed_from="exact", preset="vtk").provenance
+                    sed_from="exact", preset="vtk", shear="engineering").provenance  # the file's shear (issue 34)
     assert (prov.location, prov.location_source) == ("cell", "only cell data")
     d = prov.to_dict()
     assert json.loads(json.dumps(d)) == d and d["location"] == "cell" and d["location_source"] == "only cell data"
@@ -96,7 +96,10 @@ def test_tensor_vtu_gives_exact_sed(tmp_path):
     field = read_sed(path, length_unit="mm", stress_unit="MPa", sed_from="exact", preset="abaqus")
     np.testing.assert_allclose(field.sed[0], expected, rtol=1e-12)
     assert field.location == "cell" and field.provenance.sed_from == "exact"
-    wrong = read_sed(path, length_unit="mm", stress_unit="MPa", sed_from="exact", preset="vtk")
+    with pytest.raises(SEDFormatError, match=re.escape("the file's shear strain looks engineering")):
+        read_sed(path, length_unit="mm", stress_unit="MPa", sed_from="exact", preset="vtk")  # refused (issue 34)
+    with pytest.warns(AfferentWarning, match=re.escape("the file's shear strain looks engineering")):
+        wrong = read_sed(path, length_unit="mm", stress_unit="MPa", sed_from="exact", preset="vtk", shear="tensor")
     assert not np.allclose(wrong.sed[0], expected, rtol=1e-6)  # order/shear matter
     eq = read_sed(path, length_unit="mm", stress_unit="MPa", sed_from="equivalent", preset="abaqus", poisson=0.48)
     assert eq.provenance.sed_from == "equivalent" and np.all(eq.sed >= 0)

@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from afferent import read_sed
-from afferent.exceptions import AfferentWarning
+from afferent.exceptions import AfferentWarning, SEDFormatError
 from afferent.io import read_raw
 
 from conftest import DATA_DIR
@@ -43,6 +43,12 @@ def test_the_sfepy_preset_reads_sfepys_file_and_the_wrong_presets_are_caught():
     assert np.all(own.sed >= right.sed * (1 - 1e-9))
     chk = right.provenance.checks["tensor_sed_vs_export_sed"]
     assert chk["agree"] and 0.05 < chk["relative_difference"] < 0.15 and chk["best_preset"] in ("abaqus", "ansys", "sfepy")
-    for wrong in ("vtk", "comsol"):  # tensor-shear presets on engineering shear
-        with pytest.warns(AfferentWarning, match=re.escape("the file's shear strain looks engineering")):
+    for wrong in ("vtk", "comsol"):  # tensor-shear presets on engineering shear: refused, naming the presets that fit
+        with pytest.raises(SEDFormatError, match=re.escape(
+                "the file's shear strain looks engineering, and read as tensor the SED from its tensors is wrong (its "
+                "shear terms doubled), the likely cause the preset of another tool; give the preset of the tool that "
+                "wrote it, one of 'abaqus', 'ansys', 'sfepy', 'kratos' (engineering shear), or confirm the tensor "
+                "convention with shear='tensor'.")):
             read_sed(VTK, length_unit="mm", stress_unit="MPa", sed_from="exact", preset=wrong)
+        with pytest.warns(AfferentWarning, match=re.escape("the file's shear strain looks engineering")):  # confirmed
+            read_sed(VTK, length_unit="mm", stress_unit="MPa", sed_from="exact", preset=wrong, shear="tensor")

@@ -297,11 +297,12 @@ def test_a_pvtu_record_named_vtu_is_told_to_be_named_pvtu(tmp_path):
         read_raw(p)
 
 
-def test_spiking_on_step_numbers_warns_and_run_json_says_so(tmp_path):
-    """A Kratos series states no times: spiking on its step numbers is warned about, not silent."""
+def test_spiking_on_step_numbers_is_refused_unless_confirmed_and_run_json_says_so(tmp_path):
+    """A Kratos series states no times: spiking on its step numbers is refused (issue 34; a warning before),
+    and run with the confirmation [scene] accept = ["step-times"] the record says so."""
     import json
 
-    from afferent.scene import run_scene_cli
+    from afferent.scene import SceneError, run_scene_cli
 
     (tmp_path / "r.csv").write_text("id,x,y,z\n1,2,2,1.9\n2,1.5,2,1.9\n3,2.5,2,1.9\n")
     scene = tmp_path / "s.toml"
@@ -321,11 +322,18 @@ engine = "exact"
 [outputs]
 want = ["spikes"]
 """)
+    said = ("The export states no step times: its 2 steps are numbered 0 .. 1, and spiking would read those numbers as "
+            "seconds (1 s per step, 1 s in all); give the steps' times with times=T0,T1,... (in s; [export] times in a "
+            "scene file)")
+    with pytest.raises(ValueError, match=re.escape(said + "; if it is intended, confirm it with accept='step-times' "
+                                                   "(a scene file: [scene] accept = [\"step-times\"]).")) as caught:
+        run_scene_cli(scene, output=tmp_path / "out", quiet=True, cache_dir=tmp_path / "cache")
+    assert not isinstance(caught.value, SceneError) and not (tmp_path / "out").exists()
+    scene.write_text('[scene]\naccept = ["step-times"]\n' + scene.read_text())
     run_scene_cli(scene, output=tmp_path / "out", quiet=True, cache_dir=tmp_path / "cache")
     record = json.loads((tmp_path / "out" / "run.json").read_text())
-    assert record["field"]["units"]["time"] == "step"
-    assert any(w["message"].startswith("The export states no step times: its steps are numbered 0, 1, ... (time unit "
-                                       "'step'), and spiking reads those numbers as seconds") for w in record["warnings"])
+    assert record["field"]["units"]["time"] == "step" and record["scene"]["scene"]["accept"] == ["step-times"]
+    assert any(w["message"] == said + " (confirmed: accept='step-times')." for w in record["warnings"])
 
 
 def _two_piece_series(folder, steps):

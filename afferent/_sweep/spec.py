@@ -232,7 +232,7 @@ def _values(param: str, value, path: str, lines: dict, keys):
 
 def _params_of(table: dict, path: str, lines: dict):
     """The ``[sweep]`` table -> (mode, scene files or None, {param: (values, line keys)})."""
-    from ..scene.parse import _keys_of, _known_keys_text
+    from ..scene.parse import _keys_of, _known_keys_text, key_hint
 
     mode = table.get("mode", "product")
     if mode not in _MODES:
@@ -261,7 +261,7 @@ def _params_of(table: dict, path: str, lines: dict):
         known = _keys_of(_TABLES[tbl][1])
         if key not in known:
             raise _err(path, lines, keys, f"[sweep] {param!r}: unknown key {key!r} in [{tbl}]; known keys are "
-                       f"{_known_keys_text(_TABLES[tbl][1])}.{suggest(key, list(known))}", key=f"[sweep] {param}")
+                       f"{_known_keys_text(_TABLES[tbl][1])}.{key_hint(key, None, known)}", key=f"[sweep] {param}")
         setting = (tbl, known[key][0].name)
         if setting in settings:
             raise _err(path, lines, keys, f"[sweep] {param!r} and {settings[setting]!r} sweep the same setting; keep one.",

@@ -115,6 +115,16 @@ def add_run_comparison_options(parser: argparse.ArgumentParser, *, verb: str) ->
                         help=f"{verb} the runs whose label matches PATTERN (fnmatch) as group NAME; repeatable")
 
 
+def add_accept_option(parser: argparse.ArgumentParser) -> None:
+    """``--accept CHECK[,CHECK]``: the checks whose unusual case the user confirms (:data:`afferent._validation.ACCEPTS`;
+    a scene's ``[scene] accept``). One option for every such confirmation, each check by name."""
+    from .._validation import ACCEPTS
+
+    parser.add_argument("--accept", action="append", metavar="CHECK[,CHECK]",
+                        help="confirm the unusual case a check refuses as a likely mistake (repeatable; [scene] accept "
+                             f"in a scene file): {'; '.join(f'{k}: {v}' for k, v in ACCEPTS.items())}")
+
+
 def add_common_options(parser: argparse.ArgumentParser) -> None:
     """The options every subcommand takes (added by :func:`afferent.cli._main.build_parser`, not by the
     subcommands): ``-q/--quiet``."""

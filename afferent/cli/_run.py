@@ -45,8 +45,8 @@ import argparse
 import os
 import shlex
 
-from ._options import add_input_options, add_output_options, add_receptor_options, input_kwargs, unit_type, \
-    after_prefix, reads
+from ._options import add_accept_option, add_input_options, add_output_options, add_receptor_options, input_kwargs, \
+    unit_type, after_prefix, reads
 
 # the stage modules (pandas, scipy) load when the run needs them, not to parse the command line
 SYNTHESES = ("longitudinal", "cross", "map:FILE", "random:N")  # afferent.synthesis.SYNTHESES
@@ -88,7 +88,8 @@ def add_args(parser: argparse.ArgumentParser) -> None:
                    help="depth (mm) of every step of a loading-series export: the d^2 scaling is measured against it "
                         "and recorded in run.json")
     g.add_argument("--d-ref-mm", type=float, metavar="D", help="indentation depth of the static export, mm (SED scales as (d/d_ref)^2)")
-    g.add_argument("--waveform-dt-ms", type=float, default=1.0, help="sampling step of ramp/sine waveforms, ms (default 1)")
+    g.add_argument("--waveform-dt-ms", type=float, metavar="DT",
+                   help="sampling step of ramp/sine waveforms, ms (default 1, or 1/20 of a sine's period when shorter)")
     g = parser.add_argument_group("spikes (leaky integrate-and-fire)")
     g.add_argument("--spikes", action="store_true", help="simulate spikes: writes spikes.csv and spike_summary.csv")
     g.add_argument("--engine", default="auto", choices=("auto", "exact", "exact-numba", "exact-numpy", "fast", "fast-numba", "fast-numpy", "brian2"),
@@ -120,6 +121,7 @@ def add_args(parser: argparse.ArgumentParser) -> None:
     reads(g.add_argument("--zone-map", metavar="ZONES.csv",
                          help="with --branching zones: each receptor's zone (columns receptor, zone) instead of "
                               "--zones-per-afferent"))
+    add_accept_option(parser)
     parser.add_argument("--no-plots", action="store_true", help="skip the PNG figures")
     parser.add_argument("--results-format", choices=("netcdf", "csv"),
                         help="time courses of receptors and afferents: one NetCDF-4 file currents.nc (default) or the "
@@ -254,7 +256,7 @@ _FLAGS = {
     ("spikes", "gain_s"): "--gain-s", ("spikes", "tau_ms"): "--tau-ms", ("spikes", "static_gain"): "--static-gain",
     ("afferent", "class"): "--class", ("fit", "observed"): "--observed",
     ("spikes", "zones_per_afferent"): "--zones-per-afferent", ("spikes", "branching"): "--branching",
-    ("spikes", "zone_map"): "--zone-map",
+    ("spikes", "zone_map"): "--zone-map", ("spikes", "input"): "--input",
     ("fit", "length_unit"): "--observed-unit",
 }
 
@@ -262,6 +264,7 @@ _FLAGS = {
 def _in_cli_words(message: str) -> str:
     """A scene's message about its keys, reworded with the options of ``afferent run``."""
     message = message.removeprefix("Scene: ")
+    message = message.replace("[scene] 'accept'", "--accept")
     for (table, key), flag in _FLAGS.items():
         message = message.replace(f"[{table}] {key!r}", flag).replace(f"[{table}] {key}", flag)
     keys = [key for _, key in _FLAGS]
@@ -306,7 +309,8 @@ def scene_from_args(args):
     read.pop("progress")
     export = {"files": list(args.exports), **{k: v for k, v in read.items() if v is not None}}
     want = ["currents", "profiles", "sed_map", "vtu"]
-    tables = {"scene": {"name": os.path.basename(os.path.normpath(args.output))}, "export": export,
+    accept = [c.strip() for a in (args.accept or ()) for c in a.split(",") if c.strip()] or None
+    tables = {"scene": {"name": os.path.basename(os.path.normpath(args.output)), "accept": accept}, "export": export,
               "receptors": _receptors_table(args), "sampling": {"method": args.method, "on_outside": args.on_outside},
               "transduction": _transduction_table(args), "synthesis": _synthesis_table(args),
               "afferent": {"class": args.afferent_class}}

@@ -301,13 +301,18 @@ def _caveat(check: dict) -> str:
     return f" ({note[0].upper()}{note[1:]}.)" if note else ""
 
 
+def _shear_said(raw: RawExport, shear: dict, conv, in_use: str) -> str:
+    """What the shear/normal stiffness ratio says about the convention in use (the start of its messages)."""
+    return (f"SED file {_where(raw)!r}: with the shear strain read as {conv.shear} ({in_use.strip()}), the shear "
+            f"components of stress and strain are {shear['ratio']:.3g} x as stiff as the normal ones (1 for an "
+            "isotropic solid)")
+
+
 def _shear_message(raw: RawExport, shear: dict, conv, in_use: str) -> str:
     """The warning for a shear/normal stiffness ratio outside the band: which convention would fit, if any."""
     factor = 2.0 if conv.shear == "tensor" else 0.5  # reading the shear as the other convention scales the ratio so
     other = "engineering" if conv.shear == "tensor" else "tensor"
-    said = (f"SED file {_where(raw)!r}: with the shear strain read as {conv.shear} ({in_use.strip()}), the shear "
-            f"components of stress and strain are {shear['ratio']:.3g} x as stiff as the normal ones (1 for an "
-            "isotropic solid)")
+    said = _shear_said(raw, shear, conv, in_use)
     caveat = _caveat(shear) if shear["max_strain"] > SMALL_STRAIN_BOUND else ""
     if SHEAR_RATIO_BAND[0] <= factor * shear["ratio"] <= SHEAR_RATIO_BAND[1]:
         return f"{said}: the file's shear strain looks {other}. Check the preset or pass shear={other!r}.{caveat}"
@@ -315,33 +320,61 @@ def _shear_message(raw: RawExport, shear: dict, conv, in_use: str) -> str:
             f"it. Check the stress and strain columns (an anisotropic material also does this).{caveat}")
 
 
+def _refuse_convention(raw: RawExport, said: str, conv, fits: str, caveat: str) -> SEDFormatError:
+    """The error for a shear convention the data contradict while another fits (the user did not confirm it
+    with ``shear=``): ``said`` what the check found, ``fits`` the presets that fit."""
+    other = "engineering" if conv.shear == "tensor" else "tensor"
+    return SEDFormatError(
+        f"{said}: the file's shear strain looks {other}, and read as {conv.shear} the SED from its tensors is wrong "
+        f"(its shear terms {'doubled' if conv.shear == 'tensor' else 'halved'}), the likely cause the preset of "
+        f"another tool; give the preset of the tool that wrote it, {fits}, or confirm the {conv.shear} convention "
+        f"with shear={conv.shear!r}.{caveat}")
+
+
 def _tensor_checks(raw: RawExport, opts: ReadOptions, s: np.ndarray, e: np.ndarray, location: str, checks: dict,
                    strain_name: str = ""):
     """Run the tensor cross-checks, record them in ``checks``; return the warning texts.
 
     ``strain_name``: the strain array's name (a finite-strain measure is judged within the small-strain bound only).
+
+    Raises :class:`SEDFormatError` when the data contradict the shear convention in use and the other one fits
+    (a preset of another tool: the SED would be off by tens of %), unless ``shear=`` confirms the convention.
     """
     messages = []
     conv = _convention(opts, raw)
     in_use = (f"preset={opts.preset or raw.preset!r}" if (opts.preset or raw.preset) else "") + (
         f" shear={opts.shear!r}" if opts.shear else "")
+    other = "engineering" if conv.shear == "tensor" else "tensor"
     shear = shear_consistency(s, e, finite=is_finite_strain(strain_name))
+    check = tensor_sed_crosscheck(raw, opts)
     if shear is not None:
         checks["shear_convention"] = shear
         if shear["checkable"] and not shear["consistent"]:
-            messages.append(_shear_message(raw, shear, conv, in_use))
-    check = tensor_sed_crosscheck(raw, opts)
+            msg = _shear_message(raw, shear, conv, in_use)
+            factor = 2.0 if conv.shear == "tensor" else 0.5
+            if opts.shear is None and SHEAR_RATIO_BAND[0] <= factor * shear["ratio"] <= SHEAR_RATIO_BAND[1]:
+                fits = [p for p, c in PRESETS.items() if c.shear == other]
+                if check is not None and check.get("checkable") and check["by_preset"][check["best_preset"]] <= \
+                        check["tolerance"]:
+                    fits = [p for p in fits if abs(check["by_preset"][p] - check["by_preset"][check["best_preset"]])
+                            <= 1e-9 + 1e-6 * check["by_preset"][check["best_preset"]]] or fits
+                raise _refuse_convention(raw, _shear_said(raw, shear, conv, in_use), conv,
+                                         f"one of {', '.join(map(repr, fits))} ({other} shear)",
+                                         _caveat(shear) if shear["max_strain"] > SMALL_STRAIN_BOUND else "")
+            messages.append(msg)
     if check is not None:
         checks["tensor_sed_vs_export_sed"] = check
         if check["checkable"] and not check["agree"]:
             best = check["best_preset"]
-            messages.append(
-                f"SED file {_where(raw)!r}: 1/2 sigma:eps from the tensors ({check['convention'].strip()}) differs from "
-                f"the file's own SED array {check['sed_array']!r} by {_percent(check['relative_difference'])} "
-                f"(relative L2 at step {check['step']}, after a scale of {check['scale']:.4g}; expected below "
-                f"{_percent(check['tolerance'])} for {check['location']} data); {_presets_like(check, best)} "
-                f"{_percent(check['by_preset'][best])}. Check the preset and the columns.{_caveat(check)}"
-            )
+            said = (f"SED file {_where(raw)!r}: 1/2 sigma:eps from the tensors ({check['convention'].strip()}) differs "
+                    f"from the file's own SED array {check['sed_array']!r} by {_percent(check['relative_difference'])} "
+                    f"(relative L2 at step {check['step']}, after a scale of {check['scale']:.4g}; expected below "
+                    f"{_percent(check['tolerance'])} for {check['location']} data); {_presets_like(check, best)} "
+                    f"{_percent(check['by_preset'][best])}")
+            if opts.shear is None and check["by_preset"][best] <= check["tolerance"] and PRESETS[best].shear != conv.shear:
+                raise _refuse_convention(raw, said, conv, _presets_like(check, best).split(" give")[0].replace(
+                    "presets ", "one of ").replace("preset ", ""), _caveat(check))
+            messages.append(f"{said}. Check the preset and the columns.{_caveat(check)}")
     return messages
 
 

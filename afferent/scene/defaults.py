@@ -206,9 +206,48 @@ def _stimulus(scene: Scene, o, err):
             _check_unit(replace(scene, stimulus=st), o, "stimulus", "length_unit", length_factor)
             _check_unit(replace(scene, stimulus=st), o, "stimulus", "time_unit", time_factor)
         if st.waveform != "file":
-            st = replace(st, dt_s=st.dt_s if st.dt_s is not None else 1e-3)
+            st = replace(st, dt_s=st.dt_s if st.dt_s is not None else _default_dt(st))
+        if st.waveform == "sine":
+            _check_sine_step(scene, st, err)
         st = replace(st, on_negative=st.on_negative or "raise")
     return st
+
+
+#: Samples per period below which a sine waveform is refused (its peaks fall between samples).
+SINE_SAMPLES_PER_PERIOD = 20
+
+
+def _default_dt(st) -> float:
+    """The waveform step when the scene gives none: 1 ms, or 1/20 of a sine's period when that is shorter (s)."""
+    if st.waveform == "sine" and st.frequency_hz and st.frequency_hz > 0:
+        return min(1e-3, 1.0 / (SINE_SAMPLES_PER_PERIOD * st.frequency_hz))
+    return 1e-3
+
+
+def _check_sine_step(scene: Scene, st, err) -> None:
+    """A sine sampled more coarsely than 1/20 of its period: refused unless the scene accepts 'waveform-step'.
+
+    At 80 Hz with 1 ms steps the peaks fall between samples, at another phase each cycle: the deepest
+    sampled point of the last cycle was 0.984 x the first's in SED, an artefact of the sampling alone.
+    1/20 of the period puts a sample on every peak and trough (the quarter period is 5 steps).
+    """
+    from .._validation import refuse_unless
+
+    f = st.frequency_hz
+    if not (f and f > 0 and st.dt_s and st.dt_s > 0):
+        return  # the waveform itself refuses these, naming the key
+    fit = 1.0 / (SINE_SAMPLES_PER_PERIOD * f)
+    if st.dt_s <= fit * (1 + 1e-9):
+        return
+    key = _given(scene, "stimulus", "dt_s")
+    unit = key.rsplit("_", 1)[1] if key.rsplit("_", 1)[-1] in ("s", "ms", "us") else "s"
+    scale = {"s": 1.0, "ms": 1e3, "us": 1e6}[unit]
+    refuse_unless("waveform-step", scene.info.accept, (
+        f"[stimulus] {key!r} ({st.dt_s * scale:g} {unit}) samples the {f:g} Hz sine {1.0 / (f * st.dt_s):.3g} times a "
+        f"period, fewer than {SINE_SAMPLES_PER_PERIOD}: its peaks fall between samples at another phase each cycle, "
+        f"so the deepest sampled depth (and the SED, as its square) changes from cycle to cycle, an artefact of the "
+        f"sampling; set [stimulus] {key!r} to {fit * scale:.4g} or less (1/{SINE_SAMPLES_PER_PERIOD} of the "
+        f"{1e3 / f:.4g} ms period; left out, it is chosen so)"), cls=lambda m: err("stimulus", key, m), note=False)
 
 
 def _outputs(scene: Scene, err):
@@ -228,6 +267,13 @@ def _outputs(scene: Scene, err):
                       "pip install 'afferent-skin[nwb]'.")
     name = scene.info.name or (Path(scene.source).stem if scene.source else "scene")
     info = replace(scene.info, name=name)
+    if info.accept is not None:
+        from .._validation import check_accept
+
+        try:
+            check_accept(info.accept)
+        except ValueError as e:
+            raise err("scene", "accept", f"[scene] {e}") from None
     out = replace(out, dir=out.dir or os.path.abspath(os.path.join("results", name)), format=out.format or "netcdf")
     return info, _cycle_keys(scene, _hotspot_keys(scene, out, err), err)
 
@@ -314,6 +360,14 @@ def _spikes(scene: Scene, err, out):
     if sp.static_gain is not None and sp.input != "slowly-adapting":
         key = _given(scene, "spikes", "static_gain")
         raise err("spikes", key, f"[spikes] {key!r} applies to input = 'slowly-adapting', not {sp.input!r}.")
+    rate = [k for k in ("gain_s", "tau_s") if getattr(scene.spikes, k) is not None]
+    if rate and sp.input == "static":  # the RA-I class's input, or given: a static input has no rate term
+        key = _given(scene, "spikes", rate[0])
+        whose = (f"the {scene.afferent.afferent_class} class's input" if scene.spikes.input is None
+                 else "[spikes] 'input'")
+        raise err("spikes", key, f"[spikes] {key!r} applies to input = 'rate-sensitive' or 'slowly-adapting', not "
+                  f"'static' ({whose}), which has no rate term: every value of it gives the same spikes; set [spikes] "
+                  f"'input' or leave {key!r} out.")
     if "spikes" in out.want:
         from ..spiking import LIF_PRESETS  # light: brian2 is imported only by the brian2 engine
 

@@ -34,6 +34,48 @@ def _keys_of(cls) -> dict[str, tuple]:
     return out
 
 
+_CONVERTIBLE = {"length": "LENGTH_UNITS", "time": "TIME_UNITS"}  # quantities afferent.units can convert
+
+
+def key_hint(key: str, value, keys: dict) -> str:
+    """``" Did you mean ...?"`` for an unknown ``key`` among ``keys`` (:func:`_keys_of`) that keeps its meaning.
+
+    A suggestion is never a key of another unit than the one written: a key ending in a unit suffix of its
+    quantity gets the key of that unit; one ending in another unit afferent knows (``d_ref_cm``) gets the
+    key of a suffix with ``value`` converted (``d_ref_mm = 5``); one without a unit (``d_ref = 0.5``) gets
+    the keys of every unit, saying what the number would then mean. ``value`` None: no example value.
+    """
+    from .. import units
+
+    hint = suggest(key, list(keys))
+    if not hint:
+        return hint
+    match = hint[len(" Did you mean '"):-len("'?")]
+    f, _ = keys[match]
+    q = f.metadata.get("quantity")
+    if not q:
+        return hint
+    si, suffixes = _QUANTITIES[q]
+    base = f.name[: -len(si) - 1]
+    own = [u for u in suffixes if key.endswith("_" + u)]
+    if own:
+        return f" Did you mean '{base}_{max(own, key=len)}'?"
+    stem, _, unit = key.rpartition("_")
+    table = getattr(units, _CONVERTIBLE.get(q, ""), {})
+    if stem and unit in table and _is_number(value):  # another unit: the value converted to the nearest suffix
+        si_value = value * table[unit]
+        near = min(suffixes, key=lambda u: abs(math.log10(abs(si_value) / 10.0 ** suffixes[u])) if si_value else 0)
+        return f" Did you mean {base}_{near} = {_scale(si_value, -suffixes[near]):.6g} ({value:g} {unit})?"
+    said = f"{value:g}" if _is_number(value) else "X"
+    first, second = sorted(suffixes, key=lambda u: (u not in ("mm", "ms", "mm_per_s", "hz"), u))[:2]
+
+    def word(u):
+        return {"hz": "Hz", "khz": "kHz"}.get(u, u.replace("_per_", "/"))
+
+    return (f" {key!r} is a {q}, whose key names the unit, one of {', '.join(f'{base}_{u}' for u in suffixes)}: "
+            f"{base}_{first} = {said} is {said} {word(first)}, {base}_{second} = {said} is {said} {word(second)}.")
+
+
 def _known_keys_text(cls) -> str:
     parts = []
     for f in fields(cls):
@@ -186,7 +228,7 @@ def _parse_table(cls, data: dict, *, origin: _Origin, table: str):
     values, given_as = {}, {}
     for key, value in data.items():
         if key not in keys:
-            hint = suggest(key, list(keys))
+            hint = key_hint(key, value, keys)
             raise origin.error(table, key, f"unknown key {key!r} in [{table}]; known keys are {_known_keys_text(cls)}.{hint}")
         f, exp = keys[key]
         if f.name in values:

@@ -22,8 +22,9 @@ from .planning import plan, skip_reasons
 from .record import _QUIET_CATEGORIES, build_record, reemit, summary_lines
 from .defaults import class_record, resolve
 from .schema import _LIF_FIELDS, Scene, SceneError, _plain_json
-from .stages import (_beside_scene, _branching, _crop, _hash_all, _inside_field, _layout_before_reading, _layout_from_field, _params, _restrict,
-                     _trim, _waveform)
+from .stages import (_beside_scene, _branching, _crop, _hash_all, _inside_field, _judge_placement, _layout_before_reading,
+                     _layout_from_field, _params, _refuse_rate_keys_without_rate, _refuse_step_numbers, _restrict, _trim,
+                     _waveform)
 
 @dataclass(frozen=True)
 class SceneResult:
@@ -285,6 +286,7 @@ def _cycles(run: _Run) -> None:
         return
     from ..cycles import receptor_cycles
 
+    _refuse_step_numbers(run.scene, run.out["sed"], "the cycles output")
     given = o.cycles_frequency_hz is not None
     f = o.cycles_frequency_hz if given else run.scene.stimulus.frequency_hz
     run.out["cycles"], run.record["cycles"] = receptor_cycles(  # SED over the stimulus' times, as the spikes
@@ -376,6 +378,7 @@ def _receptor_sed(run: _Run, exp_files, hashes, *, cache_dir, use_cache: bool, p
     else:
         sed = _read_sample_store(run, layout, key, cache, cache_info, progress=progress)
     run.record["cache"] = cache_info
+    _judge_placement(scene, run.record.get("receptor_sites"), run.planned)
     run.region_info["n_receptors_sampled"] = int(sed.layout.n_receptors)
     rec = scene.receptors
     source = rec.file or f"grid = {rec.grid!r}" + (f", rows = {rec.rows!r}" if rec.grid == "regular" else "")
@@ -408,7 +411,8 @@ def _read_sample_store(run: _Run, layout, key: str, cache, cache_info: dict, *, 
     with run.steps("cache"):
         try:
             path = cache.put(key, sed, meta={"field": run.record["field"], "region_info": {
-                k: v for k, v in run.region_info.items() if k != "region"}, "interface": sed.interface}, files=records,
+                k: v for k, v in run.region_info.items() if k != "region"}, "interface": sed.interface,
+                "receptor_sites": run.record.get("receptor_sites")}, files=records,
                 base=_base(run.scene))
             cache_info["written"] = str(path)
         except OSError as err:  # a read-only or full cache disk must not fail the run
@@ -440,6 +444,7 @@ def _from_cache(run: _Run, entry, layout, key: str):
            f"content with the same read options and method (key {key[:12]}, {entry.path})")
     run.skipped["reading"] = run.skipped["sampling"] = why
     run.record["field"] = dict(entry.meta.get("field", {}), from_cache=True)
+    run.record["receptor_sites"] = entry.meta.get("receptor_sites")
     run.record["sampling"] = {"method": sed.method, "placement": sed.placement, "side": run.scene.sampling.side,
                               "interface": entry.meta.get("interface")}
     return sed
@@ -458,6 +463,7 @@ def _read_and_sample(run: _Run, layout, *, progress: bool):
     """
     from itertools import chain
 
+    from .._placement import placement_record
     from ..io import iter_sed, series_provenance
     from ..sampling import build_sampler, sample_steps
 
@@ -487,6 +493,7 @@ def _read_and_sample(run: _Run, layout, *, progress: bool):
                                n_times=int(sed.values.shape[0]))
     run.record["sampling"] = {"method": sed.method, "placement": sed.placement, "side": scene.sampling.side,
                               "interface": sed.interface}
+    run.record["receptor_sites"] = placement_record(first, layout, sed.outside)
     if crop_info:
         run.record["sampling"]["mesh_cropped_to_receptors"] = crop_info
     return sed
@@ -515,7 +522,7 @@ def _stimulus(run: _Run, sed):
                 run.span["why"] = (f"only spikes are wanted and [spikes] duration is {dur:g} s: the stimulus beyond "
                                    "it is neither transduced nor simulated")
         sed_t, scaling = apply_waveform(sed, waveform, d_ref=st.d_ref_m, reference_step=st.reference_step,
-                                        series_depths=st.series_depths_m)
+                                        series_depths=st.series_depths_m, accept=scene.info.accept)
     run.record["stimulus"] = {
         "waveform": {"kind": waveform.kind, "parameters": dict(waveform.parameters), "notes": list(waveform.notes)},
         "scaling": scaling}
@@ -598,12 +605,8 @@ def _spike(run: _Run) -> None:
     duration = sp.duration_s
     if duration is None and out["afferent"].n_times == 1:
         duration = 1.0
-    if (run.record.get("field", {}).get("units") or {}).get("time") == "step" and out["afferent"].n_times > 1:
-        from ..exceptions import AfferentWarning
-
-        warnings.warn("The export states no step times: its steps are numbered 0, 1, ... (time unit 'step'), and "
-                      "spiking reads those numbers as seconds; give the steps' times ([export] times, --times).",
-                      AfferentWarning, stacklevel=2)
+    _refuse_step_numbers(run.scene, out["sed"], "spiking")  # not when a waveform's times drive the run
+    _refuse_rate_keys_without_rate(run.scene, out["afferent"])
     zones = None
     if sp.branching == "zones":
         from ..zones import split_zones, zones_from_map

@@ -178,6 +178,45 @@ def _waveform(scene: Scene):
                                   on_negative=st.on_negative)
 
 
+def _judge_placement(scene: Scene, record, planned) -> None:
+    """Receptors away from where the scene's afferent class has them (:func:`afferent._placement.judge_placement`),
+    judged when their SED becomes receptor currents (a map of SED alone may sample anywhere)."""
+    if "transduction" not in planned:
+        return
+    from .._placement import judge_placement
+
+    judge_placement(record, scene.afferent.afferent_class, scene.info.accept, stacklevel=4)
+
+
+def _refuse_step_numbers(scene: Scene, sed, what: str) -> None:
+    """``what`` (spiking, the cycles output) on the step numbers 0, 1, ... of an export that states no times
+    (``sed.time_unit`` 'step', several steps; not when a waveform's times drive the run): refused unless the
+    scene accepts 'step-times'."""
+    from .._validation import refuse_unless
+
+    n = sed.values.shape[0]
+    if not getattr(sed, "numbered", False):
+        return
+    refuse_unless("step-times", scene.info.accept, f"The export states no step times: its {n} steps are numbered "
+                  f"0 .. {n - 1}, and {what} would read those numbers as seconds (1 s per step, {n - 1} s in all); "
+                  "give the steps' times with times=T0,T1,... (in s; [export] times in a scene file)", stacklevel=3)
+
+
+def _refuse_rate_keys_without_rate(scene: Scene, afferent) -> None:
+    """[spikes] gain_s / tau_s given where the input's rate term is 0 (one step, no waveform: a constant
+    current): every value gives the same spikes, so the key is refused, named."""
+    given = scene.origin.given.get("spikes", {})
+    rate = [k for k in ("gain_s", "tau_s") if k in given]
+    if not rate or scene.spikes.input == "static" or afferent.n_times > 1:
+        return
+    key = given[rate[0]]
+    where, waveform = (f"[spikes] {key!r}", "[stimulus] waveform") if scene.source else (f"{rate[0]!r}", "waveform=")
+    text = (f"{where} has no effect: the export has one step and no waveform drives it, so the current is constant "
+            f"and the {scene.spikes.input} input's rate term is 0 (every value of it gives the same spikes); give a "
+            f"waveform ({waveform}) or leave {where} out.")
+    raise scene.origin.error("spikes", key, text) if scene.source else ValueError(text)
+
+
 def _trim(waveform, duration: float):
     """The waveform up to ``t0 + duration`` (plus the first sample at or after it); (waveform, trimmed?)."""
     import numpy as np

@@ -418,8 +418,64 @@ def depth_scaling_error(sed, depths, *, ref_index: int = -1) -> ScalingCheck:
     return ScalingCheck(d.copy(), ref, l2, mx, expo, int(keep.sum()))
 
 
+#: How far (a factor either way) d_ref may lie from the waveform's deepest point before it is refused as a
+#: likely unit slip: beyond it the (d / d_ref)^2 scaling multiplies the SED by less than 1/100 or more than 100.
+D_REF_BAND = 10.0
+#: SED (L2 over the receptors) of another step, over the reference step's, above which the reference is not
+#: the deepest step of a series (steps of one hold, equal up to round-off, are alike).
+DEEPER_STEP_RATIO = 1.05
+
+
+def _as_mm(d: float) -> str:
+    return f"{d * 1e3:.4g} mm"
+
+
+def check_reference_step(sed, k: int, d_ref: float, series_depths=None, accept=None) -> None:
+    """The reference step ``k`` of a multi-step export scaled by (d / d_ref)^2 must be its deepest step, the one
+    of the largest SED (L2 over the receptors, which grows with depth): refused otherwise, unless ``accept``
+    names 'reference-step'. A shallower step scaled to ``d_ref`` (m) gives too little SED. Not checked with
+    ``series_depths`` (m): the series is then interpolated in depth, every step used."""
+    from .._validation import refuse_unless
+
+    values = np.asarray(sed.values, dtype=float)
+    n = values.shape[0]
+    if n < 2 or series_depths is not None:  # a series with depths is interpolated in depth, not scaled
+        return
+    times = np.asarray(sed.times, dtype=float)
+    norm = np.sqrt(np.nansum(values ** 2, axis=1))
+    deep = int(np.argmax(norm))
+    if norm[deep] <= DEEPER_STEP_RATIO * norm[k]:
+        return
+    why = (f"step {deep} (t = {times[deep]:g} s) has {norm[deep] / norm[k]:.3g} x its SED (L2 over the receptors)"
+           if norm[k] > 0 else f"it has no SED, step {deep} (t = {times[deep]:g} s) has")
+    refuse_unless("reference-step", accept, (
+        f"The reference step {k} (t = {times[k]:g} s) is not the deepest step of the export's {n}-step series: {why}; "
+        f"scaled by (d / d_ref)^2 with d_ref = {_as_mm(d_ref)}, a shallower step gives too little SED (afferents "
+        f"fall silent), the likely cause a step counted from 1 or from the other end; give the deepest step, "
+        f"reference_step = {deep} or {deep - n} (--reference-step {deep - n})"), stacklevel=3)
+
+
+def check_d_ref(waveform: Waveform, d_ref: float, accept=None) -> None:
+    """``d_ref`` (m) more than :data:`D_REF_BAND` x from the waveform's deepest point: refused as a likely unit
+    slip (a value in mm under a key in m), unless ``accept`` names 'd-ref'."""
+    from .._validation import refuse_unless
+
+    deepest = float(waveform.max_depth)
+    if deepest <= 0 or 1 / D_REF_BAND <= d_ref / deepest <= D_REF_BAND:
+        return
+    ratio = d_ref / deepest
+    near = min((d_ref * 10.0 ** e for e in (-6, -3, 3, 6)), key=lambda d: abs(np.log(d / deepest)))
+    fits = (f"; {_as_mm(d_ref)} read in another unit is {_as_mm(near)}: d_ref_mm = {near * 1e3:.4g} "
+            f"(--d-ref-mm {near * 1e3:.4g})" if 1 / D_REF_BAND <= near / deepest <= D_REF_BAND else "")
+    refuse_unless("d-ref", accept, (
+        f"d_ref ({_as_mm(d_ref)}) is {ratio:.4g} x the waveform's deepest point ({_as_mm(deepest)}): the SED of the "
+        f"export is scaled by (d / d_ref)^2 <= {(1 / ratio) ** 2:.3g}, so the afferents "
+        f"{'fall silent' if ratio > 1 else 'saturate'}, the likely cause d_ref written in the wrong unit (a value "
+        f"in mm under a key in m){fits}; give the depth at which the export was solved"), stacklevel=3)
+
+
 def apply_waveform(sed, waveform: Waveform, *, d_ref: float, reference_step: int | None = None,
-                   series_depths=None) -> tuple:
+                   series_depths=None, accept=None) -> tuple:
     """The stimulus stage: SED sampled from the export -> SED over the waveform's times.
 
     Parameters
@@ -436,6 +492,11 @@ def apply_waveform(sed, waveform: Waveform, *, d_ref: float, reference_step: int
         Depth in m of every step of a loading series: the time course is interpolated in depth
         between the steps (:func:`afferent.stimulus.interpolate_series`) instead of scaled by
         (d / d_ref)^2 (:func:`afferent.stimulus.scale_static`).
+    accept : str or sequence of str, optional
+        Checks whose unusual case is confirmed (``afferent._validation.ACCEPTS``):
+        ``'reference-step'`` (a reference step that is not the deepest step of a series scaled by
+        (d / d_ref)^2, the one of the largest SED), ``'d-ref'`` (``d_ref`` more than 10 x from the
+        waveform's deepest point).
 
     Returns
     -------
@@ -446,11 +507,18 @@ def apply_waveform(sed, waveform: Waveform, *, d_ref: float, reference_step: int
     Raises
     ------
     ValueError
-        Several steps and no ``reference_step`` (:func:`afferent.stimulus.no_reference_step_message`).
+        Several steps and no ``reference_step`` (:func:`afferent.stimulus.no_reference_step_message`);
+        a reference step that is not the deepest or a ``d_ref`` more than 10 x from the waveform's
+        deepest point, unless ``accept`` confirms it.
     """
     if reference_step is None and sed.values.shape[0] > 1:
         raise ValueError(no_reference_step_message(sed.values.shape[0], sed.times))
     step = 0 if reference_step is None else reference_step
+    d_ref = check_positive("d_ref", d_ref, unit="m")
+    n = int(np.asarray(sed.values).shape[0])
+    if isinstance(step, numbers.Integral) and not isinstance(step, bool) and -n <= step < n:
+        check_reference_step(sed, int(step) % n, d_ref, series_depths, accept)
+    check_d_ref(waveform, d_ref, accept)
     scaling = scaling_record(sed, waveform, d_ref=d_ref, reference_step=step, series_depths=series_depths)
     timed = (interpolate_series(sed, waveform, series_depths=series_depths) if series_depths is not None
              else scale_static(sed, waveform, d_ref=d_ref, time_index=step))
