@@ -56,6 +56,7 @@ from types import SimpleNamespace
 import numpy as np
 
 from ._tables import write_table
+from .exceptions import SEDFormatError
 
 __all__ = ["write_outputs", "write_json", "file_sha256", "versions", "jsonable",
            "receptors_table", "write_receptor_vtu", "step_title", "profile_step_record", "results_dataset",
@@ -66,9 +67,12 @@ RESULTS_FORMATS = ("netcdf", "csv")
 
 
 def file_sha256(path: str, chunk: int = 1 << 20) -> str:
-    """SHA-256 of a file's content (hex)."""
+    """SHA-256 of a file's content (hex); anything but a regular file (a FIFO, a device, a folder) is refused
+    (:class:`~afferent.exceptions.SEDFormatError`) without reading or waiting on it."""
+    from .io._files import open_regular
+
     h = hashlib.sha256()
-    with open(path, "rb") as f:
+    with open_regular(path) as f:
         for block in iter(lambda: f.read(chunk), b""):
             h.update(block)
     return h.hexdigest()
@@ -397,6 +401,10 @@ def load_results(folder):
     ------
     FileNotFoundError
         ``folder`` is not a folder, or holds no ``run.json``.
+    SEDFormatError
+        One of its files is not a regular file (a FIFO, a device: refused before it is opened), or
+        ``currents.nc`` holds an HDF5 external link or a variable stored in other files (afferent writes
+        it self-contained; nothing outside the folder is read).
 
     Notes
     -----
@@ -404,26 +412,43 @@ def load_results(folder):
     them before writing the Dataset back (``ds.attrs.pop('tables'); ds.attrs.pop('run')``).
     """
     import pandas as pd
-    import xarray as xr
+
+    from .io._files import open_regular
 
     folder = os.fspath(folder)
     record = os.path.join(folder, "run.json")
-    if not os.path.isfile(record):
+    if not os.path.lexists(record) or os.path.isdir(record):
         raise FileNotFoundError(f"{folder!r} is not an afferent output folder: it holds no run.json.")
+    with open_regular(record, "Run record", "r") as f:
+        run = json.load(f)
     nc = os.path.join(folder, RESULTS_NC)
-    if os.path.isfile(nc):
-        with xr.open_dataset(nc, engine="h5netcdf") as f:
-            ds = f.load()
-    else:
-        ds = _dataset_from_csv(folder)
+    ds = _results_nc(nc) if os.path.lexists(nc) else _dataset_from_csv(folder)
     tables = {}
     for name in sorted(os.listdir(folder)):
         if name.endswith(".csv") and name not in ("receptors.csv", "afferents.csv"):
-            tables[name[:-4]] = pd.read_csv(os.path.join(folder, name))
-    with open(record, encoding="utf-8") as f:
-        ds.attrs["run"] = json.load(f)
+            with open_regular(os.path.join(folder, name), "Results table") as f:
+                tables[name[:-4]] = pd.read_csv(f)
+    ds.attrs["run"] = run
     ds.attrs["tables"] = tables
     return ds
+
+
+def _results_nc(path: str):
+    """``currents.nc`` as an xarray Dataset in memory, once it is a regular file without HDF5 external links or
+    variables stored in other files (refused: nothing outside it is read)."""
+    import h5py
+    import xarray as xr
+
+    from .io._files import check_regular, h5_refuse_external
+
+    check_regular(path, "Results file")
+    try:
+        with h5py.File(path, "r") as h5:
+            h5_refuse_external(h5, "Results file")
+    except OSError as err:
+        raise SEDFormatError(f"Results file {path!r} could not be read as NetCDF-4 (truncated or corrupt?): {err}") from err
+    with xr.open_dataset(path, engine="h5netcdf") as f:
+        return f.load()
 
 
 def _dataset_from_csv(folder: str):
@@ -431,16 +456,20 @@ def _dataset_from_csv(folder: str):
     import pandas as pd
     import xarray as xr
 
+    from .io._files import open_regular
+
     rec, aff = os.path.join(folder, "receptors.csv"), os.path.join(folder, "afferents.csv")
-    if not os.path.isfile(rec):
+    if not os.path.lexists(rec):
         return xr.Dataset()
-    df = pd.read_csv(rec, dtype={"receptor": str})
+    with open_regular(rec, "Results table") as f:
+        df = pd.read_csv(f, dtype={"receptor": str})
     ds = df.set_index(["time_s", "receptor"])[["sed_pa", "current_a"]].to_xarray().rename(time_s="time")
     first = df.drop_duplicates("receptor").set_index("receptor")
     ds = ds.assign_coords({c: ("receptor", first.loc[ds.receptor.values, c].to_numpy())
                            for c in ("x_m", "y_m", "z_m", "longitudinal", "cross")})
-    if os.path.isfile(aff):
-        da = pd.read_csv(aff, dtype={"afferent": str})
+    if os.path.lexists(aff):
+        with open_regular(aff, "Results table") as f:
+            da = pd.read_csv(f, dtype={"afferent": str})
         a = da.set_index(["time_s", "afferent"])["current_a"].to_xarray().rename(time_s="time")
         ds["afferent_current_a"] = a.reindex(time=ds.time)
         pos = da.drop_duplicates("afferent").set_index("afferent")["position_m"]

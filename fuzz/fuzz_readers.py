@@ -39,6 +39,9 @@ from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
 ROOT = HERE.parent
+sys.path.insert(0, str(HERE))
+
+import fuzz_paths  # noqa: E402 - beside this file
 
 #: target name -> (file suffix, reader); readers take the path and use fixed, valid options.
 TARGETS: list[tuple[str, str]] = [
@@ -54,6 +57,9 @@ TARGETS: list[tuple[str, str]] = [
     # long lines: the input's first line repeated 2**(byte % 24) times (up to LONG_LINE_BYTES)
     ("csv-long", ".csv"),
     ("lis", ".lis"),  # ANSYS MAPDL text listings (PRNSOL, NLIST, PRETAB), read by the text-table reader
+    # paths and links in every index format (fuzz_paths.py): the input chooses how each file the export points to
+    # is named and where it leads; the read is judged by fuzz_paths.check
+    *((f"paths-{kind}", "") for kind in fuzz_paths.KINDS),
 ]
 
 #: the longest input the csv-long target builds (bytes): a 10 MB line is what a user's broken export can hold
@@ -82,6 +88,8 @@ def _read(target: str, path: str) -> None:
 
         if "rst" in FORMATS:  # S and EPEL: the exact SED, so that the tensors are read and checked too
             afferent.read_sed(path, length_unit="mm", stress_unit="MPa", sed_from="exact", preset="ansys")
+    elif target.startswith("paths-"):
+        fuzz_paths.check(path)
     elif target == "xdmf-heavy":
         afferent.read_sed(os.path.join(os.path.dirname(path), "collection.xdmf"), length_unit="mm", sed_unit="MPa")
     else:
@@ -104,8 +112,11 @@ def _long_lines(data: bytes) -> bytes:
 def prepare(data: bytes, folder: str) -> tuple[str, str]:
     """Write one fuzz input into ``folder`` with the side files its target needs; returns (target, path read)."""
     for name in os.listdir(folder):  # nothing left from the input before: each input sees only its own side files
-        os.remove(os.path.join(folder, name))
+        p = os.path.join(folder, name)
+        shutil.rmtree(p) if os.path.isdir(p) and not os.path.islink(p) else os.remove(p)
     target, suffix = TARGETS[data[0] % len(TARGETS)]
+    if target.startswith("paths-"):
+        return target, fuzz_paths.build(target[len("paths-"):], data[1:], folder)
     body = _long_lines(data[1:]) if target == "csv-long" else data[1:]
     name = "heavy" if target == "xdmf-heavy" else "input"
     path = os.path.join(folder, name + suffix)

@@ -64,13 +64,16 @@ def _windows(spec, done: _Ids, ids: bytearray, counts: dict):
 
 
 def _iter_records(output: str):
-    """Every task record of ``tasks/*.jsonl``, one at a time (a line that is not a record is skipped: it runs again)."""
+    """Every task record of ``tasks/*.jsonl``, one at a time (a line that is not a record is skipped: it runs again;
+    a file that is not a regular file - a FIFO would block - is refused, naming it)."""
+    from ..io._files import open_regular
+
     folder = os.path.join(output, "tasks")
     for name in sorted(os.listdir(folder)) if os.path.isdir(folder) else ():
         if not name.endswith(".jsonl"):
             continue
         try:
-            with open(os.path.join(folder, name)) as f:
+            with open_regular(os.path.join(folder, name), "Sweep record", "r") as f:
                 lines = f.read().splitlines()
         except OSError:
             continue
