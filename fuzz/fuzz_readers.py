@@ -23,6 +23,18 @@ input) and ``<kind>.txt`` (target and traceback), and fuzzing goes on; the input
 outcome (a result, a documented error, too short, a finding), are written to ``DIR/stats.txt``
 every 1,000 inputs.
 
+The path targets (``paths-*``, :mod:`fuzz_paths`) build an export whose side files (steps, pieces,
+blocks, heavy data, HDF5 links and external storage) are named and placed as the input chooses,
+inside or outside the export's folder, as FIFOs, devices, folders or missing files, and judge the
+read: a result must not list a file outside the folder (unless allowed) nor one that is not a
+regular file, must not come where the references say it must be refused, and must list every file
+its values came from.
+
+Without atheris, ``fuzz_loop.py`` drives the same targets by random mutation, with a supervisor
+that records crashes and hangs (see its docstring)::
+
+    nice -n 10 .venv/bin/python fuzz/fuzz_loop.py --seconds 1800 --findings /tmp/findings
+
 Replay one input (prints the exception and the target)::
 
     .venv/bin/python fuzz/fuzz_readers.py --replay crash-...
@@ -160,13 +172,13 @@ def _record(findings: str, data: bytes, err: Exception) -> None:
     import traceback
 
     frames = [f for f in traceback.extract_tb(err.__traceback__) if "/afferent/" in f.filename]
-    where = f"{Path(frames[-1].filename).stem}_{frames[-1].lineno}" if frames else "outside"
+    target = TARGETS[data[0] % len(TARGETS)][0] if data else "none"
+    where = f"{Path(frames[-1].filename).stem}_{frames[-1].lineno}" if frames else target
     kind = f"{type(err).__name__}-{where}"
     out = Path(findings)
     out.mkdir(parents=True, exist_ok=True)
     if not (out / f"{kind}.bin").exists():
         (out / f"{kind}.bin").write_bytes(data)
-        target = TARGETS[data[0] % len(TARGETS)] if data else None
         (out / f"{kind}.txt").write_text(f"target: {target}\n" + "".join(traceback.format_exception(err)))
 
 

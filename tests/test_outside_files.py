@@ -51,7 +51,7 @@ def _cli(*args, cwd, timeout=60):
 def _sed_only(tmp_path: Path, item: str | None = None) -> Path:
     """DOLFINx's one-function XDMF and its .h5 copied into tmp_path/exp; ``item`` replaces the SED DataItem."""
     exp = tmp_path / "exp"
-    exp.mkdir(exist_ok=True)
+    exp.mkdir(parents=True, exist_ok=True)
     shutil.copy(DATA / "dolfinx" / "sed_only.h5", exp)
     text = (DATA / "dolfinx" / "sed_only.xdmf").read_text()
     if item is not None:
@@ -231,12 +231,36 @@ def test_med_external_storage_and_links_inside_the_folder_are_read(tmp_path):
     before = read_raw(med).points
     _rewrite(med, coo, lambda f, name, values: (values.tofile(med.parent / "coo.bin"),
                                                 _external_storage("coo.bin")(f, name, values)))
-    np.testing.assert_array_equal(read_raw(med).points, before)
+    raw = read_raw(med)
+    np.testing.assert_array_equal(raw.points, before)
+    assert raw.files == (str(med), str(med.parent / "coo.bin"))  # listed (the fuzzer found it left out)
     med, coo = _med_copy(tmp_path, "linked")
+    with h5py.File(med, "r") as f:
+        attrs = dict(f[coo].attrs)
+    _rewrite(med, coo, _external_link("coo.h5", med.parent / "coo.h5"))
+    with h5py.File(med.parent / "coo.h5", "a") as f:
+        f["x"].attrs.update(attrs)  # MED's NBR
+    raw = read_raw(med)
+    np.testing.assert_array_equal(raw.points, before)
+    assert raw.files == (str(med), str(med.parent / "coo.h5"))
+    med, coo = _med_copy(tmp_path, "outside")
     _rewrite(med, coo, _external_link("../coo.h5", tmp_path / "coo.h5"))
     with pytest.raises(SEDFormatError, match=re.escape(f"points to the target of the HDF5 external link {coo[1:]!r} "
                                                        f"'../coo.h5', {OUTSIDE}")):
         read_raw(med)
+
+
+def test_a_link_to_an_object_its_target_lacks_and_a_patterned_virtual_source_are_clean_errors(tmp_path):
+    """Found by the fuzzer (fuzz/fuzz_paths.py): a KeyError from h5py, a RuntimeError from HDF5's name parser."""
+    xdmf = _sed_only(tmp_path)
+    _rewrite(xdmf.parent / "sed_only.h5", "/Function/sed/3", lambda f, name, values: f.__setitem__(
+        name, h5py.ExternalLink("sed_only.h5", "/nowhere")))
+    with pytest.raises(SEDFormatError, match=re.escape("dataset '/Function/sed/3' of attribute 'sed' at t = 3 is not in")):
+        read_sed(xdmf, **UNITS)
+    xdmf = _sed_only(tmp_path / "p")
+    _rewrite(xdmf.parent / "sed_only.h5", "/Function/sed/3", _virtual("x%%.h5", xdmf.parent / "x%.h5"))
+    with pytest.raises(SEDFormatError, match=re.escape("names its source file 'x%%.h5' with '%'")):
+        read_sed(xdmf, **UNITS)
 
 
 def test_exodus_netcdf4_external_storage_outside_the_folder_is_refused(tmp_path):
@@ -412,3 +436,38 @@ def test_a_sweep_resume_refuses_a_fifo_record(tmp_path):
     os.mkfifo(tmp_path / "out" / "tasks" / "batch-zzz.jsonl")
     code, err = _cli("sweep", src, "-o", "out", cwd=tmp_path)
     assert code == 2 and "batch-zzz.jsonl' is a FIFO (named pipe), not a regular file" in err, err
+
+
+def test_a_run_allowed_outside_does_not_serve_one_that_is_not_from_the_cache(tmp_path):
+    """A scene's [export] allow_outside_files = true reads the file and caches the sampled SED; the same scene
+    without it must be refused, not served from that cache entry (the permission is part of the key)."""
+    import textwrap
+
+    from afferent.scene import load_scene, run_scene
+
+    xdmf = _sed_only(tmp_path, '<DataItem Dimensions="32 1" Format="HDF">../sed_only.h5:/Function/sed/3</DataItem>')
+    shutil.copy(DATA / "dolfinx" / "sed_only.h5", tmp_path)
+    _receptors(tmp_path)
+
+    def scene(allow: bool) -> Path:
+        p = tmp_path / f"scene-{allow}.toml"
+        p.write_text(textwrap.dedent(f"""
+            [export]
+            file = {str(xdmf)!r}
+            length_unit = "mm"
+            sed_unit = "MPa"
+            allow_outside_files = {str(allow).lower()}
+            [receptors]
+            file = {str(tmp_path / 'r.csv')!r}
+            [outputs]
+            want = ["sed_map"]
+            dir = {str(tmp_path / f'out-{allow}')!r}
+            """))
+        return p
+
+    allowed = run_scene(load_scene(scene(True)), overwrite=True, cache_dir=tmp_path / "cache")
+    assert str(xdmf.parent / "../sed_only.h5") in allowed.record["field"]["files"]
+    with pytest.raises(SEDFormatError, match=re.escape(f"'../sed_only.h5', {OUTSIDE}")):
+        run_scene(load_scene(scene(False)), overwrite=True, cache_dir=tmp_path / "cache")
+    again = run_scene(load_scene(scene(True)), overwrite=True, cache_dir=tmp_path / "cache")
+    assert again.cache_hit is True

@@ -18,6 +18,10 @@ MOOSE writes tensor components as separate scalar variables (``stress_xx``, ``st
 from RankTwoAux); afferent matches them by name. Their shear is tensor shear (stress =
 C : elastic_strain with tensor shear, checked during development on MOOSE's test files with
 benchmarks/check_exodus_files.py; docs/fe-export.md). Exodus has no units: the user declares them.
+
+In a netCDF-4 file, HDF5 external links, external raw storage and virtual datasets are followed
+only to files inside the folder of the export named (unless ``allow_outside_files``), regular
+files, each resolved before HDF5 opens it (:mod:`afferent.io._files`) and listed in the files read.
 """
 
 from __future__ import annotations

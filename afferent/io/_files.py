@@ -217,11 +217,16 @@ def _links(h5) -> list[tuple[str, str, str]]:
     import h5py
 
     names: list[bytes] = []
-    h5.id.links.visit(lambda name, info: names.append(name) if info.type == h5py.h5l.TYPE_EXTERNAL else None, info=True)
     out = []
-    for name in names:
-        target, obj = h5.id.links.get_val(name)
-        out.append((name.decode("utf-8", "replace"), target, obj.decode("utf-8", "replace")))
+    try:
+        h5.id.links.visit(lambda name, info: names.append(name) if info.type == h5py.h5l.TYPE_EXTERNAL else None,
+                          info=True)
+        for name in names:
+            target, obj = h5.id.links.get_val(name)
+            out.append((name.decode("utf-8", "replace"), target, obj.decode("utf-8", "replace")))
+    except (RuntimeError, SystemError, OSError, KeyError, ValueError) as err:  # damaged groups or link messages
+        raise SEDFormatError(f"HDF5 file {h5.filename!r}: its links could not be read (truncated or corrupt?): "
+                             f"{type(err).__name__}: {err}") from err
     return out
 
 
@@ -288,8 +293,9 @@ def _check_storage(dataset, scope: Scope, opened: list) -> None:
                              f"read from its properties: {err}") from err
     patterns = [s.file_name for s in sources if "%" in s.file_name]
     if patterns:
-        raise SEDFormatError(f"{scope.label} {where!r}: HDF5 virtual dataset {dataset.name!r} names its source files by "
-                             f"the pattern {patterns[0]!r}; afferent reads sources named one by one.")
+        raise SEDFormatError(f"{scope.label} {where!r}: HDF5 virtual dataset {dataset.name!r} names its source file "
+                             f"{patterns[0]!r} with '%' (a printf-style pattern to HDF5); afferent reads sources named "
+                             "plainly.")
     for name in raw:
         opened.append(resolve_member(where, name, what=f"the external storage of HDF5 dataset {dataset.name!r}",
                                      scope=scope))

@@ -33,6 +33,10 @@ faces and edges are ignored. Tensors keep their component names (``SIXX SIYY SIZ
 SIYZ``, ``EPXX ... EPYZ`` with tensor shear), so their order is read from the names and the
 ``code_aster`` preset is implied. MED files state no units unless the writer filled them in (code_aster
 does not): the user declares them.
+
+HDF5 external links, external raw storage and virtual datasets in a MED file are followed only to
+files inside the folder of the export named (unless ``allow_outside_files``), regular files, each
+resolved before HDF5 opens it (:mod:`afferent.io._files`) and listed in the files read.
 """
 
 from __future__ import annotations

@@ -25,6 +25,10 @@ sampling stage handles coincident points with different values. This is the only
 at read time, and it is kept minimal on purpose. In a series of ``.pvtu``/``.vtm`` files one
 merge (:class:`MergePlan`, from the first and last steps' values) serves every step and is
 checked at each: a field all zero at t = 0 and discontinuous later is not merged at t = 0 alone.
+
+Every piece and block file (recursively: a ``.vtm`` block may be a ``.pvtu``) passes
+:func:`afferent.io._files.resolve_member` before VTK opens any: inside the folder of the export
+named unless ``allow_outside_files``, a regular file; a file that lists itself is refused.
 """
 
 from __future__ import annotations

@@ -212,8 +212,11 @@ class _Heavy:
         import h5py
 
         hard = []
-        h5.id.links.iterate(lambda name, info: hard.append(name.decode()) if info.type == h5py.h5l.TYPE_HARD else None,
-                            obj_name=group.encode(), info=True)
+        try:
+            h5.id.links.iterate(lambda name, info: hard.append(name.decode()) if info.type == h5py.h5l.TYPE_HARD else None,
+                                obj_name=group.encode(), info=True)
+        except (RuntimeError, SystemError, OSError, KeyError, ValueError, UnicodeDecodeError):  # a damaged group: none
+            return frozenset()  # known, each dataset is then looked up (and its damage reported) on its own
         return frozenset(hard)
 
     def _binary(self, item: ET.Element, text: str, what: str, count: int) -> np.ndarray:

@@ -319,6 +319,8 @@ def _cache_key(run: _Run, layout, exp_files, hashes) -> str:
     scene = run.scene
     ex, rec = scene.export, scene.receptors
     read_opts = ex.read_kwargs()
+    if not read_opts.get("allow_outside_files"):  # the default reads what it read before: the keys of earlier entries
+        read_opts.pop("allow_outside_files", None)
     if read_opts.get("coordinates"):
         read_opts["coordinates"] = run.inputs.get(read_opts["coordinates"])
     if layout is not None:
