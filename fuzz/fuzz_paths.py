@@ -315,10 +315,28 @@ def _whole_file(source: Path, dataset: str):
     return build
 
 
-def _nested(b: _Builder, path: Path) -> None:
-    """An index whose members are indexes: a .pvd or .series of .pvtu or .vtm records."""
-    inner = b.draw.pick((_pvtu, _vtm))
-    ext = ".pvtu" if inner is _pvtu else ".vtm"
+def _single_grid(b: _Builder, path: Path) -> None:
+    """meshio's single-grid XDMF (fuzz/seeds/inline.xdmf) with its SED in a Binary data item the input places."""
+    import re
+
+    ref = b.place(path, ".bin", lambda p: np.linspace(0, 1e-4, 8).astype("<f8").tofile(p))
+    text = (HERE / "seeds" / "inline.xdmf").read_text()
+    item = f'<DataItem DataType="Float" Dimensions="8" Format="Binary" Precision="8">{_xml_text(ref)}</DataItem>'
+    path.write_text(re.sub(r'(<Attribute Name="SED"[^>]*>)<DataItem[^>]*>[^<]*</DataItem>', lambda m: m.group(1) + item,
+                           text, count=1))
+
+
+def _nested(b: _Builder, path: Path) -> Path | None:
+    """An index whose members are indexes: a .pvd or .series of .pvtu, .vtm or single-grid XDMF files, or a .vtm
+    of .pvtu records (VTK opens their pieces itself)."""
+    inner, ext = b.draw.pick(((_pvtu, ".pvtu"), (_vtm, ".vtm"), (_single_grid, ".xdmf")))
+    if b.draw.byte() % 4 == 0:
+        path = path.with_name("e.vtm")
+        refs = b.members(path, ".pvtu", lambda p: _pvtu(b, Path(p)))
+        path.write_text('<VTKFile type="vtkMultiBlockDataSet" version="1.0"><vtkMultiBlockDataSet>'
+                        + "".join(f'<DataSet index="{k}" file="{_xml_attr(r)}"/>' for k, r in enumerate(refs))
+                        + "</vtkMultiBlockDataSet></VTKFile>")
+        return path
     outer = b.draw.pick((_pvd, _series))
     outer(b, path, lambda p: inner(b, Path(p)), ext)
 
@@ -340,8 +358,7 @@ def build(kind: str, data: bytes, folder: str) -> str:
     allow = draw.byte() % 4 == 0
     b = _Builder(root, draw)
     name, builder = BUILDERS[kind]
-    path = b.exp / name
-    builder(b, path)
+    path = builder(b, b.exp / name) or b.exp / name
     mutated = False
     mutations = draw.byte() % 8
     if mutations >= 6 and path.suffix not in (".med", ".e"):  # a quarter of the indexes get a few bytes changed
