@@ -471,3 +471,31 @@ def test_a_run_allowed_outside_does_not_serve_one_that_is_not_from_the_cache(tmp
         run_scene(load_scene(scene(False)), overwrite=True, cache_dir=tmp_path / "cache")
     again = run_scene(load_scene(scene(True)), overwrite=True, cache_dir=tmp_path / "cache")
     assert again.cache_hit is True
+
+
+def test_a_parallel_record_under_another_name_is_refused_not_left_to_vtk(tmp_path):
+    """--format pvtu on 'x.xml': VTK's generic reader would open the pieces itself, unchecked."""
+    exp, out = _vtu_members(tmp_path)
+    p = exp / "r.xml"
+    p.write_text('<VTKFile type="PUnstructuredGrid" version="1.0"><PUnstructuredGrid GhostLevel="0"><PPoints>'
+                 '<PDataArray type="Float64" NumberOfComponents="3"/></PPoints>'
+                 '<Piece Source="../out/step.vtu"/></PUnstructuredGrid></VTKFile>')
+    for fmt in ("pvtu", "vtm"):
+        with pytest.raises(SEDFormatError, match=re.escape(f"SED file {str(p)!r}: a {fmt} file is read by its name")):
+            read_raw(p, format=fmt)
+
+
+@needs_fifo
+def test_a_coordinates_table_that_is_a_fifo_is_refused(tmp_path):
+    """The export's own table is checked by read_sed; a --coordinates table is opened by the text reader."""
+    table = tmp_path / "t.csv"
+    table.write_text("node,sed\n1,1.0\n")
+    os.mkfifo(tmp_path / "nodes.csv")
+    code = (f"import afferent\ntry:\n    afferent.read_sed({str(table)!r}, coordinates={str(tmp_path / 'nodes.csv')!r}, "
+            "length_unit='mm', sed_unit='MPa')\nexcept Exception as e:\n    print(type(e).__name__, e)")
+    try:
+        out = subprocess.run([sys.executable, "-c", code], env=dict(os.environ, PYTHONPATH=str(ROOT)), capture_output=True,
+                             text=True, timeout=60).stdout
+    except subprocess.TimeoutExpired:
+        pytest.fail("read_sed blocked on a FIFO coordinates table")
+    assert "nodes.csv' is a FIFO (named pipe), not a regular file" in out, out

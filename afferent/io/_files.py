@@ -111,23 +111,17 @@ class Scope:
         Its folder, symbolic links resolved: files must really lie under it.
     allow_outside : bool
         The user allowed files outside ``folder`` on purpose (regular files still).
-    label : str
-        What the refusals call a file that points to another (``'SED file'``).
-    hint : str
-        How to allow a file outside the folder, for the refusal; empty when it cannot be allowed.
     """
 
     export: str
     folder: str
     allow_outside: bool = False
-    label: str = "SED file"
-    hint: str = ALLOW_OUTSIDE
 
     @classmethod
-    def of(cls, export, allow_outside: bool = False, **kw) -> Scope:
+    def of(cls, export, allow_outside: bool = False) -> Scope:
         """The scope of the export file ``export``: its own folder."""
         export = os.fspath(export)
-        return cls(export, os.path.realpath(os.path.dirname(os.path.abspath(export))), bool(allow_outside), **kw)
+        return cls(export, os.path.realpath(os.path.dirname(os.path.abspath(export))), bool(allow_outside))
 
     def inside(self, path: str) -> bool:
         """Whether ``path`` (symbolic links followed as far as they exist) lies inside :attr:`folder`."""
@@ -172,27 +166,26 @@ def resolve_member(referrer: str, reference, *, what: str, scope: Scope | None =
         reference = reference.decode("utf-8", "surrogateescape")
     reference = os.fspath(reference)
     if not reference.strip() or "\x00" in reference:
-        raise SEDFormatError(f"{scope.label} {referrer!r} names {what} {reference!r}, which is not a file name.")
+        raise SEDFormatError(f"SED file {referrer!r} names {what} {reference!r}, which is not a file name.")
     path = reference if os.path.isabs(reference) else os.path.join(os.path.dirname(referrer), reference)
     if not scope.allow_outside and not scope.inside(path):
         real = os.path.realpath(path)
         really = f" (really {real!r})" if real != os.path.normpath(os.path.abspath(path)) else ""
         raise SEDFormatError(
-            f"{scope.label} {referrer!r} points to {what} {reference!r}{really}, outside the folder of the export "
-            f"{scope.export!r}; afferent reads only the files inside an export's own folder"
-            + (f": {scope.hint}." if scope.hint else "."))
+            f"SED file {referrer!r} points to {what} {reference!r}{really}, outside the folder of the export "
+            f"{scope.export!r}; afferent reads only the files inside an export's own folder: {ALLOW_OUTSIDE}.")
     try:
         mode = os.stat(path).st_mode
     except (FileNotFoundError, NotADirectoryError):
         if must_exist:
-            raise FileNotFoundError(f"{scope.label} {referrer!r} lists {what} {path!r}, which does not exist.") from None
+            raise FileNotFoundError(f"SED file {referrer!r} lists {what} {path!r}, which does not exist.") from None
         return path
     except OSError as err:  # a loop of symbolic links, a name too long, no permission
-        raise SEDFormatError(f"{scope.label} {referrer!r} names {what} {path!r}, which cannot be opened: "
+        raise SEDFormatError(f"SED file {referrer!r} names {what} {path!r}, which cannot be opened: "
                              f"{err.strerror or err}.") from None
     kind = _not_regular(mode)
     if kind is not None:
-        raise SEDFormatError(f"{scope.label} {referrer!r} names {what} {path!r}, which is {kind}, not a regular file; "
+        raise SEDFormatError(f"SED file {referrer!r} names {what} {path!r}, which is {kind}, not a regular file; "
                              "afferent reads regular files only.")
     return path
 
@@ -241,7 +234,7 @@ def _check_links(h5, scope: Scope, seen: set, depth: int, opened: list) -> None:
         if real in seen:
             continue
         if depth >= MAX_DEPTH:
-            raise SEDFormatError(f"{scope.label} {h5.filename!r}: its HDF5 external links lead through more than "
+            raise SEDFormatError(f"SED file {h5.filename!r}: its HDF5 external links lead through more than "
                                  f"{MAX_DEPTH} files; afferent follows at most {MAX_DEPTH}.")
         seen.add(real)
         opened.append(path)
@@ -249,7 +242,7 @@ def _check_links(h5, scope: Scope, seen: set, depth: int, opened: list) -> None:
             with h5py.File(path, "r") as other:
                 _check_links(other, scope, seen, depth + 1, opened)
         except OSError as err:
-            raise SEDFormatError(f"{scope.label} {h5.filename!r}: the target {path!r} of its HDF5 external link "
+            raise SEDFormatError(f"SED file {h5.filename!r}: the target {path!r} of its HDF5 external link "
                                  f"{name!r} could not be opened as HDF5 (truncated or corrupt?): {err}") from err
 
 
@@ -289,11 +282,11 @@ def _check_storage(dataset, scope: Scope, opened: list) -> None:
     try:
         raw, sources = storage_names(dataset)
     except (RuntimeError, OSError, ValueError) as err:  # a source name HDF5 cannot parse (a bad printf pattern)
-        raise SEDFormatError(f"{scope.label} {where!r}: the files HDF5 dataset {dataset.name!r} is stored in cannot be "
+        raise SEDFormatError(f"SED file {where!r}: the files HDF5 dataset {dataset.name!r} is stored in cannot be "
                              f"read from its properties: {err}") from err
     patterns = [s.file_name for s in sources if "%" in s.file_name]
     if patterns:
-        raise SEDFormatError(f"{scope.label} {where!r}: HDF5 virtual dataset {dataset.name!r} names its source file "
+        raise SEDFormatError(f"SED file {where!r}: HDF5 virtual dataset {dataset.name!r} names its source file "
                              f"{patterns[0]!r} with '%' (a printf-style pattern to HDF5); afferent reads sources named "
                              "plainly.")
     for name in raw:
@@ -308,10 +301,10 @@ def _check_storage(dataset, scope: Scope, opened: list) -> None:
                 inner = f.get(src.dset_name)
                 nested = isinstance(inner, h5py.Dataset) and any(storage_names(inner))
         except OSError as err:
-            raise SEDFormatError(f"{scope.label} {where!r}: {what} in {path!r} could not be opened (truncated or "
+            raise SEDFormatError(f"SED file {where!r}: {what} in {path!r} could not be opened (truncated or "
                                  f"corrupt?): {err}") from err
         if nested:
-            raise SEDFormatError(f"{scope.label} {where!r}: {what} ({src.dset_name!r} in {path!r}) is stored in other "
+            raise SEDFormatError(f"SED file {where!r}: {what} ({src.dset_name!r} in {path!r}) is stored in other "
                                  "files again (external or virtual); afferent reads one level of virtual sources.")
 
 

@@ -220,7 +220,9 @@ def read_mesh_file(path: str, *, scope: Scope | None = None, fmt: str | None = N
     import meshio
 
     ext = os.path.splitext(path)[1].lower()
-    if ext in (".pvtu", ".vtm") or (ext not in (".vtu", ".vtk", ".xdmf", ".xmf") and fmt in ("pvtu", "vtm")):
+    if fmt in ("pvtu", "vtm") and ext != f".{fmt}":  # VTK would pick its reader, and the files it opens, by itself
+        raise SEDFormatError(f"SED file {path!r}: a {fmt} file is read by its name; name it .{fmt}.")
+    if ext in (".pvtu", ".vtm"):
         from ._vtk import read_vtk_file
 
         return read_vtk_file(path, scope=scope)
