@@ -33,12 +33,14 @@ def read_run_record(folder) -> dict:
     """
     import json
 
+    from .io._files import open_regular
+
     path = os.path.join(os.fspath(folder), RUN_RECORD)
-    if not os.path.isfile(path):
+    if not os.path.lexists(path) or os.path.isdir(path):
         raise FileNotFoundError(f"{os.fspath(folder)!r} is not an afferent output folder: it holds no {RUN_RECORD}.")
     expected = "expected the run record afferent writes"
     try:
-        with open(path, encoding="utf-8") as f:
+        with open_regular(path, "Run record", "r") as f:  # a FIFO is refused, not waited on
             record = json.load(f)
     except (UnicodeDecodeError, json.JSONDecodeError) as err:
         raise SEDFormatError(f"Run record {path!r} is not UTF-8 JSON text ({err}); {expected}.") from err
@@ -90,12 +92,15 @@ def read_run_table(path, *, what: str, finite=(), numbers=(), columns=(), text=(
 
     import pandas as pd
 
+    from .io._files import open_regular
+
     path = os.fspath(path)
-    if not os.path.isfile(path):
+    if not os.path.lexists(path) or os.path.isdir(path):
         raise FileNotFoundError(f"Run table {path!r} not found; expected {what}.")
     where = f"Run table {path!r}"
     try:
-        df = pd.read_csv(path, encoding="utf-8", dtype={c: str for c in text})
+        with open_regular(path, "Run table") as f:  # a FIFO is refused, not waited on
+            df = pd.read_csv(f, encoding="utf-8", dtype={c: str for c in text})
     except pd.errors.EmptyDataError as err:
         raise SEDFormatError(f"{where} is empty; expected {what}.") from err
     except (pd.errors.ParserError, UnicodeDecodeError, csv.Error, ValueError) as err:  # ValueError: pyarrow's too

@@ -60,6 +60,7 @@ from types import SimpleNamespace
 import numpy as np
 
 from ._tables import write_table
+from .exceptions import SEDFormatError
 
 __all__ = ["write_outputs", "write_json", "file_sha256", "versions", "jsonable",
            "receptors_table", "write_receptor_vtu", "step_title", "profile_step_record", "results_dataset",
@@ -70,9 +71,12 @@ RESULTS_FORMATS = ("netcdf", "csv")
 
 
 def file_sha256(path: str, chunk: int = 1 << 20) -> str:
-    """SHA-256 of a file's content (hex)."""
+    """SHA-256 of a file's content (hex); anything but a regular file (a FIFO, a device, a folder) is refused
+    (:class:`~afferent.exceptions.SEDFormatError`) without reading or waiting on it."""
+    from .io._files import open_regular
+
     h = hashlib.sha256()
-    with open(path, "rb") as f:
+    with open_regular(path) as f:
         for block in iter(lambda: f.read(chunk), b""):
             h.update(block)
     return h.hexdigest()
@@ -410,6 +414,9 @@ def load_results(folder):
     SEDFormatError
         A damaged file (``afferent._run_folder``): ``run.json`` not a UTF-8 JSON object, a table not UTF-8
         CSV or without its columns or numbers, ``currents.nc`` not a readable netCDF-4 file (or a folder).
+        Or one of its files is not a regular file (a FIFO, a device: refused before it is opened), or
+        ``currents.nc`` holds an HDF5 external link or a variable stored in other files (afferent writes
+        it self-contained; nothing outside the folder is read).
 
     Notes
     -----
@@ -432,14 +439,24 @@ def load_results(folder):
 
 
 def _read_nc(nc: str):
-    """``currents.nc`` (:func:`results_dataset`) loaded; a file that is not readable netCDF-4 (or not a file) is
-    an error naming it."""
+    """``currents.nc`` (:func:`results_dataset`) loaded, once it is a regular file without HDF5 external links or
+    variables stored in other files (refused: nothing outside it is read); a file that is not readable
+    netCDF-4 (or not a file) is an error naming it."""
+    import h5py
     import xarray as xr
 
-    from .exceptions import SEDFormatError
+    from .io._files import check_regular, h5_refuse_external
 
-    if not os.path.isfile(nc):
+    if os.path.isdir(nc):
         raise SEDFormatError(f"Results file {nc!r} is not a file; expected the netCDF-4 file of a run's time courses.")
+    check_regular(nc, "Results file")
+    try:
+        h5 = h5py.File(nc, "r")
+    except OSError as err:
+        raise SEDFormatError(f"Results file {nc!r} could not be read as netCDF-4 ({' '.join(str(err).split())}); "
+                             "expected the time courses a run wrote.") from err
+    with h5:
+        h5_refuse_external(h5, "Results file")
     try:
         with xr.open_dataset(nc, engine="h5netcdf") as f:
             return f.load()
@@ -450,7 +467,9 @@ def _read_nc(nc: str):
 
 def _time_column(path: str) -> str:
     """'step' when the long table's header names steps (an export without times), else 'time_s'."""
-    with open(path, "rb") as f:
+    from .io._files import open_regular
+
+    with open_regular(path, "Results table") as f:
         names = [n.strip().strip(b'"') for n in f.readline(65536).split(b",")]
     return "step" if b"step" in names and b"time_s" not in names else "time_s"
 

@@ -23,6 +23,18 @@ input) and ``<kind>.txt`` (target and traceback), and fuzzing goes on; the input
 outcome (a result, a documented error, too short, a finding), are written to ``DIR/stats.txt``
 every 1,000 inputs.
 
+The path targets (``paths-*``, :mod:`fuzz_paths`) build an export whose side files (steps, pieces,
+blocks, heavy data, HDF5 links and external storage) are named and placed as the input chooses,
+inside or outside the export's folder, as FIFOs, devices, folders or missing files, and judge the
+read: a result must not list a file outside the folder (unless allowed) nor one that is not a
+regular file, must not come where the references say it must be refused, and must list every file
+its values came from.
+
+Without atheris, ``fuzz_loop.py`` drives the same targets by random mutation, with a supervisor
+that records crashes and hangs (see its docstring)::
+
+    nice -n 10 .venv/bin/python fuzz/fuzz_loop.py --seconds 1800 --findings /tmp/findings
+
 Replay one input (prints the exception and the target)::
 
     .venv/bin/python fuzz/fuzz_readers.py --replay crash-...
@@ -39,6 +51,9 @@ from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
 ROOT = HERE.parent
+sys.path.insert(0, str(HERE))
+
+import fuzz_paths  # noqa: E402 - beside this file
 
 #: target name -> (file suffix, reader); readers take the path and use fixed, valid options.
 TARGETS: list[tuple[str, str]] = [
@@ -54,6 +69,9 @@ TARGETS: list[tuple[str, str]] = [
     # long lines: the input's first line repeated 2**(byte % 24) times (up to LONG_LINE_BYTES)
     ("csv-long", ".csv"),
     ("lis", ".lis"),  # ANSYS MAPDL text listings (PRNSOL, NLIST, PRETAB), read by the text-table reader
+    # paths and links in every index format (fuzz_paths.py): the input chooses how each file the export points to
+    # is named and where it leads; the read is judged by fuzz_paths.check
+    *((f"paths-{kind}", "") for kind in fuzz_paths.KINDS),
 ]
 
 #: the longest input the csv-long target builds (bytes): a 10 MB line is what a user's broken export can hold
@@ -82,6 +100,8 @@ def _read(target: str, path: str) -> None:
 
         if "rst" in FORMATS:  # S and EPEL: the exact SED, so that the tensors are read and checked too
             afferent.read_sed(path, length_unit="mm", stress_unit="MPa", sed_from="exact", preset="ansys")
+    elif target.startswith("paths-"):
+        fuzz_paths.check(path)
     elif target == "xdmf-heavy":
         afferent.read_sed(os.path.join(os.path.dirname(path), "collection.xdmf"), length_unit="mm", sed_unit="MPa")
     else:
@@ -104,8 +124,11 @@ def _long_lines(data: bytes) -> bytes:
 def prepare(data: bytes, folder: str) -> tuple[str, str]:
     """Write one fuzz input into ``folder`` with the side files its target needs; returns (target, path read)."""
     for name in os.listdir(folder):  # nothing left from the input before: each input sees only its own side files
-        os.remove(os.path.join(folder, name))
+        p = os.path.join(folder, name)
+        shutil.rmtree(p) if os.path.isdir(p) and not os.path.islink(p) else os.remove(p)
     target, suffix = TARGETS[data[0] % len(TARGETS)]
+    if target.startswith("paths-"):
+        return target, fuzz_paths.build(target[len("paths-"):], data[1:], folder)
     body = _long_lines(data[1:]) if target == "csv-long" else data[1:]
     name = "heavy" if target == "xdmf-heavy" else "input"
     path = os.path.join(folder, name + suffix)
@@ -149,13 +172,13 @@ def _record(findings: str, data: bytes, err: Exception) -> None:
     import traceback
 
     frames = [f for f in traceback.extract_tb(err.__traceback__) if "/afferent/" in f.filename]
-    where = f"{Path(frames[-1].filename).stem}_{frames[-1].lineno}" if frames else "outside"
+    target = TARGETS[data[0] % len(TARGETS)][0] if data else "none"
+    where = f"{Path(frames[-1].filename).stem}_{frames[-1].lineno}" if frames else target
     kind = f"{type(err).__name__}-{where}"
     out = Path(findings)
     out.mkdir(parents=True, exist_ok=True)
     if not (out / f"{kind}.bin").exists():
         (out / f"{kind}.bin").write_bytes(data)
-        target = TARGETS[data[0] % len(TARGETS)] if data else None
         (out / f"{kind}.txt").write_text(f"target: {target}\n" + "".join(traceback.format_exception(err)))
 
 

@@ -2,7 +2,8 @@
 
 Each file in tests/data/fuzz/ is one finding, named after the exception and the line that
 raised it before the fix (``IndexError-_csv_868.bin``); its first byte picks the reader (see
-``TARGETS`` in the harness). After the fix each must end in a documented error - an
+``TARGETS`` in the harness; the ``paths-*`` targets build an export whose side files the input names
+and places, fuzz/fuzz_paths.py). After the fix each must end in a documented error - an
 :class:`~afferent.exceptions.AfferentError` whose message names the file - never in a crash.
 """
 

@@ -65,13 +65,16 @@ def _windows(spec, done: _Ids, ids: bytearray, counts: dict):
 
 def _iter_records(output: str):
     """Every task record of ``tasks/*.jsonl``, one at a time (a line that is not a record is skipped: it runs again;
-    so is a line that is not UTF-8 JSON, read as bytes: a damaged file's other lines are still records)."""
+    so is a line that is not UTF-8 JSON, read as bytes: a damaged file's other lines are still records; a file
+    that is not a regular file - a FIFO would block - is refused, naming it)."""
+    from ..io._files import open_regular
+
     folder = os.path.join(output, "tasks")
     for name in sorted(os.listdir(folder)) if os.path.isdir(folder) else ():
         if not name.endswith(".jsonl"):
             continue
         try:
-            with open(os.path.join(folder, name), "rb") as f:
+            with open_regular(os.path.join(folder, name), "Sweep record", "rb") as f:
                 lines = f.read().splitlines()
         except OSError:
             continue

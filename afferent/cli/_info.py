@@ -35,7 +35,7 @@ def add_args(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     source = args.exports if len(args.exports) > 1 else args.exports[0]
-    raw = read_raw(source, format=args.format, progress=show_progress(args))
+    raw = read_raw(source, format=args.format, progress=show_progress(args), allow_outside_files=args.allow_outside_files)
     if args.coordinates is not None:  # a table of labels (a MAPDL PRNSOL listing, a report): its NLIST / node table
         from ..io._find_arrays import join_coordinates
 

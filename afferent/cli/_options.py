@@ -35,6 +35,9 @@ def add_input_options(parser: argparse.ArgumentParser) -> None:
     g.add_argument("--times", metavar="T0,T1,...", help="step times (s unless --time-unit), overriding the file")
     g.add_argument("--time-unit", metavar="U", type=unit_type("time"), help="unit of the step times (s, ms, us)")
     g.add_argument("--format", choices=tuple(FORMATS), help="file format, when the extension does not tell")
+    g.add_argument("--allow-outside-files", action="store_true",
+                   help="read the files the export points to (a .pvd's steps, XDMF heavy data, HDF5 links and external "
+                        "storage, ...) even outside the export's own folder; by default they are refused")
 
 
 def _names(text: str | None):
@@ -63,7 +66,8 @@ def input_kwargs(args: argparse.Namespace) -> dict:
         poisson=args.poisson, preset=args.preset, shear=args.shear, location=args.location, sed_column=sed_column,
         stress_columns=_names(args.stress_columns), strain_columns=_names(args.strain_columns), coord_columns=coord,
         times=times, time_unit=args.time_unit, coordinates=args.coordinates, on_nan=args.on_nan,
-        negative_tolerance=args.negative_tolerance, format=args.format, progress=show_progress(args),
+        negative_tolerance=args.negative_tolerance, allow_outside_files=args.allow_outside_files, format=args.format,
+        progress=show_progress(args),
     )
 
 
@@ -201,7 +205,8 @@ def layout_from_args(args: argparse.Namespace, field):
         if source.lower().endswith(".pvd"):
             source = field.provenance.files[1]
         return sites_from_export(source, length_unit=unit, material_array=args.material_array,
-                                 upper=args.upper, lower=args.lower, kind=spec, **pitch)
+                                 upper=args.upper, lower=args.lower, kind=spec,
+                                 allow_outside_files=args.allow_outside_files, **pitch)
     if spec.startswith("y="):
         try:
             y = float(spec[2:]) * length_factor(unit)

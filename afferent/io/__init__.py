@@ -33,6 +33,7 @@ from ..exceptions import AfferentWarning, SEDFormatError
 from ..field import Provenance, SEDField
 from ._assemble import NEGATIVE_SED_RTOL, ReadOptions, assemble
 from ._describe import describe_raw
+from ._files import Scope, check_regular, outside_note
 from ._raw import RawExport
 
 __all__ = ["read_sed", "iter_sed", "series_provenance", "read_raw", "describe_raw", "format_of", "FORMATS"]
@@ -120,6 +121,7 @@ def _paths(path_or_paths) -> list[str]:
             raise FileNotFoundError(f"SED file {p!r} not found.")
         if os.path.isdir(p):
             raise SEDFormatError(f"SED file {p!r} is a directory; pass the export file(s) inside it.")
+        check_regular(p)  # a FIFO or a device: refused before anything opens it (it would block, or never end)
     return paths
 
 
@@ -160,15 +162,28 @@ def data_files(path_or_paths, *, format: str | None = None) -> tuple[str, ...]:
     return files_read(out)
 
 
-def read_raw(path_or_paths, *, format: str | None = None, progress: bool = False, **csv_kwargs) -> RawExport:
+def read_raw(path_or_paths, *, format: str | None = None, progress: bool = False, allow_outside_files: bool = False,
+             **csv_kwargs) -> RawExport:
     """Read an export into its raw, uninterpreted form (the file's names and units).
 
     Used by ``afferent info``; most users want :func:`read_sed`. Several paths are one time
-    step each, in the order given.
+    step each, in the order given. ``allow_outside_files``: see :func:`read_sed`.
     """
+    paths = _paths(path_or_paths)
+    raw = _read_raw(paths, format, progress, allow_outside_files, csv_kwargs)
+    if not allow_outside_files:
+        return raw
+    from dataclasses import replace
+
+    return replace(raw, notes=raw.notes + outside_note(raw.files, paths, Scope.of))
+
+
+def _read_raw(paths: list[str], format: str | None, progress: bool, allow: bool, csv_kwargs: dict) -> RawExport:
+    """:func:`read_raw` of checked paths; every file an export points to is resolved in the scope of the
+    export named (:class:`afferent.io._files.Scope`)."""
     from . import _meshio
 
-    paths = _paths(path_or_paths)
+    scope = Scope.of(paths[0], allow)
     formats = {_format_of(p, format) for p in paths}
     if len(formats) > 1:
         raise SEDFormatError(f"A series must be of one format; got {', '.join(sorted(formats))} for {paths!r}.")
@@ -180,11 +195,11 @@ def read_raw(path_or_paths, *, format: str | None = None, progress: bool = False
     if len(paths) > 1:
         if fmt in ("pvd", "xdmf", "frd", "exodus", "rst", "med", "xplt"):
             raise SEDFormatError(f"Pass one .{fmt} file, not a list: it lists its own time steps ({paths!r}).")
-        return _meshio.read_vtu_series(paths, progress=progress)
+        return _meshio.read_vtu_series(paths, progress=progress, allow=allow)
     if fmt == "pvd":
-        return _meshio.read_pvd(paths[0], progress=progress)
+        return _meshio.read_pvd(paths[0], progress=progress, scope=scope)
     if fmt == "xdmf":
-        return _meshio.read_xdmf(paths[0], progress=progress)
+        return _meshio.read_xdmf(paths[0], progress=progress, scope=scope)
     if fmt == "rst":
         from ._ansys import read_rst
 
@@ -192,7 +207,7 @@ def read_raw(path_or_paths, *, format: str | None = None, progress: bool = False
     if fmt == "exodus":
         from ._exodus import read_exodus
 
-        return read_exodus(paths[0], progress=progress)
+        return read_exodus(paths[0], progress=progress, scope=scope)
     if fmt == "frd":
         from ._frd import read_frd
 
@@ -200,12 +215,12 @@ def read_raw(path_or_paths, *, format: str | None = None, progress: bool = False
     if fmt == "med":
         from ._med import read_med
 
-        return read_med(paths[0], progress=progress)
+        return read_med(paths[0], progress=progress, scope=scope)
     if fmt == "xplt":
         from ._xplt import read_xplt
 
         return read_xplt(paths[0], progress=progress)
-    return _meshio.read_mesh_file(paths[0])
+    return _meshio.read_mesh_file(paths[0], scope=scope, fmt=fmt)
 
 
 def read_sed(
@@ -228,6 +243,7 @@ def read_sed(
     coordinates: str | os.PathLike | None = None,
     on_nan: str = "raise",
     negative_tolerance: float = NEGATIVE_SED_RTOL,
+    allow_outside_files: bool = False,
     format: str | None = None,
     progress: bool = False,
 ) -> SEDField:
@@ -294,6 +310,13 @@ def read_sed(
         set to 0, counted in ``provenance.negative_sed`` and reported with an
         :class:`~afferent.exceptions.AfferentWarning`; anything more negative is refused (a
         wrong column, sign or shear convention).
+    allow_outside_files : bool, default=False
+        The files an export points to (a ``.pvd``'s or ``.series``' steps, a ``.pvtu``'s pieces, a ``.vtm``'s
+        blocks, an XDMF file's heavy data, HDF5 external links, external storage and virtual datasets)
+        are read only from inside the export's own folder, by default: a name that leads outside it
+        (absolute, ``..``, a symbolic link) is refused, naming the file. True reads them wherever they are
+        (each is then named in the provenance notes). Either way only regular files are read: a FIFO,
+        a device or a folder is refused before it is opened (``afferent.io._files``).
     format : {'csv', 'vtu', 'vtk', 'pvtu', 'vtm', 'pvd', 'xdmf', 'frd', 'exodus', 'rst', 'med', 'xplt'}, optional
         Overrides the format deduced from the file name.
     progress : bool, default=False
@@ -312,7 +335,8 @@ def read_sed(
     SEDFormatError
         Unknown format, unreadable or corrupt file, missing columns, NaN/inf or negative SED,
         SED more negative than ``negative_tolerance`` allows, non-increasing times, a series
-        whose steps do not match.
+        whose steps do not match, a file the export points to outside its folder (unless
+        ``allow_outside_files``), a file that is not a regular file.
     UnitError
         A unit neither stated nor declared, unknown, or contradicting the file.
 
@@ -334,9 +358,9 @@ def read_sed(
         coord_columns=None if coord_columns is None else tuple(coord_columns),
         times=None if times is None else tuple(float(t) for t in times),
         coordinates=None if coordinates is None else os.fspath(coordinates), on_nan=on_nan,
-        negative_tolerance=negative_tolerance,
+        negative_tolerance=negative_tolerance, allow_outside_files=allow_outside_files,
     )
-    raw = read_raw(path_or_paths, format=format, progress=progress)
+    raw = read_raw(path_or_paths, format=format, progress=progress, allow_outside_files=opts.allow_outside_files)
     return assemble(raw, opts)
 
 
@@ -353,22 +377,34 @@ def _read_options(*, sed_column, stress_columns, strain_columns, coord_columns, 
     )
 
 
-def _raw_steps(path_or_paths, fmt: str | None, progress: bool):
-    """(number of steps, iterator of one-step RawExports) for the formats read step by step, else None."""
+def _raw_steps(path_or_paths, fmt: str | None, progress: bool, allow: bool = False):
+    """(number of steps, iterator of one-step RawExports) for the formats read step by step, else None
+    (``allow``: files outside the export's folder allowed, :func:`read_sed`'s ``allow_outside_files``)."""
+    paths = _paths(path_or_paths)
+    steps = _step_reader(paths, fmt, progress, Scope.of(paths[0], allow))
+    if steps is None or not allow:
+        return steps
+    from dataclasses import replace
+
+    n, raws = steps
+    return n, (replace(r, notes=r.notes + outside_note(r.files, paths, Scope.of)) for r in raws)
+
+
+def _step_reader(paths: list[str], fmt: str | None, progress: bool, scope: Scope):
+    """:func:`_raw_steps` of checked paths."""
     from . import _meshio
 
-    paths = _paths(path_or_paths)
     formats = {_format_of(p, fmt) for p in paths}
     kind = formats.pop() if len(formats) == 1 else None
     if kind in ("vtu", "vtk", "pvtu", "vtm") and len(paths) > 1:
-        return len(paths), _meshio.iter_vtu_series(paths, progress=progress)
+        return len(paths), _meshio.iter_vtu_series(paths, progress=progress, allow=scope.allow_outside)
     if kind == "pvd" and len(paths) == 1:
-        files, _ = _meshio.pvd_entries(paths[0])
-        return len(files), _meshio.iter_pvd(paths[0], progress=progress)
-    if kind == "xdmf" and len(paths) == 1 and os.path.isfile(paths[0]) and os.path.getsize(paths[0]) > 0:
+        files, _ = _meshio.pvd_entries(paths[0], scope)
+        return len(files), _meshio.iter_pvd(paths[0], progress=progress, scope=scope)
+    if kind == "xdmf" and len(paths) == 1 and os.path.getsize(paths[0]) > 0:
         from ._xdmf import series_steps
 
-        steps = series_steps(paths[0], progress=progress)
+        steps = series_steps(paths[0], progress=progress, scope=scope)
         if steps is not None:
             return steps
     if kind == "xplt" and len(paths) == 1:
@@ -419,7 +455,7 @@ def iter_sed(path_or_paths, *, format: str | None = None, progress: bool = False
     if unknown:
         raise TypeError(f"iter_sed() got an unexpected keyword argument {unknown[0]!r}.")
     opts = _read_options(**{**defaults, **declarations})
-    steps = None if opts.coordinates is not None else _raw_steps(path_or_paths, format, progress)
+    steps = None if opts.coordinates is not None else _raw_steps(path_or_paths, format, progress, opts.allow_outside_files)
     if steps is None:
         yield read_sed(path_or_paths, format=format, progress=progress, **declarations)
         return

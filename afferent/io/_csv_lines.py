@@ -286,7 +286,9 @@ def _load_text(path: str) -> tuple[str, list[str]]:
         raise FileNotFoundError(f"SED file {path!r} not found.")
     if os.path.isdir(path):
         raise SEDFormatError(f"SED file {path!r} must be a file; got a directory instead.")
-    with open(path, "rb") as fh:
+    from ._files import open_regular
+
+    with open_regular(path, "SED file") as fh:  # a FIFO (a --coordinates table too) refused, not waited on
         data = fh.read()
     notes: list[str] = []
     if data[:2] == b"\x1f\x8b":

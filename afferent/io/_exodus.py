@@ -18,6 +18,10 @@ MOOSE writes tensor components as separate scalar variables (``stress_xx``, ``st
 from RankTwoAux); afferent matches them by name. Their shear is tensor shear (stress =
 C : elastic_strain with tensor shear, checked during development on MOOSE's test files with
 benchmarks/check_exodus_files.py; docs/fe-export.md). Exodus has no units: the user declares them.
+
+In a netCDF-4 file, HDF5 external links, external raw storage and virtual datasets are followed
+only to files inside the folder of the export named (unless ``allow_outside_files``), regular
+files, each resolved before HDF5 opens it (:mod:`afferent.io._files`) and listed in the files read.
 """
 
 from __future__ import annotations
@@ -26,7 +30,8 @@ from __future__ import annotations
 import numpy as np
 
 from ..exceptions import SEDFormatError
-from ._raw import RawArray, RawExport, check_export_file, material_array
+from ._files import Scope, h5_open, h5_read
+from ._raw import RawArray, RawExport, check_export_file, files_read, material_array
 
 __all__ = ["read_exodus", "EXODUS_ELEMENTS"]
 
@@ -74,8 +79,9 @@ def _volume_type(etype: str, n_nodes: int) -> str | None:
 class _NetCDF:
     """The few things read from either netCDF flavour: variables by name, their attributes, dimensions."""
 
-    def __init__(self, path: str):
-        self.path = path
+    def __init__(self, path: str, scope: Scope | None = None):
+        self.path, self.scope = path, scope or Scope.of(path)
+        self.opened: list[str] = []  # the files besides path that HDF5 opened (links, external storage)
         with open(path, "rb") as fh:
             magic = fh.read(8)
         try:
@@ -88,7 +94,7 @@ class _NetCDF:
             elif magic[:4] == b"\x89HDF":
                 import h5py
 
-                self._h5 = h5py.File(path, "r")
+                self._h5 = h5_open(path, self.scope, self.opened)  # its external links resolved before anything is looked up
                 self.kind = "netCDF-4 (HDF5)"
                 self.names = {k for k, v in self._h5.items() if isinstance(v, h5py.Dataset)}
             else:
@@ -111,7 +117,9 @@ class _NetCDF:
         try:
             if hasattr(self, "_nc"):
                 return np.array(self._nc.variables[name].data)
-            return np.array(self._h5[name][()])
+            return np.array(h5_read(self._h5, name, self.scope, self.opened))  # its external storage resolved before it is read
+        except SEDFormatError:
+            raise
         except Exception as err:
             raise SEDFormatError(
                 f"SED file {self.path!r}: Exodus variable {name!r} could not be read (truncated file?): "
@@ -271,7 +279,7 @@ def _material_array(nc, volume: list, n_t: int) -> tuple[RawArray | None, str | 
     return material, note
 
 
-def read_exodus(path: str, *, progress: bool = False) -> RawExport:
+def read_exodus(path: str, *, progress: bool = False, scope: Scope | None = None) -> RawExport:
     """Read an Exodus II file: mesh, every time step, nodal and element variables.
 
     Parameters
@@ -280,6 +288,9 @@ def read_exodus(path: str, *, progress: bool = False) -> RawExport:
         ``.e``, ``.exo``, ``.ex2`` or ``.g`` file.
     progress : bool
         Unused (the file is read in one pass); accepted for a uniform reader signature.
+    scope : Scope, optional
+        Where the files the HDF5 external links and external storage of a netCDF-4 file lead to
+        may be (:mod:`afferent.io._files`); default inside the file's own folder.
 
     Returns
     -------
@@ -294,7 +305,7 @@ def read_exodus(path: str, *, progress: bool = False) -> RawExport:
         damaged or truncated file.
     """
     check_export_file(path)
-    nc = _NetCDF(path)
+    nc = _NetCDF(path, scope)
     try:
         coords = _coordinates(nc, path)
         cells, volume, skipped = _volume_blocks(nc, path, coords.shape[0])
@@ -319,5 +330,5 @@ def read_exodus(path: str, *, progress: bool = False) -> RawExport:
         k = int(np.flatnonzero(np.diff(times) <= 0)[0])
         raise SEDFormatError(f"SED file {path!r}: time_whole must increase; got {times[k]!r} then {times[k + 1]!r} "
                              f"(steps {k} and {k + 1}).")
-    return RawExport(files=(path,), format="exodus", points=coords, arrays=arrays, times=times if n_t else None, cells=cells,
+    return RawExport(files=files_read([path], nc.opened), format="exodus", points=coords, arrays=arrays, times=times if n_t else None, cells=cells,
                      notes=tuple(notes))

@@ -33,6 +33,10 @@ faces and edges are ignored. Tensors keep their component names (``SIXX SIYY SIZ
 SIYZ``, ``EPXX ... EPYZ`` with tensor shear), so their order is read from the names and the
 ``code_aster`` preset is implied. MED files state no units unless the writer filled them in (code_aster
 does not): the user declares them.
+
+HDF5 external links, external raw storage and virtual datasets in a MED file are followed only to
+files inside the folder of the export named (unless ``allow_outside_files``), regular files, each
+resolved before HDF5 opens it (:mod:`afferent.io._files`) and listed in the files read.
 """
 
 from __future__ import annotations
@@ -42,7 +46,8 @@ import re
 import numpy as np
 
 from ..exceptions import SEDFormatError
-from ._raw import RawArray, RawExport, check_export_file, drop_valueless_nodes
+from ._files import Scope, h5_open, h5_read
+from ._raw import RawArray, RawExport, check_export_file, drop_valueless_nodes, files_read
 
 __all__ = ["read_med", "MED_VOLUME_TYPES"]
 
@@ -71,17 +76,18 @@ def _slots(value, n: int) -> tuple[str, ...]:
 class _File:
     """The open HDF5 file, with errors that name the file and the object read."""
 
-    def __init__(self, path: str):
-        import h5py
-
-        self.path = path
+    def __init__(self, path: str, scope: Scope | None = None):
+        self.path, self.scope = path, scope or Scope.of(path)
+        self.opened: list[str] = []  # the files besides path that HDF5 opened (links, external storage)
         with open(path, "rb") as fh:
             magic = fh.read(8)
         if magic != b"\x89HDF\r\n\x1a\n":
             raise SEDFormatError(f"SED file {path!r} is not a MED file: it must be HDF5 (signature b'\\x89HDF'); got "
                                  f"{magic[:4]!r} instead.")
-        try:
-            self.h5 = h5py.File(path, "r")
+        try:  # the targets of its HDF5 external links resolved before anything is looked up in it
+            self.h5 = h5_open(path, self.scope, self.opened)
+        except SEDFormatError:
+            raise
         except Exception as err:  # a damaged superblock: OSError from h5py
             raise SEDFormatError(f"SED file {path!r} could not be read as MED (HDF5; truncated or corrupt?): "
                                  f"{type(err).__name__}: {err}") from err
@@ -106,7 +112,8 @@ class _File:
 
     def values(self, node, key: str, what: str) -> np.ndarray:
         try:
-            return np.asarray(self.get(node, key, what)[()])
+            self.get(node, key, what)
+            return np.asarray(h5_read(node, key, self.scope, self.opened))  # its external storage resolved before it is read
         except SEDFormatError:
             raise
         except Exception as err:
@@ -344,7 +351,7 @@ def _describe(name: str, spec, kept: int, where: str) -> str:
             f"{len(steps)} step(s), {span}" + (f" ({kept} kept)" if kept != len(steps) else ""))
 
 
-def read_med(path: str, *, progress: bool = False) -> RawExport:
+def read_med(path: str, *, progress: bool = False, scope: Scope | None = None) -> RawExport:
     """Read a MED file: the mesh, every field, every time step they share.
 
     Parameters
@@ -353,6 +360,9 @@ def read_med(path: str, *, progress: bool = False) -> RawExport:
         ``.med`` or ``.rmed`` file (code_aster ``IMPR_RESU(FORMAT='MED')``, Salome-Meca).
     progress : bool
         Unused (the file is read in one pass); accepted for a uniform reader signature.
+    scope : Scope, optional
+        Where the files its HDF5 external links and external storage lead to may be
+        (:mod:`afferent.io._files`); default inside the file's own folder.
 
     Returns
     -------
@@ -368,7 +378,7 @@ def read_med(path: str, *, progress: bool = False) -> RawExport:
         truncated file, fields with no time step in common.
     """
     check_export_file(path)
-    f = _File(path)
+    f = _File(path, scope)
     try:
         return _read(f)
     except SEDFormatError:
@@ -394,7 +404,7 @@ def _read(f: _File) -> RawExport:
                          for t, c in blocks.items())]
     if not fields:
         notes.append("The file holds a mesh and no field: no results to read.")
-        return RawExport(files=(path,), format="med", points=xyz, cells=cells, length_unit=length_unit,
+        return RawExport(files=files_read([path], f.opened), format="med", points=xyz, cells=cells, length_unit=length_unit,
                          notes=tuple(notes), preset="code_aster")
     common = _common_steps(path, fields, notes)
     renamed = _array_names(fields, notes)
@@ -415,7 +425,7 @@ def _read(f: _File) -> RawExport:
     if cells is None:
         notes.append("No volume elements in the file: the points are treated as scattered samples.")
     time_units.discard(None)
-    raw = RawExport(files=(path,), format="med", points=xyz, arrays=arrays, times=times, cells=cells,
+    raw = RawExport(files=files_read([path], f.opened), format="med", points=xyz, arrays=arrays, times=times, cells=cells,
                     length_unit=length_unit, time_unit=time_units.pop() if len(time_units) == 1 else None,
                     notes=tuple(notes), preset="code_aster")
     return drop_valueless_nodes(raw)

@@ -23,16 +23,19 @@ from dataclasses import replace
 
 from ._cell_blocks import (_complete_meshio_dimensions, _volume_blocks, _volume_rows, _vtu_version, cells_from_meshio,
                            volume_type_blocks)
+from ._files import Scope, resolve_member
 from ._raw import Deferred, RawArray, RawExport, check_export_file, files_read, stack_steps
 from ._vtu import VtuCountError, read_vtu
 from ._xml import parse_xml
 
 __all__ = ["read_mesh_file", "read_vtu_series", "read_pvd", "read_xdmf", "cells_from_meshio"]
 
-def _read_meshio(path: str, opened: list | None = None):
+def _read_meshio(path: str, opened: list | None = None, scope: Scope | None = None, fmt: str | None = None):
     """(mesh, component names) of ``path``: a .vtu through :func:`afferent.io._vtu.read_vtu` (one
-    parse, every piece), other formats through meshio's reader; the side files read are appended to
-    ``opened`` (XDMF)."""
+    parse, every piece), a legacy .vtk and a single-grid XDMF file through meshio's readers; the side
+    files read are appended to ``opened`` (XDMF heavy data, resolved in ``scope``). The reader is the
+    file name's (``fmt``, the declared format, for another ending); no other meshio reader is used
+    (some follow include files, or HDF5 links, of their own)."""
     import meshio
 
     from ._xdmf import read_single_grid
@@ -40,16 +43,17 @@ def _read_meshio(path: str, opened: list | None = None):
     check_export_file(path)
     # The format's own reader, not meshio.read: its dispatcher prints and calls sys.exit on failure.
     ext = os.path.splitext(path)[1].lower()
-    if ext == ".vtu":
+    kind = {".vtu": "vtu", ".vtk": "vtk", ".xdmf": "xdmf", ".xmf": "xdmf"}.get(ext, fmt)
+    if kind == "vtu":
         _check_vtk_xml_type(path)
         content = _guarded(path, read_vtu)
         return _VtuMesh(content.points, content.cells, content.point_data, content.cell_values), content.components
-
-    def xdmf(p):
-        return read_single_grid(p, [] if opened is None else opened)
-
-    reader = {".vtk": meshio.vtk.read, ".xdmf": xdmf, ".xmf": xdmf}.get(ext, meshio.read)
-    return _guarded(path, reader), {}
+    if kind == "vtk":
+        return _guarded(path, meshio.vtk.read), {}
+    if kind == "xdmf":
+        return _guarded(path, lambda p: read_single_grid(p, [] if opened is None else opened, scope)), {}
+    raise SEDFormatError(f"SED file {path!r} is not a .vtu, .vtk, .pvtu, .vtm or .xdmf file, the files afferent reads "
+                         "as the steps of a series; name each step by its format.")
 
 
 class _VtuMesh:
@@ -204,28 +208,33 @@ def _arrays_from_mesh(mesh, path: str, cells_obj: Cells | None, components: dict
     return arrays
 
 
-def read_mesh_file(path: str) -> RawExport:
-    """A single VTU / VTK / single-grid XDMF (or any meshio-readable) file: one time step.
+def read_mesh_file(path: str, *, scope: Scope | None = None, fmt: str | None = None) -> RawExport:
+    """A single VTU / VTK / single-grid XDMF file: one time step.
 
     ``.pvtu`` and ``.vtm`` files, and ``.vtk``/``.vtu`` files meshio cannot read, are read
     through VTK (:mod:`afferent.io._vtk`, the ``vtk`` extra); ``RawExport.reader`` says which.
+    The files it points to (pieces, blocks, heavy data) are resolved in ``scope``
+    (:func:`afferent.io._files.resolve_member`; default: inside the file's own folder). ``fmt``:
+    the declared format of a file whose name does not tell.
     """
     import meshio
 
     ext = os.path.splitext(path)[1].lower()
+    if fmt in ("pvtu", "vtm") and ext != f".{fmt}":  # VTK would pick its reader, and the files it opens, by itself
+        raise SEDFormatError(f"SED file {path!r}: a {fmt} file is read by its name; name it .{fmt}.")
     if ext in (".pvtu", ".vtm"):
         from ._vtk import read_vtk_file
 
-        return read_vtk_file(path)
+        return read_vtk_file(path, scope=scope)
     side: list[str] = []  # the files meshio opened besides path (an XDMF's HDF5 and .bin files)
     try:
-        mesh, names = _read_meshio(path, side)  # names: the arrays' ComponentName attributes (a .vtu's)
+        mesh, names = _read_meshio(path, side, scope, fmt)  # names: the arrays' ComponentName attributes (a .vtu's)
     except SEDFormatError as err:
         if isinstance(err, VtuCountError) or ext not in (".vtk", ".vtu") or not os.path.isfile(path) or os.path.getsize(path) == 0 or _not_unstructured(path):
             raise
         from ._vtk import read_vtk_file
 
-        return read_vtk_file(path, meshio_error=err)
+        return read_vtk_file(path, meshio_error=err, scope=scope)
     return raw_from_mesh(mesh, path, ext.lstrip("."), names, [], reader=f"meshio {meshio.__version__}",
                          files=files_read([path], side))
 
@@ -266,7 +275,8 @@ def raw_from_mesh(mesh, path: str, fmt: str, components: dict, notes: list, *, r
                      reader=reader)
 
 
-def iter_vtu_series(paths: list[str], times=None, *, progress: bool = False):
+def iter_vtu_series(paths: list[str], times=None, *, progress: bool = False, scope: Scope | None = None,
+                    allow: bool = False):
     """Several VTU files, one per time step, on one mesh: yield one one-step RawExport per file.
 
     The first file is read whole (mesh and arrays); for the others only Points (to check that
@@ -281,18 +291,28 @@ def iter_vtu_series(paths: list[str], times=None, *, progress: bool = False):
         Step times (file units) when known (from a PVD); else None.
     progress : bool
         Show a progress bar (tqdm) over the files.
+    scope : Scope, optional
+        Where the files they point to may be (a ``.pvd``'s: its folder); default each file's own folder,
+        outside it only if ``allow``.
     """
     from .._progress import progress_bar
 
     times = None if times is None else np.asarray(times, dtype=float)
-    read_step = read_mesh_file
+
+    def where(path):
+        return scope or Scope.of(path, allow)
+
+    def read_step(path):
+        return read_mesh_file(path, scope=where(path))
     if len(paths) > 1 and all(p.lower().endswith((".pvtu", ".vtm")) for p in (paths[0], paths[-1])):
         from ._vtk import read_vtk_file, series_merge_plan
 
-        plan = series_merge_plan(paths[0], paths[-1])  # one merge of the pieces' shared nodes for every step
+        # one merge of the pieces' shared nodes for every step
+        plan = series_merge_plan(paths[0], paths[-1], where(paths[0]), where(paths[-1]))
 
         def read_step(path):
-            return read_vtk_file(path, plan=plan) if path.lower().endswith((".pvtu", ".vtm")) else read_mesh_file(path)
+            return read_vtk_file(path, plan=plan, scope=where(path)) if path.lower().endswith((".pvtu", ".vtm")) \
+                else read_mesh_file(path, scope=where(path))
     first = read_step(paths[0])
     n_points = first.points.shape[0]
     n_cells = first.cells.n_cells if first.cells is not None else None
@@ -346,7 +366,8 @@ def iter_vtu_series(paths: list[str], times=None, *, progress: bool = False):
         yield replace(first, files=files, arrays=arrays, times=None if times is None else times[k:k + 1])
 
 
-def read_vtu_series(paths: list[str], times=None, *, progress: bool = False) -> RawExport:
+def read_vtu_series(paths: list[str], times=None, *, progress: bool = False, scope: Scope | None = None,
+                    allow: bool = False) -> RawExport:
     """Several VTU files, one per time step, on one mesh; the mesh is decoded once.
 
     The steps of :func:`iter_vtu_series`, stacked (all in memory).
@@ -354,7 +375,7 @@ def read_vtu_series(paths: list[str], times=None, *, progress: bool = False) -> 
     first_notes, files = [], []
 
     def steps():
-        for k, step in enumerate(iter_vtu_series(paths, times, progress=progress)):
+        for k, step in enumerate(iter_vtu_series(paths, times, progress=progress, scope=scope, allow=allow)):
             if k == 0:
                 first_notes.extend(step.notes)
             files.append(step.files)
@@ -409,16 +430,18 @@ def _pvd_xml_entries(path: str) -> list[tuple[float | None, int, str]]:
     return entries
 
 
-def pvd_entries(path: str) -> tuple[list[str], list[float] | None]:
+def pvd_entries(path: str, scope: Scope | None = None) -> tuple[list[str], list[float] | None]:
     """The files and times of a ParaView ``.pvd`` collection (``<DataSet timestep=... file=...>``) or
     JSON file series (``.vtu.series``, Kratos' ``.vtm.series``); times None when no entry states one,
     or every entry the same one (MFEM's ``ParaViewDataCollection`` writes ``timestep="0"`` at every
-    step unless ``SetTime`` is called): the steps are then numbered, not given invented seconds."""
-    if not os.path.isfile(path):
-        raise FileNotFoundError(f"SED file {path!r} not found.")
+    step unless ``SetTime`` is called): the steps are then numbered, not given invented seconds. Each file
+    is resolved in ``scope`` (:func:`afferent.io._files.resolve_member`: inside the collection's folder
+    unless allowed; a regular file)."""
+    check_export_file(path)
     raw = _series_entries(path) if path.lower().endswith(".series") else _pvd_xml_entries(path)
-    folder = os.path.dirname(path)
-    entries = [(t, part, os.path.join(folder, f)) for t, part, f in raw]
+    scope = scope or Scope.of(path)
+    entries = [(t, part, resolve_member(path, f, what=f"the step file (entry {k})", scope=scope, must_exist=False))
+               for k, (t, part, f) in enumerate(raw)]
     if len({e[1] for e in entries}) > 1:
         raise SEDFormatError(f"SED file {path!r} has several parts per time step; afferent reads single-part series.")
     stated = [e[0] is not None for e in entries]
@@ -439,27 +462,31 @@ def pvd_entries(path: str) -> tuple[list[str], list[float] | None]:
     return [e[2] for e in entries], times
 
 
-def iter_pvd(path: str, *, progress: bool = False):
-    """A ParaView ``.pvd`` collection, one one-step RawExport at a time (see :func:`iter_vtu_series`)."""
-    files, times = pvd_entries(path)
-    for step in iter_vtu_series(files, times, progress=progress):
+def iter_pvd(path: str, *, progress: bool = False, scope: Scope | None = None):
+    """A ParaView ``.pvd`` collection, one one-step RawExport at a time (see :func:`iter_vtu_series`); its files
+    resolved in ``scope`` (default: its own folder)."""
+    scope = scope or Scope.of(path)
+    files, times = pvd_entries(path, scope)
+    for step in iter_vtu_series(files, times, progress=progress, scope=scope):
         yield replace(step, format="pvd", files=(path,) + step.files)
 
 
-def read_pvd(path: str, *, progress: bool = False) -> RawExport:
-    """A ParaView ``.pvd`` collection, every step in memory, sorted by time."""
-    files, times = pvd_entries(path)
-    raw = read_vtu_series(files, times, progress=progress)
+def read_pvd(path: str, *, progress: bool = False, scope: Scope | None = None) -> RawExport:
+    """A ParaView ``.pvd`` collection, every step in memory, sorted by time; its files resolved in ``scope``."""
+    scope = scope or Scope.of(path)
+    files, times = pvd_entries(path, scope)
+    raw = read_vtu_series(files, times, progress=progress, scope=scope)
     return replace(raw, files=(path,) + raw.files, format="pvd")
 
 
-def read_xdmf(path: str, *, progress: bool = False) -> RawExport:
+def read_xdmf(path: str, *, progress: bool = False, scope: Scope | None = None) -> RawExport:
     """An XDMF file: grid collections over time (FEniCS/DOLFINx ``write_function``, meshio time
-    series) through :mod:`afferent.io._xdmf`; a single grid through meshio."""
+    series) through :mod:`afferent.io._xdmf`; a single grid through meshio. Its heavy data are
+    resolved in ``scope`` (default: inside its own folder)."""
     from ._xdmf import has_collections, read_xdmf_collections
 
     check_export_file(path)
     if has_collections(path):
-        return read_xdmf_collections(path, progress=progress)
-    raw = read_mesh_file(path)
+        return read_xdmf_collections(path, progress=progress, scope=scope)
+    raw = read_mesh_file(path, scope=scope)
     return RawExport(raw.files, "xdmf", raw.points, raw.arrays, None, raw.cells, notes=raw.notes, reader=raw.reader)

@@ -230,18 +230,22 @@ def material_array(ids, n_times: int = 1) -> RawArray | None:
 
 
 def check_export_file(path: str) -> None:
-    """Refuse an export file that is missing (FileNotFoundError) or empty (SEDFormatError), naming it."""
-    if not os.path.isfile(path):
-        raise FileNotFoundError(f"SED file {path!r} not found.")
+    """Refuse an export file that is missing (FileNotFoundError), not a regular file (a FIFO, a device, a
+    folder: SEDFormatError, before anything opens it) or empty (SEDFormatError), naming it."""
+    from ._files import check_regular
+
+    check_regular(path)
     if os.path.getsize(path) == 0:
         raise SEDFormatError(f"SED file {path!r} is empty.")
 
 
 def files_read(*groups) -> tuple[str, ...]:
-    """The paths of ``groups`` (iterables of str or path-like) in order, each once: for :attr:`RawExport.files`."""
-    import os
-
-    return tuple(dict.fromkeys(os.fspath(p) for group in groups for p in group))
+    """The paths of ``groups`` (iterables of str or path-like) in order, each file once (two spellings of one
+    path, as HDF5 names a link's target absolute, count once: the first kept): for :attr:`RawExport.files`."""
+    out: dict[str, str] = {}
+    for p in (os.fspath(p) for group in groups for p in group):
+        out.setdefault(os.path.abspath(p), p)
+    return tuple(out.values())
 
 
 def h5_files(h5file, name: str) -> list[str]:
@@ -285,21 +289,16 @@ def _storage_files(dataset) -> list[str]:
     """The files a dataset's values live in besides its HDF5 file: the raw files of external storage
     (``H5Pset_external``) and the source files of a virtual dataset (``'.'``: its own file, left out).
 
-    A relative name is taken beside the dataset's file when a file of that name is there, else as
-    given (relative to the working folder), as HDF5 looks for them by default.
+    A relative name is taken beside the dataset's file, where :func:`afferent.io._files.h5_read` reads it
+    (HDF5's default would be the working folder).
     """
     import os
 
-    plist = dataset.id.get_create_plist()
-    names = [plist.get_external(k)[0] for k in range(plist.get_external_count())]
-    if dataset.is_virtual:
-        names += [src.file_name for src in dataset.virtual_sources() if src.file_name != "."]
+    from ._files import storage_names
+
+    raw, sources = storage_names(dataset)
     base = os.path.dirname(dataset.file.filename)
-    out = []
-    for name in (n.decode() if isinstance(n, bytes) else n for n in names):
-        beside = os.path.join(base, name)
-        out.append(name if os.path.isabs(name) or not os.path.exists(beside) else beside)
-    return out
+    return [os.path.join(base, n) for n in raw + [src.file_name for src in sources if src.file_name != "."]]
 
 
 def _link_chain(h5file, name: str, parent: str, limit: int = 32) -> list[str]:

@@ -91,6 +91,7 @@ class ReadOptions:
     coordinates: str | None = None
     on_nan: str = "raise"
     negative_tolerance: float = NEGATIVE_SED_RTOL
+    allow_outside_files: bool = False
 
     def __post_init__(self):
         check_option("sed_from", self.sed_from, SED_FROM)
@@ -104,6 +105,8 @@ class ReadOptions:
         tol = self.negative_tolerance
         if isinstance(tol, bool) or not isinstance(tol, (int, float)) or not (0 <= tol < 1):
             raise ValueError(f"'negative_tolerance' must be a number in [0, 1) (a fraction of the largest SED); got {tol!r} instead.")
+        if not isinstance(self.allow_outside_files, bool):
+            raise ValueError(f"'allow_outside_files' must be True or False; got {self.allow_outside_files!r} instead.")
         if self.sed_from == "equivalent" and self.poisson is None:
             raise ValueError(
                 "sed_from='equivalent' needs Poisson's ratio: pass poisson=NU (the study's skin model uses 0.48)."

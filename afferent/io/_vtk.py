@@ -25,6 +25,10 @@ sampling stage handles coincident points with different values. This is the only
 at read time, and it is kept minimal on purpose. In a series of ``.pvtu``/``.vtm`` files one
 merge (:class:`MergePlan`, from the first and last steps' values) serves every step and is
 checked at each: a field all zero at t = 0 and discontinuous later is not merged at t = 0 alone.
+
+Every piece and block file (recursively: a ``.vtm`` block may be a ``.pvtu``) passes
+:func:`afferent.io._files.resolve_member` before VTK opens any: inside the folder of the export
+named unless ``allow_outside_files``, a regular file; a file that lists itself is refused.
 """
 
 from __future__ import annotations
@@ -36,6 +40,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..exceptions import SEDFormatError
+from ._files import MAX_DEPTH, Scope, resolve_member
 from ._raw import files_read
 from ._xml import parse_xml
 
@@ -103,12 +108,13 @@ def _run_reader(reader, path: str, core) -> list[str]:
     return [f"VTK warned: {t}" for t in texts]
 
 
-def _datasets(path: str, mods, warned: list) -> list:
-    """The leaf datasets of a VTK-family file: one for .vtk/.vtu, one per piece of a .pvtu, every block of a .vtm."""
+def _datasets(path: str, mods, warned: list, scope: Scope) -> list:
+    """The leaf datasets of a VTK-family file: one for .vtk/.vtu, one per piece of a .pvtu, every block of a .vtm
+    (the files they name already resolved in ``scope``: :func:`_member_files`)."""
     core, data, legacy, xml, _ = mods
     ext = os.path.splitext(path)[1].lower()
     if ext == ".pvtu":
-        return [ds for piece in _pvtu_pieces(path) for ds in _datasets(piece, mods, warned)]
+        return [ds for piece in _pvtu_pieces(path, scope) for ds in _datasets(piece, mods, warned, scope)]
     reader = {".vtk": legacy.vtkGenericDataObjectReader, ".vtu": xml.vtkXMLUnstructuredGridReader,
               ".vtm": xml.vtkXMLMultiBlockDataReader}.get(ext, xml.vtkXMLGenericDataObjectReader)()
     warned.extend(_run_reader(reader, path, core))
@@ -129,18 +135,15 @@ def _datasets(path: str, mods, warned: list) -> list:
     return [out]
 
 
-def _pvtu_pieces(path: str) -> list[str]:
-    """The piece files a .pvtu record lists (``<Piece Source=...>``), each checked to exist and to be a
-    piece, not a parallel record again (a .pvtu listing itself recursed without end)."""
+def _pvtu_pieces(path: str, scope: Scope | None = None) -> list[str]:
+    """The piece files a .pvtu record lists (``<Piece Source=...>``), each resolved in ``scope``
+    (:func:`afferent.io._files.resolve_member`; it must exist)."""
     root = parse_xml(path, ".pvtu")
     sources = [p.attrib.get("Source") for p in root.iter("Piece")]
     if not sources or None in sources:
         raise SEDFormatError(f"SED file {path!r} lists no <Piece Source=...> entries; expected a parallel VTU record.")
-    folder = os.path.dirname(path)
-    pieces = [os.path.join(folder, s) for s in sources]
+    pieces = [resolve_member(path, s, what="the piece", scope=scope) for s in sources]
     for p in pieces:
-        if not os.path.isfile(p):
-            raise FileNotFoundError(f"SED file {path!r} lists the piece {p!r}, which does not exist.")
         if p.lower().endswith(".pvtu"):
             raise SEDFormatError(f"SED file {path!r} lists the piece {p!r}, a parallel record itself; the pieces of a "
                                  ".pvtu are .vtu files.")
@@ -308,9 +311,12 @@ def _plan(piece_sets: list[list[dict]], path: str, basis: str) -> MergePlan:
     return MergePlan(pairs[same], len(points), tol, int(np.unique(pairs[~same]).size), basis)
 
 
-def series_merge_plan(first: str, last: str) -> MergePlan:
-    """One :class:`MergePlan` for a series of .pvtu/.vtm files, from its first and last steps' values."""
-    sets = [_read_pieces(p)[0] for p in dict.fromkeys((first, last))]
+def series_merge_plan(first: str, last: str, first_scope: Scope | None = None, last_scope: Scope | None = None
+                      ) -> MergePlan:
+    """One :class:`MergePlan` for a series of .pvtu/.vtm files, from its first and last steps' values (the files
+    they point to resolved in their scopes)."""
+    scopes = {first: first_scope, last: last_scope}
+    sets = [_read_pieces(p, scope=scopes[p])[0] for p in dict.fromkeys((first, last))]
     return _plan(sets, first, f"the first and last steps ({os.path.basename(first)!r}, {os.path.basename(last)!r})")
 
 
@@ -365,8 +371,12 @@ def _merged_mesh(pieces: list[dict], path: str, notes: list, plan: MergePlan | N
     return meshio.Mesh(points, cells, point_data=pdata, cell_data=cell_data), {n: c for n, c in comps.items() if c}
 
 
-def _read_pieces(path: str, meshio_error: Exception | None = None) -> tuple[list[dict], list[str]]:
-    """The unstructured pieces (or blocks) of a VTK-family file as numpy, and the notes."""
+def _read_pieces(path: str, meshio_error: Exception | None = None, scope: Scope | None = None
+                 ) -> tuple[list[dict], list[str]]:
+    """The unstructured pieces (or blocks) of a VTK-family file as numpy, and the notes; every file it names is
+    resolved in ``scope`` before VTK opens any (:func:`_member_files`)."""
+    scope = scope or Scope.of(path)
+    _member_files(path, scope)
     ext = os.path.splitext(path)[1].lower()
     problem = (str(meshio_error).rstrip(".") if meshio_error is not None else
                f"SED file {path!r} is a {'parallel VTU record' if ext == '.pvtu' else 'VTK multiblock file'}, "
@@ -374,7 +384,7 @@ def _read_pieces(path: str, meshio_error: Exception | None = None) -> tuple[list
     mods = _vtk(problem)
     warned: list[str] = []
     try:
-        datasets = _datasets(path, mods, warned)
+        datasets = _datasets(path, mods, warned, scope)
     except SEDFormatError as err:
         if meshio_error is None:
             raise
@@ -389,7 +399,8 @@ def _read_pieces(path: str, meshio_error: Exception | None = None) -> tuple[list
     return [_piece(ds, path, mods) for ds in (grids or datasets)], notes
 
 
-def read_vtk_file(path: str, *, meshio_error: Exception | None = None, plan: MergePlan | None = None):
+def read_vtk_file(path: str, *, meshio_error: Exception | None = None, plan: MergePlan | None = None,
+                  scope: Scope | None = None):
     """Read a ``.vtk``, ``.vtu``, ``.pvtu`` or ``.vtm`` file through VTK into a RawExport.
 
     Parameters
@@ -401,6 +412,9 @@ def read_vtk_file(path: str, *, meshio_error: Exception | None = None, plan: Mer
     plan : MergePlan, optional
         Which nodes of the pieces to merge (one plan for every step of a series,
         :func:`series_merge_plan`); by default decided from this file's own values.
+    scope : Scope, optional
+        Where the pieces and blocks may be (:func:`afferent.io._files.resolve_member`); default inside
+        the file's own folder. Each is resolved before VTK opens any.
 
     Returns
     -------
@@ -415,24 +429,33 @@ def read_vtk_file(path: str, *, meshio_error: Exception | None = None, plan: Mer
     """
     from ._meshio import raw_from_mesh
 
-    pieces, notes = _read_pieces(path, meshio_error)
+    scope = scope or Scope.of(path)
+    pieces, notes = _read_pieces(path, meshio_error, scope)
     mesh, components = _merged_mesh(pieces, path, notes, plan)
     fmt = os.path.splitext(path)[1].lower().lstrip(".")
-    return raw_from_mesh(mesh, path, fmt, components, notes, reader=f"VTK {vtk_version()}", files=_member_files(path))
+    return raw_from_mesh(mesh, path, fmt, components, notes, reader=f"VTK {vtk_version()}",
+                         files=_member_files(path, scope))
 
 
-def _member_files(path: str, chain: tuple[str, ...] = ()) -> tuple[str, ...]:
-    """Every file VTK opens for ``path``: the file, a .pvtu's pieces, a .vtm's block files (recursively;
-    ``chain``: the files that led here, a block leading back to one of them is refused)."""
-    if os.path.realpath(path) in map(os.path.realpath, chain):
-        raise SEDFormatError(f"SED file {chain[0]!r} leads back to {path!r} through its blocks "
-                             f"({' -> '.join(map(repr, (*chain, path)))}); a .vtm's blocks must not list it again.")
+def _member_files(path: str, scope: Scope | None = None, _within: tuple = ()) -> tuple[str, ...]:
+    """Every file VTK opens for ``path``: the file, a .pvtu's pieces, a .vtm's block files (recursively), each
+    resolved in ``scope`` (:func:`afferent.io._files.resolve_member`: inside the folder of the file named, a
+    regular file); a block file missing is left to VTK (it reads the others), a piece missing is refused; a
+    file that lists itself, directly or through others, is refused."""
+    scope = scope or Scope.of(path)
+    within = _within + (os.path.realpath(path),)
+    if len(within) > MAX_DEPTH:
+        raise SEDFormatError(f"SED file {scope.export!r}: its pieces and blocks nest more than {MAX_DEPTH} deep.")
     ext = os.path.splitext(path)[1].lower()
     if ext == ".pvtu":
-        members = _pvtu_pieces(path)
+        members = _pvtu_pieces(path, scope)
     elif ext == ".vtm":  # VTK's multiblock reader opens each <DataSet file=...>, relative to the .vtm
-        folder = os.path.dirname(path)
-        members = [os.path.join(folder, e.get("file")) for e in parse_xml(path, ".vtm").iter("DataSet") if e.get("file")]
+        entries = [e.get("file") for e in parse_xml(path, ".vtm").iter("DataSet") if e.get("file")]
+        members = [resolve_member(path, f, what="the block", scope=scope, must_exist=False) for f in entries]
     else:
         members = []
-    return files_read([path], *(_member_files(m, (*chain, path)) for m in members if os.path.isfile(m)))
+    for m in members:
+        if os.path.realpath(m) in within:
+            raise SEDFormatError(f"SED file {path!r} lists {m!r}, which lists {path!r} again (directly or through "
+                                 "other files): a loop.")
+    return files_read([path], *(_member_files(m, scope, within) for m in members if os.path.isfile(m)))

@@ -15,9 +15,14 @@ reads the heavy data from HDF5 with h5py (or inline XML numbers):
 
 A file with a single grid and no collection is interpreted by meshio (:mod:`afferent.io._meshio`),
 its heavy data read here (:func:`read_single_grid`). Heavy data are HDF5 datasets (``file.h5:/path``,
-relative to the XDMF file; external links followed), raw ``Format="Binary"`` files or inline
-numbers; every file read is listed in :attr:`~afferent.io._raw.RawExport.files`. ``xi:include``
-is followed within the XDMF file only (DOLFINx's ``xpointer`` to the mesh grid).
+relative to the XDMF file; external links followed), raw ``Format="Binary"`` files (relative to the
+XDMF file; meshio names them relative to the folder it ran in, so a name not found there is looked
+for by its last part beside the XDMF file) or inline numbers; every file read is listed in
+:attr:`~afferent.io._raw.RawExport.files`. Each heavy-data file, the targets of its HDF5 external
+links and the files its datasets are stored in pass :func:`afferent.io._files.resolve_member` before
+they are opened: inside the folder of the export named, unless the user allows files outside
+(``allow_outside_files``), and regular files only. ``xi:include`` is followed within the XDMF file
+only (DOLFINx's ``xpointer`` to the mesh grid).
 """
 
 from __future__ import annotations
@@ -31,6 +36,7 @@ from xml.etree import ElementTree as ET
 import numpy as np
 
 from ..exceptions import SEDFormatError
+from ._files import Scope, h5_open, h5_read, resolve_member
 from ._raw import RawArray, RawExport, files_read
 from ._xml import parse_xml
 
@@ -58,13 +64,13 @@ def has_collections(path: str | ET.Element) -> bool:
     return any(g.get("GridType") == "Collection" for g in root.iter("Grid"))
 
 
-def series_steps(path: str, *, progress: bool = False):
+def series_steps(path: str, *, progress: bool = False, scope: Scope | None = None):
     """(number of time steps, :func:`iter_xdmf_collections` iterator) for an XDMF file with grid collections,
     else None; the XML is parsed once for the three."""
     root = _parse(path)
     if not has_collections(root):
         return None
-    return step_count(root), iter_xdmf_collections(path, progress=progress, root=root)
+    return step_count(root), iter_xdmf_collections(path, progress=progress, root=root, scope=scope)
 
 
 def _read_whole(h5, dataset: str) -> np.ndarray | None:
@@ -95,16 +101,21 @@ class _Heavy:
     """Reads DataItems: HDF5 datasets (one open file per .h5), raw binary files or inline XML numbers.
 
     ``opened`` lists every file read so far (HDF5 files, the targets of their external links,
-    ``.bin`` files), in the order first opened: the side files of :attr:`RawExport.files`.
+    ``.bin`` files), in the order first opened: the side files of :attr:`RawExport.files`. Each
+    is resolved in ``scope`` first (:mod:`afferent.io._files`).
     """
 
-    def __init__(self, path: str):
+    def __init__(self, path: str, scope: Scope | None = None):
         self.path, self.folder, self.files, self.opened = path, os.path.dirname(path), {}, []
+        self.scope, self._seen = scope or Scope.of(path), set()
         self.plain_groups: dict = {}  # (h5 file, group path) whose path holds no external link -> its hard links
 
     def _note(self, *paths) -> None:
+        """Add files read to :attr:`opened`, each once (the first spelling kept: HDF5 names a link's target absolute)."""
         for p in paths:
-            if p not in self.opened:
+            full = os.path.abspath(p)
+            if full not in self._seen:
+                self._seen.add(full)
                 self.opened.append(p)
 
     def read(self, item: ET.Element | None, what: str) -> np.ndarray:
@@ -140,17 +151,18 @@ class _Heavy:
         dataset = text.split(":", 1)[1]
         h5path = _hdf_file(self.folder, text)
         if h5path not in self.files:
+            resolve_member(self.path, text.split(":", 1)[0], what=f"the heavy-data file of {what}", scope=self.scope,
+                           must_exist=False)
             if not os.path.isfile(h5path):
                 raise SEDFormatError(f"SED file {self.path!r}: the heavy-data file {h5path!r} of {what} is missing "
                                      "(keep the .h5 beside the .xdmf).")
-            import h5py
-
             try:
-                self.files[h5path] = h5py.File(h5path, "r")
+                linked: list[str] = []
+                self.files[h5path] = h5_open(h5path, self.scope, linked)
             except OSError as err:
                 raise SEDFormatError(f"SED file {self.path!r}: the heavy-data file {h5path!r} could not be opened "
                                      f"(truncated or corrupt?): {err}") from err
-            self._note(h5path)
+            self._note(h5path, *linked)
         h5 = self.files[h5path]
         head, _, leaf = dataset.rstrip("/").rpartition("/")
         group = (h5path, head)
@@ -163,7 +175,9 @@ class _Heavy:
             if data is None:
                 if plain:  # not contiguous in the file itself: its storage may name files of its own (external raw, virtual)
                     self._follow(h5, h5path, dataset, what, group)
-                data = np.asarray(h5[dataset][()])
+                stored: list[str] = []
+                data = np.asarray(h5_read(h5, dataset, self.scope, stored))
+                self._note(*(h5path if f == h5.filename else f for f in stored))
         except OSError as err:
             raise SEDFormatError(f"SED file {self.path!r}: dataset {dataset!r} of {what} in {h5path!r} could not "
                                  f"be read (truncated?): {err}") from err
@@ -178,10 +192,10 @@ class _Heavy:
         from ._raw import h5_files
 
         try:
-            found = dataset in h5
-        except (OSError, KeyError):  # an external link whose target file is missing
-            found = False
-        if not found:
+            files = h5_files(h5, dataset) if dataset in h5 else None
+        except (OSError, KeyError):  # an external link to an object its target file does not hold
+            files = None
+        if files is None:
             raise SEDFormatError(f"SED file {self.path!r}: dataset {dataset!r} of {what} is not in {h5path!r} (or "
                                  "an external link on its path points to a missing file).")
         try:
@@ -201,15 +215,19 @@ class _Heavy:
         import h5py
 
         hard = []
-        h5.id.links.iterate(lambda name, info: hard.append(name.decode()) if info.type == h5py.h5l.TYPE_HARD else None,
-                            obj_name=group.encode(), info=True)
+        try:
+            h5.id.links.iterate(lambda name, info: hard.append(name.decode()) if info.type == h5py.h5l.TYPE_HARD else None,
+                                obj_name=group.encode(), info=True)
+        except (RuntimeError, SystemError, OSError, KeyError, ValueError, UnicodeDecodeError):  # a damaged group: none
+            return frozenset()  # known, each dataset is then looked up (and its damage reported) on its own
         return frozenset(hard)
 
     def _binary(self, item: ET.Element, text: str, what: str, count: int) -> np.ndarray:
         """A raw binary file (XDMF ``Format="Binary"``, :func:`_binary_file`)."""
         from meshio.xdmf.common import xdmf_to_numpy_type
 
-        binpath = _binary_file(self.folder, text)
+        binpath = resolve_member(self.path, _binary_name(self.folder, text), what=f"the binary data file of {what}",
+                                 scope=self.scope, must_exist=False)
         if not os.path.isfile(binpath):
             raise SEDFormatError(f"SED file {self.path!r}: the binary data file {text!r} of {what} is missing "
                                  f"(looked for {os.path.join(self.folder, text)!r}).")
@@ -257,11 +275,21 @@ def _hdf_file(folder: str, text: str) -> str:
     return os.path.join(folder, text.split(":", 1)[0])
 
 
+def _binary_name(folder: str, text: str) -> str:
+    """The name of the file of a Binary DataItem, relative to ``folder`` (the XDMF file's) as XDMF defines it.
+
+    meshio writes the name relative to the folder it ran in (``sub/bin0.bin`` for ``sub/bin.xdmf``,
+    an absolute name for an absolute path); when no file of that name exists, the name's last part
+    beside the XDMF file is taken if it exists there. Never the working folder.
+    """
+    if not os.path.lexists(os.path.join(folder, text)) and os.path.isfile(os.path.join(folder, os.path.basename(text))):
+        return os.path.basename(text)
+    return text
+
+
 def _binary_file(folder: str, text: str) -> str:
-    """The file of a Binary DataItem: relative to ``folder`` (the XDMF file's), as XDMF defines it; meshio writes
-    the name relative to the folder it was run in, used when only that one exists."""
-    path = os.path.join(folder, text)
-    return text if not os.path.isfile(path) and os.path.isfile(text) else path
+    """The file of a Binary DataItem (:func:`_binary_name`)."""
+    return os.path.join(folder, _binary_name(folder, text))
 
 
 def heavy_files(path: str) -> list[str]:
@@ -279,12 +307,12 @@ def heavy_files(path: str) -> list[str]:
     return list(dict.fromkeys(out))
 
 
-def read_single_grid(path: str, opened: list):
+def read_single_grid(path: str, opened: list, scope: Scope | None = None):
     """A single-grid XDMF file through meshio's XDMF reader, its HDF and Binary DataItems read here.
 
     meshio interprets the grid (topology, geometry, attributes); the heavy data go through
     :class:`_Heavy`, so that every file read (HDF5 files, external-link targets, ``.bin``
-    files) is appended to ``opened``.
+    files) is resolved in ``scope`` and appended to ``opened``.
 
     Returns
     -------
@@ -292,7 +320,7 @@ def read_single_grid(path: str, opened: list):
     """
     from meshio.xdmf.main import XdmfReader
 
-    heavy = _Heavy(path)
+    heavy = _Heavy(path, scope)
 
     class _Reader(XdmfReader):
         def _read_data_item(self, data_item, root=None):
@@ -477,7 +505,8 @@ def _check_same_functions(found: dict, t: float, times: list, first_names: dict,
                                  f"component(s) at t = {t:g} but {first_shapes[name] or 1} at t = {times[0]:g}.")
 
 
-def iter_xdmf_collections(path: str, *, progress: bool = False, root: ET.Element | None = None):
+def iter_xdmf_collections(path: str, *, progress: bool = False, root: ET.Element | None = None,
+                          scope: Scope | None = None):
     """Read an XDMF file made of grid collections (one or several functions over time), one time
     step at a time: the mesh is read once, then each step's attributes (memory: one step).
 
@@ -489,6 +518,8 @@ def iter_xdmf_collections(path: str, *, progress: bool = False, root: ET.Element
         Show a progress bar over the grids.
     root : xml.etree.ElementTree.Element, optional
         The file's XML already parsed (:func:`series_steps`), else parsed here.
+    scope : Scope, optional
+        Where the heavy-data files may be (:mod:`afferent.io._files`); default inside the file's folder.
 
     Yields
     ------
@@ -509,7 +540,7 @@ def iter_xdmf_collections(path: str, *, progress: bool = False, root: ET.Element
     domain = root.find("Domain")
     if domain is None:
         raise SEDFormatError(f"SED file {path!r} has no <Domain>: not an XDMF file?")
-    heavy = _Heavy(path)
+    heavy = _Heavy(path, scope)
     try:
         leaves = _temporal_leaves(domain, path)
         mesh = _one_mesh(domain, leaves, path)
@@ -543,8 +574,8 @@ def iter_xdmf_collections(path: str, *, progress: bool = False, root: ET.Element
         heavy.close()
 
 
-def read_xdmf_collections(path: str, *, progress: bool = False) -> RawExport:
+def read_xdmf_collections(path: str, *, progress: bool = False, scope: Scope | None = None) -> RawExport:
     """Every step of :func:`iter_xdmf_collections` in memory: arrays of shape (n_times, n[, n_components])."""
     from ._raw import stack_steps
 
-    return stack_steps(iter_xdmf_collections(path, progress=progress))
+    return stack_steps(iter_xdmf_collections(path, progress=progress, scope=scope))

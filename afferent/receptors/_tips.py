@@ -551,6 +551,7 @@ def sites_from_export(
     upper,
     lower,
     kind: str = "tips",
+    allow_outside_files: bool = False,
     **kwargs,
 ) -> ReceptorLayout:
     """Papilla tips (RA-I) or intermediate-ridge bases (SA-I) of an FE export whose cells carry material ids.
@@ -572,6 +573,8 @@ def sites_from_export(
         lower=2`` for the sample exports (1 epidermis, 2 dermis, 3 subcutis).
     kind : {'tips', 'bases'}, default='tips'
         Papilla tips (RA-I sites) or intermediate-ridge bases (SA-I sites).
+    allow_outside_files : bool, default=False
+        Read the files the export points to even outside its folder (see :func:`afferent.read_sed`).
     **kwargs
         Passed to :func:`interface_sites`: ``pitch_x``, ``pitch_z``, ``x_range``, ``z_range``,
         ``noise``, ``min_prominence``, ``max_flat``, ``keep_edge``, ``tol`` (lengths in m).
@@ -606,7 +609,7 @@ def sites_from_export(
 
     factor = length_factor(length_unit)
     path = os.fspath(path)
-    raw = read_raw(path)
+    raw = read_raw(path, allow_outside_files=allow_outside_files)
     if raw.length_unit is not None and not np.isclose(length_factor(raw.length_unit), factor):
         raise UnitError(
             f"'length_unit' must agree with the unit {raw.length_unit!r} that {path!r} states; "

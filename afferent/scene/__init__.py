@@ -21,7 +21,8 @@ A full example, every key with its default (``#`` marks optional keys)::
     # stress_unit, time_unit, sed_from = "field"|"exact"|"equivalent", poisson, preset, shear,
     # location = "point"|"cell", sed_column, stress_columns, strain_columns, coord_columns,
     # times = [..] (in time_unit), coordinates = "nodes.csv", on_nan = "raise"|"drop",
-    # negative_tolerance = 0.25 (accepted negative SED / largest SED), format
+    # negative_tolerance = 0.25 (accepted negative SED / largest SED), format,
+    # allow_outside_files = false (true: the files the export points to may lie outside its folder)
 
     [receptors]                   # exactly one of file / grid
     file = "../block4/receptors.csv"

@@ -302,6 +302,8 @@ def _hash_inputs(run: _Run):
     The side files the export makes the reader open are hashed once known: after reading
     (:func:`_read_and_sample`) or when a cache entry's files are checked (:func:`_receptor_sed`).
     """
+    from ..io._files import check_regular
+
     scene, planned = run.scene, run.planned
     ex = scene.export
     with run.steps("hashing"):
@@ -309,6 +311,7 @@ def _hash_inputs(run: _Run):
         for p in exp_files:
             if not os.path.exists(p):
                 raise FileNotFoundError(f"SED file {p!r}{' ([export] file)' if scene.source else ''} not found.")
+            check_regular(p)  # a FIFO or a device: refused before hashing (it would block, or never end)
         hashes = _hash_all({p: None for p in exp_files})
         run.inputs.update(hashes)
         extra_files = [ex.coordinates, scene.receptors.file, scene.outputs.hotspot_beside_file]
@@ -335,6 +338,8 @@ def _cache_key(run: _Run, layout, exp_files, hashes) -> str:
     scene = run.scene
     ex, rec = scene.export, scene.receptors
     read_opts = ex.read_kwargs()
+    if not read_opts.get("allow_outside_files"):  # the default reads what it read before: the keys of earlier entries
+        read_opts.pop("allow_outside_files", None)
     if read_opts.get("coordinates"):
         read_opts["coordinates"] = run.inputs.get(read_opts["coordinates"])
     if layout is not None:

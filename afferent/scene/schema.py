@@ -195,6 +195,8 @@ class ExportSpec:
     on_nan: str | None = _f("choice", "raise", choices=("raise", "drop"))
     negative_tolerance: float | None = _f("number", 0.25, doc="accepted negative SED, relative to the largest SED")
     format: str | None = _f("choice", choices=tuple(FORMATS))
+    allow_outside_files: bool | None = _f("bool", False, doc="read the files the export points to even outside its "
+                                                              "folder (refused by default)")
 
     def read_kwargs(self) -> dict:
         """Keyword arguments for :func:`afferent.read_sed` (without ``progress``)."""

@@ -83,7 +83,8 @@ def _layout_from_field(scene: Scene, field):
         unit = field.provenance.units.get("length")
         # the region is applied afterwards (as interface_tips' own ranges would be: last), to count what it leaves out
         return sites_from_export(files[0], length_unit=unit, material_array=rec.material_array, upper=rec.upper,
-                                 lower=rec.lower, kind=rec.grid, **pitch)
+                                 lower=rec.lower, kind=rec.grid, allow_outside_files=bool(scene.export.allow_outside_files),
+                                 **pitch)
     from ..receptors import grid_layout
 
     lo, hi = field.bounds
