@@ -21,6 +21,10 @@ __all__ = [
     "check_rng",
     "suggest",
     "describe_array",
+    "ACCEPTS",
+    "check_accept",
+    "confirm_with",
+    "refuse_unless",
 ]
 
 
@@ -121,3 +125,56 @@ def check_rng(rng) -> np.random.Generator:
     if rng is None or (isinstance(rng, numbers.Integral) and not isinstance(rng, bool)):
         return np.random.default_rng(rng)
     raise TypeError(f"'rng' must be None, an int seed or a numpy.random.Generator; got {rng!r} instead.")
+
+
+
+#: The checks whose unusual case a user may confirm, by name: with ``--accept NAME[,NAME]`` (``afferent run``),
+#: ``[scene] accept = ["NAME", ...]`` (a scene file) or the ``accept=`` keyword of the function that runs the
+#: check. Each refuses a likely mistake (exit 2) with one sentence naming its likely cause and its name here.
+#: One scheme for every such confirmation: a new check adds its name and what it lets through.
+ACCEPTS = {
+    "modulus": "an SED (or stress) unit that makes the export's elastic stiffness (2 SED / eps:eps) far from soft "
+               "tissue's 1 kPa..10 MPa, where another unit would not",
+    "sed-column": "an SED array named like a stress measure (von Mises, Tresca, pressure, a principal stress), equal "
+                  "to one of the stress tensor's, or unlike 1/2 sigma:eps of the file's tensors",
+}
+
+
+def check_accept(accept) -> frozenset:
+    """The confirmed checks: ``accept`` (None, a name of :data:`ACCEPTS` or a sequence of them) as a frozenset.
+
+    Raises ``ValueError`` naming the known checks for a name that is none of them.
+    """
+    if accept is None:
+        return frozenset()
+    names = [accept] if isinstance(accept, str) else list(accept)
+    for name in names:
+        if not isinstance(name, str) or name not in ACCEPTS:
+            hint = suggest(name, ACCEPTS) if isinstance(name, str) else ""
+            raise ValueError(f"'accept' must name checks among {_join(list(ACCEPTS))}; got {name!r} instead.{hint}")
+    return frozenset(names)
+
+
+def confirm_with(name: str) -> str:
+    """The end of a refusal: how to confirm the unusual case of check ``name`` (:data:`ACCEPTS`).
+
+    Written with the keyword (``accept='name'``), which ``afferent run`` says as ``--accept name``.
+    """
+    assert name in ACCEPTS, name
+    return f"if it is intended, confirm it with accept='{name}' (a scene file: [scene] accept = [\"{name}\"])."
+
+
+def refuse_unless(name: str, accept, message: str, *, cls=ValueError, stacklevel: int = 2) -> None:
+    """Refuse a likely mistake of check ``name`` unless ``accept`` confirms it.
+
+    ``message`` (one sentence without its final period: what is wrong, its likely cause and the fix)
+    is raised as ``cls`` ending with :func:`confirm_with`; when ``name`` is in ``accept``, it is an
+    :class:`~afferent.exceptions.AfferentWarning` saying it was confirmed (run.json keeps it).
+    """
+    if name not in check_accept(accept):
+        raise cls(f"{message}; {confirm_with(name)}")
+    import warnings
+
+    from .exceptions import AfferentWarning
+
+    warnings.warn(f"{message} (confirmed: accept='{name}').", AfferentWarning, stacklevel=stacklevel + 1)

@@ -35,6 +35,11 @@ def add_input_options(parser: argparse.ArgumentParser) -> None:
     g.add_argument("--times", metavar="T0,T1,...", help="step times (s unless --time-unit), overriding the file")
     g.add_argument("--time-unit", metavar="U", type=unit_type("time"), help="unit of the step times (s, ms, us)")
     g.add_argument("--format", choices=tuple(FORMATS), help="file format, when the extension does not tell")
+    from .._validation import ACCEPTS
+
+    g.add_argument("--accept", action="append", metavar="CHECK[,CHECK]",
+                   help="confirm the unusual case a check refuses as a likely mistake (repeatable; [scene] accept in a "
+                        f"scene file): {'; '.join(f'{k}: {v}' for k, v in ACCEPTS.items())}")
 
 
 def _names(text: str | None):
@@ -64,6 +69,7 @@ def input_kwargs(args: argparse.Namespace) -> dict:
         stress_columns=_names(args.stress_columns), strain_columns=_names(args.strain_columns), coord_columns=coord,
         times=times, time_unit=args.time_unit, coordinates=args.coordinates, on_nan=args.on_nan,
         negative_tolerance=args.negative_tolerance, format=args.format, progress=show_progress(args),
+        accept=[c.strip() for a in (args.accept or ()) for c in a.split(",") if c.strip()] or None,
     )
 
 

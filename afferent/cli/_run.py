@@ -258,6 +258,7 @@ _FLAGS = {
 def _in_cli_words(message: str) -> str:
     """A scene's message about its keys, reworded with the options of ``afferent run``."""
     message = message.removeprefix("Scene: ")
+    message = message.replace("[scene] 'accept'", "--accept")
     for (table, key), flag in _FLAGS.items():
         message = message.replace(f"[{table}] {key!r}", flag).replace(f"[{table}] {key}", flag)
     keys = [key for _, key in _FLAGS]
@@ -300,9 +301,10 @@ def scene_from_args(args):
         raise ValueError("afferent run needs an output folder: -o OUTDIR.")
     read = input_kwargs(args)
     read.pop("progress")
+    accept = read.pop("accept")  # the scene's confirmations: [scene] accept
     export = {"files": list(args.exports), **{k: v for k, v in read.items() if v is not None}}
     want = ["currents", "profiles", "sed_map", "vtu"]
-    tables = {"scene": {"name": os.path.basename(os.path.normpath(args.output))}, "export": export,
+    tables = {"scene": {"name": os.path.basename(os.path.normpath(args.output)), "accept": accept}, "export": export,
               "receptors": _receptors_table(args), "sampling": {"method": args.method, "on_outside": args.on_outside},
               "transduction": _transduction_table(args), "synthesis": _synthesis_table(args),
               "afferent": {"class": args.afferent_class}}

@@ -228,6 +228,13 @@ def _outputs(scene: Scene, err):
                       "pip install 'afferent-skin[nwb]'.")
     name = scene.info.name or (Path(scene.source).stem if scene.source else "scene")
     info = replace(scene.info, name=name)
+    if info.accept is not None:
+        from .._validation import check_accept
+
+        try:
+            check_accept(info.accept)
+        except ValueError as e:
+            raise err("scene", "accept", f"[scene] {e}") from None
     out = replace(out, dir=out.dir or os.path.abspath(os.path.join("results", name)), format=out.format or "netcdf")
     return info, _cycle_keys(scene, _hotspot_keys(scene, out, err), err)
 

@@ -316,6 +316,8 @@ def _cache_key(run: _Run, layout, exp_files, hashes) -> str:
     scene = run.scene
     ex, rec = scene.export, scene.receptors
     read_opts = ex.read_kwargs()
+    if scene.info.accept:  # a read the checks refuse without them is not served from one they confirmed
+        read_opts["accept"] = sorted(set(scene.info.accept))
     if read_opts.get("coordinates"):
         read_opts["coordinates"] = run.inputs.get(read_opts["coordinates"])
     if layout is not None:
@@ -441,7 +443,8 @@ def _read_and_sample(run: _Run, layout, *, progress: bool):
     scene = run.scene
     ex, method = scene.export, scene.sampling.method
     with run.steps("reading"):
-        steps = iter_sed(list(ex.files) if len(ex.files) > 1 else ex.files[0], progress=progress, **ex.read_kwargs())
+        steps = iter_sed(list(ex.files) if len(ex.files) > 1 else ex.files[0], progress=progress,
+                         accept=scene.info.accept, **ex.read_kwargs())
         first = next(steps)
     if layout is None:
         with run.steps("receptors"):

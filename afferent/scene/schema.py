@@ -163,10 +163,13 @@ def _f(kind: str, default=None, *, quantity: str | None = None, choices: tuple =
 
 @dataclass(frozen=True)
 class SceneInfo:
-    """``[scene]``: a name (default: the file's stem) and a free-text description."""
+    """``[scene]``: a name (default: the file's stem), a free-text description, and the checks it confirms
+    (``accept``: names of :data:`afferent._validation.ACCEPTS`)."""
 
     name: str | None = _f("str")
     description: str | None = _f("str")
+    accept: tuple | None = _f("strs", doc="checks whose unusual case the scene confirms, by name "
+                                          "(afferent._validation.ACCEPTS; afferent run --accept)")
 
 
 @dataclass(frozen=True)
