@@ -127,7 +127,6 @@ def check_rng(rng) -> np.random.Generator:
     raise TypeError(f"'rng' must be None, an int seed or a numpy.random.Generator; got {rng!r} instead.")
 
 
-
 #: The checks whose unusual case a user may confirm, by name: with ``--accept NAME[,NAME]`` (``afferent run``),
 #: ``[scene] accept = ["NAME", ...]`` (a scene file) or the ``accept=`` keyword of the function that runs the
 #: check. Each refuses a likely mistake (exit 2) with one sentence naming its likely cause and its name here.
@@ -164,15 +163,18 @@ def confirm_with(name: str) -> str:
     return f"if it is intended, confirm it with accept='{name}' (a scene file: [scene] accept = [\"{name}\"])."
 
 
-def refuse_unless(name: str, accept, message: str, *, cls=ValueError, stacklevel: int = 2) -> None:
+def refuse_unless(name: str, accept, message: str, *, cls=ValueError, stacklevel: int = 2, note: bool = True) -> None:
     """Refuse a likely mistake of check ``name`` unless ``accept`` confirms it.
 
     ``message`` (one sentence without its final period: what is wrong, its likely cause and the fix)
     is raised as ``cls`` ending with :func:`confirm_with`; when ``name`` is in ``accept``, it is an
-    :class:`~afferent.exceptions.AfferentWarning` saying it was confirmed (run.json keeps it).
+    :class:`~afferent.exceptions.AfferentWarning` saying it was confirmed (run.json keeps it), unless
+    ``note`` is False (a scene's own check: its record holds ``[scene] accept``).
     """
     if name not in check_accept(accept):
         raise cls(f"{message}; {confirm_with(name)}")
+    if not note:
+        return
     import warnings
 
     from .exceptions import AfferentWarning

@@ -35,11 +35,6 @@ def add_input_options(parser: argparse.ArgumentParser) -> None:
     g.add_argument("--times", metavar="T0,T1,...", help="step times (s unless --time-unit), overriding the file")
     g.add_argument("--time-unit", metavar="U", type=unit_type("time"), help="unit of the step times (s, ms, us)")
     g.add_argument("--format", choices=tuple(FORMATS), help="file format, when the extension does not tell")
-    from .._validation import ACCEPTS
-
-    g.add_argument("--accept", action="append", metavar="CHECK[,CHECK]",
-                   help="confirm the unusual case a check refuses as a likely mistake (repeatable; [scene] accept in a "
-                        f"scene file): {'; '.join(f'{k}: {v}' for k, v in ACCEPTS.items())}")
 
 
 def _names(text: str | None):
@@ -69,7 +64,6 @@ def input_kwargs(args: argparse.Namespace) -> dict:
         stress_columns=_names(args.stress_columns), strain_columns=_names(args.strain_columns), coord_columns=coord,
         times=times, time_unit=args.time_unit, coordinates=args.coordinates, on_nan=args.on_nan,
         negative_tolerance=args.negative_tolerance, format=args.format, progress=show_progress(args),
-        accept=[c.strip() for a in (args.accept or ()) for c in a.split(",") if c.strip()] or None,
     )
 
 
@@ -90,6 +84,21 @@ def add_run_comparison_options(parser: argparse.ArgumentParser, *, verb: str) ->
     add_output_options(parser, what="output folder (created whole, or not at all)")
     parser.add_argument("--group", action="append", metavar="NAME=PATTERN",
                         help=f"{verb} the runs whose label matches PATTERN (fnmatch) as group NAME; repeatable")
+
+
+def add_accept_option(parser: argparse.ArgumentParser) -> None:
+    """``--accept CHECK[,CHECK]``: the checks whose unusual case the user confirms (:data:`afferent._validation.ACCEPTS`;
+    a scene's ``[scene] accept``). One option for every such confirmation, each check by name."""
+    from .._validation import ACCEPTS
+
+    parser.add_argument("--accept", action="append", metavar="CHECK[,CHECK]",
+                        help="confirm the unusual case a check refuses as a likely mistake (repeatable; [scene] accept "
+                             f"in a scene file): {'; '.join(f'{k}: {v}' for k, v in ACCEPTS.items())}")
+
+
+def accepted(args: argparse.Namespace) -> list | None:
+    """The checks ``--accept`` names (comma-separated, repeatable), or None."""
+    return [c.strip() for a in (getattr(args, "accept", None) or ()) for c in a.split(",") if c.strip()] or None
 
 
 def add_quiet(parser: argparse.ArgumentParser) -> None:

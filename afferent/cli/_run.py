@@ -45,7 +45,8 @@ import argparse
 import os
 import shlex
 
-from ._options import add_input_options, add_output_options, add_quiet, add_receptor_options, input_kwargs, unit_type
+from ._options import (add_accept_option, add_input_options, add_output_options, add_quiet, add_receptor_options,
+                       input_kwargs, unit_type)
 
 # the stage modules (pandas, scipy) load when the run needs them, not to parse the command line
 SYNTHESES = ("longitudinal", "cross", "map:FILE", "random:N")  # afferent.synthesis.SYNTHESES
@@ -115,6 +116,7 @@ def add_args(parser: argparse.ArgumentParser) -> None:
     g.add_argument("--zone-map", metavar="ZONES.csv",
                    help="with --branching zones: each receptor's zone (columns receptor, zone) instead of "
                         "--zones-per-afferent")
+    add_accept_option(parser)
     parser.add_argument("--no-plots", action="store_true", help="skip the PNG figures")
     parser.add_argument("--results-format", choices=("netcdf", "csv"),
                         help="time courses of receptors and afferents: one NetCDF-4 file currents.nc (default) or the "
@@ -301,9 +303,9 @@ def scene_from_args(args):
         raise ValueError("afferent run needs an output folder: -o OUTDIR.")
     read = input_kwargs(args)
     read.pop("progress")
-    accept = read.pop("accept")  # the scene's confirmations: [scene] accept
     export = {"files": list(args.exports), **{k: v for k, v in read.items() if v is not None}}
     want = ["currents", "profiles", "sed_map", "vtu"]
+    accept = [c.strip() for a in (args.accept or ()) for c in a.split(",") if c.strip()] or None
     tables = {"scene": {"name": os.path.basename(os.path.normpath(args.output)), "accept": accept}, "export": export,
               "receptors": _receptors_table(args), "sampling": {"method": args.method, "on_outside": args.on_outside},
               "transduction": _transduction_table(args), "synthesis": _synthesis_table(args),
