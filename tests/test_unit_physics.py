@@ -123,6 +123,17 @@ def test_an_export_without_strain_or_displacements_is_recorded_as_not_checkable(
     assert check["checkable"] is False and "no strain tensor" in check["note"]
 
 
+def test_a_read_confirmed_once_is_not_served_from_the_cache_to_a_run_that_does_not_confirm(tmp_path, capsys,
+                                                                                             monkeypatch):
+    monkeypatch.setenv("AFFERENT_CACHE_DIR", str(tmp_path / "cache"))
+    argv = ["run", str(BLOCK4), "--receptors", str(SAMPLE_DIR / "block4" / "receptors.csv"), "--length-unit", "mm",
+            "--sed-unit", "kPa", "--params", "start", "--no-plots", "-q"]
+    assert main(argv + ["--accept", "modulus", "-o", str(tmp_path / "a")]) == 0, capsys.readouterr().err
+    assert any((tmp_path / "cache").rglob("*.npz"))  # the confirmed read was cached
+    assert main(argv + ["-o", str(tmp_path / "b")]) == 2
+    assert "--accept modulus" in capsys.readouterr().err
+
+
 def test_a_von_mises_array_passed_as_sed_column_is_refused_by_its_name(tmp_path, capsys):
     with pytest.raises(SEDFormatError, match=re.escape(
             f"SED file {str(COMSOL)!r}: SED column 'solid.mises' is not a strain-energy density: 'solid.mises' is "

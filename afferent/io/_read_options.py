@@ -26,6 +26,9 @@ NEGATIVE_SED_RTOL = 0.25
 
 SED_FROM = ("field", "exact", "equivalent")
 
+#: The confirmations (:data:`afferent._validation.ACCEPTS`) that change what a read lets through (``accept=``).
+READ_ACCEPTS = ("modulus", "sed-column")
+
 #: Relative L2 difference (at the most loaded step, after the best scale factor) above which
 #: the SED computed from an export's tensors and the export's own SED array are said to
 #: disagree. They agree to the file's precision only where both are values at the same points

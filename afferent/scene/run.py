@@ -316,8 +316,11 @@ def _cache_key(run: _Run, layout, exp_files, hashes) -> str:
     scene = run.scene
     ex, rec = scene.export, scene.receptors
     read_opts = ex.read_kwargs()
-    if scene.info.accept:  # a read the checks refuse without them is not served from one they confirmed
-        read_opts["accept"] = sorted(set(scene.info.accept))
+    from ..io._read_options import READ_ACCEPTS
+
+    read_checks = sorted(set(scene.info.accept or ()) & set(READ_ACCEPTS))  # the reader's confirmations
+    if read_checks:  # a read the checks refuse without them is not served from one they confirmed
+        read_opts["accept"] = read_checks
     if read_opts.get("coordinates"):
         read_opts["coordinates"] = run.inputs.get(read_opts["coordinates"])
     if layout is not None:
