@@ -156,6 +156,10 @@ ACCEPTS = {
     "d-ref": "d_ref more than 10 x away from the waveform's deepest point",
     "step-times": "an export's step numbers read as seconds (spiking, cycles) where it states no times",
     "waveform-step": "a sine waveform sampled more coarsely than 1/20 of its period",
+    "modulus": "an SED (or stress) unit that makes the export's elastic stiffness (2 SED / eps:eps) far from soft "
+               "tissue's 1 kPa..10 MPa, where another unit would not",
+    "sed-column": "an SED array named like a stress measure (von Mises, Tresca, pressure, a principal stress), equal "
+                  "to one of the stress tensor's, or unlike 1/2 sigma:eps of the file's tensors",
 }
 
 

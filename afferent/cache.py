@@ -72,7 +72,9 @@ __all__ = [
 #: 3: the key covers the named export files only; the entry lists (and get checks) every file the reader opened;
 #: coincident points merged into nodes (discontinuous output changed); the interface side in the key.
 #: point data in quadratic cells interpolated with their own shape functions (was: between corners).
-CACHE_VERSION = 3
+#: 4: reads the unit and SED-array checks refuse (io._unit_physics) are no longer served from entries made before
+#: them; the confirmed checks ([scene] accept) in the key.
+CACHE_VERSION = 4
 
 _SUBDIR = "sed"
 _ARRAYS = ("values", "times", "positions", "ids", "longitudinal", "cross", "outside", "meta")

@@ -239,7 +239,7 @@ def test_a_series_mesh_is_checked_once_and_each_step_equals_a_fresh_read(case, t
     fresh assemble of that step gives."""
     from afferent.io import _assemble, _coincident, _raw_steps, _read_options
 
-    path, units = {"pvd": (PVD, ("mm", "MPa")), "xdmf": (DATA_DIR / "dolfinx" / "block.xdmf", ("m", "Pa")),
+    path, units = {"pvd": (PVD, ("mm", "MPa")), "xdmf": (DATA_DIR / "dolfinx" / "block.xdmf", ("mm", "MPa")),
                    "discontinuous": (_discontinuous_series(tmp_path), ("mm", "kPa"))}[case]
     path = path if isinstance(path, list) else str(path)
     opts = _read_options(**{**{n: p.default for n, p in __import__("inspect").signature(afferent.read_sed).parameters.items()

@@ -20,7 +20,8 @@ from __future__ import annotations
 import argparse
 
 from ..io import describe_raw, read_raw
-from ._options import add_input_options, add_receptor_options, input_kwargs, layout_from_args, show_progress, reads
+from ._options import accepted, add_accept_option, add_input_options, add_receptor_options, input_kwargs, \
+    layout_from_args, reads, show_progress
 
 describe = describe_raw  # the name notebooks/01_read_fe_export.ipynb imports
 
@@ -31,6 +32,7 @@ def add_args(parser: argparse.ArgumentParser) -> None:
     add_receptor_options(parser, required=False)  # say what the sites are, which materials meet there, what --side does
     parser.add_argument("--method", choices=("linear", "nearest"), default="linear", help="sampling method for --receptors")
     add_input_options(parser)
+    add_accept_option(parser)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -46,7 +48,7 @@ def run(args: argparse.Namespace) -> int:
         from ..io import read_sed
         from ..receptors import describe_sites
 
-        field = read_sed(source, **input_kwargs(args))
+        field = read_sed(source, accept=accepted(args), **input_kwargs(args))
         layout = layout_from_args(args, field)
         print(describe_sites(layout))
         print("\n".join(interface_lines(field, layout, method=args.method)))

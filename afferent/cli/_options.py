@@ -129,6 +129,11 @@ def add_accept_option(parser: argparse.ArgumentParser) -> None:
                              f"in a scene file): {'; '.join(f'{k}: {v}' for k, v in ACCEPTS.items())}")
 
 
+def accepted(args: argparse.Namespace) -> list | None:
+    """The checks ``--accept`` names (comma-separated, repeatable), or None."""
+    return [c.strip() for a in (getattr(args, "accept", None) or ()) for c in a.split(",") if c.strip()] or None
+
+
 def add_common_options(parser: argparse.ArgumentParser) -> None:
     """The options every subcommand takes (added by :func:`afferent.cli._main.build_parser`, not by the
     subcommands): ``-q/--quiet``."""

@@ -21,7 +21,7 @@ from .._interfaces import check_side
 from ..io import iter_sed
 from ..sampling import METHODS, sample_steps
 from ._options import add_input_options, add_receptor_options, layout_from_args, add_output_options, input_kwargs, \
-    add_side_option, reads
+    add_side_option, reads, accepted, add_accept_option
 
 
 def add_args(parser: argparse.ArgumentParser) -> None:
@@ -32,6 +32,7 @@ def add_args(parser: argparse.ArgumentParser) -> None:
     add_side_option(parser)
     add_receptor_options(parser)
     add_input_options(parser)
+    add_accept_option(parser)
     add_output_options(parser, what="output CSV (long form)", folder=False)
 
 
@@ -39,7 +40,7 @@ def run(args: argparse.Namespace) -> int:
     inputs = (*args.exports, args.receptors)
     check_writable(args.output, overwrite=args.overwrite, inputs=inputs)  # before the reading, not after
     # one step at a time: memory is one step of the mesh plus the result (iter_sed, sample_steps)
-    steps = iter_sed(args.exports if len(args.exports) > 1 else args.exports[0], **input_kwargs(args))
+    steps = iter_sed(args.exports if len(args.exports) > 1 else args.exports[0], accept=accepted(args), **input_kwargs(args))
     first = next(steps)
     layout = layout_from_args(args, first)
     sed = sample_steps(chain([first], steps), layout, method=args.method, on_outside=args.on_outside,

@@ -244,6 +244,7 @@ def read_sed(
     on_nan: str = "raise",
     negative_tolerance: float = NEGATIVE_SED_RTOL,
     allow_outside_files: bool = False,
+    accept=None,
     format: str | None = None,
     progress: bool = False,
 ) -> SEDField:
@@ -317,6 +318,13 @@ def read_sed(
         (absolute, ``..``, a symbolic link) is refused, naming the file. True reads them wherever they are
         (each is then named in the provenance notes). Either way only regular files are read: a FIFO,
         a device or a folder is refused before it is opened (``afferent.io._files``).
+    accept : str or sequence of str, optional
+        Checks whose unusual case is confirmed (their names: ``afferent._validation.ACCEPTS``): ``'modulus'``
+        lets through an SED (or stress) unit under which the export's elastic stiffness 2 SED /
+        eps:eps lies outside soft tissue's 1 kPa..10 MPa while another unit would put it inside (a
+        material that really is that stiff or soft); ``'sed-column'`` lets through an SED array named
+        like a stress measure, equal to one of the stress tensor's, or unlike 1/2 sigma:eps of the
+        file's tensors. Each is otherwise refused (docs/fe-export.md, "Units from physics").
     format : {'csv', 'vtu', 'vtk', 'pvtu', 'vtm', 'pvd', 'xdmf', 'frd', 'exodus', 'rst', 'med', 'xplt'}, optional
         Overrides the format deduced from the file name.
     progress : bool, default=False
@@ -338,7 +346,8 @@ def read_sed(
         whose steps do not match, a file the export points to outside its folder (unless
         ``allow_outside_files``), a file that is not a regular file.
     UnitError
-        A unit neither stated nor declared, unknown, or contradicting the file.
+        A unit neither stated nor declared, unknown, or contradicting the file; a unit under which the
+        export's stiffness is far from soft tissue's where another unit is not (unless ``accept='modulus'``).
 
     See Also
     --------
@@ -358,14 +367,17 @@ def read_sed(
         coord_columns=None if coord_columns is None else tuple(coord_columns),
         times=None if times is None else tuple(float(t) for t in times),
         coordinates=None if coordinates is None else os.fspath(coordinates), on_nan=on_nan,
-        negative_tolerance=negative_tolerance, allow_outside_files=allow_outside_files,
+        negative_tolerance=negative_tolerance, allow_outside_files=allow_outside_files, accept=accept,
     )
     raw = read_raw(path_or_paths, format=format, progress=progress, allow_outside_files=opts.allow_outside_files)
     return assemble(raw, opts)
 
 
-def _read_options(*, sed_column, stress_columns, strain_columns, coord_columns, times, coordinates, **kw) -> ReadOptions:
-    """The user's declarations as a :class:`ReadOptions` (sequences as tuples)."""
+def _read_options(*, sed_column, stress_columns, strain_columns, coord_columns, times, coordinates, accept=None,
+                  **kw) -> ReadOptions:
+    """The user's declarations as a :class:`ReadOptions` (sequences as tuples, ``accept`` checked)."""
+    from .._validation import check_accept
+
     def seq(v):
         return v if v is None or isinstance(v, str) else tuple(v)
 
@@ -373,7 +385,7 @@ def _read_options(*, sed_column, stress_columns, strain_columns, coord_columns, 
         sed_column=seq(sed_column), stress_columns=seq(stress_columns), strain_columns=seq(strain_columns),
         coord_columns=None if coord_columns is None else tuple(coord_columns),
         times=None if times is None else tuple(float(t) for t in times),
-        coordinates=None if coordinates is None else os.fspath(coordinates), **kw,
+        coordinates=None if coordinates is None else os.fspath(coordinates), accept=check_accept(accept), **kw,
     )
 
 

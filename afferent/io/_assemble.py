@@ -54,6 +54,7 @@ from ._read_options import (  # noqa: F401 (importable from here, as before the 
     CROSSCHECK_RTOL,
     NEGATIVE_SED_RTOL,
     SED_FROM,
+    SED_SCALE_BAND,
     SHEAR_RATIO_BAND,
     ReadOptions,
 )
@@ -168,6 +169,7 @@ def _sed_from_field(raw: RawExport, opts: ReadOptions, rec: _Record) -> tuple[np
     label = ", ".join(a.name for a in arrays)
     rec.columns["sed"] = label
     _energy_named(raw, opts, arrays[0], rec)
+    _is_sed(raw, opts, arrays, rec)
     stated = {a.unit for a in arrays}
     if len(stated) > 1:
         raise UnitError(f"SED file {_where(raw)!r}: SED columns {label} state different units {sorted(map(str, stated))}.")
@@ -201,6 +203,89 @@ def _energy_named(raw: RawExport, opts: ReadOptions, arr, rec: _Record) -> None:
         rec.notes.append(msg)
         if check is not None:
             warnings.warn(msg, AfferentWarning, stacklevel=5)
+
+
+def _confirmed(name: str, opts: ReadOptions, said: str, error, rec: _Record, stacklevel: int) -> None:
+    """:func:`afferent._validation.refuse_unless`: refuse ``said`` (what is wrong, its likely cause and the fix) as
+    ``error`` unless ``opts.accept`` holds ``name``; confirmed, it is also a note (``stacklevel``: the caller's)."""
+    from .._validation import refuse_unless
+
+    refuse_unless(name, opts.accept, said, cls=error, stacklevel=stacklevel + 1)
+    rec.notes.append(f"{said} (confirmed: accept='{name}').")
+
+
+def _is_sed(raw: RawExport, opts: ReadOptions, arrays, rec: _Record) -> None:
+    """Refuse an SED array that is a stress measure (by its name, or its values against the stress tensor) or, where
+    the export has stress and strain at its location, one that is not 1/2 sigma:eps of them in some unit (its scale
+    over it outside :data:`SED_SCALE_BAND` up to a power of 1000); unless ``accept='sed-column'``."""
+    from ._unit_physics import stress_measure_named, stress_measure_values
+
+    arr = arrays[0]
+    named = stress_measure_named(arr.name)
+    reasons = [f"{arr.name!r} is named like {named}"] if named else []
+    equal = stress_measure_values(raw, arr, opts)
+    if equal is not None:
+        times = f"{equal['factor']:g} x " if equal["factor"] != 1 else ""
+        reasons.append(f"its values are {times}{equal['measure']} of the stress tensor {equal['stress']!r} (median relative "
+                       f"difference {equal['relative_difference']:.1g})")
+    check = tensor_sed_crosscheck(raw, replace(opts, sed_column=arr.name, location=arr.location))
+    if check is not None and check["checkable"] and check["sed_array"] == arr.name:
+        scale = abs(check["scale"])
+        power = 1000.0 ** round(np.log10(scale) / 3) if scale > 0 and np.isfinite(scale) else 1.0
+        ok = bool(scale > 0 and SED_SCALE_BAND[0] <= scale / power <= SED_SCALE_BAND[1])
+        rec.checks["tensor_sed_vs_export_sed"] = dict(check, scale_band=list(SED_SCALE_BAND), unit_factor=power,
+                                                      scale_consistent=ok)
+        if not ok and equal is None:
+            reasons.append(f"its values are {check['scale']:.3g} x 1/2 sigma:eps of the file's tensors at step "
+                           f"{check['step']}, not 1/2 sigma:eps in some unit ({SED_SCALE_BAND[0]:g}..{SED_SCALE_BAND[1]:g} "
+                           "x a power of 1000), as a stress measure is about 1/eps x it")
+    if not reasons:
+        return
+    rec.checks["sed_array_is_sed"] = {"array": arr.name, "reasons": reasons, "accepted": "sed-column" in opts.accept}
+    try:
+        other = find_sed_array(raw, replace(opts, sed_column=None))[0].name
+    except SEDFormatError:
+        other = None
+    way = (f"the file's SED array looks like {other!r} (sed_column={other!r})" if other
+           and other != arr.name else "compute SED from stress and strain (sed_from='exact')" if _tensors_at(raw, arr)
+           else "export the strain-energy density")
+    _confirmed("sed-column", opts, f"SED file {_where(raw)!r}: SED column {arr.name!r} is not a strain-energy density: "
+               f"{'; '.join(reasons)}; {way}", SEDFormatError, rec, stacklevel=5)
+
+
+def _tensors_at(raw: RawExport, arr) -> bool:
+    """Whether the export has stress and strain tensors at ``arr``'s location."""
+    try:
+        find_tensors(raw, ReadOptions(sed_from="exact", location=arr.location), need_convention=False)
+    except (SEDFormatError, ValueError):
+        return False
+    return True
+
+
+def _stiffness(raw: RawExport, opts: ReadOptions, sed: np.ndarray, location: str, rec: _Record, memo: dict) -> None:
+    """Units from physics: the elastic stiffness the SED (J/m^3) implies (:mod:`afferent.io._unit_physics`),
+    recorded as ``checks['implied_modulus']``; a unit that puts it outside soft tissue's band where another unit would
+    not is refused unless ``accept='modulus'``. A series (``memo``) is judged at its first loaded step."""
+    from ._unit_physics import implied_modulus, modulus_message, modulus_verdict
+
+    key = "sed" if opts.sed_from == "field" else "stress"
+    record = memo.get("modulus")
+    if record is None:
+        record = modulus_verdict(implied_modulus(raw, opts, sed, location), unit=rec.units[key], factor=rec.factors[key])
+        record["unit_source"] = rec.units[f"{key}_source"]
+        if record.get("checkable"):
+            memo["modulus"] = record
+    rec.checks["implied_modulus"] = dict(record, accepted="modulus" in opts.accept) if record.get("verdict") == "unit" \
+        else record
+    said = modulus_message(_where(raw), record, param=f"{key}_unit")
+    if said is None:
+        return
+    kind, text = said
+    if kind == "unit":
+        _confirmed("modulus", opts, text, UnitError, rec, stacklevel=4)
+    else:
+        rec.notes.append(text)
+        warnings.warn(text, AfferentWarning, stacklevel=4)
 
 
 def _sed_from_tensors(raw: RawExport, opts: ReadOptions, rec: _Record) -> tuple[np.ndarray, str]:
@@ -401,6 +486,7 @@ def assemble(raw: RawExport, opts: ReadOptions, memo: dict | None = None) -> SED
         sed, location = _sed_from_field(raw, opts, rec)
     else:
         sed, location = _sed_from_tensors(raw, opts, rec)
+    _stiffness(raw, opts, sed, location, rec, memo)
     sed, xyz = _integration_points(raw, opts, sed, xyz, rec.notes)
     sed, negative = _negatives(raw, opts, sed, rec)
     times = _times(raw, opts, sed.shape[0], rec)

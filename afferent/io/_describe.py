@@ -8,6 +8,7 @@ import numpy as np
 
 from .._plausibility import robust_level
 from ..exceptions import SEDFormatError
+from ..strain_energy import sed_exact
 from ..units import LENGTH_UNITS, SED_UNITS, parse_unit
 from ._assemble import ReadOptions, _percent, find_coordinates, find_sed_array, find_tensors, negative_sed_report, \
     tensor_sed_crosscheck
@@ -128,8 +129,30 @@ def _sed_lines(raw, opts, add) -> None:
             if level > 0:
                 add("hint", f"an SED level of {level:.3g} (99th percentile of the nonzero values) is plausible for skin "
                             f"(1..1e5 J/m^3) in: {_unit_hint(level, SED_UNITS, PLAUSIBLE_SED_PA, ('Pa', 'kPa', 'MPa'))}")
+        _physics_line(raw, sed, sed_arrays[0].location, "SED", parse_unit(stated) if stated else None, add)
     except SEDFormatError as err:
         add("SED", f"no SED array: {str(err).split('. Found')[0].split(': ', 1)[-1]}")
+
+
+def _physics_line(raw, values, location: str, what: str, stated: str | None, add) -> None:
+    """Which unit the physics implies (:mod:`afferent.io._unit_physics`): the stiffness 2 SED / eps:eps in the
+    file's unit of ``values`` (the SED array, or 1/2 sigma:eps of the stress) and the units that make it soft tissue's."""
+    from ._unit_physics import MODULUS_BAND_PA, implied_modulus, unit_hint
+
+    record = implied_modulus(raw, ReadOptions(), values, location)
+    if not record["checkable"]:
+        add("physics", f"cannot tell the {what} unit: {record['note']}")
+        return
+    m, fits = record["modulus_pa"], unit_hint(record["modulus_pa"])
+    lo, hi = MODULUS_BAND_PA
+    verdict = ""
+    if stated:
+        verdict = (f"; the stated {stated} agrees" if stated in fits or any(SED_UNITS.get(stated) == SED_UNITS[u]
+                                                                             for u in fits)
+                   else f"; the stated {stated} does not (read_sed refuses it unless --accept modulus)")
+    add("physics", f"an elastic stiffness 2 SED / eps:eps of {m:.3g} x the {what} unit (strain from the "
+                   f"{record['strain_from']}): soft tissue ({lo / 1e3:g} kPa..{hi / 1e6:g} MPa) in: "
+                   f"{', '.join(fits) if fits else 'none of Pa, kPa, MPa, GPa'}{verdict}")
 
 
 def _density_line(raw, arr, add) -> None:
@@ -182,9 +205,11 @@ def _mesh_lines(raw, opts, add) -> None:
 def _tensor_lines(raw, add) -> None:
     """Stress and strain tensors, and 1/2 sigma:eps against the SED array under each preset."""
     try:
-        (s_name, _, s_loc), (e_name, _, _) = find_tensors(raw, ReadOptions(sed_from="exact"), need_convention=False)
+        (s_name, s, s_loc), (e_name, e, _) = find_tensors(raw, ReadOptions(sed_from="exact"), need_convention=False)
         how = f"(preset {raw.preset!r} implied by the format)" if raw.preset else "with --preset"
         add("tensors", f"stress {s_name}; strain {e_name} ({s_loc} data): --sed-from exact|equivalent {how}")
+        stated = {a.unit for a in raw.arrays.values() if a.name in s_name.split(", ")} - {None}
+        _physics_line(raw, sed_exact(s, e), s_loc, "stress", parse_unit(stated.pop()) if len(stated) == 1 else None, add)
     except (SEDFormatError, ValueError):
         add("tensors", "no complete stress and strain tensors")
     check = tensor_sed_crosscheck(raw, ReadOptions())

@@ -391,6 +391,57 @@ def _tensor_from_array(arr: RawArray, kind: str, conv: Convention | None, raw: R
     )
 
 
+def find_tensor(raw: RawExport, opts: ReadOptions, kind: str, conv: Convention | None = None):
+    """Locate one tensor, ``kind`` 'stress' or 'strain': (description, values (n_t, n, 6), location).
+
+    Components come back in the canonical order with tensor shear (engineering shear strain, as
+    ``conv`` declares it, is halved here; full 3x3 arrays are tensor already). ``conv`` None: a
+    6-component array without component names is read in VTK's order with tensor shear.
+    """
+    comp_table, override = ((C.STRESS_COMPONENTS, opts.stress_columns) if kind == "stress"
+                            else (C.STRAIN_COMPONENTS, opts.strain_columns))
+    if isinstance(override, str):
+        arr = _by_name(raw, override, f"the {kind} tensor", opts.location)
+        return arr.name, _tensor_from_array(arr, kind, conv or PRESETS["vtk"], raw), arr.location
+    if override is not None:
+        if len(override) != 6:
+            raise ValueError(
+                f"'{kind}_columns' must name 6 columns in the order xx yy zz xy yz xz; got {len(override)} instead."
+            )
+        cols = [_by_name(raw, n, f"the {kind} component", opts.location) for n in override]
+        values = np.stack([c.values for c in cols], -1)
+        return ", ".join(c.name for c in cols), _halve_shear(values, kind, conv), cols[0].location
+    named = [a for a in raw.arrays.values() if a.ndim == 3 and C.canonical(a.name) in C.TENSOR_ARRAY_NAMES[kind]]
+    tensor_arrays = [a for a in named if opts.location is None or a.location == opts.location]
+    if named and not tensor_arrays:
+        _wrong_location(raw, named[0], f"{kind} tensor", opts.location)
+    if tensor_arrays:
+        arr = tensor_arrays[0]
+        return arr.name, _tensor_from_array(arr, kind, conv or PRESETS["vtk"], raw), arr.location
+    attempts = []
+    for loc in ((opts.location,) if opts.location else ("point", "cell")):  # all six at one location
+        found, missing = [], []
+        for comp in ("xx", "yy", "zz", "xy", "yz", "xz"):
+            hits = [a for a in raw.arrays.values() if a.ndim == 2 and a.location == loc
+                    and C.canonical(a.name) in comp_table[comp]]
+            (found if hits else missing).append(hits[0] if hits else comp)
+        attempts.append((found, missing))
+    found, missing = max(attempts, key=lambda fm: len(fm[0]))  # the location holding the most components
+    if missing:
+        have = f" (found {', '.join(repr(a.name) for a in found)})" if found else ""
+        raise SEDFormatError(
+            f"SED file {_where(raw)!r} has no complete {kind} tensor{have}; missing component(s) "
+            f"{', '.join(missing)}. Found {_names(raw)}. Pass {kind}_columns=(6 names, xx yy zz xy yz xz)."
+        )
+    if len({a.shape for a in found}) > 1:
+        raise SEDFormatError(
+            f"SED file {_where(raw)!r}: the {kind} components {', '.join(repr(a.name) for a in found)} must have one "
+            f"value per point at every step alike; got shapes {', '.join(str(a.shape) for a in found)}."
+        )
+    values = np.stack([a.values for a in found], -1)
+    return ", ".join(a.name for a in found), _halve_shear(values, kind, conv), found[0].location
+
+
 def find_tensors(raw: RawExport, opts: ReadOptions, *, need_convention: bool = True):
     """Locate stress and strain: returns ((stress_desc, stress (n_t, n, 6)), (strain_desc, strain (n_t, n, 6))).
 
@@ -398,55 +449,7 @@ def find_tensors(raw: RawExport, opts: ReadOptions, *, need_convention: bool = T
     as the convention declares it, is halved here; full 3x3 arrays are tensor already).
     """
     conv = _convention(opts, raw) if need_convention else None
-    out = []
-    for kind, comp_table, override in (
-        ("stress", C.STRESS_COMPONENTS, opts.stress_columns),
-        ("strain", C.STRAIN_COMPONENTS, opts.strain_columns),
-    ):
-        if isinstance(override, str):
-            arr = _by_name(raw, override, f"the {kind} tensor", opts.location)
-            out.append((arr.name, _tensor_from_array(arr, kind, conv or PRESETS["vtk"], raw), arr.location))
-            continue
-        if override is not None:
-            if len(override) != 6:
-                raise ValueError(
-                    f"'{kind}_columns' must name 6 columns in the order xx yy zz xy yz xz; got {len(override)} instead."
-                )
-            cols = [_by_name(raw, n, f"the {kind} component", opts.location) for n in override]
-            values = np.stack([c.values for c in cols], -1)
-            out.append((", ".join(c.name for c in cols), _halve_shear(values, kind, conv), cols[0].location))
-            continue
-        named = [a for a in raw.arrays.values() if a.ndim == 3 and C.canonical(a.name) in C.TENSOR_ARRAY_NAMES[kind]]
-        tensor_arrays = [a for a in named if opts.location is None or a.location == opts.location]
-        if named and not tensor_arrays:
-            _wrong_location(raw, named[0], f"{kind} tensor", opts.location)
-        if tensor_arrays:
-            arr = tensor_arrays[0]
-            out.append((arr.name, _tensor_from_array(arr, kind, conv or PRESETS["vtk"], raw), arr.location))
-            continue
-        attempts = []
-        for loc in ((opts.location,) if opts.location else ("point", "cell")):  # all six at one location
-            found, missing = [], []
-            for comp in ("xx", "yy", "zz", "xy", "yz", "xz"):
-                hits = [a for a in raw.arrays.values() if a.ndim == 2 and a.location == loc
-                        and C.canonical(a.name) in comp_table[comp]]
-                (found if hits else missing).append(hits[0] if hits else comp)
-            attempts.append((found, missing))
-        found, missing = max(attempts, key=lambda fm: len(fm[0]))  # the location holding the most components
-        if missing:
-            have = f" (found {', '.join(repr(a.name) for a in found)})" if found else ""
-            raise SEDFormatError(
-                f"SED file {_where(raw)!r} has no complete {kind} tensor{have}; missing component(s) "
-                f"{', '.join(missing)}. Found {_names(raw)}. Pass {kind}_columns=(6 names, xx yy zz xy yz xz)."
-            )
-        if len({a.shape for a in found}) > 1:
-            raise SEDFormatError(
-                f"SED file {_where(raw)!r}: the {kind} components {', '.join(repr(a.name) for a in found)} must have one "
-                f"value per point at every step alike; got shapes {', '.join(str(a.shape) for a in found)}."
-            )
-        values = np.stack([a.values for a in found], -1)
-        out.append((", ".join(a.name for a in found), _halve_shear(values, kind, conv), found[0].location))
-    (s_name, s, s_loc), (e_name, e, e_loc) = out
+    (s_name, s, s_loc), (e_name, e, e_loc) = (find_tensor(raw, opts, kind, conv) for kind in ("stress", "strain"))
     if s.shape != e.shape or s_loc != e_loc:
         raise SEDFormatError(
             f"SED file {_where(raw)!r}: stress ({s_name}, {s_loc}, {s.shape[1]} values) and strain "

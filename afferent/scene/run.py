@@ -340,6 +340,11 @@ def _cache_key(run: _Run, layout, exp_files, hashes) -> str:
     read_opts = ex.read_kwargs()
     if not read_opts.get("allow_outside_files"):  # the default reads what it read before: the keys of earlier entries
         read_opts.pop("allow_outside_files", None)
+    from ..io._read_options import READ_ACCEPTS
+
+    read_checks = sorted(set(scene.info.accept or ()) & set(READ_ACCEPTS))  # the reader's confirmations
+    if read_checks:  # a read the checks refuse without them is not served from one they confirmed
+        read_opts["accept"] = read_checks
     if read_opts.get("coordinates"):
         read_opts["coordinates"] = run.inputs.get(read_opts["coordinates"])
     if layout is not None:
@@ -475,7 +480,8 @@ def _read_and_sample(run: _Run, layout, *, progress: bool):
     scene = run.scene
     ex, method = scene.export, scene.sampling.method
     with run.steps("reading"):
-        steps = iter_sed(list(ex.files) if len(ex.files) > 1 else ex.files[0], progress=progress, **ex.read_kwargs())
+        steps = iter_sed(list(ex.files) if len(ex.files) > 1 else ex.files[0], progress=progress,
+                         accept=scene.info.accept, **ex.read_kwargs())
         first = next(steps)
     if layout is None:
         with run.steps("receptors"):
