@@ -1,5 +1,5 @@
 """A run's output folder read back (``afferent run``, :func:`afferent.scene.run_scene`): its ``run.json``
-and its CSV tables, one way for :func:`afferent.export.load_results`, ``afferent hotspots`` and
+its CSV tables and its ``currents.nc`` (or the long tables of ``results_format='csv'``), one way for :func:`afferent.export.load_results`, ``afferent hotspots`` and
 ``afferent cycles``.
 
 A damaged file (text where a number belongs, bytes that are not UTF-8, a broken or deeply
@@ -101,6 +101,8 @@ def read_run_table(path, *, what: str, finite=(), numbers=(), columns=(), text=(
     try:
         with open_regular(path, "Run table") as f:  # a FIFO is refused, not waited on
             df = pd.read_csv(f, encoding="utf-8", dtype={c: str for c in text})
+    except SEDFormatError:  # not a regular file (afferent.io._files.open_regular): said as it is
+        raise
     except pd.errors.EmptyDataError as err:
         raise SEDFormatError(f"{where} is empty; expected {what}.") from err
     except (pd.errors.ParserError, UnicodeDecodeError, csv.Error, ValueError) as err:  # ValueError: pyarrow's too
@@ -165,3 +167,65 @@ def check_table(df, *, where: str, what: str, finite=(), numbers=(), columns=(),
         raise SEDFormatError(f"{where} holds the row of {', '.join(f'{c} {row[c]!r}' for c in unique)} twice; "
                              f"expected {what}.")
     return df
+
+
+def read_results_nc(nc: str):
+    """``currents.nc`` (:func:`afferent.export.results_dataset`) loaded, once it is a regular file without HDF5 external links or
+    variables stored in other files (refused: nothing outside it is read); a file that is not readable
+    netCDF-4 (or not a file) is an error naming it."""
+    import h5py
+    import xarray as xr
+
+    from .io._files import check_regular, h5_refuse_external
+
+    if os.path.isdir(nc):
+        raise SEDFormatError(f"Results file {nc!r} is not a file; expected the netCDF-4 file of a run's time courses.")
+    check_regular(nc, "Results file")
+    try:
+        h5 = h5py.File(nc, "r")
+    except OSError as err:
+        raise SEDFormatError(f"Results file {nc!r} could not be read as netCDF-4 ({' '.join(str(err).split())}); "
+                             "expected the time courses a run wrote.") from err
+    with h5:
+        h5_refuse_external(h5, "Results file")
+    try:
+        with xr.open_dataset(nc, engine="h5netcdf") as f:
+            return f.load()
+    except (OSError, ValueError, KeyError, TypeError) as err:
+        raise SEDFormatError(f"Results file {nc!r} could not be read as netCDF-4 ({' '.join(str(err).split())}); "
+                             "expected the time courses a run wrote.") from err
+
+
+def _time_column(path: str) -> str:
+    """'step' when the long table's header names steps (an export without times), else 'time_s'."""
+    from .io._files import open_regular
+
+    with open_regular(path, "Results table") as f:
+        names = [n.strip().strip(b'"') for n in f.readline(65536).split(b",")]
+    return "step" if b"step" in names and b"time_s" not in names else "time_s"
+
+
+def dataset_from_csv(folder: str):
+    """The Dataset of :func:`afferent.export.results_dataset` from the long CSV tables of ``results_format='csv'``."""
+    import xarray as xr
+
+    rec, aff = os.path.join(folder, "receptors.csv"), os.path.join(folder, "afferents.csv")
+    if not os.path.lexists(rec):
+        return xr.Dataset()
+    tcol = _time_column(rec)  # 'step' in the tables of an export without times: step numbers as the time axis
+    df = read_run_table(rec, what="the long table of results_format='csv'", rows=False, text=("receptor",),
+                        finite=(tcol, "x_m", "y_m", "z_m"), numbers=("sed_pa", "current_a"),
+                        columns=("longitudinal", "cross"), unique=(tcol, "receptor")).rename(columns={"step": "time_s"})
+    ds = df.set_index(["time_s", "receptor"])[["sed_pa", "current_a"]].to_xarray().rename(time_s="time")
+    first = df.drop_duplicates("receptor").set_index("receptor")
+    ds = ds.assign_coords({c: ("receptor", first.loc[ds.receptor.values, c].to_numpy())
+                           for c in ("x_m", "y_m", "z_m", "longitudinal", "cross")})
+    if os.path.lexists(aff):
+        da = read_run_table(aff, what="the long table of results_format='csv'", rows=False, text=("afferent",),
+                            finite=(tcol, "position_m"), numbers=("current_a",), unique=(tcol, "afferent"))
+        da = da.rename(columns={"step": "time_s"})
+        a = da.set_index(["time_s", "afferent"])["current_a"].to_xarray().rename(time_s="time")
+        ds["afferent_current_a"] = a.reindex(time=ds.time)
+        pos = da.drop_duplicates("afferent").set_index("afferent")["position_m"]
+        ds = ds.assign_coords(position_m=("afferent", pos.loc[ds.afferent.values].to_numpy()))
+    return ds

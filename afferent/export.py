@@ -60,7 +60,6 @@ from types import SimpleNamespace
 import numpy as np
 
 from ._tables import write_table
-from .exceptions import SEDFormatError
 
 __all__ = ["write_outputs", "write_json", "file_sha256", "versions", "jsonable",
            "receptors_table", "write_receptor_vtu", "step_title", "profile_step_record", "results_dataset",
@@ -423,82 +422,18 @@ def load_results(folder):
     The ``tables`` and ``run`` attributes are Python objects, not netCDF attributes: remove
     them before writing the Dataset back (``ds.attrs.pop('tables'); ds.attrs.pop('run')``).
     """
-    from ._run_folder import read_run_record, read_run_table
+    from ._run_folder import dataset_from_csv, read_results_nc, read_run_record, read_run_table
 
     folder = os.fspath(folder)
     record = read_run_record(folder)
     nc = os.path.join(folder, RESULTS_NC)
-    ds = _read_nc(nc) if os.path.lexists(nc) else _dataset_from_csv(folder)
+    ds = read_results_nc(nc) if os.path.lexists(nc) else dataset_from_csv(folder)
     tables = {}
     for name in sorted(os.listdir(folder)):
         if name.endswith(".csv") and name not in ("receptors.csv", "afferents.csv"):
             tables[name[:-4]] = read_run_table(os.path.join(folder, name), what="a table afferent wrote", rows=False)
     ds.attrs["run"] = record
     ds.attrs["tables"] = tables
-    return ds
-
-
-def _read_nc(nc: str):
-    """``currents.nc`` (:func:`results_dataset`) loaded, once it is a regular file without HDF5 external links or
-    variables stored in other files (refused: nothing outside it is read); a file that is not readable
-    netCDF-4 (or not a file) is an error naming it."""
-    import h5py
-    import xarray as xr
-
-    from .io._files import check_regular, h5_refuse_external
-
-    if os.path.isdir(nc):
-        raise SEDFormatError(f"Results file {nc!r} is not a file; expected the netCDF-4 file of a run's time courses.")
-    check_regular(nc, "Results file")
-    try:
-        h5 = h5py.File(nc, "r")
-    except OSError as err:
-        raise SEDFormatError(f"Results file {nc!r} could not be read as netCDF-4 ({' '.join(str(err).split())}); "
-                             "expected the time courses a run wrote.") from err
-    with h5:
-        h5_refuse_external(h5, "Results file")
-    try:
-        with xr.open_dataset(nc, engine="h5netcdf") as f:
-            return f.load()
-    except (OSError, ValueError, KeyError, TypeError) as err:
-        raise SEDFormatError(f"Results file {nc!r} could not be read as netCDF-4 ({' '.join(str(err).split())}); "
-                             "expected the time courses a run wrote.") from err
-
-
-def _time_column(path: str) -> str:
-    """'step' when the long table's header names steps (an export without times), else 'time_s'."""
-    from .io._files import open_regular
-
-    with open_regular(path, "Results table") as f:
-        names = [n.strip().strip(b'"') for n in f.readline(65536).split(b",")]
-    return "step" if b"step" in names and b"time_s" not in names else "time_s"
-
-
-def _dataset_from_csv(folder: str):
-    """The Dataset of :func:`results_dataset` from the long CSV tables of ``results_format='csv'``."""
-    import xarray as xr
-
-    from ._run_folder import read_run_table
-
-    rec, aff = os.path.join(folder, "receptors.csv"), os.path.join(folder, "afferents.csv")
-    if not os.path.lexists(rec):
-        return xr.Dataset()
-    tcol = _time_column(rec)  # 'step' in the tables of an export without times: step numbers as the time axis
-    df = read_run_table(rec, what="the long table of results_format='csv'", rows=False, text=("receptor",),
-                        finite=(tcol, "x_m", "y_m", "z_m"), numbers=("sed_pa", "current_a"),
-                        columns=("longitudinal", "cross"), unique=(tcol, "receptor")).rename(columns={"step": "time_s"})
-    ds = df.set_index(["time_s", "receptor"])[["sed_pa", "current_a"]].to_xarray().rename(time_s="time")
-    first = df.drop_duplicates("receptor").set_index("receptor")
-    ds = ds.assign_coords({c: ("receptor", first.loc[ds.receptor.values, c].to_numpy())
-                           for c in ("x_m", "y_m", "z_m", "longitudinal", "cross")})
-    if os.path.lexists(aff):
-        da = read_run_table(aff, what="the long table of results_format='csv'", rows=False, text=("afferent",),
-                            finite=(tcol, "position_m"), numbers=("current_a",), unique=(tcol, "afferent"))
-        da = da.rename(columns={"step": "time_s"})
-        a = da.set_index(["time_s", "afferent"])["current_a"].to_xarray().rename(time_s="time")
-        ds["afferent_current_a"] = a.reindex(time=ds.time)
-        pos = da.drop_duplicates("afferent").set_index("afferent")["position_m"]
-        ds = ds.assign_coords(position_m=("afferent", pos.loc[ds.afferent.values].to_numpy()))
     return ds
 
 

@@ -419,7 +419,7 @@ def test_load_results_refuses_a_fifo_table(tmp_path):
         out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=60).stdout
     except subprocess.TimeoutExpired:
         pytest.fail("load_results blocked on a FIFO")
-    assert f"SEDFormatError Results table {str(tmp_path / 'spikes.csv')!r} is a FIFO (named pipe)" in out, out
+    assert f"SEDFormatError Run table {str(tmp_path / 'spikes.csv')!r} is a FIFO (named pipe)" in out, out
 
 
 @needs_fifo

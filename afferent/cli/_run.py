@@ -90,6 +90,26 @@ def add_args(parser: argparse.ArgumentParser) -> None:
     g.add_argument("--d-ref-mm", type=float, metavar="D", help="indentation depth of the static export, mm (SED scales as (d/d_ref)^2)")
     g.add_argument("--waveform-dt-ms", type=float, metavar="DT",
                    help="sampling step of ramp/sine waveforms, ms (default 1, or 1/20 of a sine's period when shorter)")
+    _add_spike_args(parser)
+    add_accept_option(parser)
+    parser.add_argument("--no-plots", action="store_true", help="skip the PNG figures")
+    parser.add_argument("--results-format", choices=("netcdf", "csv"),
+                        help="time courses of receptors and afferents: one NetCDF-4 file currents.nc (default) or the "
+                             "long tables receptors.csv and afferents.csv ([outputs] format; --format names the export's)")
+    parser.add_argument("--nwb", action="store_true",
+                        help="with --spikes, also spikes.nwb (Neurodata Without Borders; needs pip install "
+                             "'afferent-skin[nwb]')")
+    parser.add_argument("--no-cache", action="store_true",
+                        help="neither read nor write the sampled-SED cache ($AFFERENT_CACHE_DIR or ~/.cache/afferent)")
+    add_receptor_options(parser, required=False)
+    add_input_options(parser)
+    add_output_options(parser, what="output folder (created whole, or not at all); for a scene, overrides its [outputs] dir",
+                       required=False)
+    parser.set_defaults(_options=parser._actions)
+
+
+def _add_spike_args(parser: argparse.ArgumentParser) -> None:
+    """The options of the spiking stage (leaky integrate-and-fire)."""
     g = parser.add_argument_group("spikes (leaky integrate-and-fire)")
     g.add_argument("--spikes", action="store_true", help="simulate spikes: writes spikes.csv and spike_summary.csv")
     g.add_argument("--engine", default="auto", choices=("auto", "exact", "exact-numba", "exact-numpy", "fast", "fast-numba", "fast-numpy", "brian2"),
@@ -121,21 +141,6 @@ def add_args(parser: argparse.ArgumentParser) -> None:
     reads(g.add_argument("--zone-map", metavar="ZONES.csv",
                          help="with --branching zones: each receptor's zone (columns receptor, zone) instead of "
                               "--zones-per-afferent"))
-    add_accept_option(parser)
-    parser.add_argument("--no-plots", action="store_true", help="skip the PNG figures")
-    parser.add_argument("--results-format", choices=("netcdf", "csv"),
-                        help="time courses of receptors and afferents: one NetCDF-4 file currents.nc (default) or the "
-                             "long tables receptors.csv and afferents.csv ([outputs] format; --format names the export's)")
-    parser.add_argument("--nwb", action="store_true",
-                        help="with --spikes, also spikes.nwb (Neurodata Without Borders; needs pip install "
-                             "'afferent-skin[nwb]')")
-    parser.add_argument("--no-cache", action="store_true",
-                        help="neither read nor write the sampled-SED cache ($AFFERENT_CACHE_DIR or ~/.cache/afferent)")
-    add_receptor_options(parser, required=False)
-    add_input_options(parser)
-    add_output_options(parser, what="output folder (created whole, or not at all); for a scene, overrides its [outputs] dir",
-                       required=False)
-    parser.set_defaults(_options=parser._actions)
 
 
 def _transduction_table(args) -> dict:
