@@ -18,6 +18,7 @@ import pandas as pd
 
 from ..exceptions import SEDFormatError
 from ._columns import COORD_ALIASES, ID_ALIASES, canonical, part_note
+from ._files import open_regular
 
 # --------------------------------------------------------------------------------------
 # Line classification
@@ -282,13 +283,9 @@ def _join_names(names) -> str:
 
 def _load_text(path: str) -> tuple[str, list[str]]:
     """Read ``path``, decompress gzip, decode; raise on a missing or binary file."""
-    if not os.path.exists(path):
-        raise FileNotFoundError(f"SED file {path!r} not found.")
     if os.path.isdir(path):
         raise SEDFormatError(f"SED file {path!r} must be a file; got a directory instead.")
-    from ._files import open_regular
-
-    with open_regular(path, "SED file") as fh:  # a FIFO (a --coordinates table too) refused, not waited on
+    with open_regular(path, "SED file") as fh:  # missing: 'not found'; a FIFO (a --coordinates table too) refused
         data = fh.read()
     notes: list[str] = []
     if data[:2] == b"\x1f\x8b":
