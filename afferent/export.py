@@ -397,6 +397,10 @@ def load_results(folder):
     ------
     FileNotFoundError
         ``folder`` is not a folder, or holds no ``run.json``.
+    SEDFormatError
+        ``currents.nc`` is damaged or not the run's: a dimension other than ``run.json``
+        records (receptors, afferents, steps), a variable larger than its dimensions, values
+        its file does not store; checked before anything is read.
 
     Notes
     -----
@@ -410,8 +414,11 @@ def load_results(folder):
     record = os.path.join(folder, "run.json")
     if not os.path.isfile(record):
         raise FileNotFoundError(f"{folder!r} is not an afferent output folder: it holds no run.json.")
+    with open(record, encoding="utf-8") as f:
+        run = json.load(f)
     nc = os.path.join(folder, RESULTS_NC)
     if os.path.isfile(nc):
+        _check_results_file(nc, run)
         with xr.open_dataset(nc, engine="h5netcdf") as f:
             ds = f.load()
     else:
@@ -420,10 +427,47 @@ def load_results(folder):
     for name in sorted(os.listdir(folder)):
         if name.endswith(".csv") and name not in ("receptors.csv", "afferents.csv"):
             tables[name[:-4]] = pd.read_csv(os.path.join(folder, name))
-    with open(record, encoding="utf-8") as f:
-        ds.attrs["run"] = json.load(f)
+    ds.attrs["run"] = run
     ds.attrs["tables"] = tables
     return ds
+
+
+def _check_results_file(nc: str, run: dict) -> None:
+    """Refuse a ``currents.nc`` whose sizes are not its run's, before any value is read: each dimension
+    against ``run.json`` (receptors sampled, afferents, steps; those it records), each variable's shape
+    against its dimensions, and no variable whose values its file does not store
+    (:func:`afferent.io._raw.h5_check`: chunks never written)."""
+    import h5netcdf
+    import h5py
+
+    from .exceptions import SEDFormatError
+    from .io._raw import h5_check
+
+    said = {"receptor": (run.get("receptors") or {}).get("n_receptors_sampled"),
+            "afferent": (run.get("synthesis") or {}).get("n_afferents"),
+            "time": (run.get("profile_step") or {}).get("n_steps")}
+    try:
+        with h5py.File(nc, "r") as f:
+            for dset in [f[name] for name in f if isinstance(f[name], h5py.Dataset)]:
+                h5_check(dset, f"results file {nc!r}: variable {dset.name.lstrip('/')!r}")
+        with h5netcdf.File(nc, "r") as f:
+            sizes = {name: int(d.size) for name, d in f.dimensions.items()}
+            shapes = {name: (tuple(v.dimensions), tuple(v.shape)) for name, v in f.variables.items()}
+    except SEDFormatError:
+        raise
+    except (OSError, ValueError, KeyError) as err:
+        raise SEDFormatError(f"results file {nc!r} could not be read as NetCDF-4 (truncated or corrupt?): "
+                             f"{type(err).__name__}: {err}") from err
+    for name, size in sizes.items():
+        if isinstance(said.get(name), int) and size != said[name]:
+            raise SEDFormatError(f"results file {nc!r}: dimension {name!r} has {size:,} entries where run.json "
+                                 f"records {said[name]:,}: the file is not this run's, or corrupt; refused before "
+                                 "reading it.")
+    for name, (dims, shape) in shapes.items():
+        if shape != tuple(sizes.get(d, -1) for d in dims):
+            raise SEDFormatError(f"results file {nc!r}: variable {name!r} has shape {shape} where its dimensions "
+                                 f"{dims} have {tuple(sizes.get(d) for d in dims)}: the file is corrupt; refused "
+                                 "before reading it.")
 
 
 def _dataset_from_csv(folder: str):
