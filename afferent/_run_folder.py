@@ -169,7 +169,7 @@ def check_table(df, *, where: str, what: str, finite=(), numbers=(), columns=(),
     return df
 
 
-def read_results_nc(nc: str):
+def read_results_nc(nc: str, run: dict):
     """``currents.nc`` (:func:`afferent.export.results_dataset`) loaded, once it is a regular file without HDF5 external links or
     variables stored in other files (refused: nothing outside it is read); a file that is not readable
     netCDF-4 (or not a file) is an error naming it."""
@@ -188,6 +188,7 @@ def read_results_nc(nc: str):
                              "expected the time courses a run wrote.") from err
     with h5:
         h5_refuse_external(h5, "Results file")
+    _check_results_file(nc, run)
     try:
         with xr.open_dataset(nc, engine="h5netcdf") as f:
             return f.load()
@@ -229,3 +230,40 @@ def dataset_from_csv(folder: str):
         pos = da.drop_duplicates("afferent").set_index("afferent")["position_m"]
         ds = ds.assign_coords(position_m=("afferent", pos.loc[ds.afferent.values].to_numpy()))
     return ds
+
+
+def _check_results_file(nc: str, run: dict) -> None:
+    """Refuse a ``currents.nc`` whose sizes are not its run's, before any value is read: each dimension
+    against ``run.json`` (receptors sampled, afferents, steps; those it records), each variable's shape
+    against its dimensions, and no variable whose values its file does not store
+    (:func:`afferent.io._raw.h5_check`: chunks never written)."""
+    import h5netcdf
+    import h5py
+
+    from .io._raw import h5_check
+
+    said = {"receptor": (run.get("receptors") or {}).get("n_receptors_sampled"),
+            "afferent": (run.get("synthesis") or {}).get("n_afferents"),
+            "time": (run.get("profile_step") or {}).get("n_steps")}
+    try:
+        with h5py.File(nc, "r") as f:
+            for dset in [f[name] for name in f if isinstance(f[name], h5py.Dataset)]:
+                h5_check(dset, f"results file {nc!r}: variable {dset.name.lstrip('/')!r}")
+        with h5netcdf.File(nc, "r") as f:
+            sizes = {name: int(d.size) for name, d in f.dimensions.items()}
+            shapes = {name: (tuple(v.dimensions), tuple(v.shape)) for name, v in f.variables.items()}
+    except SEDFormatError:
+        raise
+    except (OSError, ValueError, KeyError) as err:
+        raise SEDFormatError(f"results file {nc!r} could not be read as NetCDF-4 (truncated or corrupt?): "
+                             f"{type(err).__name__}: {err}") from err
+    for name, size in sizes.items():
+        if isinstance(said.get(name), int) and size != said[name]:
+            raise SEDFormatError(f"results file {nc!r}: dimension {name!r} has {size:,} entries where run.json "
+                                 f"records {said[name]:,}: the file is not this run's, or corrupt; refused before "
+                                 "reading it.")
+    for name, (dims, shape) in shapes.items():
+        if shape != tuple(sizes.get(d, -1) for d in dims):
+            raise SEDFormatError(f"results file {nc!r}: variable {name!r} has shape {shape} where its dimensions "
+                                 f"{dims} have {tuple(sizes.get(d) for d in dims)}: the file is corrupt; refused "
+                                 "before reading it.")

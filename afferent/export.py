@@ -416,6 +416,9 @@ def load_results(folder):
         Or one of its files is not a regular file (a FIFO, a device: refused before it is opened), or
         ``currents.nc`` holds an HDF5 external link or a variable stored in other files (afferent writes
         it self-contained; nothing outside the folder is read).
+        Or ``currents.nc`` is damaged or not the run's: a dimension other than ``run.json``
+        records (receptors, afferents, steps), a variable larger than its dimensions, values
+        its file does not store; checked before anything is read.
 
     Notes
     -----
@@ -427,7 +430,7 @@ def load_results(folder):
     folder = os.fspath(folder)
     record = read_run_record(folder)
     nc = os.path.join(folder, RESULTS_NC)
-    ds = read_results_nc(nc) if os.path.lexists(nc) else dataset_from_csv(folder)
+    ds = read_results_nc(nc, record) if os.path.lexists(nc) else dataset_from_csv(folder)
     tables = {}
     for name in sorted(os.listdir(folder)):
         if name.endswith(".csv") and name not in ("receptors.csv", "afferents.csv"):

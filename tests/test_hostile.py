@@ -22,7 +22,7 @@ CASES = [
     ("empty.vtu", "SED file {f!r} is empty."),
     ("header_only.csv", "SED file {f!r} has a header but no data rows"),
     ("truncated.vtu", "SED file {f!r} could not be read as .vtu (truncated or corrupt?)"),
-    ("corrupt.vtu", "SED file {f!r} could not be read as .vtu (truncated or corrupt?): ValueError"),
+    ("corrupt.vtu", "SED file {f!r}: points array 'Points': its header is cut short or corrupt (a truncated file?)"),
     ("binary.csv", "SED file {f!r} must be a text table (CSV, TXT or report); got binary data instead"),
     ("nan_sed.csv", "SED file {f!r}: SED column 'SED' must be finite; got 1 non-finite value(s) (first: NaN at row 3)"),
     ("inf_sed.csv", "SED file {f!r}: SED column 'SED' must be finite; got 1 non-finite value(s) (first: infinite at row 3)"),

@@ -289,3 +289,27 @@ def test_the_development_check_script_runs_on_exodus_files(capsys):
     assert "ok   node order  hexahedron20: largest mid-node offset 0 of the edge length" in capsys.readouterr().out
     assert check.main([str(LAYERS), "--young", str(E_DERMIS), "--poisson", str(NU)]) == 1
     assert "FAIL shear       stress_* vs strain_* (cell)" in capsys.readouterr().out
+
+
+def test_a_variable_larger_than_the_mesh_allows_is_refused_before_it_is_read(tmp_path):
+    """Issue 33 item 10: a netCDF-4 Exodus file whose nodal variable holds 1e9 values (chunks never written:
+    HDF5 would hand back 8 GB of fill value) on a mesh of 100 nodes and one step. Before: read whole (8 GB);
+    now refused from its shape, in a child that stays under 400 MB."""
+    import shutil
+
+    import h5py
+    from _memory import in_child
+
+    path = tmp_path / "bomb.e"
+    shutil.copy(SFEPY, path)
+    with h5py.File(path, "r+") as f:
+        del f["vals_nod_var2"]
+        f.create_dataset("vals_nod_var2", shape=(1, 10**9), dtype="f8", chunks=(1, 1 << 20))
+    got = in_child(f"""
+        from afferent.io import read_raw
+        read_raw({str(path)!r})
+    """)
+    assert got["error"] == ["SEDFormatError", f"SED file {str(path)!r}: Exodus variable 'vals_nod_var2': the dataset holds "
+                            "1,000,000,000 values (shape (1, 1000000000)) where 900 are expected: the file is corrupt; "
+                            "refused before reading it."], got
+    assert got["peak_mb"] < 400, got

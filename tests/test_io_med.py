@@ -272,3 +272,26 @@ def test_values_on_a_profile_are_placed_on_its_entities_nan_elsewhere(tmp_path):
     got = read_raw(path).arrays["ENEL_ELGA"].values
     np.testing.assert_array_equal(got[:, keep], full[:, keep])
     assert np.isnan(np.delete(got, keep, axis=1)).all()
+
+
+def test_field_values_larger_than_their_count_are_refused_before_they_are_read(tmp_path):
+    """Issue 33 item 10: a MED field whose values dataset holds 1e9 values (chunks never written: 8 GB of
+    HDF5's fill value) where its NBR and the mesh say 18. Before: read whole (8 GB); now refused from its
+    shape, in a child that stays under 400 MB."""
+    import h5py
+    from _memory import in_child
+
+    path = tmp_path / "bomb.med"
+    shutil.copy(TETRA, path)
+    key = "CHA/ENEL_NOEU/00000000000000000001-0000000000000000001/NOE/MED_NO_PROFILE_INTERNAL/CO"
+    with h5py.File(path, "r+") as f:
+        del f[key]
+        f.create_dataset(key, shape=(10**9,), dtype="f8", chunks=(1 << 20,))
+    got = in_child(f"""
+        from afferent.io import read_raw
+        read_raw({str(path)!r})
+    """)
+    assert got["error"] == ["SEDFormatError", f"SED file {str(path)!r}: the values of 'NOE' ('/{key.rpartition('/')[0]}/CO'): "
+                            "the dataset holds 1,000,000,000 values (shape (1000000000,)) where 18 are expected: the file is corrupt; "
+                            "refused before reading it."], got
+    assert got["peak_mb"] < 400, got

@@ -155,7 +155,7 @@ def test_a_series_steps_read_whole_are_h5py_s_values_bit_for_bit(tmp_path, monke
                     dset.write(h5s.ALL, h5s.ALL, values)
     whole = []
     original = _xdmf._read_whole
-    monkeypatch.setattr(_xdmf, "_read_whole", lambda h5, name: whole.append((name, r := original(h5, name))) or r)
+    monkeypatch.setattr(_xdmf, "_read_whole", lambda h5, name, *check: whole.append((name, r := original(h5, name, *check))) or r)
     steps = list(_raw_steps("s.xdmf", None, False)[1])
     read_whole = {name for name, r in whole if r is not None}
     assert read_whole == {"/data1", *names[:4]}  # the cells (after the points followed the group) and 4 steps
@@ -301,3 +301,99 @@ def test_an_external_link_that_cannot_be_followed_is_named(tmp_path, monkeypatch
         f["/data3"] = h5py.ExternalLink(*target)
     with pytest.raises(SEDFormatError, match=re.escape(meaning)):
         read_raw("s.xdmf")
+
+
+def _zeros_gzip(h5, name: str, shape: tuple, chunk_rows: int = 1 << 20) -> None:
+    """A chunked gzip dataset of float64 zeros (``shape``), every chunk written as the same precompressed
+    bytes (no 8-GB buffer, no compression time): ~1 kB stored per 1 MiB of values."""
+    import zlib
+
+    rows = min(chunk_rows, shape[0])
+    dset = h5.create_dataset(name, shape=shape, dtype="f8", chunks=(rows,) + shape[1:], compression="gzip")
+    packed = zlib.compress(bytes(8 * rows * int(np.prod(shape[1:]))), 9)
+    for start in range(0, shape[0], rows):
+        dset.id.write_direct_chunk((start,) + (0,) * (len(shape) - 1), packed)
+
+
+def _dolfinx_copy(tmp_path, replace: dict, dims: dict | None = None) -> str:
+    """The DOLFINx block (tests/data/dolfinx) copied to ``tmp_path``, datasets replaced by ``replace``
+    ({name: function(h5 file, name)}) and DataItem Dimensions rewritten by ``dims`` ({dataset: text})."""
+    shutil.copy(DX / "block.h5", tmp_path / "block.h5")
+    text = (DX / "block.xdmf").read_text()
+    for name, dim in (dims or {}).items():
+        text, n = re.subn(rf'Dimensions="[^"]*"(?=[^>]*>block\.h5:{re.escape(name)}<)', f'Dimensions="{dim}"', text)
+        assert n == 1, name
+    (tmp_path / "block.xdmf").write_text(text)
+    with h5py.File(tmp_path / "block.h5", "r+") as h5:
+        for name, make in replace.items():
+            del h5[name]
+            make(h5, name)
+    return str(tmp_path / "block.xdmf")
+
+
+def _read_in_child(path: str) -> dict:
+    from _memory import in_child
+
+    return in_child(f"""
+        from afferent.io import read_raw
+        read_raw({path!r})
+    """)
+
+
+def test_a_dataset_larger_than_its_dimensions_is_refused_before_it_is_read(tmp_path):
+    """Issue 33 item 10: a 2 MB .h5 whose gzip dataset inflates to 2 GiB under XDMF Dimensions "75 1". Before:
+    read whole (2.1 GB), then refused for its size; now refused from its shape, nothing read."""
+    path = _dolfinx_copy(tmp_path, {"/Function/sed_nodal/2": lambda h5, n: _zeros_gzip(h5, n, (1 << 28, 1))})
+    assert os.path.getsize(tmp_path / "block.h5") < 3e6
+    got = _read_in_child(path)
+    assert got["error"] == ["SEDFormatError", f"SED file {path!r}: attribute 'sed_nodal' at t = 2 must hold 75 x 1 "
+                            "values (its Dimensions); got 268435456 instead."], got
+    assert got["peak_mb"] < 400, got
+
+
+def test_values_for_more_rows_than_the_mesh_has_are_refused_before_they_are_read(tmp_path):
+    """An attribute declaring 1e9 rows (Dimensions and dataset agree; its chunks never written: HDF5 would
+    hand back 8 GB of fill value) on a mesh of 75 points: refused from the Dimensions, nothing read."""
+    def unwritten(h5, name):
+        h5.create_dataset(name, shape=(10**9, 1), dtype="f8", chunks=(1 << 20, 1))
+
+    path = _dolfinx_copy(tmp_path, {"/Function/sed_nodal/2": unwritten}, {"/Function/sed_nodal/2": "1000000000 1"})
+    got = _read_in_child(path)
+    assert got["error"] == ["SEDFormatError", f"SED file {path!r}: attribute 'sed_nodal' at t = 2 must have one row "
+                            "per point (75); got 1000000000."], got
+    assert got["peak_mb"] < 400, got
+
+
+def test_a_geometry_whose_file_stores_none_of_its_values_is_refused(tmp_path):
+    """The mesh's own geometry declaring 1e8 points (2.4 GB; Dimensions and dataset agree) whose chunks were
+    never written: no count to check it against, but its file stores nothing of it; refused before reading."""
+    def unwritten(h5, name):
+        h5.create_dataset(name, shape=(10**8, 3), dtype="f8", chunks=(1 << 18, 3))
+
+    path = _dolfinx_copy(tmp_path, {"/Mesh/mesh/geometry": unwritten}, {"/Mesh/mesh/geometry": "100000000 3"})
+    got = _read_in_child(path)
+    assert got["error"] == ["SEDFormatError", f"SED file {path!r}: the geometry of grid 'mesh' ({str(tmp_path / 'block.h5')!r}, "
+                            "dataset '/Mesh/mesh/geometry'): the dataset holds 300,000,000 values (shape (100000000, 3), "
+                            "2,400,000,000 bytes) of which the file stores 0 bytes: chunks never written (no data, "
+                            "HDF5's fill value) or a compression beyond gzip's (1,100:1 at most); refused before reading "
+                            "it."], got
+    assert got["peak_mb"] < 400, got
+
+
+def test_all_zero_values_compressed_by_gzip_pass_the_stored_bytes_check(tmp_path):
+    """The check of what a file stores does not refuse legitimate data: 128 MiB of zeros under gzip (~1,000:1)
+    pass, as would their read; the same values unwritten do not."""
+    from afferent.io._raw import h5_check
+
+    with h5py.File(tmp_path / "z.h5", "w") as h5:
+        _zeros_gzip(h5, "zeros", (1 << 24,))
+        h5.create_dataset("unwritten", shape=(1 << 24,), dtype="f8", chunks=(1 << 20,))
+        ratio = h5["zeros"].nbytes / h5["zeros"].id.get_storage_size()
+        assert 900 < ratio < 1100
+        h5_check(h5["zeros"], "zeros")
+        with pytest.raises(SEDFormatError, match=re.escape("unwritten: the dataset holds 16,777,216 values (shape (16777216,), "
+                                                           "134,217,728 bytes) of which the file stores 0 bytes")):
+            h5_check(h5["unwritten"], "unwritten")
+        with pytest.raises(SEDFormatError, match=re.escape("zeros: the dataset holds 16,777,216 values (shape (16777216,)) where "
+                                                           "1,000 are expected")):
+            h5_check(h5["zeros"], "zeros", 1000)

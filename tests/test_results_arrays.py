@@ -153,3 +153,41 @@ def test_load_results_names_the_damaged_file(tmp_path, bump, how, message):
     with pytest.raises(SEDFormatError) as err:
         afferent.load_results(folder)
     assert str(err.value).startswith(message.format(path=path)), str(err.value)
+
+
+def test_a_results_file_larger_than_its_run_is_refused_before_it_is_read(tmp_path, bump):
+    """Issue 33 item 10: a currents.nc whose time axis holds 2e8 values (1.6 GB of gzip-compressed zeros in a
+    1.6 MB file) beside a run.json of 351 steps. Before: load_results read it whole (xarray loads the time
+    index at open); now each dimension is checked against run.json, and each variable against its
+    dimensions and what its file stores, before anything is read: the child stays under 400 MB."""
+    import zlib
+
+    import h5netcdf
+    from _memory import in_child
+
+    out = _run(tmp_path, bump, "nc")
+    n_steps = json.loads((out / "run.json").read_text())["profile_step"]["n_steps"]
+    (out / "currents.nc").unlink()
+    n, rows = 200_000_000, 1 << 20
+    with h5netcdf.File(out / "currents.nc", "w") as f:
+        f.dimensions = {"time": n}
+        f.create_variable("time", ("time",), "f8", chunks=(rows,), compression="gzip")
+    with h5py.File(out / "currents.nc", "r+") as f:
+        packed = zlib.compress(bytes(8 * rows), 9)
+        for start in range(0, n, rows):
+            f["time"].id.write_direct_chunk((start,), packed)
+    assert (out / "currents.nc").stat().st_size < 3e6
+    got = in_child(f"""
+        import afferent
+        afferent.load_results({str(out)!r})
+    """)
+    assert got["error"] == ["SEDFormatError", f"results file {str(out / 'currents.nc')!r}: dimension 'time' has "
+                            f"200,000,000 entries where run.json records {n_steps:,}: the file is not this run's, or "
+                            "corrupt; refused before reading it."], got
+    assert got["peak_mb"] < 400, got
+    with h5py.File(out / "currents.nc", "r+") as f:  # chunks never written: refused whatever run.json says
+        del f["time"]
+        f.create_dataset("unwritten", shape=(n,), dtype="f8", chunks=(rows,))
+    with pytest.raises(afferent.exceptions.SEDFormatError, match="variable 'unwritten': the dataset holds 200,000,000 "
+                                                                 "values .* of which the file stores 0 bytes"):
+        afferent.load_results(out)

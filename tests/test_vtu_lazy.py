@@ -96,9 +96,9 @@ def test_values_that_disagree_with_their_header_are_refused_naming_the_array(tmp
     assert len(meshio.vtu._vtu.VtuReader(str(path)).cell_data["E"][0]) == n_cells - 1  # the decoder: no word
     arr = read_raw(str(path)).arrays["E"]
     assert arr.shape == (1, n_cells)
-    with pytest.raises(SEDFormatError, match=re.escape(f"SED file {str(path)!r}: cell array 'E' decoded to shape "
-                                                       f"({n_cells - 1},), where the file's header announced ({n_cells},): "
-                                                       "the file is corrupt.")):
+    with pytest.raises(SEDFormatError, match=re.escape(f"SED file {str(path)!r}: cell array 'E': zlib block 1 of 1 "
+                                                       f"inflates to {8 * (n_cells - 1):,} bytes where its header "
+                                                       f"declares {8 * n_cells:,}: the file is corrupt.")):
         arr.values
 
 
@@ -209,3 +209,132 @@ def test_every_binary_layout_vtk_writes_is_deferred_and_reads_vtks_values(tmp_pa
         want = vtk_to_numpy(data.GetArray(name))
         assert arr.shape == (1,) + want.shape
         np.testing.assert_array_equal(arr.values[0], want, err_msg=name)
+
+
+def _bomb_vtu(path: Path, mode: str, bomb: str, inflates_to: int = 1 << 30, compressor: str = "zlib") -> int:
+    """A hexahedral box written as VTK writes a compressed VTU (UInt64 headers, one block per array),
+    ``mode`` "binary" (inline base64) or "appended" (raw appended data), with point arrays ``sed``
+    and ``U`` in Float64; the array named ``bomb`` holds a block whose header declares its piece's
+    8 bytes a point but which inflates to ``inflates_to`` zero bytes (1 GiB: a ~1 MB file).
+    Returns the bytes the bomb's header declares."""
+    import lzma
+
+    from conftest import hex_box
+    from _memory import zeros_deflated
+
+    points, hexes = hex_box(8, 8, 8)
+    n = len(points)
+    arrays = [("Points", "Points", points.astype("<f8"), 3), ("PointData", "sed", 1e-3 + points[:, 2] * 1e-4, None),
+              ("PointData", "U", points[:, 0] * 0.0, None),
+              ("Cells", "connectivity", hexes.ravel().astype("<i8"), None),
+              ("Cells", "offsets", 8 * np.arange(1, len(hexes) + 1, dtype="<i8"), None),
+              ("Cells", "types", np.full(len(hexes), 12, "<u1"), None)]
+    pack = zlib.compress if compressor == "zlib" else lzma.compress
+    tags = {"Points": [], "Cells": [], "PointData": []}
+    appended, offset = [], 0
+    for part, name, values, k in arrays:
+        raw = np.ascontiguousarray(values).tobytes()
+        body = pack(raw)
+        if name == bomb:
+            body = zeros_deflated(inflates_to) if compressor == "zlib" else lzma.compress(bytes(inflates_to))
+        header = np.array([1, len(raw), len(raw), len(body)], "<u8").tobytes()
+        dtype = {"f": "Float64", "i": "Int64", "u": "UInt8"}[values.dtype.kind]
+        comps = f' NumberOfComponents="{k}"' if k else ""
+        if mode == "binary":
+            text = base64.b64encode(header).decode() + base64.b64encode(body).decode()
+            tags[part].append(f'<DataArray type="{dtype}" Name="{name}"{comps} format="binary">{text}</DataArray>')
+        else:
+            tags[part].append(f'<DataArray type="{dtype}" Name="{name}"{comps} format="appended" offset="{offset}"/>')
+            appended.append(header + body)
+            offset += len(header) + len(body)
+    compressor_tag = "vtkZLibDataCompressor" if compressor == "zlib" else "vtkLZMADataCompressor"
+    xml = (f'<?xml version="1.0"?>\n<VTKFile type="UnstructuredGrid" version="1.0" byte_order="LittleEndian" '
+           f'header_type="UInt64" compressor="{compressor_tag}">\n<UnstructuredGrid>\n'
+           f'<Piece NumberOfPoints="{n}" NumberOfCells="{len(hexes)}">\n'
+           + "".join(f"<{part}>\n" + "\n".join(tags[part]) + f"\n</{part}>\n" for part in ("PointData", "Points", "Cells"))
+           + "</Piece>\n</UnstructuredGrid>\n")
+    tail = "</VTKFile>\n"
+    if mode == "binary":
+        path.write_text(xml + tail)
+    else:
+        path.write_bytes(xml.encode() + b'<AppendedData encoding="raw">\n_' + b"".join(appended)
+                         + b"\n</AppendedData>\n" + tail.encode())
+    return 8 * n
+
+
+@pytest.mark.parametrize("mode", ["binary", "appended"])
+def test_a_bomb_block_is_refused_at_the_size_its_header_declares_in_bounded_memory(tmp_path, mode):
+    """Issue 33 item 10: a 1 MB VTU whose SED block declares 5,832 bytes and inflates to 1 GiB. Before:
+    inflated whole (raw appended: every array inflated and base64-encoded at parse time, 6.5 GB at
+    peak; inline: 2.1 GB), then refused for its shape. Now refused after the declared size plus one
+    byte, naming the file, the array and the sizes; the child process stays under 400 MB."""
+    from _memory import in_child
+
+    path = tmp_path / f"bomb_{mode}.vtu"
+    declared = _bomb_vtu(path, mode, bomb="sed")
+    assert declared == 5832 and path.stat().st_size < 1.5e6  # 1 MB of zlib (base64: 1.4 MB)
+    got = in_child(f"""
+        from afferent.io import read_sed
+        read_sed({str(path)!r}, length_unit="mm", sed_unit="MPa")
+    """)
+    assert got["error"] is not None and got["error"][0] == "VtuCountError"  # an SEDFormatError, not re-read by VTK
+    assert got["error"][1] == (f"SED file {str(path)!r}: point array 'sed': zlib block 1 of 1 inflates to more than 5,832 "
+                               "bytes where its header declares 5,832: the file is corrupt (or a decompression bomb); "
+                               "refused without inflating it further.")
+    assert got["peak_mb"] < 400, got
+
+
+def test_an_unused_bomb_in_raw_appended_data_is_never_inflated(tmp_path):
+    """Before: raw appended data was inflated and re-encoded whole at parse time, the unused
+    ``U`` too (105 s, 6.5 GB for 1 GiB). Now each array is decoded from its raw bytes when used:
+    the SED reads, ``U`` is never inflated, the child stays under 400 MB."""
+    from _memory import in_child
+
+    path = tmp_path / "bomb_u.vtu"
+    _bomb_vtu(path, "appended", bomb="U")
+    got = in_child(f"""
+        import numpy as np
+        from afferent.io import read_raw, read_sed
+        field = read_sed({str(path)!r}, length_unit="mm", sed_unit="MPa")
+        assert field.sed.shape == (1, 729) and np.all(field.sed > 0)
+        raw = read_raw({str(path)!r})
+        assert raw.arrays["U"].shape == (1, 729) and not raw.arrays["U"].decoded
+    """)
+    assert got["error"] is None and got["peak_mb"] < 400, got
+
+
+def test_an_lzma_block_is_inflated_no_further_than_declared(tmp_path):
+    """The LZMA compressor's blocks are bounded the same way (a small bomb: 4 MiB declared as 5,832 bytes)."""
+    path = tmp_path / "bomb_lzma.vtu"
+    _bomb_vtu(path, "binary", bomb="U", inflates_to=1 << 22, compressor="lzma")
+    raw = read_raw(str(path))
+    np.testing.assert_allclose(raw.arrays["sed"].values[0][-1], 1e-3 + 1.9e-4)
+    with pytest.raises(SEDFormatError, match=re.escape("point array 'U': LZMA block 1 of 1 inflates to more than 5,832 "
+                                                       "bytes where its header declares 5,832")):
+        raw.arrays["U"].values
+
+
+@pytest.mark.parametrize("mode", ["binary", "appended"])
+def test_a_header_declaring_more_values_than_the_piece_has_is_refused_before_inflating(tmp_path, mode):
+    """A points array whose header declares 1 GiB (and inflates to it) where the piece has 729 points:
+    refused from the header, naming the array and both sizes, in bounded memory (before: inflated,
+    then refused by its reshape)."""
+    from _memory import in_child
+
+    path = tmp_path / f"points_{mode}.vtu"
+    _bomb_vtu(path, mode, bomb="Points")
+    text = path.read_bytes()
+    declared = np.array([1, 1 << 30, 1 << 30], "<u8").tobytes()
+    honest = np.array([1, 729 * 24, 729 * 24], "<u8").tobytes()
+    if mode == "binary":
+        declared, honest = base64.b64encode(declared)[:28], base64.b64encode(honest)[:28]  # whole 3-byte groups only
+    assert text.count(honest) == 1
+    path.write_bytes(text.replace(honest, declared))
+    got = in_child(f"""
+        from afferent.io import read_raw
+        read_raw({str(path)!r})
+    """)
+    assert got["error"] == ["VtuCountError", f"SED file {str(path)!r}: points array 'Points': its header declares "
+                            "1,073,741,824 bytes of values, more than the 17,496 its piece's counts allow: the file is "
+                            "corrupt; refused without decoding it."], got
+    assert got["peak_mb"] < 400, got

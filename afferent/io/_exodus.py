@@ -113,11 +113,17 @@ class _NetCDF:
     def __contains__(self, name: str) -> bool:
         return name in self.names
 
-    def get(self, name: str) -> np.ndarray:
+    def get(self, name: str, size: int | None = None) -> np.ndarray:
+        """A variable's values; netCDF-4: checked before reading (:func:`~afferent.io._raw.h5_check`: no more
+        than ``size`` values when given, no values its file does not store). netCDF-3 stores every value."""
+        from ._raw import h5_check
+
         try:
             if hasattr(self, "_nc"):
                 return np.array(self._nc.variables[name].data)
-            return np.array(h5_read(self._h5, name, self.scope, self.opened))  # its external storage resolved before it is read
+            label = f"SED file {self.path!r}: Exodus variable {name!r}"
+            return np.array(h5_read(self._h5, name, self.scope, self.opened,  # external storage resolved before it is read
+                                    check=lambda d: h5_check(d, label, size)))
         except SEDFormatError:
             raise
         except Exception as err:
@@ -218,9 +224,9 @@ def _nodal_arrays(nc, path: str, n_t: int, n_nodes: int) -> dict[str, RawArray]:
     arrays: dict[str, RawArray] = {}
     for i, name in enumerate(nc.strings("name_nod_var"), start=1):
         if f"vals_nod_var{i}" in nc:
-            v = nc.get(f"vals_nod_var{i}")
+            v = nc.get(f"vals_nod_var{i}", max(n_t, 1) * n_nodes * 9)  # a trailing component axis: up to a 3 x 3 tensor
         elif "vals_nod_var" in nc:
-            combined = nc.get("vals_nod_var")  # (time, variable, node) in old Exodus files
+            combined = nc.get("vals_nod_var", max(n_t, 1) * len(nc.strings("name_nod_var")) * n_nodes)  # (time, variable, node)
             if combined.ndim != 3 or combined.shape[1] < i:
                 raise SEDFormatError(f"SED file {path!r}: 'vals_nod_var' must be (time, variable, node) with a "
                                      f"slot for nodal variable {i} ({name!r}); got shape {combined.shape} instead.")
@@ -243,7 +249,7 @@ def _element_arrays(nc, path: str, n_t: int, volume: list, arrays: dict[str, Raw
                                          and bool(table[j - 1, i - 1]))
             carried = key in nc and in_table
             if carried:
-                v = _per_step(nc.get(key), n_t, n, path, f"element variable {name!r} of block {j}", "element")
+                v = _per_step(nc.get(key, max(n_t, 1) * n), n_t, n, path, f"element variable {name!r} of block {j}", "element")
                 present = True
             else:
                 v = np.full((n_t, n), np.nan)

@@ -308,9 +308,10 @@ def _check_storage(dataset, scope: Scope, opened: list) -> None:
                                  "files again (external or virtual); afferent reads one level of virtual sources.")
 
 
-def h5_read(group, name: str, scope: Scope | None = None, opened: list | None = None):
+def h5_read(group, name: str, scope: Scope | None = None, opened: list | None = None, check=None):
     """The values (ndarray) of dataset ``name`` of an open h5py group, read once every file they are stored in
-    (external raw files, virtual sources) has passed :func:`resolve_member`.
+    (external raw files, virtual sources) has passed :func:`resolve_member`, and ``check(dataset)`` (the
+    caller's sizes: :func:`afferent.io._raw.h5_check`) has not refused it.
 
     External raw files named relatively are read beside the dataset's file (``${ORIGIN}``), where
     :func:`resolve_member` looked, not in the working folder (HDF5's default). The file holding the
@@ -326,6 +327,8 @@ def h5_read(group, name: str, scope: Scope | None = None, opened: list | None = 
     opened = [] if opened is None else opened
     opened.append(dataset.file.filename)
     _check_storage(dataset, scope or Scope.of(dataset.file.filename), opened)
+    if check is not None:
+        check(dataset)
     return dataset[()]
 
 

@@ -110,10 +110,16 @@ class _File:
             raise SEDFormatError(f"SED file {self.path!r}: {what} ('{node.name}/{key}') could not be read (truncated or "
                                  f"not a MED layout?): {type(err).__name__}: {err}") from err
 
-    def values(self, node, key: str, what: str) -> np.ndarray:
+    def values(self, node, key: str, what: str, size: int | None = None) -> np.ndarray:
+        """A dataset's values, checked before reading (:func:`~afferent.io._raw.h5_check`: no more than
+        ``size`` values when given, no values its file does not store)."""
+        from ._raw import h5_check
+
         try:
             self.get(node, key, what)
-            return np.asarray(h5_read(node, key, self.scope, self.opened))  # its external storage resolved before it is read
+            label = f"SED file {self.path!r}: {what} ('{node.name}/{key}')"
+            return np.asarray(h5_read(node, key, self.scope, self.opened,  # external storage resolved before it is read
+                                      check=lambda d: h5_check(d, label, size)))
         except SEDFormatError:
             raise
         except Exception as err:
@@ -151,7 +157,7 @@ def _mesh_arrays(f: _File, node, dim: int):
     """Coordinates (n, 3) and the element blocks {MED type: (n_elements, nodes per element) 0-based}."""
     coo = f.get(node, "NOE", "the mesh's nodes")
     n = int(f.attr(f.get(coo, "COO", "the node coordinates"), "NBR", "the node coordinates"))
-    flat = f.values(coo, "COO", "the node coordinates").astype(float)
+    flat = f.values(coo, "COO", "the node coordinates", n * dim).astype(float)
     if flat.size != n * dim:
         raise SEDFormatError(f"SED file {f.path!r}: the node coordinates must hold {n} x {dim} values; got {flat.size}.")
     xyz = flat.reshape(n, dim, order="F")
@@ -186,7 +192,7 @@ def _support(f: _File, step, key: str, n_entities: int, ncomp: int):
     pfl = _text(group.attrs.get("PFL", _NO_PROFILE)).strip()
     data = f.get(group, pfl, f"the values of {key!r}")
     count, per = int(f.attr(data, "NBR", key)), int(data.attrs.get("NGA", 1))
-    flat = f.values(data, "CO", f"the values of {key!r}").astype(float)
+    flat = f.values(data, "CO", f"the values of {key!r}", count * per * ncomp).astype(float)
     if flat.size != count * per * ncomp:
         raise SEDFormatError(f"SED file {f.path!r}: '{data.name}' must hold {count} x {per} x {ncomp} values; got "
                              f"{flat.size} instead.")

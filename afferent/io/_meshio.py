@@ -1,8 +1,8 @@
 """Mesh-based exports through meshio: VTU/VTK files, PVD collections, XDMF time series.
 
 Each reader returns a :class:`~afferent.io._raw.RawExport` in the file's units. A ``.vtu`` is
-read by :func:`afferent.io._vtu.read_vtu` (one parse, meshio's decoder, every piece), other
-formats by meshio's readers; the VTK-library path is :mod:`afferent.io._vtk`. For a time
+read by :func:`afferent.io._vtu.read_vtu` (one parse, every piece, no block inflated beyond its
+declared size), other formats by meshio's readers; the VTK-library path is :mod:`afferent.io._vtk`. For a time
 series the mesh (points and cells) is decoded once; later steps decode only their points and
 data arrays (a VTU series is checked to share the first step's points).
 """

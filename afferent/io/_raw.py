@@ -34,7 +34,7 @@ import numpy as np
 from ..exceptions import SEDFormatError
 from ..field import Cells
 
-__all__ = ["RawExport", "RawArray", "Deferred", "check_export_file", "material_array", "drop_valueless_nodes", "split_steps", "stack_steps", "files_read", "h5_files"]
+__all__ = ["RawExport", "RawArray", "Deferred", "check_export_file", "material_array", "drop_valueless_nodes", "split_steps", "stack_steps", "files_read", "h5_files", "h5_values"]
 
 
 class Deferred:
@@ -283,6 +283,71 @@ def h5_files(h5file, name: str) -> list[str]:
             seen.add(os.path.abspath(f))
             unique.append(f)
     return unique
+
+
+#: Bytes of values an HDF5 dataset may hold without its file storing any of them (:func:`h5_values`).
+H5_UNSTORED_BYTES = 64 * 2**20
+#: How many times the bytes its file stores for it a dataset's values may take beyond that: deflate (gzip), the
+#: filter HDF5 writers use, inflates at most ~1,032:1.
+H5_MAX_RATIO = 1100
+
+
+def h5_values(dataset, label: str, size: int | None = None) -> np.ndarray:
+    """The values of an h5py dataset, read whole only after what its header tells has been checked.
+
+    - ``size``: the number of values the caller expects (from the mesh's counts, a declared
+      size): a dataset holding more is refused before anything is read (fewer: read, for the
+      caller's own message);
+    - values the file does not store: a dataset whose values take more than
+      :data:`H5_UNSTORED_BYTES` (64 MiB) and more than :data:`H5_MAX_RATIO` (1,100) times the
+      bytes stored for it is refused. Its chunks were never written, or its storage never
+      allocated (HDF5 reads its fill value there: no data; 8 GB from a file of a few kB), or
+      a filter compresses beyond what deflate can (HDF5 writers use gzip). All-zero arrays
+      compressed by gzip (~1,000:1) pass.
+
+    Parameters
+    ----------
+    dataset : h5py.Dataset
+    label : str
+        What the values are, for the messages (e.g. ``"SED file 'a.med': the node coordinates
+        ('/ENS_MAA/m/NOE/COO')"``).
+    size : int, optional
+        The most values the caller will use.
+
+    Raises
+    ------
+    SEDFormatError
+        Naming ``label``, the dataset's shape and the limit it exceeds.
+    """
+    h5_check(dataset, label, size)
+    return np.asarray(dataset[()])
+
+
+def h5_check(dataset, label: str, size: int | None = None) -> None:
+    """The checks of :func:`h5_values`, nothing read: a SEDFormatError naming ``label`` when one fails."""
+    shape = tuple(dataset.shape or ())
+    n_values = int(np.prod(shape, dtype=np.int64)) if dataset.shape is not None else 0
+    if size is not None and n_values > size:
+        raise SEDFormatError(f"{label}: the dataset holds {n_values:,} values (shape {shape}) where {size:,} are "
+                             "expected: the file is corrupt; refused before reading it.")
+    n_bytes = n_values * dataset.dtype.itemsize
+    if n_bytes <= H5_UNSTORED_BYTES:
+        return
+    stored = _stored_bytes(dataset)
+    if stored is not None and n_bytes > H5_MAX_RATIO * stored:
+        raise SEDFormatError(f"{label}: the dataset holds {n_values:,} values (shape {shape}, {n_bytes:,} bytes) of "
+                             f"which the file stores {stored:,} bytes: chunks never written (no data, HDF5's fill value) or a "
+                             f"compression beyond gzip's ({H5_MAX_RATIO:,}:1 at most); refused before reading it.")
+
+
+def _stored_bytes(dataset) -> int | None:
+    """The bytes a dataset's file stores for its values (a virtual dataset: its mapped values' bytes);
+    None when they live in external raw files (as large as those files)."""
+    if dataset.id.get_create_plist().get_external_count():
+        return None
+    if dataset.is_virtual:
+        return sum(int(src.vspace.get_select_npoints()) for src in dataset.virtual_sources()) * dataset.dtype.itemsize
+    return int(dataset.id.get_storage_size())
 
 
 def _storage_files(dataset) -> list[str]:

@@ -1,14 +1,16 @@
-"""A VTU file in one parse, decoded by meshio's own decoder: points, cells, data arrays, component names.
+"""A VTU file in one parse: points, cells, data arrays, component names.
 
 meshio 5.3's ``meshio.vtu.read`` joins the points of a VTU with several ``<Piece>`` elements but
 keeps only the last piece's cells (``_organize_cells`` leaves its loop over the pieces before
 collecting the cells); it splits cell data among the cell blocks without counting it against
-``NumberOfCells``; it drops the DataArrays' ``ComponentName`` attributes; and it refuses VTU
-file version 2.x. :func:`read_vtu` parses the XML once (``xml.etree``; raw appended data
-re-encoded by :func:`_raw_appended`, not meshio's ``_parse_raw_binary``, which can give one array
-another's data), decodes each DataArray with meshio's
-``VtuReader.read_data`` (base64, zlib, lzma) and its cells with ``vtk_cells_from_data``, and
-from that one parse returns:
+``NumberOfCells``; it drops the DataArrays' ``ComponentName`` attributes; it refuses VTU
+file version 2.x; and it inflates every compressed block whole, whatever its header declares
+(1 MB of zlib can inflate to 1 GiB), re-encoding raw appended data as base64 at parse time.
+:func:`read_vtu` parses the XML once (``xml.etree``; a file with raw appended data: the XML
+around the data, which stays raw bytes), decodes each DataArray with :class:`_Decoder` (meshio's
+layouts: ASCII, base64 or raw, zlib or LZMA blocks; each block inflated to at most the size its
+header declares) and its cells with meshio's ``vtk_cells_from_data``, and from that one parse
+returns:
 
 - points, every piece's in turn;
 - cells, each piece's connectivity offset by the points of the pieces before it;
@@ -17,15 +19,21 @@ from that one parse returns:
   naming the file, the array, the piece, and both counts);
 - the arrays' ``ComponentName0..`` attributes (ccx2paraview writes ``XX YY ZZ XY YZ ZX``).
 
-A binary data array whose header (its byte count; a compressed array's block sizes) agrees with
-its piece's count is not decoded here: it comes back as a :class:`~afferent.io._raw.Deferred`,
-decoded on first use, so that a reader after the SED alone does not decompress the
-displacements and the other arrays beside it (the arrays' text stays in memory with the parsed
-file until then). An array whose header disagrees, and every ASCII array, is decoded at once
-and meets the checks below as before.
+A binary data array is not decoded here: its header (its byte count; a compressed array's block
+sizes) gives its shape, and it comes back as a :class:`~afferent.io._raw.Deferred`, decoded on
+first use, so that a reader after the SED alone does not decompress the displacements and the
+other arrays beside it (the arrays' bytes stay in memory with the parsed file until then). A
+header declaring another count than its piece's is refused by the count checks before anything
+is inflated. ASCII arrays, and binary ones whose header cannot tell their shape, are decoded at
+once, never beyond their piece's counts (the points, ``NumberOfPoints`` x components; the
+connectivity, up to the last offset).
+
+Memory: the file's bytes (raw appended) or its parsed text (inline, base64 appended), plus the
+arrays decoded, plus one block (VTK: 32 kB) at a time.
 
 Errors are meshio's (``ReadError``, ``ValueError``, ...), which the caller turns into one
-message naming the file, or :class:`VtuCountError`.
+message naming the file, or :class:`VtuCountError` (and, for a damaged header,
+:class:`~afferent.exceptions.SEDFormatError`) naming the file and the array.
 """
 
 from __future__ import annotations
@@ -37,16 +45,12 @@ import numpy as np
 
 from ..exceptions import SEDFormatError
 from ._raw import Deferred
+from ._vtu_decode import _NOT_SPACE, VtuCountError, _Decoder
 
 __all__ = ["VtuContent", "VtuCountError", "read_vtu", "ALL_PARTS"]
 
 #: The parts of a piece :func:`read_vtu` decodes by default; a series' later steps skip "Cells".
 ALL_PARTS = ("Points", "Cells", "PointData", "CellData")
-
-
-class VtuCountError(SEDFormatError):
-    """A VTU that parses but whose pieces' arrays disagree with their counts (or with one another):
-    refused as it is, not handed to VTK's reader (which reads such a file without a word)."""
 
 
 @dataclass(frozen=True)
@@ -81,93 +85,76 @@ class VtuContent:
 
 
 def _root(path: str):
-    """The parsed VTKFile element (meshio's checks of the header), raw appended data re-encoded as base64."""
+    """(the parsed VTKFile element, its appended data): meshio's checks of the header; the appended
+    data as :class:`_Decoder` takes it (None, base64 text, or the raw bytes of a raw section)."""
     from meshio import ReadError
 
     try:
-        root = ET.parse(path).getroot()
+        root, raw = ET.parse(path).getroot(), None
     except ET.ParseError:
-        root = _raw_appended(path)
+        root, raw = _raw_appended(path)
     if root.tag != "VTKFile":
         raise ReadError(f"Expected tag 'VTKFile', found {root.tag}")
     if root.attrib.get("type") != "UnstructuredGrid":
         raise ReadError(f"Expected type UnstructuredGrid, found {root.attrib.get('type')}")
-    return root
+    return root, raw
 
 
 def _raw_appended(path: str):
-    """The VTKFile element of a file with raw (binary) appended data, that data base64-encoded.
+    """(the VTKFile element, the raw bytes of the appended data after its ``_``) of a file with raw
+    (binary) appended data: the XML around the data parsed alone, the data left as it is (a view of
+    the file's bytes, decoded array by array when used, at each array's own byte offset).
 
-    meshio's ``_parse_raw_binary`` does this but finds each array by its offset *after* giving the
-    arrays before it their new (base64) offsets: when a new offset equals a later array's raw one
-    (NGSolve's ``VTKOutput(floatsize="single")``: 1304 Float32 points, 15,652 bytes, whose base64
-    length is the raw offset of ``offsets``), one array gets another's data, or the file fails to
-    read. Here every array is found by its raw offset first. Each is one header (UInt32 or UInt64
-    byte count; compressed: block count, sizes) and its bytes, as VTK writes them.
+    meshio's ``_parse_raw_binary`` instead inflates and base64-encodes every array at parse time
+    (a 230 MB file: 1.37 GB at peak; a zlib block declaring 5,832 bytes that inflates to 1 GiB:
+    6.5 GB, used or not) and finds each array by its offset *after* giving the arrays before it
+    their new (base64) offsets, so that one array can get another's data (NGSolve's
+    ``VTKOutput(floatsize="single")``).
     """
-    import base64
-    import lzma
     import re
-    import zlib
 
     from meshio import ReadError
-    from meshio.vtu._vtu import vtu_to_numpy_type
 
     with open(path, "rb") as f:
         raw = f.read()
-    start, stop = re.search(rb'<AppendedData[^>]+(?:">)', raw), raw.find(b"</AppendedData>")
-    if start is None or stop < 0 or b"_" not in raw[start.end():stop]:
+    start, stop = re.search(rb'<AppendedData[^>]+(?:">)', raw), raw.rfind(b"</AppendedData>")
+    under = -1 if start is None else raw.find(b"_", start.end(), stop)
+    if start is None or stop < start.end() or under < 0:
         raise ReadError()
     root = ET.fromstring(raw[:start.end()].decode() + raw[stop:].decode())
-    data = raw[start.end():stop].split(b"_", 1)[1]
-    head = vtu_to_numpy_type[root.get("header_type", "UInt32")]
-    head = head.newbyteorder("<" if root.get("byte_order", "LittleEndian") == "LittleEndian" else ">")
-    by_offset: dict = {}  # raw offset -> the DataArrays there (one, unless a writer shares data)
-    for a in root.iter("DataArray"):
-        if a.get("format") == "appended":
-            if not (a.get("offset") or "").strip().isdigit():
-                raise ReadError(f"appended DataArray {a.get('Name')!r}: offset {a.get('offset')!r} is not a byte count")
-            by_offset.setdefault(int(a.get("offset")), []).append(a)
-    compressor = root.attrib.pop("compressor", None)
-    unzip = {"vtkLZMADataCompressor": lzma, "vtkZLibDataCompressor": zlib, None: None}[compressor]
-    encoded, i, at = [], 0, 0  # at: where the next array starts in the base64 text
-    for offset in sorted(by_offset):
-        if offset != i:
-            raise ReadError(f"appended data: an array at byte {offset}, the previous one ends at {i}")
-        for a in by_offset[offset]:
-            a.set("offset", str(at))
-        if unzip is None:
-            size = int(np.frombuffer(data[i:i + head.itemsize], head)[0])
-            block, i = data[i:i + head.itemsize + size], i + head.itemsize + size
-        else:
-            n_blocks = int(np.frombuffer(data[i:i + head.itemsize], head)[0])
-            sizes = np.frombuffer(data[i:i + (3 + n_blocks) * head.itemsize], head)[3:].astype(int)
-            i += (3 + n_blocks) * head.itemsize
-            body = b"".join(unzip.decompress(data[i + a:i + b])
-                            for a, b in zip(np.r_[0, np.cumsum(sizes)[:-1]], np.cumsum(sizes)))
-            block, i = np.array([len(body)]).astype(head).tobytes() + body, i + int(sizes.sum())
-        encoded.append(base64.b64encode(block).decode())
-        at += len(encoded[-1])
-    tag = root.find("AppendedData")
-    tag.set("encoding", "base64")
-    tag.text = "_" + "".join(encoded)
-    return root
+    return root, memoryview(raw)[under + 1:stop]
 
 
-def _decoder(root):
-    """meshio's VtuReader set up for ``root``'s encoding (not run: only its ``read_data`` is used)."""
+def _grid(root, raw):
+    """(the UnstructuredGrid element, the appended data: None, base64 text or raw bytes), as meshio's
+    ``get_grid`` checks them (the base64 text kept whole, with the index of its first array's char)."""
     from meshio import ReadError
-    from meshio.vtu import _vtu
 
-    reader = _vtu.VtuReader.__new__(_vtu.VtuReader)
-    reader.compression = root.attrib.get("compressor")
-    if reader.compression not in (None, "vtkLZMADataCompressor", "vtkZLibDataCompressor"):
-        raise ReadError(f"Unknown compressor '{reader.compression}'.")
-    reader.header_type = root.attrib.get("header_type", "UInt32")
-    reader.byte_order = root.attrib.get("byte_order")
-    if reader.byte_order not in (None, "LittleEndian", "BigEndian"):
-        raise ReadError(f"Unknown byte order '{reader.byte_order}'.")
-    return reader
+    grid, appended = None, None
+    for c in root:
+        if c.tag == "UnstructuredGrid":
+            if grid is not None:
+                raise ReadError("More than one UnstructuredGrid found.")
+            grid = c
+        elif c.tag != "AppendedData":
+            raise ReadError(f"Unknown main tag '{c.tag}'.")
+        elif appended is not None:
+            raise ReadError("More than one AppendedData section found.")
+        elif raw is not None:
+            if c.attrib.get("encoding") != "raw":
+                raise ReadError("")
+            appended = raw
+        else:
+            if c.attrib.get("encoding") != "base64":
+                raise ReadError("")
+            text = c.text or ""
+            first = _NOT_SPACE.search(text)
+            if first is None or text[first.start()] != "_":  # the data begins with a (meaningless) underscore
+                raise ReadError()
+            appended = (text, first.start() + 1)
+    if grid is None:
+        raise ReadError("No UnstructuredGrid found.")
+    return grid, appended
 
 
 def _component_names(attrib: dict) -> tuple[str, ...]:
@@ -181,20 +168,38 @@ def _component_names(attrib: dict) -> tuple[str, ...]:
     return tuple(comps) if ok else ()
 
 
+#: How each part of a piece names its arrays in messages.
+_PART = {"Points": "points", "Cells": "cells", "PointData": "point", "CellData": "cell"}
+
+
+def _label(path: str, part: str, array) -> str:
+    """How a message names a DataArray, e.g. ``SED file 'a.vtu': point array 'sed'``."""
+    return f"SED file {path!r}: {_PART[part]} array {array.attrib.get('Name', part)!r}"
+
+
+def _most_bytes(array, n: int) -> int | None:
+    """The bytes ``n`` values (times NumberOfComponents) of a DataArray's type take; None for an unknown type."""
+    from meshio.vtu._vtu import vtu_to_numpy_type
+
+    try:
+        k = int(array.attrib.get("NumberOfComponents", 1))
+        return max(n, 0) * max(k, 1) * np.dtype(vtu_to_numpy_type[array.attrib["type"]]).itemsize
+    except (KeyError, ValueError, TypeError):
+        return None
+
+
 class _Piece:
     """One ``<Piece>`` decoded: its counts, points, raw cells and data arrays."""
 
     def __init__(self, decoder, piece, parts, components: dict, index: int, path: str):
         from meshio import ReadError
-        from meshio._common import warn
-        from meshio._exceptions import CorruptionError
 
         self.index = index  # in the file, from 0
         self.n_points = int(piece.attrib["NumberOfPoints"])
         self.n_cells = int(piece.attrib["NumberOfCells"])
         self.points, self.cells, self.point_data, self.cell_data = None, None, {}, {}
-        #: no points and no cells (a parallel writer's idle rank): nothing to decode (meshio's decoder
-        #: fails on an empty compressed array), left out when the pieces are joined
+        #: no points and no cells (a parallel writer's idle rank): nothing to decode, left out when the
+        #: pieces are joined
         self.empty = self.n_points == 0 and self.n_cells == 0
         for child in () if self.empty else piece:
             if child.tag not in ALL_PARTS:
@@ -210,72 +215,86 @@ class _Piece:
             if child.tag == "Points":
                 if len(arrays) != 1:
                     raise ReadError()
-                self.points = decoder.read_data(arrays[0]).reshape(self.n_points, int(arrays[0].attrib["NumberOfComponents"]))
+                points = decoder.read_data(arrays[0], _label(path, "Points", arrays[0]), _most_bytes(arrays[0], self.n_points))
+                self.points = points.reshape(self.n_points, int(arrays[0].attrib["NumberOfComponents"]))
             elif child.tag == "Cells":
-                self.cells = {a.attrib["Name"]: decoder.read_data(a) for a in arrays}
-                if len(self.cells["offsets"]) != self.n_cells or len(self.cells["types"]) != self.n_cells:
-                    raise ReadError()
+                self.cells = _cell_arrays(decoder, arrays, self.n_cells, path)
             else:
-                into, n = (self.point_data, self.n_points) if child.tag == "PointData" else (self.cell_data, self.n_cells)
-                for a in arrays:
-                    names = _component_names(a.attrib)
-                    if names:
-                        components[a.attrib["Name"]] = names
-                    shape = _announced_shape(decoder, a, n)
-                    if shape is not None:  # its header agrees with the piece: decoded when first used
-                        label = f"SED file {path!r}: {child.tag[:-4].lower()} array {a.attrib['Name']!r}"
-                        into[a.attrib["Name"]] = Deferred(shape, lambda a=a: decoder.read_data(a), label)
-                        continue
-                    try:
-                        into[a.attrib["Name"]] = decoder.read_data(a)
-                    except CorruptionError as err:
-                        if child.tag == "CellData":
-                            raise
-                        warn(err.args[0] + " Skipping.")  # meshio's own words, on stderr as meshio says them
+                self._data(decoder, child.tag, arrays, components, path)
+
+    def _data(self, decoder, part: str, arrays: list, components: dict, path: str) -> None:
+        """The arrays of a PointData or CellData element: deferred when their headers tell their shapes."""
+        from meshio._common import warn
+        from meshio._exceptions import CorruptionError
+
+        into, n = (self.point_data, self.n_points) if part == "PointData" else (self.cell_data, self.n_cells)
+        for a in arrays:
+            names = _component_names(a.attrib)
+            if names:
+                components[a.attrib["Name"]] = names
+            label = _label(path, part, a)
+            shape = _announced_shape(decoder, a, label)
+            if shape is not None:  # decoded when first used; a count other than n is refused before that
+                into[a.attrib["Name"]] = Deferred(shape, lambda a=a, label=label: decoder.read_data(a, label), label)
+                continue
+            try:
+                into[a.attrib["Name"]] = decoder.read_data(a, label, _most_bytes(a, n))
+            except CorruptionError as err:
+                if part == "CellData":
+                    raise
+                warn(err.args[0] + " Skipping.")  # meshio's own words, on stderr as meshio says them
 
 
-def _announced_shape(decoder, array, n: int) -> tuple | None:
-    """The shape meshio's ``read_data`` will give a binary DataArray, from its header alone, when the
-    header announces ``n`` values (times NumberOfComponents); None otherwise (ASCII, another count,
-    an unknown type or a damaged header: decoded at once, to meet the checks and messages as they are).
+def _cell_arrays(decoder, arrays: list, n_cells: int, path: str) -> dict:
+    """A piece's cell arrays by name (``types``, ``offsets``, then ``connectivity`` up to the last
+    offset; a polyhedral piece's ``faceoffsets`` and ``faces``), none decoded beyond what the counts
+    before it allow; other arrays, which the cells do not use, are not decoded."""
+    from meshio import ReadError
 
-    The header is the first item(s) of the base64 text (inline, or at the array's offset in the
-    appended data, which the parse has base64-encoded): uncompressed, the byte count; compressed,
-    the number of blocks, the block size and the last block's size (0: a full block).
+    by_name = {a.attrib.get("Name"): a for a in arrays}
+    if any(name not in by_name for name in ("types", "offsets", "connectivity")):
+        raise ReadError()
+    out = {}
+    for name in ("types", "offsets", "faceoffsets", "connectivity", "faces"):
+        if name not in by_name:
+            continue
+        a = by_name[name]
+        if name in ("connectivity", "faces"):
+            last = out["offsets" if name == "connectivity" else "faceoffsets"].ravel()
+            n = int(max(last.max(initial=0), 0))
+        else:
+            n = n_cells
+        out[name] = decoder.read_data(a, _label(path, "Cells", a), _most_bytes(a, n))
+    if len(out["offsets"]) != n_cells or len(out["types"]) != n_cells:
+        raise ReadError()
+    return out
+
+
+def _announced_shape(decoder, array, label: str) -> tuple | None:
+    """The shape a binary DataArray's values will have, from its header alone: ``(rows,)``, or
+    ``(rows, k)`` when the tag gives NumberOfComponents ``k``, ``rows`` the declared bytes over ``k``
+    values' size; None when the header cannot tell (ASCII, an unknown type, a damaged header, a byte
+    count that is no whole number of rows: decoded at once, to meet the checks and messages as they are).
+
+    ``rows`` need not be the piece's count: the count checks refuse another one before anything is
+    decoded (a header declaring a thousand times the piece's values is never inflated).
     """
-    import base64
-
-    from meshio.vtu._vtu import num_bytes_to_num_base64_chars, vtu_to_numpy_type
+    from meshio.vtu._vtu import vtu_to_numpy_type
 
     attrib = array.attrib
-    fmt = attrib.get("format", "ascii")
     try:
         dtype = np.dtype(vtu_to_numpy_type[attrib["type"]])
         k = int(attrib["NumberOfComponents"]) if "NumberOfComponents" in attrib else None
-        if fmt == "binary":
-            text = array.text.lstrip()
-        elif fmt == "appended":
-            text = decoder.appended_data[int(attrib["offset"]):]
-        else:
+        source = decoder.source(array)
+        if source is None or (k is not None and k <= 0):
             return None
-        head = np.dtype(vtu_to_numpy_type[decoder.header_type])
-        if decoder.byte_order is not None:
-            head = head.newbyteorder("<" if decoder.byte_order == "LittleEndian" else ">")
-        items = 3 if decoder.compression is not None else 1
-        raw = base64.b64decode(text[:num_bytes_to_num_base64_chars(items * head.itemsize)])
-        header = np.frombuffer(raw[:items * head.itemsize], head).astype(np.int64)
-    except (KeyError, ValueError, TypeError, AttributeError):
+        n_bytes = decoder.declared(decoder.header(source, label))
+    except (KeyError, ValueError, TypeError, AttributeError, SEDFormatError):
         return None
-    if len(header) != items or header.min() < 0:
+    rows, rest = divmod(n_bytes, (k or 1) * dtype.itemsize)
+    if rest:
         return None
-    if decoder.compression is None:
-        n_bytes = int(header[0])
-    else:
-        blocks, size, last = (int(h) for h in header)
-        n_bytes = 0 if blocks == 0 else (blocks - 1) * size + (last or size)
-    if k is None:
-        return (n,) if n_bytes == n * dtype.itemsize else None
-    return (n, k) if k > 0 and n_bytes == n * k * dtype.itemsize else None
+    return (rows,) if k is None else (rows, k)
 
 
 def _check_counts(path: str, pieces: list, data: str, n_pieces: int) -> None:
@@ -362,11 +381,10 @@ def _runs_joined(blocks: list) -> list:
 def read_vtu(path: str, parts=ALL_PARTS) -> VtuContent:
     """Read a VTU file in one parse: see the module docstring. ``parts``: which of :data:`ALL_PARTS` to decode."""
     from meshio import ReadError
-    from meshio.vtu import _vtu
 
-    root = _root(path)
-    decoder = _decoder(root)
-    grid, decoder.appended_data = _vtu.get_grid(root)
+    root, raw = _root(path)
+    grid, appended = _grid(root, raw)
+    decoder = _Decoder(root, appended, path)
     unknown = [c.tag for c in grid if c.tag not in ("Piece", "FieldData")]
     if unknown:
         raise ReadError(f"Unknown grid subtag '{unknown[0]}'.")

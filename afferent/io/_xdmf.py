@@ -73,7 +73,7 @@ def series_steps(path: str, *, progress: bool = False, scope: Scope | None = Non
     return step_count(root), iter_xdmf_collections(path, progress=progress, root=root, scope=scope)
 
 
-def _read_whole(h5, dataset: str) -> np.ndarray | None:
+def _read_whole(h5, dataset: str, check) -> np.ndarray | None:
     """A hard-linked dataset of ``h5`` read whole by one ``H5Dread`` into a new array, or None.
 
     Only a contiguous dataset whose storage is allocated in the file itself (HDF5 gives its
@@ -83,6 +83,7 @@ def _read_whole(h5, dataset: str) -> np.ndarray | None:
     returns None for h5py's own read. The same bytes as ``h5[dataset][()]``, without building
     h5py's ``Dataset`` object and without the zero-filled buffer h5py reads into: a step of
     300,763 float64 values in 0.5 ms instead of 0.7 ms (README, "Series streaming").
+    ``check(shape)`` is called before anything is allocated or read.
     """
     from h5py import h5d, h5s
 
@@ -92,6 +93,7 @@ def _read_whole(h5, dataset: str) -> np.ndarray | None:
     space, dtype = dsid.get_space(), dsid.dtype
     if space.get_simple_extent_type() != h5s.SIMPLE or dtype.kind not in "iuf" or dtype.metadata:
         return None
+    check(space.shape)
     data = np.empty(space.shape, dtype)
     dsid.read(h5s.ALL, h5s.ALL, data)
     return data
@@ -118,14 +120,19 @@ class _Heavy:
                 self._seen.add(full)
                 self.opened.append(p)
 
-    def read(self, item: ET.Element | None, what: str) -> np.ndarray:
+    def read(self, item: ET.Element | None, what: str, rows: tuple | None = None) -> np.ndarray:
+        """A DataItem's values, shaped by its Dimensions. ``rows``: (count, 'point' or 'cell') when the
+        mesh says how many rows the values must have: another count is refused before any reading
+        (from the Dimensions, else from the HDF5 dataset's shape)."""
         if item is None:  # a Topology, Geometry or Attribute without its <DataItem>
             raise SEDFormatError(f"SED file {self.path!r}: {what} has no <DataItem> holding its values.")
         fmt = item.get("Format", "XML").upper()
         dims = _counts(item.get("Dimensions"), f"the Dimensions of {what}", self.path) or None
         text = (item.text or "").strip()
+        if rows is not None and dims is not None:
+            self.check_rows(what, rows, dims[0])
         if fmt == "HDF":
-            data = self._hdf(text, what)
+            data = self._hdf(text, what, dims, rows)
         elif fmt == "BINARY":
             data = self._binary(item, text, what, -1 if dims is None else math.prod(dims))
         elif fmt == "XML":
@@ -137,14 +144,34 @@ class _Heavy:
             raise SEDFormatError(f"SED file {self.path!r}: {what} is stored as Format={fmt!r}; afferent reads HDF, "
                                  "Binary and XML DataItems.")
         if dims is not None:
-            if math.prod(dims) != data.size:
-                raise SEDFormatError(f"SED file {self.path!r}: {what} must hold {' x '.join(map(str, dims))} values "
-                                     f"(its Dimensions); got {data.size} instead.")
+            self.check_size(what, dims, data.size)
             data = data.reshape(dims)
         return data
 
-    def _hdf(self, text: str, what: str) -> np.ndarray:
-        """``file.h5:/dataset`` (the file relative to the XDMF file's folder)."""
+    def check_size(self, what: str, dims: tuple, size: int) -> None:
+        """Refuse ``size`` values where the Dimensions ``dims`` say how many."""
+        if math.prod(dims) != size:
+            raise SEDFormatError(f"SED file {self.path!r}: {what} must hold {' x '.join(map(str, dims))} values "
+                                 f"(its Dimensions); got {size} instead.")
+
+    def check_rows(self, what: str, rows: tuple, got: int) -> None:
+        """Refuse ``got`` rows where the mesh has ``rows[0]`` points or cells (``rows[1]``)."""
+        if got != rows[0]:
+            raise SEDFormatError(f"SED file {self.path!r}: {what} must have one row per {rows[1]} ({rows[0]}); "
+                                 f"got {got}.")
+
+    def _hdf(self, text: str, what: str, dims: tuple | None = None, rows: tuple | None = None) -> np.ndarray:
+        """``file.h5:/dataset`` (the file relative to the XDMF file's folder), its shape checked against
+        ``dims`` and ``rows`` (:meth:`read`) and against what its file stores (:func:`~afferent.io._raw.h5_check`)
+        before it is read."""
+        from ._raw import h5_check
+
+        def check(shape):
+            if dims is not None:
+                self.check_size(what, dims, math.prod(shape))
+            elif rows is not None and shape:
+                self.check_rows(what, rows, shape[0])
+
         if ":" not in text:
             raise SEDFormatError(f"SED file {self.path!r}: the HDF DataItem of {what} must read 'file.h5:/path'; "
                                  f"got {text!r} instead.")
@@ -171,12 +198,14 @@ class _Heavy:
             self._follow(h5, h5path, dataset, what, group)
         # else a hard link of a group whose path was followed before: nothing new to find or note (a series' steps)
         try:
-            data = _read_whole(h5, dataset) if plain else None
+            data = _read_whole(h5, dataset, check) if plain else None
             if data is None:
                 if plain:  # not contiguous in the file itself: its storage may name files of its own (external raw, virtual)
                     self._follow(h5, h5path, dataset, what, group)
                 stored: list[str] = []
-                data = np.asarray(h5_read(h5, dataset, self.scope, stored))
+                label = f"SED file {self.path!r}: {what} ({h5path!r}, dataset {dataset!r})"
+                data = np.asarray(h5_read(h5, dataset, self.scope, stored,
+                                          check=lambda d: (check(d.shape or ()), h5_check(d, label))))
                 self._note(*(h5path if f == h5.filename else f for f in stored))
         except OSError as err:
             raise SEDFormatError(f"SED file {self.path!r}: dataset {dataset!r} of {what} in {h5path!r} could not "
@@ -474,15 +503,13 @@ def _step_attributes(heavy, grids: list, t: float, n_points: int, cells, first_n
                 raise SEDFormatError(f"SED file {path!r}: attribute {name!r} has Center={att.get('Center')!r}; "
                                      "afferent reads Node and Cell data.")
             location = "point" if center == "node" else "cell"
-            expected = n_points if location == "point" else n_cells
-            what = f"attribute {name!r} at t = {t:g}"
-            data = heavy.read(att.find("DataItem"), what).astype(float, copy=False)  # float64 in the file: no copy
-            data = data.reshape(data.shape[0], -1) if data.ndim > 1 else data.reshape(-1, 1)
             if location == "cell" and cells is None:
-                continue
-            if data.shape[0] != expected:
-                raise SEDFormatError(f"SED file {path!r}: {what} must have one row per "
-                                     f"{'point' if location == 'point' else 'cell'} ({expected}); got {data.shape[0]}.")
+                continue  # no volume cells: cell data unused, not read
+            rows = (n_points if location == "point" else n_cells, location)
+            what = f"attribute {name!r} at t = {t:g}"
+            data = heavy.read(att.find("DataItem"), what, rows).astype(float, copy=False)  # float64 in the file: no copy
+            data = data.reshape(data.shape[0], -1) if data.ndim > 1 else data.reshape(-1, 1)
+            heavy.check_rows(what, rows, data.shape[0])
             if (first_names or {}).get(name, location) != location or name in found and found[name].location != location:
                 raise SEDFormatError(f"SED file {path!r}: attribute {name!r} is point data at one time and cell "
                                      "data at another.")
