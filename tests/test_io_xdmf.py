@@ -256,7 +256,9 @@ def _binary_series(folder, sed_item: str) -> str:
      "the Seek of attribute 'sed' at t = 0.5 must be a byte offset, a whole number >= 0; got '-5' instead."),
     ('DataType="Float" Dimensions="4" Seek="abc" Format="Binary"',
      "the Seek of attribute 'sed' at t = 0.5 must be a byte offset, a whole number >= 0; got 'abc' instead."),
-    ('DataType="Float" Dimensions="100000000000" Format="Binary"',
+    ('DataType="Float" Dimensions="100000000000" Format="Binary"',  # refused by the mesh's row count, before the file
+     "attribute 'sed' at t = 0.5 must have one row per point (4); got 100000000000."),
+    ('DataType="Float" Dimensions="4 25000000000" Format="Binary"',
      "attribute 'sed' at t = 0.5 must hold 100000000000 values of 8 byte(s) (its Dimensions) from byte 0 of "
      "'{folder}/b2.bin'; the file holds 32 byte(s) from there."),
     ('DataType="Float" Dimensions="4" Seek="24" Format="Binary"',
