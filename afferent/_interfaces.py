@@ -104,35 +104,67 @@ class InterfaceSampler:
         return np.asarray((self.w_average @ np.asarray(field.sed, dtype=float).T).T)
 
 
-def _touching(field, positions: np.ndarray, k: int = 4):
-    """Every (receptor, tetrahedron) pair where the tetrahedron holds the receptor: (receptor, tet, bary).
+#: Receptor-tetrahedron candidate pairs examined at once by :func:`_touching` (~150 bytes each): the
+#: receptors are taken in chunks of about this many candidates, so that memory does not grow with
+#: their number (before: every pair at once, ~30 kB a receptor, 3 GB for 1e5 receptors).
+PAIRS_PER_CHUNK = 1 << 20
+
+
+def _touching(field, positions: np.ndarray, k: int = 4, pairs_per_chunk: int = PAIRS_PER_CHUNK):
+    """Every (receptor, tetrahedron) pair where the tetrahedron holds the receptor, receptor chunk by
+    chunk: yields ``(start, stop, receptor, tet, bary)`` for the receptors ``start:stop`` in turn
+    (receptor indices into ``positions``; the pairs in receptor order).
 
     Candidates: the tetrahedra touching the receptor's ``k`` nearest nodes (a receptor at a node
     has that node first; a tetrahedron holding a point nearly always has a corner among its 4
-    nearest nodes - only badly shaped cells escape).
+    nearest nodes - only badly shaped cells escape); those whose bounding box, widened by 1e-3
+    of its size (a thousand times the barycentric tolerance), misses the receptor are dropped
+    before the barycentric coordinates are solved. A chunk holds at most ``pairs_per_chunk``
+    candidates (one receptor with more is a chunk of its own).
     """
     import scipy.sparse as sp
     from scipy.spatial import cKDTree
 
     xyz, tetra = field.points, field.cells.tetra
+    n = positions.shape[0]
     _, near = cKDTree(xyz).query(positions, k=min(k, xyz.shape[0]))
-    near = np.asarray(near).reshape(positions.shape[0], -1)
+    near = np.asarray(near).reshape(n, -1)
     touched = np.zeros(xyz.shape[0], bool)
     touched[near.ravel()] = True
     subset = np.flatnonzero(touched[tetra].any(axis=1))
     inc = sp.csr_matrix((np.ones(4 * subset.size), (tetra[subset].ravel(), np.repeat(np.arange(subset.size), 4))),
                         shape=(xyz.shape[0], subset.size))
-    rec = sp.csr_matrix((np.ones(near.size), (np.repeat(np.arange(positions.shape[0]), near.shape[1]), near.ravel())),
-                        shape=(positions.shape[0], xyz.shape[0]))
-    pairs = (rec @ inc).tocoo()
-    r, t = pairs.row.astype(np.int64), subset[pairs.col]
-    bary = _barycentric(positions[r], xyz[tetra[t]])
-    ok = np.all(bary >= -BARY_TOL, axis=1)
-    return r[ok], t[ok], bary[ok]
+    lo, hi = np.empty((subset.size, 3)), np.empty((subset.size, 3))
+    for a in range(0, subset.size, PAIRS_PER_CHUNK):  # the subset's bounding boxes, a chunk of corners at a time
+        corners = xyz[tetra[subset[a:a + PAIRS_PER_CHUNK]]]
+        lo[a:a + PAIRS_PER_CHUNK], hi[a:a + PAIRS_PER_CHUNK] = corners.min(axis=1), corners.max(axis=1)
+    pad = 1e-3 * (hi - lo).max(axis=1, keepdims=True)
+    boxes = [(np.ascontiguousarray(positions[:, a]), lo[:, a] - pad[:, 0], hi[:, a] + pad[:, 0]) for a in range(3)]
+    candidates = np.diff(inc.indptr)[near].sum(axis=1)  # per receptor, at most (a tetrahedron met at several nodes once)
+    cuts = np.searchsorted(np.cumsum(candidates), np.arange(pairs_per_chunk, candidates.sum(), pairs_per_chunk), "right")
+    bounds = np.unique(np.concatenate([[0], cuts, [n]]))
+    for start, stop in zip(bounds[:-1], bounds[1:]):
+        nn = np.sort(near[start:stop], axis=1)  # node order, as a sparse matrix built from pairs holds them
+        rec = sp.csr_matrix((np.ones(nn.size), nn.ravel(), np.arange(0, nn.size + 1, nn.shape[1])),
+                            shape=(stop - start, xyz.shape[0]))
+        pairs = (rec @ inc).tocoo()
+        r, c = pairs.row.astype(np.int64) + start, pairs.col
+        for at, low, high in boxes:  # axis by axis, on the pairs left (3x quicker than the three at once)
+            x = at[r]
+            inside = (x >= low[c]) & (x <= high[c])
+            r, c = r[inside], c[inside]
+        t = subset[c]
+        bary = _barycentric(positions[r], xyz[tetra[t]])
+        ok = np.all(bary >= -BARY_TOL, axis=1)
+        yield int(start), int(stop), r[ok], t[ok], bary[ok]
 
 
-def build_interface(field, layout) -> InterfaceSampler | None:
-    """The per-material weights at the receptors that touch cells of several materials; None without material ids."""
+def build_interface(field, layout, pairs_per_chunk: int = PAIRS_PER_CHUNK) -> InterfaceSampler | None:
+    """The per-material weights at the receptors that touch cells of several materials; None without material ids.
+
+    The receptors are taken in chunks (:func:`_touching`, ``pairs_per_chunk``): memory is the
+    chunk's and the result's, whatever their number; the result does not depend on the chunks.
+    """
     import scipy.sparse as sp
 
     from ._mesh_geometry import cell_volumes
@@ -140,36 +172,79 @@ def build_interface(field, layout) -> InterfaceSampler | None:
     cells = field.cells
     if cells is None or cells.materials is None:
         return None
-    r, t, bary = _touching(field, layout.positions)
+    vol = cell_volumes(cells, field.points) if field.location == "cell" else None
+    materials_at, parts = [], []
+    for start, stop, r, t, bary in _touching(field, layout.positions, pairs_per_chunk=pairs_per_chunk):
+        parts.append(_chunk_rows(cells, start, stop, r, t, bary, vol, materials_at))
+    materials_at = tuple(materials_at)
+    rows = np.concatenate([part[0] for part in parts]) if parts else np.zeros((0, 2), np.int64)
+    p = rows.shape[0]
+    if vol is not None:  # adjacent cells of the material, by volume (each cell once)
+        pc, ra = _offset_pairs([part[1] for part in parts]), _offset_pairs([part[2] for part in parts])
+        w = sp.csr_matrix((vol[pc[:, 1]], (pc[:, 0], pc[:, 1])), shape=(p, cells.n_cells))
+        n_on = int(sum(part[3] for part in parts))
+        w_avg = sp.csr_matrix((vol[ra[:, 1]], (ra[:, 0], ra[:, 1])), shape=(n_on, cells.n_cells))
+        return InterfaceSampler(rows[:, 0], rows[:, 1], _normalised(w), None, materials_at, _normalised(w_avg))
+    nodes = np.concatenate([part[1] for part in parts]).ravel() if parts else np.zeros(0, np.int64)
+    wts = np.concatenate([part[2] for part in parts]).ravel() if parts else np.zeros(0)
+    if field.sides is None:
+        return InterfaceSampler(rows[:, 0], rows[:, 1], _csr_rows(p, nodes, wts, None, field.n_points), None, materials_at)
+    side_col = _side_columns(field, nodes, np.repeat(rows[:, 1], 4))
+    on_side = side_col >= 0
+    w_values = _csr_rows(p, nodes, wts, ~on_side, field.n_points)
+    w_sides = _csr_rows(p, side_col, wts, on_side, field.sides.nodes.size)
+    return InterfaceSampler(rows[:, 0], rows[:, 1], w_values, w_sides, materials_at)
+
+
+def _csr_rows(p: int, columns: np.ndarray, weights: np.ndarray, keep: np.ndarray | None, n_columns: int):
+    """The (p, n_columns) sparse matrix whose row i holds ``weights[4i:4i+4]`` at ``columns[4i:4i+4]`` (those
+    ``keep`` says, all when None), built as CSR directly (not through (row, column) pairs: half the memory),
+    indices sorted in each row as a matrix built from pairs holds them."""
+    import scipy.sparse as sp
+
+    if keep is None:
+        indptr = np.arange(0, 4 * p + 1, 4)
+    else:
+        indptr = np.concatenate([[0], np.cumsum(keep.reshape(p, 4).sum(axis=1))])
+        columns, weights = columns[keep], weights[keep]
+    out = sp.csr_matrix((weights, columns, indptr), shape=(p, n_columns))
+    out.sort_indices()
+    return out
+
+
+def _chunk_rows(cells, start: int, stop: int, r, t, bary, vol, materials_at: list) -> tuple:
+    """What :func:`build_interface` keeps of one chunk of receptors (``start:stop``; their touching pairs
+    ``r, t, bary``), the chunk's materials per receptor appended to ``materials_at``: the (receptor,
+    material) rows of the receptors touching several materials, sorted; then, for cell data, the
+    (row, cell) and (receptor on an interface, cell) pairs (indices within the chunk) and the number of
+    those receptors; for point data, one tetrahedron of the material per row (its corners and weights)."""
     cell = cells.parent[t]
     mat = cells.materials[cell]
     rm = np.unique(np.column_stack([r, mat]), axis=0)  # (receptor, material) pairs, sorted
-    bounds = np.searchsorted(rm[:, 0], np.arange(layout.n_receptors + 1))
-    materials_at = tuple(tuple(rm[a:b, 1].tolist()) for a, b in zip(bounds[:-1], bounds[1:]))
+    bounds = np.searchsorted(rm[:, 0], np.arange(start, stop + 1))
+    materials_at.extend(tuple(rm[a:b, 1].tolist()) for a, b in zip(bounds[:-1], bounds[1:]))
     several = np.diff(bounds) > 1
-    keep = several[r]
+    keep = several[r - start]
     r, t, bary, cell, mat = r[keep], t[keep], bary[keep], cell[keep], mat[keep]
     rows, inverse = np.unique(np.column_stack([r, mat]), axis=0, return_inverse=True)
     inverse = inverse.ravel()
-    p = rows.shape[0]
-    if field.location == "cell":  # adjacent cells of the material, by volume (each cell once)
-        vol = cell_volumes(cells, field.points)
+    if vol is not None:
         pc = np.unique(np.column_stack([inverse, cell]), axis=0)
-        w = sp.csr_matrix((vol[pc[:, 1]], (pc[:, 0], pc[:, 1])), shape=(p, cells.n_cells))
-        ra = np.unique(np.column_stack([np.unique(r, return_inverse=True)[1].ravel(), cell]), axis=0)
-        w_avg = sp.csr_matrix((vol[ra[:, 1]], (ra[:, 0], ra[:, 1])), shape=(np.unique(r).size, cells.n_cells))
-        return InterfaceSampler(rows[:, 0], rows[:, 1], _normalised(w), None, materials_at, _normalised(w_avg))
+        on, at = np.unique(r, return_inverse=True)
+        ra = np.unique(np.column_stack([at.ravel(), cell]), axis=0)
+        return rows, (pc, rows.shape[0]), (ra, on.size), on.size
     first = np.unique(inverse, return_index=True)[1]  # one tetrahedron of the material per row
-    nodes, wts = cells.tetra[t[first]], bary[first]
-    row = np.repeat(np.arange(p), 4)
-    side_col = _side_columns(field, nodes.ravel(), np.repeat(rows[:, 1], 4))
-    on_side = side_col >= 0
-    w_values = sp.csr_matrix((wts.ravel()[~on_side], (row[~on_side], nodes.ravel()[~on_side])), shape=(p, field.n_points))
-    w_sides = None
-    if field.sides is not None:
-        w_sides = sp.csr_matrix((wts.ravel()[on_side], (row[on_side], side_col[on_side])),
-                                shape=(p, field.sides.nodes.size))
-    return InterfaceSampler(rows[:, 0], rows[:, 1], w_values, w_sides, materials_at)
+    return rows, cells.tetra[t[first]], bary[first]
+
+
+def _offset_pairs(parts: list) -> np.ndarray:
+    """(row, column) pairs of the chunks, each chunk's rows shifted past the rows of the chunks before it
+    (``parts``: (pairs, number of rows) per chunk)."""
+    out, offset = [], 0
+    for pairs, n_rows in parts:
+        out.append(pairs + np.array([offset, 0]))
+        offset += n_rows
+    return np.concatenate(out) if out else np.zeros((0, 2), np.int64)
 
 
 def _normalised(w):
@@ -182,10 +257,17 @@ def _normalised(w):
 
 def _side_columns(field, nodes: np.ndarray, materials: np.ndarray) -> np.ndarray:
     """Column of (node, material) in ``field.sides`` (-1 where it has none)."""
-    if field.sides is None:
+    if field.sides is None or not nodes.size or not field.sides.nodes.size:
         return np.full(nodes.shape, -1, dtype=np.int64)
-    lookup = {(int(n), int(m)): j for j, (n, m) in enumerate(zip(field.sides.nodes, field.sides.materials))}
-    return np.array([lookup.get((int(n), int(m)), -1) for n, m in zip(nodes, materials)], dtype=np.int64)
+    have_n, have_m = np.asarray(field.sides.nodes, np.int64), np.asarray(field.sides.materials).astype(np.int64)
+    want_n, want_m = np.asarray(nodes, np.int64), np.asarray(materials).astype(np.int64)
+    low = min(have_m.min(), want_m.min())
+    span = max(have_m.max(), want_m.max()) - low + 1
+    keys = have_n * span + (have_m - low)  # one integer per (node, material)
+    order = np.argsort(keys, kind="stable")
+    at = np.searchsorted(keys[order], want_n * span + (want_m - low), side="right") - 1  # a pair listed twice: its last
+    found = (at >= 0) & (keys[order][np.maximum(at, 0)] == want_n * span + (want_m - low))
+    return np.where(found, order[np.maximum(at, 0)], -1)
 
 
 def _check_material(field, side: int) -> None:
@@ -248,20 +330,24 @@ def interface_report(field, layout, isamp: InterfaceSampler | None, values: np.n
     if isamp is None:
         return None
     separable = field.location == "cell" or field.sides is not None
-    per, interfaces = [], {}
     order = np.argsort(isamp.receptor, kind="stable")
     receptors, starts = np.unique(isamp.receptor[order], return_index=True)
-    for i, rows in zip(receptors, np.split(order, starts[1:])):
-        step = int(np.nanargmax(values[:, i])) if np.isfinite(values[:, i]).any() else 0
-        sides = side_values[step, rows]
-        mean = float(np.mean(sides))
-        spread = float((sides.max() - sides.min()) / mean) if mean > 0 else 0.0
-        key = "/".join(str(m) for m in isamp.materials_at[i])
+    counts = np.diff(np.append(starts, order.size))
+    steps = _loaded_steps(values, receptors)
+    sides = side_values[np.repeat(steps, counts), order] if order.size else np.zeros(0)
+    means = np.add.reduceat(sides, starts) / counts if order.size else np.zeros(0)
+    widths = np.maximum.reduceat(sides, starts) - np.minimum.reduceat(sides, starts) if order.size else np.zeros(0)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        spreads = np.where(means > 0, widths / means, 0.0)
+    ids, names = layout.ids.tolist(), [str(m) for m in isamp.material[order].tolist()]
+    side_list, averages, bounds = sides.tolist(), values[steps, receptors].tolist(), np.append(starts, order.size).tolist()
+    per, interfaces, keys = [], {}, {}  # keys: materials -> 'm1/m2', joined once per set of materials
+    for k, (i, step, spread) in enumerate(zip(receptors.tolist(), steps.tolist(), spreads.tolist())):
+        mats, a, b = isamp.materials_at[i], bounds[k], bounds[k + 1]
+        key = keys.get(mats) or keys.setdefault(mats, "/".join(str(m) for m in mats))
         interfaces[key] = interfaces.get(key, 0) + 1
-        per.append({"receptor": str(layout.ids[i]), "materials": list(isamp.materials_at[i]), "step": step,
-                    "sed_pa": {str(int(m)): float(v) for m, v in zip(isamp.material[rows], sides)},
-                    "average_pa": float(values[step, i]), "spread": spread})
-    spreads = np.array([p["spread"] for p in per])
+        per.append({"receptor": ids[i], "materials": list(mats), "step": step, "sed_pa": dict(zip(names[a:b], side_list[a:b])),
+                    "average_pa": averages[k], "spread": spread})
     report = {
         "side": side, "default": SIDE_AVERAGE, "material_array": field.provenance.columns.get("material", ""),
         "materials": sorted({int(m) for m in np.unique(field.cells.materials)}),
@@ -282,6 +368,14 @@ def interface_report(field, layout, isamp: InterfaceSampler | None, values: np.n
             + "; choose a material with side=ID where the ending sits on one side (Meissner corpuscles: the dermis).",
             AfferentWarning, stacklevel=3)
     return report
+
+
+def _loaded_steps(values: np.ndarray, receptors: np.ndarray) -> np.ndarray:
+    """Each receptor's most loaded step (its largest value, NaN left out; 0 when none is finite), as ``np.nanargmax``."""
+    if not receptors.size:
+        return np.zeros(0, dtype=np.int64)
+    v = values[:, receptors]
+    return np.where(np.isfinite(v).any(axis=0), np.where(np.isnan(v), -np.inf, v).argmax(axis=0), 0)
 
 
 def sided(sed, first, isamp, steps: list, side, *, stacklevel: int = 3):

@@ -83,8 +83,14 @@ def locate_in_tets(points: np.ndarray, xyz: np.ndarray, tetra: np.ndarray, *, k:
 NEAR_NODES_FROM = 200_000
 
 
+#: Points searched at once by :func:`_locate` (their candidate lists and barycentric coordinates, ~0.6 kB a point):
+#: memory that does not grow with the number of receptors (1e6 receptors at once: 1.2 GB).
+LOCATE_CHUNK = 1 << 16
+
+
 def _locate(points: np.ndarray, xyz: np.ndarray, tetra: np.ndarray, k: int):
-    """:func:`locate_in_tets` over every given tetrahedron (candidates by nearest centroids)."""
+    """:func:`locate_in_tets` over every given tetrahedron (candidates by nearest centroids), :data:`LOCATE_CHUNK`
+    points at a time (each point's search is its own: the result does not depend on the chunks)."""
     from scipy.spatial import cKDTree
 
     n = points.shape[0]
@@ -92,8 +98,22 @@ def _locate(points: np.ndarray, xyz: np.ndarray, tetra: np.ndarray, k: int):
     bary = np.zeros((n, 4))
     if n == 0 or tetra.shape[0] == 0:
         return tet_index, bary
-    centroids = xyz[tetra].mean(axis=1)
-    tree = cKDTree(centroids)
+    tree = cKDTree(xyz[tetra].mean(axis=1))  # over the centroids
+    boxes: list = []  # the tetrahedra's bounding boxes, computed once if a point needs them
+    for a in range(0, n, LOCATE_CHUNK):
+        todo = _locate_near(points[a:a + LOCATE_CHUNK], xyz, tetra, tree, k, tet_index[a:a + LOCATE_CHUNK],
+                            bary[a:a + LOCATE_CHUNK])
+        if todo.size and not boxes:
+            boxes.extend((xyz[tetra].min(axis=1), xyz[tetra].max(axis=1)))
+        for i in todo + a:  # few points: brute force over bounding boxes
+            tet_index[i], bary[i] = _locate_in_boxes(points[i], xyz, tetra, *boxes)
+    return tet_index, bary
+
+
+def _locate_near(points, xyz, tetra, tree, k: int, tet_index, bary) -> np.ndarray:
+    """Fill ``tet_index``/``bary`` (views) for the points found among the ``k``, then ``8 k``, tetrahedra of
+    nearest centroids; returns the indices of the points not found."""
+    n = points.shape[0]
     todo = np.arange(n)
     for kk in (k, 8 * k):
         kk = min(kk, tetra.shape[0])
@@ -112,19 +132,22 @@ def _locate(points: np.ndarray, xyz: np.ndarray, tetra: np.ndarray, k: int):
             todo = todo[~inside]
             cand = cand[~inside]
             if not todo.size:
-                return tet_index, bary
-    lo, hi = xyz[tetra].min(axis=1), xyz[tetra].max(axis=1)
-    for i in todo:  # few points: brute force over bounding boxes
-        span = np.abs(hi - lo).max()
-        box = np.all((points[i] >= lo - BARY_TOL * span) & (points[i] <= hi + BARY_TOL * span), axis=1)
-        c = np.flatnonzero(box)
-        if c.size:
-            b = _barycentric(np.repeat(points[i][None], c.size, 0), xyz[tetra[c]])
-            hit = np.flatnonzero(np.all(b >= -BARY_TOL, axis=1))
-            if hit.size:
-                tet_index[i] = c[hit[0]]
-                bary[i] = b[hit[0]]
-    return tet_index, bary
+                return todo
+    return todo
+
+
+def _locate_in_boxes(point, xyz, tetra, lo, hi) -> tuple:
+    """(tetrahedron, barycentric weights) of the first tetrahedron whose bounding box, then whose
+    barycentric coordinates, hold ``point``; (-1, zeros) when none does."""
+    span = np.abs(hi - lo).max()
+    box = np.all((point >= lo - BARY_TOL * span) & (point <= hi + BARY_TOL * span), axis=1)
+    c = np.flatnonzero(box)
+    if c.size:
+        b = _barycentric(np.repeat(point[None], c.size, 0), xyz[tetra[c]])
+        hit = np.flatnonzero(np.all(b >= -BARY_TOL, axis=1))
+        if hit.size:
+            return c[hit[0]], b[hit[0]]
+    return -1, np.zeros(4)
 
 
 def cell_volumes(cells: Cells, xyz: np.ndarray) -> np.ndarray:

@@ -27,6 +27,7 @@ from afferent.sampling import sample_steps
 DEALII = Path(__file__).parent / "data" / "dealii"
 VTU, RECEPTORS = DEALII / "indent_block.vtu", DEALII / "receptors.csv"
 PACKAGED = Path(afferent.__file__).parent / "data" / "sample" / "block4"
+SAMPLE_SED = Path(__file__).resolve().parents[1] / "sample_sed" / "block4"  # the 41,595-node sample
 
 
 def _quiet(fn, *args, **kw):
@@ -241,3 +242,64 @@ def test_quick_bin_test_and_first_tetrahedra_agree_with_the_plain_forms():
         assert _any_in_one_bin(far, 1e-20) and _any_in_one_bin(far[:2], 1e-20) in (False, True)
     for parent in (np.repeat(np.arange(50), rng.integers(1, 7, 50)), rng.integers(0, 50, 300), np.zeros(0, int)):
         np.testing.assert_array_equal(_first_of_each(parent), np.unique(parent, return_index=True)[1])
+
+
+def _interface_receptors(field, n: int, seed: int = 12) -> np.ndarray:
+    """``n`` random points (m) on the triangles shared by tetrahedra of two materials: each on an interface."""
+    tet, mat = field.cells.tetra, field.cells.materials[field.cells.parent]
+    faces = np.sort(np.concatenate([tet[:, [0, 1, 2]], tet[:, [0, 1, 3]], tet[:, [0, 2, 3]], tet[:, [1, 2, 3]]]), axis=1)
+    owner = np.tile(mat, 4)
+    order = np.lexsort(faces.T[::-1])
+    faces, owner = faces[order], owner[order]
+    shared = faces[1:][np.all(faces[1:] == faces[:-1], axis=1) & (owner[1:] != owner[:-1])]
+    rng = np.random.default_rng(seed)
+    return np.einsum("nk,nkd->nd", rng.dirichlet([1, 1, 1], n), field.points[shared[rng.integers(0, len(shared), n)]])
+
+
+@pytest.mark.parametrize("export, location", [("sample", "point"), ("sample", "cell"), ("dealii", "point")])
+def test_receptors_taken_in_chunks_give_the_weights_of_one_chunk(dealii, export, location):
+    """Issue 33 item 12: build_interface takes the receptors in chunks of about ``pairs_per_chunk``
+    receptor-tetrahedron candidates; the weights (and their sparse layout, so that products sum in the
+    same order), the rows and the materials met are those of one chunk, whatever the chunk size."""
+    from afferent._interfaces import build_interface
+
+    field = dealii if export == "dealii" else _quiet(read_sed, PACKAGED / "indent_0p88mm.vtu", length_unit="mm",
+                                                      sed_unit="MPa", location=location)
+    rng = np.random.default_rng(4)
+    lo, hi = field.bounds
+    positions = np.concatenate([_interface_receptors(field, 400), lo + (hi - lo) * rng.random((200, 3)),
+                                field.points[rng.integers(0, field.n_points, 100)]])  # at nodes: many tetrahedra
+    lay = afferent.ReceptorLayout(positions)
+    one = build_interface(field, lay, pairs_per_chunk=10**9)
+    assert one.receptor.size > 400 and (export != "dealii" or one.w_sides is not None)
+    for size in (1, 150, 5000):
+        got = build_interface(field, lay, pairs_per_chunk=size)
+        np.testing.assert_array_equal(got.receptor, one.receptor)
+        np.testing.assert_array_equal(got.material, one.material)
+        assert got.materials_at == one.materials_at
+        for name in ("w_values", "w_sides", "w_average"):
+            a, b = getattr(got, name), getattr(one, name)
+            assert (a is None) == (b is None), name
+            if a is not None:
+                for part in ("indptr", "indices", "data"):
+                    np.testing.assert_array_equal(getattr(a, part), getattr(b, part), err_msg=f"{name}.{part}")
+
+
+def test_memory_of_interface_weights_does_not_grow_with_the_receptors():
+    """Issue 33 item 12: 100,000 receptors on the epidermis/dermis interface of sample_sed/block4 (41,595
+    nodes). Before, every receptor-candidate pair was built at once (~30 kB a receptor: 3.0 GB here, a
+    MemoryError for 1e6); in chunks the child process stays under 600 MB."""
+    from _memory import in_child
+
+    got = in_child(f"""
+        import sys
+        sys.path.insert(0, {str(Path(__file__).parent)!r})
+        import numpy as np
+        import afferent
+        from afferent._interfaces import build_interface
+        from test_interfaces import _interface_receptors
+        field = afferent.read_sed({str(SAMPLE_SED / "indent_0p88mm.vtu")!r}, length_unit="mm", sed_unit="MPa")
+        isamp = build_interface(field, afferent.ReceptorLayout(_interface_receptors(field, 100_000)))
+        assert np.unique(isamp.receptor).size > 99_000
+    """)
+    assert got["error"] is None and got["peak_mb"] < 600, got

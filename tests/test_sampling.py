@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import re
 import warnings
+from pathlib import Path
 
 import meshio
 import numpy as np
@@ -452,3 +453,21 @@ def test_scattered_points_are_located_without_scipy_walking_every_simplex(monkey
     # rtol 1e-7: the Delaunay of a structured mesh's nodes has sliver tetrahedra whose barycentric
     # solve amplifies round-off (1.1e-9 seen with scipy 1.18 on Python 3.13); a wrong weight is O(1)
     np.testing.assert_allclose(got[0], inside @ np.array([3.0, -2.0, 5.0]) * 1e3 + 7.0, rtol=1e-7)
+
+
+def test_points_located_in_chunks_find_the_tetrahedra_of_one_chunk(monkeypatch, rng):
+    """Issue 33 item 12: locate_in_tets searches LOCATE_CHUNK points at a time (memory that does not grow with
+    the receptors: 1e6 at once took 1.2 GB); each point's tetrahedron and weights are those of one chunk,
+    points outside the mesh included (they go through the wider and the brute-force searches)."""
+    from afferent import _mesh_geometry
+
+    field = read_sed(Path(__file__).resolve().parents[1] / "sample_sed" / "block4" / "indent_0p88mm.vtu",
+                     length_unit="mm", sed_unit="MPa")
+    lo, hi = field.bounds
+    points = np.concatenate([lo + (hi - lo) * rng.random((3000, 3)), lo + (hi - lo) * rng.uniform(-0.05, 1.05, (20, 3)),
+                             field.points[:500]])
+    whole = _mesh_geometry.locate_in_tets(points, field.points, field.cells.tetra)
+    assert (whole[0] < 0).sum() > 3 and (whole[0] >= 0).sum() > 3000
+    monkeypatch.setattr(_mesh_geometry, "LOCATE_CHUNK", 37)
+    for got, want in zip(_mesh_geometry.locate_in_tets(points, field.points, field.cells.tetra), whole):
+        np.testing.assert_array_equal(got, want)
