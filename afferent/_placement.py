@@ -142,14 +142,14 @@ def _touching_cells(field, positions: np.ndarray, on_interface: np.ndarray) -> t
     them has a node on the interface), from :func:`afferent._interfaces._touching`."""
     from ._interfaces import _touching
 
-    r, t, _ = _touching(field, positions)
-    pairs = np.unique(np.column_stack([r, field.cells.materials[field.cells.parent[t]]]), axis=0)
     out = [[] for _ in range(positions.shape[0])]
-    for i, m in pairs.tolist():
-        out[i].append(int(m))
     near_cell = np.zeros(positions.shape[0], bool)
-    near_cell[r[on_interface[field.cells.tetra[t]].any(axis=1)]] = True
-    return tuple(tuple(m) for m in out), near_cell
+    for _start, _stop, r, t, _bary in _touching(field, positions):  # receptor chunk by receptor chunk
+        pairs = np.unique(np.column_stack([r, field.cells.materials[field.cells.parent[t]]]), axis=0)
+        for i, m in pairs.tolist():
+            out[i].append(int(m))
+        near_cell[r[on_interface[field.cells.tetra[t]].any(axis=1)]] = True
+    return tuple(tuple(sorted(m)) for m in out), near_cell
 
 
 def _interface_distance(positions: np.ndarray, points: np.ndarray, nodes: np.ndarray) -> np.ndarray:
