@@ -98,6 +98,8 @@ def coincident_labels(xyz: np.ndarray, tetra: np.ndarray, rtol: float = COINCIDE
     tol = rtol * shortest_edge(xyz, tetra)
     if not np.isfinite(tol) or xyz.shape[0] < 2 or not _any_in_one_bin(xyz, tol):
         return None
+    if np.abs(xyz).max() > 1e150:  # no mesh's coordinates: scipy's k-d tree overflows; left to the readers' checks
+        return None
     from scipy.spatial import cKDTree
 
     pairs = cKDTree(xyz).query_pairs(tol, output_type="ndarray")  # rows i < j

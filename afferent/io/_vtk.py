@@ -345,6 +345,11 @@ def _merged_mesh(pieces: list[dict], path: str, notes: list, plan: MergePlan | N
                 raise SEDFormatError(f"SED file {path!r}: the pieces' {key.replace('_', ' ')} array {n!r} has "
                                      f"different numbers of components ({', '.join(map(str, sorted(shapes)))}).")
     pdata = {n: np.concatenate([p["point_data"][n][0] for p in pieces]) for n in pnames}
+    for k, p in enumerate(pieces):  # VTK keeps what the file says: a cell naming a point the piece lacks is refused
+        for name, conn, _ in p["blocks"]:
+            if conn.size and (conn.min() < 0 or conn.max() >= len(p["points"])):
+                raise SEDFormatError(f"SED file {path!r}: a {name} cell of piece {k} names point {int(conn.max())} "
+                                     f"(or {int(conn.min())}); the piece has points 0..{len(p['points']) - 1}.")
     blocks = [(name, conn + offsets[k], idx, k) for k, p in enumerate(pieces) for name, conn, idx in p["blocks"]]
     new_index = np.arange(len(points))
     if len(pieces) > 1:
