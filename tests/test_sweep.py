@@ -302,14 +302,18 @@ def test_readme_sweep_example_runs_on_the_sample(tmp_path, monkeypatch, capsys):
 
 
 # ------------------------------------------------------------- killed sweeps (issue 26, item 8)
-def _start_sweep_and_wait_for_workers(tmp_path):
-    """A real `afferent sweep` on the 'processes' engine, once two workers run; (process, its descendants)."""
+_WIDE = ('"transduction.gamma_per_pa" = {start = 1e-3, stop = 1e-2, num = 40}\n'
+         '"spikes.gain_ms" = {start = 100, stop = 300, num = 10}\n')
+
+
+def _start_sweep_and_wait_for_workers(tmp_path, spec: str = _WIDE, n_workers: int = 2, poll: float = 0.1):
+    """A real `afferent sweep` of ``spec`` on the 'processes' engine, once ``n_workers`` workers run (polled every
+    ``poll`` s); (process, its descendants, the workers)."""
     import subprocess
     import time
 
     psutil = pytest.importorskip("psutil")
-    src = write_sweep(tmp_path, '"transduction.gamma_per_pa" = {start = 1e-3, stop = 1e-2, num = 40}\n'
-                                '"spikes.gain_ms" = {start = 100, stop = 300, num = 10}\n')
+    src = write_sweep(tmp_path, spec)
     proc = subprocess.Popen([sys.executable, "-m", "afferent", "sweep", str(src), "-o", str(tmp_path / "out"),
                              "--scheduler", "processes", "--no-cache", "-q"], stderr=subprocess.PIPE, text=True,
                             cwd=ROOT)
@@ -317,11 +321,23 @@ def _start_sweep_and_wait_for_workers(tmp_path):
     while time.monotonic() - t0 < 180:
         kids = parent.children(recursive=True)
         workers = [k for k in kids if "resource_tracker" not in " ".join(k.cmdline())]
-        if len(workers) >= 2 or proc.poll() is not None:
+        if len(workers) >= n_workers or proc.poll() is not None:
             break
-        time.sleep(0.1)
-    assert proc.poll() is None and len(workers) >= 2, proc.stderr.read() if proc.poll() is not None else kids
+        time.sleep(poll)
+    assert proc.poll() is None and len(workers) >= n_workers, proc.stderr.read() if proc.poll() is not None else kids
     return proc, kids, workers
+
+
+def _end_of_sweep(proc, kids, timeout: float) -> tuple[int, list, str]:
+    """Wait for the sweep (``timeout`` s), then for its descendants (10 s; any left are killed): (exit code, the
+    descendants that were still alive, its stderr)."""
+    import psutil
+
+    code = proc.wait(timeout)
+    _, alive = psutil.wait_procs(kids, timeout=10)
+    for p in alive:
+        p.kill()
+    return code, alive, proc.stderr.read()
 
 
 @pytest.mark.slow
@@ -347,15 +363,9 @@ def test_a_killed_worker_is_named_with_its_signal(tmp_path):
     """A worker killed mid-sweep was reported as a script missing `if __name__ == '__main__'`."""
     import signal
 
-    import psutil
-
     proc, kids, workers = _start_sweep_and_wait_for_workers(tmp_path)
     workers[0].send_signal(signal.SIGKILL)
-    code = proc.wait(60)
-    _, alive = psutil.wait_procs(kids, timeout=10)
-    for p in alive:
-        p.kill()
-    err = proc.stderr.read()
+    code, alive, err = _end_of_sweep(proc, kids, 60)
     assert code == 2 and not alive, err
     assert err.startswith("afferent: error: a sweep worker died (signal 9, SIGKILL) while running tasks"), err
     assert "run the same sweep again to resume" in err and "__main__" not in err
@@ -367,26 +377,10 @@ def test_a_worker_killed_in_the_first_task_is_named_with_its_own_signal(tmp_path
     task (the export's sampling) ran was not, and its death was blamed on a calling script without
     `if __name__ == '__main__'` (internal error, exit 1), or on the SIGTERM the pool sends the others."""
     import signal
-    import subprocess
-    import time
 
-    psutil = pytest.importorskip("psutil")
-    src = write_sweep(tmp_path, SMALL)
-    proc = subprocess.Popen([sys.executable, "-m", "afferent", "sweep", str(src), "-o", str(tmp_path / "out"),
-                             "--scheduler", "processes", "--no-cache", "-q"], stderr=subprocess.PIPE, text=True,
-                            cwd=ROOT)
-    parent, t0, workers = psutil.Process(proc.pid), time.monotonic(), []
-    while not workers and proc.poll() is None and time.monotonic() - t0 < 180:
-        kids = parent.children(recursive=True)
-        workers = [k for k in kids if "resource_tracker" not in " ".join(k.cmdline())]
-        time.sleep(0.02)
-    assert workers, proc.stderr.read()
+    proc, kids, workers = _start_sweep_and_wait_for_workers(tmp_path, SMALL, n_workers=1, poll=0.02)
     workers[0].send_signal(signal.SIGSEGV)  # the first worker, at once: before or while it samples the export
-    code = proc.wait(120)
-    _, alive = psutil.wait_procs(kids, timeout=10)
-    for p in alive:
-        p.kill()
-    err = proc.stderr.read()
+    code, alive, err = _end_of_sweep(proc, kids, 120)
     assert code == 2 and not alive, err
     assert err.startswith("afferent: error: a sweep worker died (signal 11, SIGSEGV) while running tasks"), err
 
