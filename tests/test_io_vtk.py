@@ -419,3 +419,35 @@ def test_vtm_blocks_leading_back_to_the_vtm_are_refused(tmp_path):
     with pytest.raises(SEDFormatError, match=re.escape(f"SED file {b!r} lists {a!r}, which lists {b!r} again (directly "
                                                        "or through other files): a loop.")):
         data_files(a)
+
+
+def test_a_crash_of_vtks_legacy_reader_is_an_error_naming_the_file_not_the_end_of_the_process(tmp_path):
+    # session 8's fuzzing: a CONNECTIVITY line whose data type runs into the next keyword kills the process in
+    # VTK 9.7's legacy reader (SIGSEGV); the legacy reader now runs in a child process (afferent.io._child)
+    data = open(os.path.join(DATA, "fuzz", "SIGSEGV-vtk-legacy-reader.bin"), "rb").read()
+    start = data.index(b"# vtk DataFile")
+    path = str(tmp_path / "crash.vtk")
+    with open(path, "wb") as f:
+        f.write(data[start:])
+    with pytest.raises(SEDFormatError, match=re.escape(f"SED file {path!r} could not be read as ")) as info:
+        read_raw(path)
+    # a VTK whose legacy reader does not crash on it still refuses it (the data type is garbage)
+    assert "crashed on it (signal 11, SIGSEGV)" in str(info.value) or "could not read it either" in str(info.value)
+    out = subprocess.run([sys.executable, "-m", "afferent", "info", path], capture_output=True, text=True)
+    assert out.returncode == 2 and out.stderr.startswith("afferent: error: SED file") and out.stderr.count("\n") == 1
+
+
+def test_a_child_reader_dying_by_a_signal_is_an_error_saying_which(tmp_path):
+    from afferent.io._child import call_in_child
+
+    with pytest.raises(SEDFormatError, match=re.escape(
+            "SED file 'f.vtk' could not be read as a test file: the tool's compiled code crashed on it (signal 6, "
+            "SIGABRT); the hint.")):
+        call_in_child("os", "abort", path="f.vtk", reading="a test file", tool="the tool", crash_hint="the hint")
+    with pytest.raises(SEDFormatError, match=re.escape(
+            "SED file 'f.vtk' could not be read as a test file: the process reading it with the tool exited with "
+            "code 3")):
+        call_in_child("os", "_exit", 3, path="f.vtk", reading="a test file", tool="the tool", crash_hint="the hint")
+    assert call_in_child("math", "hypot", 3.0, 4.0, path="f", reading="r", tool="t", crash_hint="h") == 5.0
+    with pytest.raises(ZeroDivisionError):  # the function's own exception comes back as it is
+        call_in_child("operator", "truediv", 1, 0, path="f", reading="r", tool="t", crash_hint="h")

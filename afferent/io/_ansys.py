@@ -206,49 +206,12 @@ def _read_arrays(path: str, progress: bool) -> dict:
     return {"points": points, "blocks": blocks, "stacks": stacks, "times": times, "kan": kan}
 
 
-_CHILD = """
-import os, pickle, sys
-out = os.fdopen(os.dup(1), "wb")
-os.dup2(2, 1)  # whatever the libraries print goes to stderr, not into the pickle
-from afferent.io._ansys import _read_arrays
-try:
-    result = ("ok", _read_arrays(sys.argv[1], sys.argv[2] == "1"))
-except Exception as err:
-    result = ("error", err)
-pickle.dump(result, out, protocol=pickle.HIGHEST_PROTOCOL)
-out.close()
-"""
-
-
 def _read_in_child(path: str, progress: bool) -> dict:
-    """:func:`_read_arrays` in a child Python process; its death by a signal becomes an :class:`SEDFormatError`.
+    """:func:`_read_arrays` in a child Python process (:func:`afferent.io._child.call_in_child`): a crash of
+    ansys-mapdl-reader's compiled code on a damaged file becomes an :class:`SEDFormatError`. Cost: the
+    child's start-up (importing numpy and ansys-mapdl-reader), about a second."""
+    from ._child import call_in_child
 
-    The child is a fresh interpreter (``sys.executable -c``, this package first on its path): it
-    imports neither the calling script nor anything else of this process. Cost: its start-up
-    (importing numpy and ansys-mapdl-reader), about a second.
-    """
-    import pickle
-    import signal
-    import subprocess
-    import sys
-
-    package_root = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
-    env = dict(os.environ, PYTHONPATH=os.pathsep.join([package_root, *filter(None, [os.environ.get("PYTHONPATH")])]))
-    proc = subprocess.run([sys.executable, "-c", _CHILD, os.path.abspath(path), "1" if progress else "0"],
-                          stdout=subprocess.PIPE, stderr=None if progress else subprocess.PIPE, env=env)
-    if proc.returncode == 0:
-        status, value = pickle.loads(proc.stdout)
-        if status == "error":
-            raise value
-        return value
-    said = (proc.stderr or b"").decode("utf-8", "replace").strip().splitlines()
-    said = f"; it said {said[-1][:200]!r}" if said else ""
-    if proc.returncode < 0:
-        sig = -proc.returncode
-        name = signal.Signals(sig).name if sig in signal.Signals._value2member_map_ else "unknown signal"
-        raise SEDFormatError(
-            f"SED file {path!r} could not be read as an ANSYS MAPDL result file: ansys-mapdl-reader's compiled code "
-            f"crashed on it (signal {sig}, {name}{said}); the file is corrupt or truncated, or not a result file "
-            "this reader knows.")
-    raise SEDFormatError(f"SED file {path!r} could not be read as an ANSYS MAPDL result file: the process reading it "
-                         f"with ansys-mapdl-reader exited with code {proc.returncode}{said}.")
+    return call_in_child("afferent.io._ansys", "_read_arrays", os.path.abspath(path), progress, path=path,
+                         reading="an ANSYS MAPDL result file", tool="ansys-mapdl-reader", show_stderr=progress,
+                         crash_hint="the file is corrupt or truncated, or not a result file this reader knows")

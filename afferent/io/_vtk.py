@@ -29,6 +29,9 @@ checked at each: a field all zero at t = 0 and discontinuous later is not merged
 Every piece and block file (recursively: a ``.vtm`` block may be a ``.pvtu``) passes
 :func:`afferent.io._files.resolve_member` before VTK opens any: inside the folder of the export
 named unless ``allow_outside_files``, a regular file; a file that lists itself is refused.
+
+A legacy ``.vtk`` is read by VTK in a child process (:mod:`afferent.io._child`): VTK's legacy reader can
+die with SIGSEGV on a damaged file, which becomes an SEDFormatError naming the file.
 """
 
 from __future__ import annotations
@@ -379,9 +382,25 @@ def _merged_mesh(pieces: list[dict], path: str, notes: list, plan: MergePlan | N
 def _read_pieces(path: str, meshio_error: Exception | None = None, scope: Scope | None = None
                  ) -> tuple[list[dict], list[str]]:
     """The unstructured pieces (or blocks) of a VTK-family file as numpy, and the notes; every file it names is
-    resolved in ``scope`` before VTK opens any (:func:`_member_files`)."""
+    resolved in ``scope`` before VTK opens any (:func:`_member_files`).
+
+    A legacy ``.vtk`` file is read in a child process (:func:`afferent.io._child.call_in_child`): VTK's legacy
+    reader can die with SIGSEGV on a damaged file (``tests/data/fuzz``), which becomes an SEDFormatError here.
+    """
     scope = scope or Scope.of(path)
     _member_files(path, scope)
+    if path.lower().endswith(".vtk") and vtk_version() is not None:
+        from ._child import call_in_child
+
+        return call_in_child("afferent.io._vtk", "_read_pieces_here", path, meshio_error, scope, path=path,
+                             reading="a legacy VTK file", tool=f"VTK {vtk_version()}",
+                             crash_hint="the file is corrupt or truncated (a count or data type in it that does not "
+                                        "match the data that follows)")
+    return _read_pieces_here(path, meshio_error, scope)
+
+
+def _read_pieces_here(path: str, meshio_error: Exception | None, scope: Scope) -> tuple[list[dict], list[str]]:
+    """:func:`_read_pieces` in this process (the files it names already resolved)."""
     ext = os.path.splitext(path)[1].lower()
     problem = (str(meshio_error).rstrip(".") if meshio_error is not None else
                f"SED file {path!r} is a {'parallel VTU record' if ext == '.pvtu' else 'VTK multiblock file'}, "
