@@ -193,6 +193,13 @@ def test_wheel_runs_the_demo_without_the_source_tree(tmp_path):
     names = zipfile.ZipFile(wheel).namelist()
     assert {f"afferent/data/sample/{f}" for f in readme_table()} | {"afferent/data/sample/README.md"} <= set(names)
     assert not [n for n in names if not n.startswith(("afferent/", "afferent_skin-"))], names
+    # typed (PEP 561) and licensed: the marker file, the licence text and the metadata naming both
+    assert "afferent/py.typed" in names
+    assert [n for n in names if n.endswith(".dist-info/licenses/LICENSE")], names
+    with zipfile.ZipFile(wheel) as zf:
+        meta = zf.read(next(n for n in names if n.endswith(".dist-info/METADATA"))).decode()
+    assert "License-Expression: BSD-3-Clause" in meta and "License-File: LICENSE" in meta
+    assert "Classifier: Programming Language :: Python :: 3.11" in meta and "Classifier: Typing :: Typed" in meta
     import tarfile
 
     members = tarfile.open(sdist).getnames()
