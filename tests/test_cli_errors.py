@@ -140,7 +140,26 @@ def test_every_subcommand_takes_the_common_quiet_option(command):
     parser = build_parser([command])
     sub = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
     actions = sub.choices[command]._option_string_actions
-    assert actions["-q"] is actions["--quiet"] and actions["-q"].help == "no progress bars or summaries"
+    assert actions["-q"] is actions["--quiet"] and actions["-q"].help.startswith("nothing on the terminal but errors")
+
+
+def test_q_means_no_warnings_on_the_terminal_for_every_command(tmp_path, capsys):
+    """Before: ``-q`` hid a run's warnings but ``sample``, ``demo``, ``hotspots`` ... printed theirs (issue 37)."""
+    from afferent.cli import main
+
+    export = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "sample_sed", "block4",
+                          "indent_0p88mm.vtu")
+    receptors = tmp_path / "r.csv"
+    receptors.write_text("id,x,y,z\n1,0.68,2.45,0.24\n2,90,2.45,0.24\n")  # the second far outside the block
+    base = ["sample", export, "--receptors", str(receptors), "--length-unit", "mm", "--sed-unit", "MPa",
+            "--on-outside", "warn"]
+    assert main(base + ["-o", str(tmp_path / "a.csv")]) == 0
+    said = capsys.readouterr().err
+    assert "afferent: warning: " in said and "outside" in said
+    assert main(base + ["-o", str(tmp_path / "b.csv"), "-q"]) == 0
+    assert capsys.readouterr().err == ""
+    assert main(base + ["-o", str(tmp_path / "c.csv")]) == 0  # -q of one call does not silence the next
+    assert "afferent: warning: " in capsys.readouterr().err
 
 
 @pytest.mark.parametrize("argv, line", [

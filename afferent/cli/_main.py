@@ -160,6 +160,8 @@ _WORDS: dict = {"flags": {}, "choices": {}}
 def _show_warning(message, category, filename, lineno, file=None, line=None):
     """Warnings from the library as one line each, like errors (no source path, no code line), in the
     command's own words (:func:`speak_cli`)."""
+    if _WORDS.get("quiet"):  # -q: nothing on the terminal but errors (a run's warnings stay in its run.json)
+        return
     text = speak_cli(" ".join(str(message).split()), _WORDS["flags"], _WORDS["choices"])
     print(f"afferent: warning: {text}", file=sys.stderr if file is None else file)
 
@@ -175,9 +177,10 @@ def _main(argv: list[str] | None) -> int:
     parser = build_parser(sys.argv[1:] if argv is None else argv)
     flags = _flags_of(parser, argv)
     choices = _choices_of(parser, argv)
-    _WORDS.update(flags=flags, choices=choices)
+    _WORDS.update(flags=flags, choices=choices, quiet=False)
     try:
         args = parser.parse_args(argv)
+        _WORDS["quiet"] = bool(getattr(args, "quiet", False))
         args.argv = [str(a) for a in (sys.argv[1:] if argv is None else argv)]  # for the run record
         if not getattr(args, "func", None):
             parser.print_help(sys.stderr)

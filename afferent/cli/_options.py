@@ -137,7 +137,9 @@ def accepted(args: argparse.Namespace) -> list | None:
 def add_common_options(parser: argparse.ArgumentParser) -> None:
     """The options every subcommand takes (added by :func:`afferent.cli._main.build_parser`, not by the
     subcommands): ``-q/--quiet``."""
-    parser.add_argument("-q", "--quiet", action="store_true", help="no progress bars or summaries")
+    parser.add_argument("-q", "--quiet", action="store_true",
+                        help="nothing on the terminal but errors: no progress bars, summaries or warnings (a run's "
+                             "warnings stay in its run.json, a sweep's in its records)")
 
 
 def show_progress(args: argparse.Namespace) -> bool:
