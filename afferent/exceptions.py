@@ -24,6 +24,7 @@ import os
 
 __all__ = [
     "AfferentError",
+    "MissingExtraError",
     "SEDFormatError",
     "UnitError",
     "FieldCoverageError",
@@ -69,6 +70,10 @@ class OutputWriteError(AfferentError, OSError):
 
     def __reduce__(self):  # pickled as its constructor's arguments (a run's figure process sends it back)
         return (type(self), (self.errno, str(self.args[0]), self.filename))
+
+
+class MissingExtraError(AfferentError, ImportError):
+    """An option asks for an optional library that is not installed; the message names the install command."""
 
 
 class CalibrationError(AfferentError, RuntimeError):

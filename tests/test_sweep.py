@@ -4,6 +4,7 @@ the no-Dask fallback, and errors that name the file, key and line."""
 from __future__ import annotations
 
 import json
+import re
 import sys
 import textwrap
 from pathlib import Path
@@ -127,21 +128,28 @@ def test_without_dask_the_sweep_runs_serially_with_a_note(tmp_path, monkeypatch,
         sweep(src, tmp_path / "cluster", scheduler="tcp://127.0.0.1:1")
 
 
-def test_the_table_is_parquet_with_pyarrow_and_csv_without_the_same_values(tmp_path, monkeypatch):
+def test_the_table_is_csv_by_default_and_parquet_on_request_with_the_same_values(tmp_path, monkeypatch):
+    """Before (issue 37): Parquet when pyarrow happened to be importable, else CSV; n_spikes float64."""
     pytest.importorskip("pyarrow")
     src = write_sweep(tmp_path, '"transduction.gamma_per_pa" = [2e-3, 1e-2]\n')
-    pq = sweep(src, tmp_path / "pq", scheduler="serial")
+    csv = sweep(src, tmp_path / "csv", scheduler="serial")  # pyarrow installed: CSV still, the one default
+    assert (tmp_path / "csv" / "table.csv").is_file() and not (tmp_path / "csv" / "table.parquet").exists()
+    assert str(csv.table["n_spikes"].dtype) == "Int64"  # a count, as in spike_summary.csv
+    pq = sweep(src, tmp_path / "pq", scheduler="serial", table_format="parquet")
     assert (tmp_path / "pq" / "table.parquet").is_file() and not (tmp_path / "pq" / "table.csv").exists()
     back = read_table(tmp_path / "pq" / "table.parquet")
-    pd.testing.assert_frame_equal(back, pq.table)
+    pd.testing.assert_frame_equal(back, pq.table)  # types kept, the count as Int64 too
     marker = json.loads((tmp_path / "pq" / ".afferent-output.json").read_text())
     assert "table.parquet" in marker["files"]  # afferent's, with its SHA-256: a later overwrite may replace it
-    monkeypatch.setitem(sys.modules, "pyarrow", None)  # import pyarrow -> ImportError
-    csv = sweep(src, tmp_path / "csv", scheduler="serial")
-    assert (tmp_path / "csv" / "table.csv").is_file() and not (tmp_path / "csv" / "table.parquet").exists()
-    monkeypatch.undo()  # pandas itself reads CSV strings through pyarrow once it was imported
     pd.testing.assert_frame_equal(read_table(tmp_path / "csv" / "table.csv"), back, check_dtype=False)
     assert csv.table.shape == back.shape
+    monkeypatch.setitem(sys.modules, "pyarrow", None)  # import pyarrow -> ImportError: said before anything runs
+    with pytest.raises(ImportError, match=re.escape("table_format='parquet' needs pyarrow, which is not installed: "
+                                                    "pip install pyarrow")):
+        sweep(src, tmp_path / "none", scheduler="serial", table_format="parquet")
+    assert not (tmp_path / "none").exists()
+    with pytest.raises(ValueError, match=re.escape("table_format must be one of 'csv', 'parquet'; got 'xlsx'")):
+        sweep(src, tmp_path / "none", scheduler="serial", table_format="xlsx")
 
 
 # --------------------------------------------------------------------- resume, failures

@@ -22,7 +22,7 @@ are sweeps too (one task per scene).
         -> group tasks by what sampling depends on (export content, receptors, region, method)
         -> sample: one task per group, read + sample once (through the SED cache)
         -> batches of tasks on the sampled SED (stimulus, transduction, synthesis, fit, spikes)
-        -> OUT/tasks/batch-*.jsonl (one JSON line per task), OUT/table.parquet|csv, OUT/sweep.json
+        -> OUT/tasks/batch-*.jsonl (one JSON line per task), OUT/table.csv (or .parquet), OUT/sweep.json
 
 **Engines.** ``scheduler=None`` runs on Dask's local multiprocessing scheduler, one process
 per core. Chosen by measurement (benchmarks/bench_sweep.py, 600 tasks, 3 interleaved rounds on
@@ -88,7 +88,7 @@ class SweepResult:
     table : pandas.DataFrame
         One row per scene x parameter set x afferent (``COLUMNS``: name -> meaning), tasks that succeeded.
     table_path : str
-        ``table.parquet`` (pyarrow installed) or ``table.csv``.
+        ``table.csv`` or ``table.parquet`` (``table_format``).
     n_tasks, n_ran, n_skipped, n_failed : int
         Tasks in the sweep; run now; skipped (done before: resume); failed.
     failures : list of dict
@@ -366,7 +366,7 @@ def _cluster_window(client, groups, sink, sampled, *, shared, slots, cache_dir, 
 # ------------------------------------------------------------------------------- API
 def sweep(sources, output, *, scheduler=None, overwrite: bool = False, cache_dir=None, use_cache: bool = True,
           batch_size: int | None = None, shared_disk: bool | None = None, progress: bool = False,
-          record_extra: dict | None = None, max_tasks: int | None = None) -> SweepResult:
+          record_extra: dict | None = None, max_tasks: int | None = None, table_format: str = "csv") -> SweepResult:
     """Run a sweep: every scene x parameter set, each export read and sampled once; one tidy table.
 
     Parameters
@@ -375,7 +375,7 @@ def sweep(sources, output, *, scheduler=None, overwrite: bool = False, cache_dir
         Sweep files (a scene plus ``[sweep]``), scene files, or folders of them
         (:func:`load_sweep`).
     output : str or path-like
-        Output folder: ``table.parquet`` (or ``table.csv`` without pyarrow), ``tasks/*.jsonl``
+        Output folder: ``table.csv`` (or ``table.parquet``: ``table_format``), ``tasks/*.jsonl``
         (one record per task, a JSON line; one file per batch) and ``sweep.json``. An existing folder of the same sweep is
         resumed (tasks done are skipped); one of another sweep is refused unless ``overwrite``.
     scheduler : None, str or distributed.Client, optional
@@ -399,6 +399,9 @@ def sweep(sources, output, *, scheduler=None, overwrite: bool = False, cache_dir
         A tqdm bar over tasks (locally), Dask's progress bar on a cluster.
     record_extra : dict, optional
         More entries for ``sweep.json`` (the command line).
+    table_format : {'csv', 'parquet'}, default='csv'
+        The table's format: ``table.csv``, or ``table.parquet`` (typed columns; needs pyarrow, checked
+        before anything runs).
     max_tasks : int, optional
         Most tasks the sweep may have (default 1,000,000): counted before any task is made;
         more is refused (:func:`load_sweep`). The tasks are made as they are dispatched, in
@@ -435,8 +438,11 @@ def sweep(sources, output, *, scheduler=None, overwrite: bool = False, cache_dir
         # a worker process of the 'processes' scheduler importing an unguarded script: touch nothing
         raise RuntimeError("afferent.sweep(...) was called while a worker process imported the calling script; call "
                            "it under 'if __name__ == \"__main__\":' (or pass scheduler='threads' or 'serial').")
+    from .table import check_table_format
+
     t0 = time.perf_counter()
     started = datetime.now(timezone.utc).isoformat(timespec="seconds")
+    check_table_format(table_format)
     spec = load_sweep(sources, max_tasks=max_tasks)
     output = os.path.abspath(os.fspath(output))
     probe = list(spec.probe_tasks())
@@ -447,7 +453,7 @@ def sweep(sources, output, *, scheduler=None, overwrite: bool = False, cache_dir
             "mode": spec.mode, "keys": list(spec.keys), "sweep_digest": spec.digest, "n_tasks": spec.n_tasks,
             "specification": _specification(spec), **(record_extra or {})}
     run = dict(scheduler=scheduler, cache_dir=cache_dir, use_cache=use_cache, batch_size=batch_size,
-               shared_disk=shared_disk, progress=progress, head=head, t0=t0, probe=probe)
+               shared_disk=shared_disk, progress=progress, head=head, t0=t0, probe=probe, table_format=table_format)
     if overwrite and os.path.lexists(output):  # the previous sweep stays whole until this one is complete
         with atomic_dir(output, overwrite=True, inputs=inputs, task_records=True) as tmp:
             os.mkdir(os.path.join(tmp, "tasks"))
@@ -471,7 +477,7 @@ def _specification(spec: SweepSpec) -> list:
 
 
 def _execute(spec: SweepSpec, where: str, done: _Ids, *, scheduler, cache_dir, use_cache, batch_size, shared_disk,
-             progress, head: dict, t0: float, probe: list):
+             progress, head: dict, t0: float, probe: list, table_format: str = "csv"):
     """Run the tasks not ``done`` (made as they are dispatched) and write their records, the table and sweep.json."""
     from .table import write_table
 
@@ -491,7 +497,9 @@ def _execute(spec: SweepSpec, where: str, done: _Ids, *, scheduler, cache_dir, u
         try:
             import distributed  # noqa: F401
         except ImportError as err:
-            raise ImportError(f"scheduler={scheduler!r} needs Dask's distributed scheduler: pip install "
+            from ..exceptions import MissingExtraError
+
+            raise MissingExtraError(f"scheduler={scheduler!r} needs Dask's distributed scheduler: pip install "
                               "'afferent-skin[dask]'.") from err
     sink = _Sink(where, max(0, spec.n_tasks - len(done)), progress=progress and (kind == "serial" or kind in _LOCAL))
     ids, counts = bytearray(), {"skipped": 0, "groups": 0}
@@ -512,7 +520,7 @@ def _execute(spec: SweepSpec, where: str, done: _Ids, *, scheduler, cache_dir, u
     finally:
         sink.close()
     table, failures = _gather(where, _Ids.of(ids), spec.keys)
-    table_path = write_table(table, where)
+    table_path = write_table(table, where, table_format)
     full = dict(head, status="done" if not failures else "done, with failed tasks", engine=info,
                 n_sampling_groups=counts["groups"], n_ran=sink.n, n_skipped=counts["skipped"],
                 n_failed=len(failures), failures=failures, table=os.path.basename(table_path), n_rows=len(table),

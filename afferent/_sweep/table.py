@@ -76,20 +76,34 @@ def assemble(records: list[dict], keys) -> "pandas.DataFrame":  # noqa: F821
     for c in COLUMNS:
         if c != "afferent":
             df[c] = pd.to_numeric(df[c], errors="coerce").astype(float)
+    df["n_spikes"] = df["n_spikes"].astype("Int64")  # a count, as in spike_summary.csv; <NA> where not computed
     return df
 
 
-def table_format() -> str:
-    """'parquet' when pyarrow is installed, else 'csv'."""
-    try:
-        import pyarrow  # noqa: F401
-    except ImportError:
-        return "csv"
-    return "parquet"
+#: The sweep table's formats (``table_format=``, ``--table-format``): CSV by default everywhere (no extra
+#: library: it opens in pandas, R and a spreadsheet); Parquet (typed columns, compressed; needs pyarrow) on request.
+TABLE_FORMATS = ("csv", "parquet")
 
 
-def write_table(df, folder: str) -> str:
-    """Write the table atomically as ``table.parquet`` (pyarrow installed) or ``table.csv``; returns the path.
+def check_table_format(table_format: str) -> str:
+    """``table_format`` if it is one of :data:`TABLE_FORMATS` and its library is installed, else an error saying so
+    (raised before the sweep runs)."""
+    if table_format not in TABLE_FORMATS:
+        raise ValueError(f"table_format must be one of {', '.join(map(repr, TABLE_FORMATS))}; got {table_format!r} "
+                         "instead.")
+    if table_format == "parquet":
+        try:
+            import pyarrow  # noqa: F401
+        except ImportError as err:
+            from ..exceptions import MissingExtraError
+
+            raise MissingExtraError("table_format='parquet' needs pyarrow, which is not installed: pip install pyarrow "
+                              "(or leave the table as CSV, the default).") from err
+    return table_format
+
+
+def write_table(df, folder: str, table_format: str = "csv") -> str:
+    """Write the table atomically as ``table.csv`` or ``table.parquet`` (``table_format``); returns the path.
 
     The table of the other format, left by an earlier run of the sweep, is removed only if the folder's record
     proves afferent wrote it (:mod:`afferent._owned`); both are recorded there as written or removed."""
@@ -98,7 +112,7 @@ def write_table(df, folder: str) -> str:
     from .._output import write_csv
     from .._owned import add_to_record, recorded
 
-    fmt = table_format()
+    fmt = check_table_format(table_format)
     path = os.path.join(folder, f"table.{fmt}")
     other = os.path.join(folder, "table.csv" if fmt == "parquet" else "table.parquet")
     writer = (lambda d, p: d.to_parquet(p, index=False)) if fmt == "parquet" else None

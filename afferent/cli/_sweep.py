@@ -4,7 +4,7 @@ SWEEP is a scene file with a [sweep] table (swept keys "table.key" = [values] or
 {start, stop, num}; mode = "product" or "zip"; or scenes = [...] / a folder), a plain scene
 file, or a folder of scene files; several may be given.
 
-Writes into OUT: table.parquet (table.csv without pyarrow), one row per scene x parameter set
+Writes into OUT: table.csv (table.parquet with --table-format parquet), one row per scene x parameter set
 x afferent (rate, first-spike latency, spike count, peak and profile current, fit R2 and ssd;
 NaN where the scene's outputs do not compute it); ``tasks/batch-*.jsonl``, one record per task
 as a JSON line (failed ones with their error); sweep.json, the sweep's record. A re-run into OUT resumes: tasks
@@ -39,6 +39,8 @@ def add_args(parser: argparse.ArgumentParser) -> None:
                         help="tasks per Dask task (default: about four batches per worker thread)")
     parser.add_argument("--max-tasks", type=int, metavar="N",
                         help="most tasks the sweep may have (default 1,000,000; counted before any is made)")
+    parser.add_argument("--table-format", choices=("csv", "parquet"), default="csv",
+                        help="the table's format: table.csv (default) or table.parquet (typed columns; needs pyarrow)")
     parser.add_argument("--no-cache", action="store_true",
                         help="neither read nor write the sampled-SED cache ($AFFERENT_CACHE_DIR or ~/.cache/afferent)")
     add_output_options(parser, what="output folder (table, tasks/, sweep.json); an existing one of the same sweep is resumed")
@@ -53,7 +55,7 @@ def run(args: argparse.Namespace) -> int:
     command = None if argv is None else "afferent " + shlex.join(argv)
     res = sweep(args.sources, args.output, scheduler=args.scheduler, overwrite=args.overwrite,
                 use_cache=not args.no_cache, batch_size=args.batch_size, progress=show_progress(args),
-                record_extra={"command": command}, max_tasks=args.max_tasks)
+                record_extra={"command": command}, max_tasks=args.max_tasks, table_format=args.table_format)
     if not args.quiet:
         eng = res.record.get("engine", {})
         print(f"afferent sweep: wrote {args.output}: {res.table_path.rsplit('/', 1)[-1]} ({len(res.table)} rows), "
