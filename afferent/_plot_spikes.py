@@ -99,13 +99,23 @@ def _rate_columns(spikes, waveform=None, positions=None) -> dict:
     return df
 
 
+#: rates.png: the phases' markers and colours (hollow, cycled when a waveform has more than four phases) and the
+#: peak instantaneous rate's (a filled crimson star): no phase looks like the peak (the 'off' phase was a red
+#: triangle beside the peak's crimson one).
+PHASE_MARKERS = "osDv"
+PHASE_COLOURS = ("tab:blue", "tab:orange", "tab:green", "tab:purple")
+PEAK_STYLE = {"marker": "*", "color": "crimson"}
+
+
 def plot_rates(spikes, positions=None, ax=None, *, waveform=None, label: str | None = None, title: str | None = None):
     """Firing rate of each afferent: per stimulus phase, the window mean, and the peak
     instantaneous rate (1 / shortest ISI), against position when given.
 
     A rate-sensitive RA-I afferent fires bursts at the onset and the release of a ramp-and-hold
     and nothing through the hold: its window mean (e.g. 30 Hz) hides 300-400 Hz bursts, which
-    the peak instantaneous rate and the loading/unloading rates show.
+    the peak instantaneous rate and the loading/unloading rates show. Each phase is a hollow marker
+    in its own colour (:data:`PHASE_MARKERS`, :data:`PHASE_COLOURS`), the peak a filled crimson
+    star, each named in the legend.
 
     Parameters
     ----------
@@ -152,11 +162,11 @@ def plot_rates(spikes, positions=None, ax=None, *, waveform=None, label: str | N
     order = np.argsort(x)
     phases = [c for c in table if c.endswith("_hz") and c not in ("mean_hz", "peak_instantaneous_hz")]
     for j, col in enumerate(phases):  # later phases drawn smaller and dashed: equal rates (0 Hz) stay visible
-        ax.plot(x[order], np.asarray(table[col])[order], "osDv"[j % 4] + ("-" if j == 0 else "--"), mfc="none",
-                ms=9 - 1.5 * (j % 4), label=f"{col[:-3]} phase")
+        ax.plot(x[order], np.asarray(table[col])[order], PHASE_MARKERS[j % 4] + ("-" if j == 0 else "--"), mfc="none",
+                ms=9 - 1.5 * (j % 4), color=PHASE_COLOURS[j % 4], label=f"{col[:-3]} phase")
     ax.plot(x[order], table["mean_hz"][order], "k:", lw=1.5, label=label or "mean over the window")
-    ax.plot(x[order], table["peak_instantaneous_hz"][order], "^--", ms=4, color="crimson",
-            label="peak instantaneous (1 / shortest ISI)")
+    ax.plot(x[order], table["peak_instantaneous_hz"][order], ls="-.", ms=8, label="peak instantaneous (1 / shortest ISI)",
+            **PEAK_STYLE)
     ax.set_ylabel("rate (Hz)")
     legend_beside(ax)
     ax.set_title(title or f"firing rates over {spikes.duration:g} s")

@@ -1,0 +1,56 @@
+"""Figures that do not mislead (issue 34, item 8), tested on the figure objects, never on pixels:
+the method a calibration figure draws, the range of an axis, the counts a legend names, the units of a
+profile, the demo's findings text against its table, the markers of rates.png.
+
+The layout of each figure (no legend over a point, no overlapping labels) is tests/test_figures.py's.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from _figcheck import figure_problems
+
+TRIANGLES = set("^v<>1234")
+
+
+def _line(ax, label: str):
+    found = [ln for ln in ax.get_lines() if ln.get_label() == label]
+    assert len(found) == 1, [ln.get_label() for ln in ax.get_lines()]
+    return found[0]
+
+
+def _spikes_and_ramp():
+    """Three afferents through a ramp-and-hold with release (phases loading, hold, unloading, off)."""
+    from afferent.spiking import LIFParams, simulate_lif
+    from afferent.stimulus import ramp_and_hold
+    from afferent.synthesis import AfferentCurrent
+
+    ramp = ramp_and_hold(5e-4, 5e-3, 0.1, dt=1e-3, post=0.1)  # 0.1 s each: loading, hold, unloading, off
+    t = np.arange(0.0, 0.4, 1e-4)
+    cur = AfferentCurrent(np.tile([5e-8, 2e-7, 4e-7], (t.size, 1)), t, [0.0, 4.4e-4, 8.8e-4], ["L0", "L1", "L2"],
+                          "longitudinal")
+    return simulate_lif(cur, LIFParams.from_preset("ra"), dt=1e-4, engine="fast-numpy"), cur, ramp
+
+
+def test_rates_off_phase_and_peak_rate_look_different():
+    """rates.png drew the 'off' phase as a red triangle (the 4th default colour, 'v') and the peak instantaneous
+    rate as a crimson triangle ('^'): two red triangles, told apart only by their direction (fails before)."""
+    from matplotlib.colors import to_rgb
+
+    from afferent.plotting import plot_rates
+
+    spikes, cur, ramp = _spikes_and_ramp()
+    ax = plot_rates(spikes, cur, waveform=ramp)
+    labels = [t.get_text() for t in (ax.get_legend() or ax.figure.legends[0]).get_texts()]
+    assert "off phase" in labels and "peak instantaneous (1 / shortest ISI)" in labels, labels
+    off, peak = _line(ax, "off phase"), _line(ax, "peak instantaneous (1 / shortest ISI)")
+    assert not {off.get_marker(), peak.get_marker()} <= TRIANGLES, (off.get_marker(), peak.get_marker())
+    phases = [ln for ln in ax.get_lines() if ln.get_label().endswith(" phase")]
+    assert len(phases) == 4
+    for ln in phases:  # no phase in the peak's colour family
+        gap = np.abs(np.subtract(to_rgb(ln.get_color()), to_rgb(peak.get_color()))).sum()
+        assert gap > 0.5, (ln.get_label(), ln.get_color(), peak.get_color())
+    assert len({ln.get_marker() for ln in phases + [peak]}) == 5
+    assert figure_problems(ax.figure) == []
