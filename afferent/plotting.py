@@ -111,7 +111,9 @@ def plot_frequency(summary, *, title: str | None = None):
     """The study's fig. 4-11 beside fig. 4-12: SED at the site at the deepest points, and mean rate, vs frequency.
 
     ``summary``: :func:`afferent.cycles.frequency_summary` (SED in Pa, frequency and rate in Hz); a line per
-    group (model), the first cycle's deepest point dashed, the last's solid. Returns the Figure.
+    group (model), the first cycle's deepest point dashed, the last's solid, its legend naming each run's own
+    last cycle (:func:`_last_cycles`). Both axes start at zero: a few-percent change between frequencies or
+    cycles looks as small as it is. Returns the Figure.
     """
     import matplotlib.pyplot as plt
 
@@ -120,13 +122,14 @@ def plot_frequency(summary, *, title: str | None = None):
         color = f"C{i}"
         ax_sed.plot(t["frequency_hz"], t["sed_first_pa"], "o--", color=color, label=f"{g}, 1st deepest point")
         ax_sed.plot(t["frequency_hz"], t["sed_last_pa"], "s-", color=color,
-                    label=f"{g}, deepest point {int(t['n_cycles'].max())}")
+                    label=f"{g}, last deepest point: {_last_cycles(t['frequency_hz'], t['n_cycles'])}")
         ax_rate.plot(t["frequency_hz"], t["rate_hz"], "o-", color=color, label=g)
     freqs = sorted(set(summary["frequency_hz"]))
     for ax in (ax_sed, ax_rate):
         ax.set_xticks(freqs, [f"{f:g}" for f in freqs])
         ax.set_xlabel("frequency (Hz)")
         ax.grid(alpha=0.3)
+        ax.set_ylim(bottom=0.0)
     ax_sed.set_ylabel("SED at the site (Pa)")
     ax_sed.set_title("SED at the RA-I site at the deepest points", fontsize="medium")
     ax_rate.set_ylabel("mean rate (spikes/s per afferent)")
@@ -135,6 +138,16 @@ def plot_frequency(summary, *, title: str | None = None):
     legend_beside(ax_rate)
     fig.suptitle(title or "SED and rate vs frequency")
     return fig
+
+
+def _last_cycles(frequency_hz, n_cycles) -> str:
+    """'cycle 3' when every run of a group has 3 cycles, else each run's own: 'cycle 3 at 20, 30 Hz, 5 at 50 Hz'."""
+    by_n: dict[int, list[float]] = {}
+    for f, n in zip(frequency_hz, n_cycles):
+        by_n.setdefault(int(n), []).append(float(f))
+    if len(by_n) == 1:
+        return f"cycle {next(iter(by_n))}"
+    return "cycle " + ", ".join(f"{n} at {', '.join(f'{f:g}' for f in fs)} Hz" for n, fs in by_n.items())
 
 
 def plot_hotspot_summary(runs: dict, groups: dict, *, threshold: float):

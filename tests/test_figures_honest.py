@@ -54,3 +54,29 @@ def test_rates_off_phase_and_peak_rate_look_different():
         assert gap > 0.5, (ln.get_label(), ln.get_color(), peak.get_color())
     assert len({ln.get_marker() for ln in phases + [peak]}) == 5
     assert figure_problems(ax.figure) == []
+
+
+def _frequency_rows(n_cycles):
+    """frequency_summary rows of one model: SED falling 1.6 % from the first to the last deepest point (Pa)."""
+    import pandas as pd
+
+    return pd.DataFrame([{"group": "3d", "run": f"3d_{f}Hz", "frequency_hz": float(f), "n_cycles": n,
+                          "sed_first_pa": 350.0 + f, "sed_last_pa": (350.0 + f) * 0.984, "rate_hz": 80.0 + f}
+                         for f, n in zip((20, 30, 50, 80), n_cycles)])
+
+
+def test_frequency_figure_starts_its_axes_at_zero_and_names_each_runs_cycle_count():
+    """frequency.png: the SED axis spanned the data only (a 1.6 % fall from the first to the last deepest point
+    filled the panel, a steep fall to the eye), and the last point's legend named the group's largest cycle count
+    ('deepest point 12') for runs of 3 and 5 cycles too (fails before)."""
+    from afferent.plotting import plot_frequency
+
+    fig = plot_frequency(_frequency_rows((3, 3, 5, 12)))
+    ax_sed, ax_rate = fig.axes[:2]
+    assert ax_sed.get_ylim()[0] == 0.0 and ax_sed.get_ylim()[1] >= 430.0
+    assert ax_rate.get_ylim()[0] == 0.0
+    labels = [ln.get_label() for ln in ax_sed.get_lines()]
+    assert labels == ["3d, 1st deepest point", "3d, last deepest point: cycle 3 at 20, 30 Hz, 5 at 50 Hz, 12 at 80 Hz"]
+    fig = plot_frequency(_frequency_rows((3, 3, 3, 3)))
+    assert [ln.get_label() for ln in fig.axes[0].get_lines()][1] == "3d, last deepest point: cycle 3"
+    assert figure_problems(fig) == []
