@@ -8,7 +8,6 @@ The layout of each figure (no legend over a point, no overlapping labels) is tes
 from __future__ import annotations
 
 import numpy as np
-import pytest
 
 from _figcheck import figure_problems
 
@@ -80,3 +79,58 @@ def test_frequency_figure_starts_its_axes_at_zero_and_names_each_runs_cycle_coun
     fig = plot_frequency(_frequency_rows((3, 3, 3, 3)))
     assert [ln.get_label() for ln in fig.axes[0].get_lines()][1] == "3d, last deepest point: cycle 3"
     assert figure_problems(fig) == []
+
+
+def _three_methods():
+    """{method: CalibrationResult} on one observed profile: least_squares fits best (lowest ssd), rsm1 stalled."""
+    import dataclasses
+
+    import pandas as pd
+
+    from afferent.calibration import CalibrationResult
+    from afferent.profiles import compare_profiles
+    from afferent.transduction import STUDY_PARAMS, saturation_report
+
+    x = np.linspace(0.5e-3, 3.5e-3, 7)  # m
+    observed = np.exp(-((x - 2e-3) / 8e-4) ** 2)
+    p = STUDY_PARAMS["start"]
+    runs = pd.DataFrame({"evaluation": [1, 2, 3], "ssd": [0.3, 0.2, 0.1], "degenerate": False})
+    iters = pd.DataFrame({"iteration": [0, 1], "evaluations": [1, 3], "ssd": [0.3, 0.1]})
+    base = CalibrationResult(p, 0.0, 0.0, 0.0, iters, runs, pd.DataFrame(), (),
+                             saturation_report(np.array([[50.0, 300.0]]), p), True, "converged", "", 3, "rsm1",
+                             "longitudinal", "both", p, None)
+    out = {}
+    for method, width in (("rsm1", 1.6e-3), ("least_squares", 8.2e-4), ("rsm2", 1.2e-3)):
+        fit = compare_profiles(np.exp(-((x - 2e-3) / width) ** 2), observed, positions=x, normalise="both")
+        out[method] = dataclasses.replace(base, method=method, ssd=fit.ssd, r2_study=fit.r2_study, r2=fit.r2, fit=fit)
+    return out
+
+
+def test_calibrate_all_draws_the_best_method_and_every_method_can_be_drawn(tmp_path, monkeypatch):
+    """calibrate --method all drew only rsm1 in profile.png (the stalled fit) and no figure of least_squares or
+    rsm2: now profile.png draws every method, the best by the ssd named in its title and legend, and each
+    method's folder holds its own profile.png and ssd.png (fails before: one line, 'calibrated', rsm1's)."""
+    import json
+
+    from afferent import plotting
+    from afferent.cli._calibrate import _write_one
+
+    results = _three_methods()
+    assert min(results, key=lambda m: results[m].ssd) == "least_squares"
+    drawn = {}
+    monkeypatch.setattr(plotting, "save_figure", lambda ax, path, **kw: drawn.setdefault(
+        str(path), getattr(ax, "figure", ax)))
+    _write_one(results, "rsm1", str(tmp_path), plots=True, extra={})
+    names = {str(p).replace(str(tmp_path), "").lstrip("/") for p in drawn}
+    assert names == {"profile.png", "ssd.png", "least_squares/profile.png", "least_squares/ssd.png",
+                     "rsm2/profile.png", "rsm2/ssd.png"}, names
+    fig = drawn[str(tmp_path / "profile.png")]
+    ax = fig.axes[0]
+    labels = [ln.get_label() for ln in ax.get_lines()]
+    assert labels[0] == "observed" and labels[1].startswith("least_squares: ssd ") and labels[1].endswith("(best)")
+    assert sorted(lb.split(":")[0] for lb in labels[2:]) == ["rsm1", "rsm2"]
+    assert ax.get_title().startswith("best by ssd: least_squares, longitudinal: ssd ")
+    assert ax.get_lines()[1].get_linewidth() > max(ln.get_linewidth() for ln in ax.get_lines()[2:])
+    assert figure_problems(fig) == []
+    assert drawn[str(tmp_path / "rsm2" / "profile.png")].axes[0].get_title().startswith("rsm2, longitudinal")
+    assert json.loads((tmp_path / "result.json").read_text())["best_method"] == "least_squares"
