@@ -134,3 +134,33 @@ def test_calibrate_all_draws_the_best_method_and_every_method_can_be_drawn(tmp_p
     assert figure_problems(fig) == []
     assert drawn[str(tmp_path / "rsm2" / "profile.png")].axes[0].get_title().startswith("rsm2, longitudinal")
     assert json.loads((tmp_path / "result.json").read_text())["best_method"] == "least_squares"
+
+
+def _summary_rows(zones):
+    """summary.csv rows as afferent demo writes them (SED Pa, widths mm) with the interchange zone per indenter."""
+    widths = (0.44, 0.66, 0.88, 1.10, 1.32, 2.00, 4.00)
+    return [{"indenter_mm": w, "sed_max_pa": 300.0, "interchange_zone": z, "afferent_peaks_longitudinal": 1 + (w > 1.5),
+             "afferent_peaks_cross": 1 + (w > 1.5), "peak_prominence": 0.05} for w, z in zip(widths, zones)]
+
+
+def test_demo_findings_text_names_what_its_table_says(tmp_path, monkeypatch):
+    """The demo's findings text said 'interchange zone from 1.32 mm' while its table had the zone at 0.88 mm too
+    (and not at 1.10 mm): the text names the narrower indenters the table gives a zone (fails before: '1.32 mm').
+    The printed lines and the figure's text are one function's (finding_text) of the findings.csv rows."""
+    from afferent import plotting
+    from afferent.cli import _demo
+
+    rows = _summary_rows([False, False, True, False, True, True, True])
+    zone = _demo.study_findings(rows)[1]
+    assert zone["sample"] == "1.32 mm (also at 0.88 mm, not at every wider one)" and not zone["holds"]
+    assert _demo.study_findings(_summary_rows([False, False, True, True, True, True, True]))[1]["sample"] == "0.88 mm"
+    findings = _demo.study_findings(rows)
+    drawn = {}
+    monkeypatch.setattr(plotting, "save_figure", lambda fig, path, **kw: drawn.setdefault("fig", fig))
+    x = np.linspace(-2e-3, 2e-3, 9)
+    _demo._plot_indenters([(w, x, np.cos(x * 1e3), x, np.cos(x * 1e3)) for w in (0.88, 4.0)], findings,
+                          str(tmp_path / "indenters_x.png"))
+    text = "\n".join(t.get_text() for sub in drawn["fig"].subfigs for t in sub.texts)
+    for f in findings:
+        assert _demo.finding_text(f, why="\n    why: ") in text
+        assert _demo.finding_text(f).split("; why: ")[0] in text
