@@ -322,8 +322,9 @@ def _norm(v):
 FEW_POINTS = 3
 
 
-def plot_section_profiles(sed, current, afferent=None, *, axis: str = "x", time_index: int = -1, ax=None, title=None):
-    """Normalised SED, receptor current and afferent current along one axis, on one axes.
+def plot_section_profiles(sed, current, afferent=None, *, axis: str = "x", time_index: int = -1, ax=None, title=None,
+                          scale: str = "normalised"):
+    """SED, receptor current and afferent current along one axis, on one axes: min-max normalised, or magnitudes.
 
     The study's figures 5-6 (``axis='x'``, across the ridges, with longitudinal-section
     afferents) and 5-7 (``axis='z'``, along the ridges, with cross-section afferents). The
@@ -332,43 +333,68 @@ def plot_section_profiles(sed, current, afferent=None, *, axis: str = "x", time_
     Parameters
     ----------
     sed : ReceptorSED
+        SED at the receptor sites, J/m^3 (Pa).
     current : ReceptorCurrent
+        Receptor currents, A.
     afferent : AfferentCurrent, optional
-        Plotted against its positions when its axis is ``axis``.
+        Plotted against its positions when its axis is ``axis``; currents in A.
     axis : {'x', 'z'}
     time_index : int, default=-1
+    scale : {'normalised', 'magnitude'}, default='normalised'
+        ``'normalised'``: every curve min-max normalised to 0..1 (the study's figures: shapes compared).
+        ``'magnitude'``: the SED in Pa on the left axis, the receptor and afferent currents in nA on the
+        right one, both from zero: how large the SED and the currents are, not only where they peak.
 
     Returns
     -------
     matplotlib Axes
+        The left (SED or normalised) axis; in ``'magnitude'`` its twin holds the currents.
+
+    Raises
+    ------
+    ValueError
+        ``scale`` is not one of the two.
     """
+    if scale not in ("normalised", "magnitude"):
+        raise ValueError(f"scale must be 'normalised' or 'magnitude'; got {scale!r} instead.")
     ax = _axes(ax, figsize=(8.5, 3.8))
     from .receptors import central_line
 
     idx, coord, at = central_line(sed.layout, axis)
     other = "z" if axis == "x" else "x"
+    norm = scale == "normalised"
+    show = _norm if norm else (lambda v: np.asarray(v, dtype=float) * 1e9)  # currents A -> nA
+    cur_ax = ax if norm else ax.twinx()
     note = None
     if afferent is not None and getattr(afferent, "axis", axis) == axis:
         # drawn first, wide and pale: the receptor curves on top stay visible where they coincide
         order = np.argsort(afferent.positions)
         raw = np.asarray(afferent.values[time_index, order], dtype=float)
-        ax.plot(afferent.positions[order] * 1e3, _norm(raw), "^-", ms=9, lw=6, alpha=0.35, color="tab:green",
-                label=f"afferent current ({afferent.kind} sections)")
-        if raw.size <= FEW_POINTS:
+        cur_ax.plot(afferent.positions[order] * 1e3, show(raw), "^-", ms=9, lw=6, alpha=0.35, color="tab:green",
+                    label=f"afferent current ({afferent.kind} sections)" + ("" if norm else ", nA"))
+        if norm and raw.size <= FEW_POINTS:
             # min-max normalising 2 or 3 values always gives 0-1 or 0-1-0: show the values themselves
             twin = ax.twinx()
             twin.plot(afferent.positions[order] * 1e3, raw * 1e9, "^:", ms=6, color="crimson", label="afferent current (nA)")
             twin.set_ylabel("afferent current, raw (nA)", color="crimson")
             note = (f"only {raw.size} afferents: their min-max\nnormalised profile is 0-1 by construction;\n"
                     "the raw currents are on the right axis")
-    ax.plot(coord * 1e3, _norm(sed.values[time_index, idx]), "o-", ms=7, mfc="none", color="tab:blue",
-            label=f"SED (receptors at {other} = {at * 1e3:.2f} mm)")
-    ax.plot(coord * 1e3, _norm(current.values[time_index, idx]), "s--", ms=3, color="tab:orange", label="receptor current")
+    sed_line = np.asarray(sed.values[time_index, idx], dtype=float)
+    ax.plot(coord * 1e3, _norm(sed_line) if norm else sed_line, "o-", ms=7, mfc="none", color="tab:blue",
+            label=f"SED (receptors at {other} = {at * 1e3:.2f} mm)" + ("" if norm else ", Pa"))
+    cur_ax.plot(coord * 1e3, show(current.values[time_index, idx]), "s--", ms=3, color="tab:orange",
+                label="receptor current" + ("" if norm else ", nA"))
     ax.set_xlabel(f"{axis}, {'across' if axis == 'x' else 'along'} the ridges (mm)")
-    ax.set_ylabel("normalised (min-max)")
-    ax.set_ylim(-0.05, 1.1)
+    if norm:
+        ax.set_ylabel("normalised (min-max)")
+        ax.set_ylim(-0.05, 1.1)
+    else:
+        ax.set_ylabel("SED at the receptors (Pa)", color="tab:blue")
+        cur_ax.set_ylabel("current (nA)", color="tab:orange")
+        ax.set_ylim(bottom=0.0)
+        cur_ax.set_ylim(bottom=0.0)
     legend_beside(ax, title=note)
-    ax.set_title(title or f"Profiles along {axis}")
+    ax.set_title(title or f"Profiles along {axis}" + ("" if norm else ": magnitudes"))
     return ax
 
 

@@ -8,6 +8,7 @@ The layout of each figure (no legend over a point, no overlapping labels) is tes
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from _figcheck import figure_problems
 
@@ -164,3 +165,46 @@ def test_demo_findings_text_names_what_its_table_says(tmp_path, monkeypatch):
     for f in findings:
         assert _demo.finding_text(f, why="\n    why: ") in text
         assert _demo.finding_text(f).split("; why: ")[0] in text
+
+
+def _profiles_inputs():
+    """SED (Pa) on a 9 x 9 grid of receptors peaking in the middle, its receptor currents and longitudinal afferents."""
+    from afferent.receptors import ReceptorLayout
+    from afferent.sampling import ReceptorSED
+    from afferent.synthesis import Branching, synthesize
+    from afferent.transduction import STUDY_PARAMS, transduce
+
+    xs, zs = np.arange(9) * 0.44e-3, np.arange(9) * 0.22e-3
+    layout = ReceptorLayout(np.array([[x, 2.45e-3, z] for x in xs for z in zs]))
+    p = layout.positions
+    sed_pa = 100.0 + 400.0 * np.exp(-((p[:, 0] - 1.76e-3) ** 2 + (p[:, 2] - 0.88e-3) ** 2) / 1e-6)
+    sed = ReceptorSED(sed_pa[None, :], np.array([0.0]), layout, "linear", np.zeros(layout.n_receptors, bool))
+    current = transduce(sed, STUDY_PARAMS["start"])
+    return sed, current, synthesize(current, Branching.longitudinal(layout))
+
+
+def test_profiles_figure_can_show_magnitudes_in_pa_and_na():
+    """profiles_x.png showed only min-max normalised curves: 100..500 Pa and 0.1..10 nA looked alike. With
+    scale='magnitude' the SED is in Pa on the left axis and the currents in nA on the right, from zero
+    (fails before: no 'scale')."""
+    from afferent.plotting import plot_section_profiles
+    from afferent.receptors import central_line
+
+    sed, current, afferent = _profiles_inputs()
+    ax = plot_section_profiles(sed, current, afferent, axis="x", scale="magnitude")
+    twin = [a for a in ax.figure.axes if a is not ax]
+    assert len(twin) == 1 and ax.get_ylabel() == "SED at the receptors (Pa)" and twin[0].get_ylabel() == "current (nA)"
+    idx, _, _ = central_line(sed.layout, "x")
+    sed_line = [ln for ln in ax.get_lines() if ln.get_label().startswith("SED")][0]
+    np.testing.assert_allclose(sed_line.get_ydata(), sed.values[0, idx])
+    by_label = {ln.get_label(): ln for ln in twin[0].get_lines()}
+    np.testing.assert_allclose(by_label["receptor current, nA"].get_ydata(), current.values[0, idx] * 1e9)
+    np.testing.assert_allclose(np.sort(by_label["afferent current (longitudinal sections), nA"].get_ydata()),
+                               np.sort(afferent.values[0] * 1e9))
+    assert ax.get_ylim()[0] == 0.0 and twin[0].get_ylim()[0] == 0.0
+    assert ax.get_ylim()[1] >= sed.values[0, idx].max()
+    assert figure_problems(ax.figure) == []
+    norm = plot_section_profiles(sed, current, afferent, axis="x")  # the default stays the study's normalised view
+    assert norm.get_ylabel() == "normalised (min-max)" and len(norm.figure.axes) == 1
+    with pytest.raises(ValueError, match="scale must be 'normalised' or 'magnitude'; got 'raw' instead"):
+        plot_section_profiles(sed, current, afferent, scale="raw")
