@@ -114,7 +114,7 @@ def plot_rates(spikes, positions=None, ax=None, *, waveform=None, label: str | N
     A rate-sensitive RA-I afferent fires bursts at the onset and the release of a ramp-and-hold
     and nothing through the hold: its window mean (e.g. 30 Hz) hides 300-400 Hz bursts, which
     the peak instantaneous rate and the loading/unloading rates show. Each phase is a hollow marker
-    in its own colour (:data:`PHASE_MARKERS`, :data:`PHASE_COLOURS`), the peak a filled crimson
+    in its own colour (``PHASE_MARKERS``, ``PHASE_COLOURS``), the peak a filled crimson
     star, each named in the legend.
 
     Parameters

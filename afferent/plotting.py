@@ -112,7 +112,7 @@ def plot_frequency(summary, *, title: str | None = None):
 
     ``summary``: :func:`afferent.cycles.frequency_summary` (SED in Pa, frequency and rate in Hz); a line per
     group (model), the first cycle's deepest point dashed, the last's solid, its legend naming each run's own
-    last cycle (:func:`_last_cycles`). Both axes start at zero: a few-percent change between frequencies or
+    last cycle (``_last_cycles``). Both axes start at zero: a few-percent change between frequencies or
     cycles looks as small as it is. Returns the Figure.
     """
     import matplotlib.pyplot as plt

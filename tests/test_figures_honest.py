@@ -15,6 +15,15 @@ from _figcheck import figure_problems
 TRIANGLES = set("^v<>1234")
 
 
+@pytest.fixture(autouse=True)
+def _close_figures():
+    """Each test's figures closed after it (pyplot warns past 20 open figures)."""
+    yield
+    import matplotlib.pyplot as plt
+
+    plt.close("all")
+
+
 def _line(ax, label: str):
     found = [ln for ln in ax.get_lines() if ln.get_label() == label]
     assert len(found) == 1, [ln.get_label() for ln in ax.get_lines()]

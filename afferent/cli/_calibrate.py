@@ -167,7 +167,7 @@ def _cost(result) -> str:
 # ---------------------------------------------------------------------------------- run
 def run(args: argparse.Namespace) -> int:
     from .._output import atomic_dir, check_writable
-    from ..calibration import best_method, calibrate
+    from ..calibration import calibrate
     from ..export import file_sha256
     from ..profiles import read_observed
 
@@ -231,22 +231,29 @@ def run(args: argparse.Namespace) -> int:
                                      "syntheses": {syn: _record(res, primary, {}) for syn, res in all_results.items()}}),
                           f, indent=2)
     if not args.quiet:
-        for syn, results in all_results.items():
-            r = results[primary]
-            p = r.params
-            line = (f"{syn}, {primary}: ssd {r.ssd:.4g} (R2 study {r.r2_study:.3f}) in {_cost(r)}; "
-                    f"alpha {p.alpha:.4g} A, gamma {p.gamma:.4g} 1/Pa, lambda {p.lambda_:.4g} Pa")
-            for m, ref in results.items():
-                if m != primary:
-                    line += f" | {m}: ssd {ref.ssd:.4g} in {_cost(ref)}"
-            if len(results) > 1:
-                line += f" | best by ssd: {best_method(results)} (profile.png draws every method)"
-            print(line, file=sys.stderr)
-            print(f"  {_say(r.message)}", file=sys.stderr)
-        for msg in dict.fromkeys(caught):
-            print(f"afferent: warning: {_say(msg)}", file=sys.stderr)
-        print(f"wrote {args.output}", file=sys.stderr)
+        _print_results(all_results, primary, caught, args.output)
     return 0
+
+
+def _print_results(all_results: dict, primary: str, caught: list, output: str) -> None:
+    """Per synthesis: the chosen method's result, the others' ssd and cost, the best by the ssd; then the warnings."""
+    from ..calibration import best_method
+
+    for syn, results in all_results.items():
+        r = results[primary]
+        p = r.params
+        line = (f"{syn}, {primary}: ssd {r.ssd:.4g} (R2 study {r.r2_study:.3f}) in {_cost(r)}; "
+                f"alpha {p.alpha:.4g} A, gamma {p.gamma:.4g} 1/Pa, lambda {p.lambda_:.4g} Pa")
+        for m, ref in results.items():
+            if m != primary:
+                line += f" | {m}: ssd {ref.ssd:.4g} in {_cost(ref)}"
+        if len(results) > 1:
+            line += f" | best by ssd: {best_method(results)} (profile.png draws every method)"
+        print(line, file=sys.stderr)
+        print(f"  {_say(r.message)}", file=sys.stderr)
+    for msg in dict.fromkeys(caught):
+        print(f"afferent: warning: {_say(msg)}", file=sys.stderr)
+    print(f"wrote {output}", file=sys.stderr)
 
 
 def _say(msg: str) -> str:
