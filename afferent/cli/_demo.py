@@ -17,7 +17,8 @@ of ``afferent run``: one folder per indenter holds what ``afferent run`` writes 
   interchange zone (peak-valley-peak), how many peaks the longitudinal and cross-section afferent
   profiles have, and the peak-decision threshold used (``peak_prominence``);
 - ``findings.csv``: the study's chapter-5 findings beside the sample's, each with its criterion and
-  whether it holds, and why (``study_findings``);
+  whether it holds, and why (``study_findings``, from the summary.csv rows; printed and drawn on the figure by
+  one function, ``finding_text``);
 - ``indenters_x.png``: normalised receptor SED and longitudinal afferent current along x for
   every indenter (the study's chapter-5 comparison), with the findings and the threshold;
 - ``spikes_ramp/``: the sample's scene ``scenes/spikes_ramp.toml`` (the study's ramp-and-hold on
@@ -221,9 +222,13 @@ def study_findings(rows: list[dict]) -> list[dict]:
                 "depth on fewer tips and concentrate the SED"}]
     widths = sorted(by_w)
     zone_from = next((w for i, w in enumerate(widths) if all(by_w[v]["interchange_zone"] for v in widths[i:])), None)
+    also = [w for w in widths if by_w[w]["interchange_zone"] and (zone_from is None or w < zone_from)]
+    sample = "none" if zone_from is None else f"{zone_from:g} mm"
+    if also:  # the table's narrower indenters with a zone, not followed by one at every wider indenter
+        sample += f" (also at {', '.join(f'{w:g}' for w in also)} mm, not at every wider one)"
     out.append({
         "finding": "interchange zone (peak-valley-peak SED across the central x line) from width",
-        "study": "0.66-0.88 mm", "sample": "none" if zone_from is None else f"{zone_from:g} mm",
+        "study": "0.66-0.88 mm", "sample": sample,
         "criterion": f"appears at <= {STUDY_INTERCHANGE_FROM_MM:g} mm and at every wider indenter; {peaks}",
         "holds": zone_from is not None and zone_from <= STUDY_INTERCHANGE_FROM_MM + 1e-9,
         "note": "the receptor tips sit about 0.65 mm deep and the papilla rows 0.44 mm apart across the ridges: a punch "
@@ -239,6 +244,14 @@ def study_findings(rows: list[dict]) -> list[dict]:
     return out
 
 
+def finding_text(f: dict, *, why: str = "; why: ") -> str:
+    """One finding of :func:`study_findings` as the demo prints it and draws it on ``indenters_x.png`` (one
+    source: its values are the findings.csv row's, themselves made from the summary.csv rows): verdict, finding,
+    study, sample, criterion, and after ``why`` the note when it does not hold."""
+    return (f"[{'holds' if f['holds'] else 'does NOT hold'}] {f['finding']}: study {f['study']}, sample {f['sample']} "
+            f"({f['criterion']})" + ("" if f["holds"] else f"{why}{f['note']}"))
+
+
 def _plot_indenters(profiles, findings: list[dict], path: str) -> None:
     """``indenters_x.png``: normalised receptor SED and longitudinal afferent current along x, every indenter."""
     import matplotlib.pyplot as plt
@@ -249,9 +262,7 @@ def _plot_indenters(profiles, findings: list[dict], path: str) -> None:
     fig = plt.figure(figsize=(11, 6.2), layout="constrained")
     top, bottom = fig.subfigures(2, 1, height_ratios=[4, 2.2])
     axes = top.subplots(1, 2, sharey=True)
-    text = "\n".join(f"[{'holds' if f['holds'] else 'does NOT hold'}] {f['finding']}: study {f['study']}, "
-                     f"sample {f['sample']} ({f['criterion']})" + ("" if f["holds"] else f"\n    why: {f['note']}")
-                     for f in findings)
+    text = "\n".join(finding_text(f, why="\n    why: ") for f in findings)
     bottom.text(0.01, 0.95, "The study's findings on this sample\n" + text, va="top", ha="left", fontsize=7.5,
                 family="monospace", wrap=True)
     for width, x, sed_line, xa, lon in profiles:
@@ -293,8 +304,7 @@ def run(args: argparse.Namespace) -> int:
         spikes = run_scene(load_scene(scene_path).with_output(os.path.join(tmp, "spikes_ramp")), use_cache=False)
     say(pd.DataFrame(rows).to_string(index=False))
     for f in findings:
-        say(f"[{'holds' if f['holds'] else 'does NOT hold'}] {f['finding']}: study {f['study']}, sample {f['sample']} "
-            f"({f['criterion']})" + ("" if f["holds"] else f"; why: {f['note']}"))
+        say(finding_text(f))
     n = sum(len(t) for t in spikes.spikes.spike_times)
     say(f"spikes_ramp: {n} spikes from {len(spikes.spikes.spike_times)} afferents (rate-sensitive input: onset and release)")
     say(f"afferent demo: wrote {args.output}")
