@@ -926,13 +926,28 @@ def write_packaged_sample(src: Path, dst: Path = PACKAGED_DIR) -> dict:
         return hashlib.sha256(path.read_bytes()).hexdigest()
 
     kept.update(write_packaged_chapter4(src, dst))
-    made = {p.relative_to(dst).as_posix() for p in dst.glob("vibration/*/vib.*")}  # written here, no source file
-    files = {p.relative_to(dst).as_posix(): (p.stat().st_size, sha256(p),
-                                             "" if p.relative_to(dst).as_posix() in made else sha256(src / p.relative_to(dst)))
+    files = {p.relative_to(dst).as_posix(): (p.stat().st_size, sha256(p), source_sha256(src, p.relative_to(dst).as_posix()))
              for p in sorted(dst.rglob("*")) if p.is_file()}
     (dst / "README.md").write_text(packaged_readme(files, kept))
     print(f"packaged sample: {len(files)} files, {sum(f[0] for f in files.values())} bytes -> {dst}")
     return files
+
+
+def source_sha256(src: Path, name: str) -> str:
+    """sha256 (hex) of what packaged file ``name`` was made from: the file of the same path in ``src``, except for
+    a vibration series (``vibration/<series>/vib.xdmf`` or ``vib.h5``), made from ``vib.pvd`` and its step VTUs:
+    the sha256 of their bytes in a row (the PVD first, then the VTUs in the PVD's order)."""
+    import hashlib
+    import xml.etree.ElementTree as ET
+
+    path = Path(src) / name
+    if not (name.startswith("vibration/") and path.name in ("vib.xdmf", "vib.h5")):
+        return hashlib.sha256(path.read_bytes()).hexdigest()
+    pvd = path.parent / "vib.pvd"
+    h = hashlib.sha256(pvd.read_bytes())
+    for d in ET.parse(pvd).getroot().iter("DataSet"):
+        h.update((path.parent / d.get("file")).read_bytes())
+    return h.hexdigest()
 
 
 def write_packaged_chapter4(src: Path, dst: Path) -> dict:
@@ -1050,8 +1065,9 @@ python sample_sed/make_samples.py --packaged
     both copied) and `vibration/` (`receptors.csv` copied; each series `{{3d,2d}}_{{f}}Hz/` as one
     XDMF time series `vib.xdmf` + `vib.h5` holding every step of the series' PVD, at its times,
     with the point `SED` of one hexahedron per tip: the tip's value is copied, so sampling at
-    the tips sees the full series' values; `write_packaged_chapter4`). These files have no
-    source file of the same name: their "source sha256" is left empty.
+    the tips sees the full series' values; `write_packaged_chapter4`). For these two files the
+    "source sha256" is that of the series' `vib.pvd` and its step VTUs, their bytes in a row
+    (`source_sha256`).
 * Each VTU keeps only the hexahedra that have a receptor (papilla-tip) node among their 8
   corners (the 2 x 2 x 2 elements around each tip: 4 in the dermis, 4 in the epidermis) and
   the nodes of those elements. Nodes and elements keep their order in the full mesh,
