@@ -93,7 +93,7 @@ def measure_chapter4(sample) -> dict | None:
         ``vibration`` (absent without ``vibration/``): {model: {frequency Hz: (SED Pa at the site at the first
         deepest point, at the last deepest point)}}, the site chosen as ``afferent cycles`` does
         (:func:`afferent.cycles.cycle_table`: largest SED at the last deepest point within
-        :data:`VIBRATION_EDGE_MM` of the plane's outline).
+        ``VIBRATION_EDGE_MM`` (0.22 mm) of the plane's outline).
     """
     from .cycles import cycle_table, edge_sites
 
