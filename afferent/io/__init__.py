@@ -245,6 +245,10 @@ def read_sed(
     negative_tolerance: float = NEGATIVE_SED_RTOL,
     allow_outside_files: bool = False,
     accept=None,
+    elastic: Sequence[float] | None = None,
+    modulus_unit: str | None = None,
+    materials: str | os.PathLike | None = None,
+    material_array: str | None = None,
     format: str | None = None,
     progress: bool = False,
 ) -> SEDField:
@@ -268,9 +272,11 @@ def read_sed(
         An mm/N/s model exports SED in MPa (= mJ/mm^3).
     stress_unit : str, optional
         Unit of the stress components when SED is computed from tensors (strain is dimensionless).
-    sed_from : {'field', 'exact', 'equivalent'}, default='field'
+    sed_from : {'field', 'exact', 'equivalent', 'stress'}, default='field'
         ``'field'`` reads an SED array; ``'exact'`` computes 1/2 sigma:eps from stress and strain;
-        ``'equivalent'`` computes the study's 1/2 sigma_e eps_e (needs ``poisson``).
+        ``'equivalent'`` computes the study's 1/2 sigma_e eps_e (needs ``poisson``); ``'stress'``
+        computes the linear-elastic SED from the stress alone, (1 + nu)/(2E) sigma:sigma - nu/(2E) tr(sigma)^2
+        (needs ``elastic`` or ``materials``; docs/fe-export.md, "SED from stress alone").
     poisson : float, optional
         Poisson's ratio for ``sed_from='equivalent'`` (the study's skin: 0.48).
     preset : str, optional
@@ -325,6 +331,19 @@ def read_sed(
         material that really is that stiff or soft); ``'sed-column'`` lets through an SED array named
         like a stress measure, equal to one of the stress tensor's, or unlike 1/2 sigma:eps of the
         file's tensors. Each is otherwise refused (docs/fe-export.md, "Units from physics").
+    elastic : (float, float), optional
+        ``sed_from='stress'`` on a homogeneous model: Young's modulus E (in ``modulus_unit``) and Poisson's
+        ratio nu, in (-1, 0.5].
+    modulus_unit : {'Pa', 'kPa', 'MPa', 'GPa', 'N/mm^2', ...}, optional
+        Unit of E in ``elastic`` or in the ``materials`` table (where its header may state it: ``E (MPa)``;
+        both must agree). Never guessed.
+    materials : str or path-like, optional
+        ``sed_from='stress'`` with constants per material: a CSV table with the columns ``material`` (the
+        integer id of the export's material array), ``E`` and ``nu`` (optional ``name``). Point stress is
+        refused at nodes shared by cells of different materials (use ``location='cell'``).
+    material_array : str, optional
+        The export's array of material ids the ``materials`` table is looked up with (default: the one
+        found by its name, ``material``, ``MaterialIds``, ``mat_id``, ...).
     format : {'csv', 'vtu', 'vtk', 'pvtu', 'vtm', 'pvd', 'xdmf', 'frd', 'exodus', 'rst', 'med', 'xplt'}, optional
         Overrides the format deduced from the file name.
     progress : bool, default=False
@@ -368,13 +387,14 @@ def read_sed(
         times=None if times is None else tuple(float(t) for t in times),
         coordinates=None if coordinates is None else os.fspath(coordinates), on_nan=on_nan,
         negative_tolerance=negative_tolerance, allow_outside_files=allow_outside_files, accept=accept,
+        elastic=elastic, modulus_unit=modulus_unit, materials=materials, material_array=material_array,
     )
     raw = read_raw(path_or_paths, format=format, progress=progress, allow_outside_files=opts.allow_outside_files)
     return assemble(raw, opts)
 
 
 def _read_options(*, sed_column, stress_columns, strain_columns, coord_columns, times, coordinates, accept=None,
-                  **kw) -> ReadOptions:
+                  elastic=None, materials=None, **kw) -> ReadOptions:
     """The user's declarations as a :class:`ReadOptions` (sequences as tuples, ``accept`` checked)."""
     from .._validation import check_accept
 
@@ -385,7 +405,9 @@ def _read_options(*, sed_column, stress_columns, strain_columns, coord_columns, 
         sed_column=seq(sed_column), stress_columns=seq(stress_columns), strain_columns=seq(strain_columns),
         coord_columns=None if coord_columns is None else tuple(coord_columns),
         times=None if times is None else tuple(float(t) for t in times),
-        coordinates=None if coordinates is None else os.fspath(coordinates), accept=check_accept(accept), **kw,
+        coordinates=None if coordinates is None else os.fspath(coordinates), accept=check_accept(accept),
+        elastic=elastic if elastic is None or isinstance(elastic, str) else tuple(elastic),
+        materials=None if materials is None else os.fspath(materials), **kw,
     )
 
 

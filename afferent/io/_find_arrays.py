@@ -514,19 +514,19 @@ def _key(name: str) -> str:
     return "".join(ch for ch in name.lower() if ch.isalnum())
 
 
-def find_material_array(raw: RawExport, cells=None) -> tuple[str, str, np.ndarray] | None:
+def find_material_array(raw: RawExport, cells=None, *, name: str | None = None) -> tuple[str, str, np.ndarray] | None:
     """The material id of each cell: (array name, where it was found, ids of shape (n_cells,)) or None.
 
     A cell array named like :data:`MATERIAL_ARRAY_NAMES` holding whole numbers; or a point array
     of such a name that is constant over each cell's corners (deal.II's ``DataOut`` writes cell
     data that way: one patch per cell, the cell's value at each of its copies of the nodes).
     ``where`` is ``'cell data'`` or ``'point data constant per cell'``. The first time step is
-    used. ``cells`` defaults to ``raw.cells``.
+    used. ``cells`` defaults to ``raw.cells``. ``name``: that array only (the user's ``material_array``).
     """
     cells = raw.cells if cells is None else cells
     if cells is None:
         return None
-    wanted = {_key(n) for n in MATERIAL_ARRAY_NAMES}
+    wanted = {_key(n) for n in MATERIAL_ARRAY_NAMES} if name is None else {_key(name)}
     for loc in ("cell", "point"):
         for arr in raw.arrays.values():
             scalar = arr.ndim == 2 or (arr.ndim == 3 and arr.shape[2] == 1)  # NumberOfComponents="1": NGSolve
