@@ -86,6 +86,9 @@ PRESETS: dict[str, Convention] = {
     "kratos": Convention(_VOIGT_VTK, "engineering",
                          "CAUCHY_STRESS_VECTOR, GREEN_LAGRANGE_STRAIN_VECTOR xx yy zz xy yz xz; engineering shear [V]"),
     "vtk": Convention(_VOIGT_VTK, "tensor", "VTK symmetric-tensor order XX YY ZZ XY YZ XZ [UNVERIFIED]; shear assumed tensor"),
+    "openfoam": Convention(("xx", "xy", "xz", "yy", "yz", "zz"), "tensor",
+                           "symmTensor XX XY XZ YY YZ ZZ (the upper triangle row by row) [V, symmTensor.C componentNames]; "
+                           "tensor shear [UNVERIFIED]"),
 }
 
 

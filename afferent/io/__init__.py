@@ -245,10 +245,8 @@ def read_sed(
     negative_tolerance: float = NEGATIVE_SED_RTOL,
     allow_outside_files: bool = False,
     accept=None,
-    elastic: Sequence[float] | None = None,
-    modulus_unit: str | None = None,
-    materials: str | os.PathLike | None = None,
-    material_array: str | None = None,
+    elastic: Sequence[float] | None = None, modulus_unit: str | None = None,
+    materials: str | os.PathLike | None = None, material_array: str | None = None,
     format: str | None = None,
     progress: bool = False,
 ) -> SEDField:
@@ -274,9 +272,8 @@ def read_sed(
         Unit of the stress components when SED is computed from tensors (strain is dimensionless).
     sed_from : {'field', 'exact', 'equivalent', 'stress'}, default='field'
         ``'field'`` reads an SED array; ``'exact'`` computes 1/2 sigma:eps from stress and strain;
-        ``'equivalent'`` computes the study's 1/2 sigma_e eps_e (needs ``poisson``); ``'stress'``
-        computes the linear-elastic SED from the stress alone, (1 + nu)/(2E) sigma:sigma - nu/(2E) tr(sigma)^2
-        (needs ``elastic`` or ``materials``; docs/fe-export.md, "SED from stress alone").
+        ``'equivalent'`` computes the study's 1/2 sigma_e eps_e (needs ``poisson``); ``'stress'`` the linear-elastic
+        SED of the stress alone (docs/fe-export.md, "SED from stress alone").
     poisson : float, optional
         Poisson's ratio for ``sed_from='equivalent'`` (the study's skin: 0.48).
     preset : str, optional
@@ -331,19 +328,10 @@ def read_sed(
         material that really is that stiff or soft); ``'sed-column'`` lets through an SED array named
         like a stress measure, equal to one of the stress tensor's, or unlike 1/2 sigma:eps of the
         file's tensors. Each is otherwise refused (docs/fe-export.md, "Units from physics").
-    elastic : (float, float), optional
-        ``sed_from='stress'`` on a homogeneous model: Young's modulus E (in ``modulus_unit``) and Poisson's
-        ratio nu, in (-1, 0.5].
-    modulus_unit : {'Pa', 'kPa', 'MPa', 'GPa', 'N/mm^2', ...}, optional
-        Unit of E in ``elastic`` or in the ``materials`` table (where its header may state it: ``E (MPa)``;
-        both must agree). Never guessed.
-    materials : str or path-like, optional
-        ``sed_from='stress'`` with constants per material: a CSV table with the columns ``material`` (the
-        integer id of the export's material array), ``E`` and ``nu`` (optional ``name``). Point stress is
-        refused at nodes shared by cells of different materials (use ``location='cell'``).
-    material_array : str, optional
-        The export's array of material ids the ``materials`` table is looked up with (default: the one
-        found by its name, ``material``, ``MaterialIds``, ``mat_id``, ...).
+    elastic, modulus_unit, materials, material_array : optional
+        ``sed_from='stress'``: ``elastic=(E, nu)`` for a homogeneous model, or a CSV table ``materials`` (columns
+        ``material``: the integer id in the export's material array ``material_array``, default the one found by
+        its name; ``E``; ``nu``). E in ``modulus_unit`` or the unit the table's header states (``E (MPa)``).
     format : {'csv', 'vtu', 'vtk', 'pvtu', 'vtm', 'pvd', 'xdmf', 'frd', 'exodus', 'rst', 'med', 'xplt'}, optional
         Overrides the format deduced from the file name.
     progress : bool, default=False

@@ -266,7 +266,7 @@ def hooke_check(stress_pa: np.ndarray, strain: np.ndarray, e: np.ndarray, nu: np
 
 
 def _gradient_peak(raw: RawExport) -> tuple[float, str] | None:
-    """The 99th percentile of |eps| of the displacement gradient over the cells' tetrahedra at the most strained step."""
+    """The 99th percentile of sqrt(eps:eps) of the displacement gradient over the cells' tetrahedra at the most strained step."""
     from ._unit_physics import _gradient_strain, find_displacement
 
     disp = find_displacement(raw)
@@ -280,8 +280,8 @@ def _gradient_peak(raw: RawExport) -> tuple[float, str] | None:
 
 def strain_check(raw: RawExport, opts: ReadOptions, location: str, n: int) -> dict:
     """How large the model's strain is, as far as the file tells: ``peak`` (the 99th percentile over the values of the
-    most strained step of |eps| = sqrt(eps:eps), dimensionless) and ``source`` (what it was measured on: the strain
-    tensor at the stress's location, else a deformation gradient (|F - I|), else the displacement gradient in the
+    most strained step of sqrt(eps:eps), dimensionless) and ``source`` (what it was measured on: the strain
+    tensor at the stress's location, else a deformation gradient (the norm of F - I), else the displacement gradient in the
     cells), ``strain`` (the canonical strain tensor when its shear convention is known: a preset, ``shear=``, or
     9 components; else None), ``strain_name``; ``peak`` None when the file holds none of them."""
     from ._export_checks import strain_magnitude

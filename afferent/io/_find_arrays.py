@@ -324,13 +324,23 @@ def find_sed_array(raw: RawExport, opts: ReadOptions) -> list[RawArray]:
         f" It has stress and strain tensors ({tensors}): pass sed_from='exact' (1/2 sigma:eps) or "
         "sed_from='equivalent' (the study's equivalent SED) with the tool's preset."
         if tensors
-        else " Pass sed_column='NAME' to name it."
+        else " Pass sed_column='NAME' to name it" + _stress_only(raw) + "."
     )
     raise SEDFormatError(
         f"SED file {_where(raw)!r} has no strain-energy-density array or column "
         f"(looked for SED, SENER, ESEDEN, SEND, solid.Ws, ENER, 'strain energy density', ...). "
         f"Found {_names(raw)}.{hint}"
     )
+
+
+def _stress_only(raw: RawExport) -> str:
+    """The clause for an export with a stress tensor and no strain: SED from the stress alone."""
+    try:
+        name, _, loc = find_tensor(raw, ReadOptions(), "stress")
+    except (SEDFormatError, ValueError):
+        return ""
+    return (f"; it has a stress tensor ({name}, {loc} data) without strain: sed_from='stress' computes the linear-elastic "
+            "SED from it with the elastic constants, elastic=(E, nu) and modulus_unit= or materials='TABLE.csv'")
 
 
 def _undecided(raw: RawExport) -> str:
