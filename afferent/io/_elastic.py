@@ -358,26 +358,25 @@ def sed_from_stress_field(raw: RawExport, opts: ReadOptions, rec, unit_of) -> tu
                             for k, v in el.constants.items()}, "source": el.source}
     strain = strain_check(raw, opts, location, s.shape[1])
     checks["small_strain"] = {"peak": strain["peak"], "source": strain["source"], "bound": SMALL_STRAIN_BOUND}
+    peak = strain["peak"]
+    unknown = strain.get("strain_name") is not None and strain["strain"] is None
+    linear, hooke = False, None
     if strain["strain"] is not None:
         hooke = hooke_check(s, strain["strain"], e, nu)
         checks["hooke"] = dict(hooke, rtol=HOOKE_RTOL, strain=strain["strain_name"])
-        lo, hi = HOOKE_SCALE_BAND
-        if math.isfinite(hooke["scale"]) and not lo <= abs(hooke["scale"]) <= hi:
-            from .._validation import refuse_unless
-
-            said = (f"SED file {_where(raw)!r}: its stress ({su} {ssrc}) is {hooke['scale']:.3g} x Hooke's law of its "
-                    f"strain {strain['strain_name']!r} under the elastic constants given ({el.describe()}): a unit of E "
-                    "or of the stress is off, or the constants are not the model's")
-            refuse_unless("modulus", opts.accept, said, cls=UnitError, stacklevel=4)
-            rec.notes.append(said + " (confirmed: accept='modulus').")
         linear = math.isfinite(hooke["relative"]) and hooke["relative"] <= HOOKE_RTOL
-    else:
-        linear = False
-    peak = strain["peak"]
-    unknown = strain.get("strain_name") is not None and strain["strain"] is None
-    if peak is not None and peak > SMALL_STRAIN_BOUND and not linear:
-        from .._validation import refuse_unless
+    from .._validation import refuse_unless
 
+    large = peak is not None and peak > SMALL_STRAIN_BOUND and not linear
+    if hooke is not None and math.isfinite(hooke["scale"]) and not (
+            HOOKE_SCALE_BAND[0] <= hooke["scale"] <= HOOKE_SCALE_BAND[1]):
+        said = (f"SED file {_where(raw)!r}: its stress ({su} {ssrc}) is {hooke['scale']:.3g} x Hooke's law of its "
+                f"strain {strain['strain_name']!r} under the elastic constants given ({el.describe()}): a unit of E "
+                "or of the stress is off, or the constants are not the model's"
+                + (f", or the model is far from linear elasticity (its strain is large: {peak:.3g})" if large else ""))
+        refuse_unless("modulus", opts.accept, said, cls=UnitError, stacklevel=4)
+        rec.notes.append(said + " (confirmed: accept='modulus').")
+    if large:
         said = (f"SED file {_where(raw)!r}: its strain is large (the 99th percentile of |eps| at the most strained step "
                 f"is {peak:.3g}, measured on {strain['source']}; small strain: at most {SMALL_STRAIN_BOUND:g}), where "
                 "the SED from stress alone assumes linear elasticity at small strain; export the SED or the strain "
