@@ -202,7 +202,7 @@ def _receptors_table(args) -> dict:
     spec = args.grid.strip()
     pitch = {"pitch_x_mm": args.pitch_x_mm, "pitch_z_mm": args.pitch_z_mm}
     if spec in ("tips", "bases"):
-        return {"grid": spec, "material_array": args.material_array, "upper": args.upper, "lower": args.lower, **pitch}
+        return {"grid": spec, "material_array": args.material_array or "layer", "upper": args.upper, "lower": args.lower, **pitch}
     if spec.startswith("y="):
         try:
             y = float(spec[2:])

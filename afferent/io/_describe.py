@@ -10,8 +10,8 @@ from .._plausibility import robust_level
 from ..exceptions import SEDFormatError
 from ..strain_energy import sed_exact
 from ..units import LENGTH_UNITS, SED_UNITS, parse_unit
-from ._assemble import ReadOptions, _percent, find_coordinates, find_sed_array, find_tensors, negative_sed_report, \
-    tensor_sed_crosscheck
+from ._assemble import ReadOptions, _percent, find_coordinates, find_sed_array, find_tensor, find_tensors, \
+    negative_sed_report, tensor_sed_crosscheck
 
 __all__ = ["describe_raw"]
 
@@ -211,7 +211,12 @@ def _tensor_lines(raw, add) -> None:
         stated = {a.unit for a in raw.arrays.values() if a.name in s_name.split(", ")} - {None}
         _physics_line(raw, sed_exact(s, e), s_loc, "stress", parse_unit(stated.pop()) if len(stated) == 1 else None, add)
     except (SEDFormatError, ValueError):
-        add("tensors", "no complete stress and strain tensors")
+        try:
+            s_name, _, s_loc = find_tensor(raw, ReadOptions(), "stress")
+            add("tensors", f"stress {s_name} ({s_loc} data), no strain: --sed-from stress with --elastic E,NU "
+                           "--modulus-unit U or --materials TABLE (linear elastic, small strain)")
+        except (SEDFormatError, ValueError):
+            add("tensors", "no complete stress and strain tensors")
     check = tensor_sed_crosscheck(raw, ReadOptions())
     if check is not None and not check["checkable"]:
         add("cross-check", f"1/2 sigma:eps from the tensors vs the SED array {check['sed_array']!r}: {check['note']}")

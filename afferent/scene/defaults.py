@@ -75,10 +75,13 @@ def _export(scene: Scene, o, err):
     if not ex.files:
         raise err("export", None, "[export] must name the FE export: file = \"PATH\" (or files = [...], one per time step).")
     for name, checker in (("length_unit", length_factor), ("sed_unit", sed_factor), ("stress_unit", sed_factor),
-                          ("time_unit", time_factor)):
+                          ("modulus_unit", sed_factor), ("time_unit", time_factor)):
         _check_unit(scene, o, "export", name, checker)
     if ex.sed_from == "equivalent" and ex.poisson is None:
         raise err("export", "sed_from", "[export] sed_from = 'equivalent' needs 'poisson' (the study's skin: 0.48).")
+    if ex.sed_from == "stress" and (ex.elastic is None) == (ex.materials is None):
+        raise err("export", "sed_from", "[export] sed_from = 'stress' needs the elastic constants: elastic = [E, nu] "
+                  "with modulus_unit, or materials = \"materials.csv\" (columns material, E, nu) - one of them.")
     return ex
 
 

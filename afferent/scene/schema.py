@@ -181,8 +181,12 @@ class ExportSpec:
     sed_unit: str | None = _f("str")
     stress_unit: str | None = _f("str")
     time_unit: str | None = _f("str")
-    sed_from: str | None = _f("choice", "field", choices=("field", "exact", "equivalent"))
+    sed_from: str | None = _f("choice", "field", choices=("field", "exact", "equivalent", "stress"))
     poisson: float | None = _f("number")
+    elastic: tuple | None = _f("numbers", doc="sed_from = 'stress', homogeneous model: [E, nu], E in modulus_unit")
+    modulus_unit: str | None = _f("str", doc="unit of E in elastic or in the materials table")
+    materials: str | None = _f("path", doc="sed_from = 'stress': CSV of material (id), E, nu")
+    material_array: str | None = _f("str", doc="the export's material-id array the materials table is looked up with")
     preset: str | None = _f("str")
     shear: str | None = _f("choice", choices=("tensor", "engineering"))
     location: str | None = _f("choice", choices=("point", "cell"))
@@ -457,9 +461,10 @@ class Scene:
 
     @property
     def input_files(self) -> tuple:
-        """Every file the scene names (its own file, exports, coordinates, receptors, calibration, map,
+        """Every file the scene names (its own file, exports, coordinates, materials, receptors, calibration, map,
         waveform, observed profile, zone map): an output may not be, hold or lie inside one of them."""
-        paths = (self.source, *(self.export.files or ()), self.export.coordinates, self.receptors.file,
+        paths = (self.source, *(self.export.files or ()), self.export.coordinates, self.export.materials,
+                 self.receptors.file,
                  self.outputs.hotspot_beside_file,
                  self.transduction.calibration, self.synthesis.map, self.stimulus.file, self.fit.observed,
                  self.spikes.zone_map)
