@@ -10,8 +10,21 @@ What the field's own tools need (issue 37, each measured):
   are auxiliary coordinates ``receptor_id`` and ``afferent_id``, stored as NC_CHAR arrays (with a
   ``*_strlen`` dimension: CF label variables), never variable-length strings, which cfchecks cannot
   read ("vlen types not supported");
-- ``time`` carries ``standard_name`` and ``axis``, the file a global ``history`` (no clock time: two
-  runs of one scene still give the same bytes; ``run.json`` beside it records when and how).
+- ``time`` carries ``standard_name`` and ``axis``, and units ``seconds since 1970-01-01 00:00:00``
+  (:data:`TIME_ORIGIN` standing for t = 0): with units ``s`` compliance-checker reports a time
+  coordinate without a reference date as its high finding. xarray decodes such a time to dates
+  unless opened with ``decode_times=False`` (as :func:`afferent.load_results` does);
+- ``time`` is the unlimited dimension (chunks of ~1 MB along it): compliance-checker's CF §2.4 check
+  otherwise wants ``receptor`` and ``afferent`` left of ``time`` (and ParaView's reader takes the
+  first dimension for time). Measured on 595 receptors x 2301 steps (CPU time, the best of 7):
+  writing takes 0.12 s where the fixed-size file of NC_STRING attributes took 0.08-0.09 s (an
+  unlimited ``time`` costs 15-20 ms of that), and the XDMF index 0.02 s (3.5 MB);
+- the file has a global ``history`` (no clock time: two runs of one scene still give the same bytes;
+  ``run.json`` beside it records when and how).
+
+Checked (benchmarks/check_outputs.py): compliance-checker 6.1 (CF 1.11) reports nothing, cfchecker 4.1 runs
+to its summary (it knows CF up to 1.8), VTK 9.7's ``vtkNetCDFCFReader`` (ParaView's NetCDF reader) finds
+every step.
 
 The XDMF index holds no numbers: each step's ``sed_pa`` and ``current_a`` are hyperslabs of the
 datasets of ``currents.nc`` (a netCDF-4 file is an HDF5 file), the sites' coordinates its ``x_m``,
@@ -205,14 +218,14 @@ def write_xdmf_index(path: str, variables: dict, nc_name: str = RESULTS_NC) -> N
             '<Geometry GeometryType="X_Y_Z">' + "".join(h5(c, str(n)) for c in ("x_m", "y_m", "z_m")) + "</Geometry>")
     lines = ['<?xml version="1.0" ?>', '<Xdmf Version="2.0">', "<Domain>",
              '<Grid Name="receptors" GridType="Collection" CollectionType="Temporal">']
-    for k, t in enumerate(times):  # ~1.5 kB a step (tried: XPath references to shared items, 14 % smaller, and
-        # VTK 9.7's vtkXdmfReader then logs "Dimensions of Attribute not set" at every step)
-        slabs = "".join(
-            f'<Attribute Name="{name}" AttributeType="Scalar" Center="Node">'
-            f'<DataItem ItemType="HyperSlab" Dimensions="1 {n}" Type="HyperSlab">'
-            f'<DataItem Dimensions="3 2" Format="XML">{k} 0 1 1 1 {n}</DataItem>'
-            f"{h5(name, f'{n_t} {n}')}</DataItem></Attribute>" for name in fields)
-        lines.append(f'<Grid Name="step {k}" GridType="Uniform"><Time Value="{float(t)!r}"/>{head}{slabs}{static}</Grid>')
+    # ~1.5 kB a step (tried: XPath references to shared items, 14 % smaller, and VTK 9.7's vtkXdmfReader then
+    # logs "Dimensions of Attribute not set" at every step); one template filled per step
+    slab = "".join(f'<Attribute Name="{name}" AttributeType="Scalar" Center="Node">'
+                   f'<DataItem ItemType="HyperSlab" Dimensions="1 {n}" Type="HyperSlab">'
+                   f'<DataItem Dimensions="3 2" Format="XML">{{k}} 0 1 1 1 {n}</DataItem>'
+                   f"{h5(name, f'{n_t} {n}')}</DataItem></Attribute>" for name in fields)
+    step = f'<Grid Name="step {{k}}" GridType="Uniform"><Time Value="{{t!r}}"/>{head}{slab}{static}</Grid>'
+    lines += [step.format(k=k, t=t) for k, t in enumerate(times.tolist())]
     lines += ["</Grid>", "</Domain>", "</Xdmf>", ""]
     with open(path, "w", encoding="utf-8") as f:
         f.write("\n".join(lines))

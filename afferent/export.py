@@ -18,7 +18,8 @@ sed_map  ``sed_map.csv`` (receptor, x_m, y_m, z_m,          ``sed_map.png`` (stu
          longitudinal, cross, time_s, sed_pa)
 currents ``currents.nc`` (NetCDF-4: sed_pa, current_a
          over (time, receptor); afferent_current_a over
-         (time, afferent)); with ``results_format='csv'``
+         (time, afferent)) and ``currents.xdmf`` (its
+         ParaView index); with ``results_format='csv'``
          ``receptors.csv`` and ``afferents.csv`` (long)
 profiles ``profiles.csv`` (afferent, position_m, time_s,    ``profiles_x.png``, ``profiles_z.png``
          current_a at the profile step)                     (figs. 5-6, 5-7)
@@ -26,7 +27,8 @@ fit      ``fit.csv``, ``profile_fit.csv``                   ``fit.png``
 spikes   ``spikes.csv``, ``spike_summary.csv``              ``raster.png``, ``rates.png``, ``psth.png``
 vtu      ``receptors.vtu`` (sed_pa [, current_a], sections)
 hotspots ``hotspots.csv`` (site_kind, site, x_m, z_m,       ``hotspots.png`` (study fig. 4-9; a second
-         time_s, sed_pa, normalised, hot)                   site set beside: :mod:`afferent.hotspots`)
+         time_s, sed_pa, normalised, hot),                  site set beside: :mod:`afferent.hotspots`)
+         ``hotspots.vtu`` (the maps at the sites)
 cycles   ``cycles.csv`` (per cycle: deepest point, SED
          at the chosen site, spikes, rate;
          :mod:`afferent.cycles`)
@@ -42,7 +44,7 @@ installed (the ``nwb`` extra) and the output ``nwb``, ``spikes.nwb`` (:func:`wri
 ParaView opens as a time series of the receptor sites (``afferent._netcdf``); with ``hotspots``,
 ``hotspots.vtu`` (the maps at the sites).
 
-Why NetCDF-4 for the time courses (README "Outputs"): measured on 595 receptors x 2301 steps
+Why NetCDF-4 for the time courses: measured on 595 receptors x 2301 steps
 (sample_sed/block8, a 2.3 s ramp), the long ``receptors.csv`` took 44 s to write and 141 MB;
 NetCDF-4 through xarray + h5netcdf 0.46 s and 2.0 MB (zlib level 1) or 1.0 s and 22 MB (none);
 Zarr 1.3 s, 1.5 MB in 46 files. Written directly with h5netcdf, uncompressed: 0.085 s, 22 MB.
