@@ -440,7 +440,7 @@ def test_receptors_outside_the_field_are_left_out_of_every_stage_and_said(tmp_pa
                 f"{len(partly)} afferent(s) keep only their receptors "
                 "inside, so their currents sum fewer receptors than they have: " in err), err
     with xr.open_dataset(out / "currents.nc", engine="h5netcdf") as ds:
-        assert ds.sizes["receptor"] == n - n_out and not set(record["receptors"]) & set(ds.receptor.values.tolist())
+        assert ds.sizes["receptor"] == n - n_out and not set(record["receptors"]) & set(ds.receptor_id.values.tolist())
         for v in ("sed_pa", "current_a", "afferent_current_a"):
             assert np.isfinite(ds[v].values).all(), v
         by_section = ds.current_a.groupby("longitudinal").sum().values

@@ -646,6 +646,12 @@ def _spike(run: _Run) -> None:
         "lif": {k: getattr(lif, k) for k in ("tau_m", "r_m", "v_rest", "v_thresh", "v_reset", "t_ref")},
         "drive": pr.drive,
     }
+    if "nwb" in run.scene.outputs.want:  # what spikes.nwb says beside the spikes (afferent._nwb)
+        from .._nwb import nwb_missing
+
+        out["nwb"] = {"afferent_class": run.scene.afferent.afferent_class, "spikes": run.record["spikes"],
+                      "metadata": run.scene.nwb}
+        run.record["nwb"] = {"missing": nwb_missing(run.scene.nwb)}
 
 
 # --------------------------------------------------------------------------------- CLI
