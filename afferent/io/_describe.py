@@ -62,13 +62,13 @@ def describe_raw(raw) -> list[str]:
         add("points", f"{xyz.shape[0]:,}" + ("" if coord_names == ("points",) else f" (columns {', '.join(coord_names)})"))
         add("bounds", "  ".join(f"{a} [{l:.6g}, {h:.6g}]" for a, l, h in zip("xyz", lo, hi)) + " (file units)")
     if raw.cells is not None:
-        from .._shape_functions import has_quadratic
+        from .._shape_functions import shaped_types
 
         types = ", ".join(dict.fromkeys(raw.cells.cell_types))  # each once: NGSolve's subdivision alternates blocks
         add("cells", f"{raw.cells.n_cells:,} volume cells ({types}), "
                      f"{raw.cells.tetra.shape[0]:,} tetrahedra for sampling"
-                     + ("; point data interpolated with the quadratic cells' shape functions"
-                        if has_quadratic(raw.cells) else ""))
+                     + ("; 'linear' sampling interpolates with each cell's own shape functions"
+                        if shaped_types(raw.cells, "point") else ""))
     else:
         add("cells", "none (a table of points: 'linear' sampling triangulates around the receptors)")
     n_t = raw.n_times
