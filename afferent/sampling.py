@@ -253,8 +253,9 @@ def build_sampler(field: SEDField, layout: ReceptorLayout, *, method: str = "lin
                 (bary[inside].ravel(), (np.repeat(inside, 4), nodes.ravel())), shape=(n_r, field.n_points)
             )
             types = shaped_types(field.cells, field.location)
-            if types:  # the cells' own shape functions where they have them (not their tetrahedra's)
-                guess = np.where(outside, -1, field.cells.parent[np.maximum(tet, 0)])
+            if types and inside.size:  # the cells' own shape functions where they have them (not their tetrahedra's)
+                guess = np.full(n_r, -1, dtype=np.int64)
+                guess[inside] = field.cells.parent[tet[inside]]
                 w, outside, placement = with_shape_functions(w, outside, pos, xyz, field.cells, guess,
                                                              PLACEMENTS[(field.location, "shape")], types)
             if field.location == "cell":
