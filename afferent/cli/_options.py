@@ -195,9 +195,11 @@ def positive_number(text: str) -> float:
     return value
 
 
-def layout_from_args(args: argparse.Namespace, field):
-    """The :class:`ReceptorLayout` the options ask for, in m."""
-    from ..receptors import grid_layout, read_receptors, sites_from_export
+def layout_from_args(args: argparse.Namespace, field, raw=None):
+    """The :class:`ReceptorLayout` the options ask for, in m; ``--grid tips|bases`` found on ``raw``, the export
+    as read for ``field`` (:func:`afferent.io.iter_sed`'s ``on_first_raw``): the export is read once."""
+    from ..receptors import grid_layout, read_receptors
+    from ..receptors._tips import sites_from_raw
     from ..units import length_factor
 
     unit = field.provenance.units.get("length")
@@ -209,9 +211,8 @@ def layout_from_args(args: argparse.Namespace, field):
         source = field.provenance.files[0]
         if source.lower().endswith(".pvd"):
             source = field.provenance.files[1]
-        return sites_from_export(source, length_unit=unit, material_array=args.material_array,
-                                 upper=args.upper, lower=args.lower, kind=spec,
-                                 allow_outside_files=args.allow_outside_files, **pitch)
+        return sites_from_raw(raw, source, length_unit=unit, material_array=args.material_array,
+                              upper=args.upper, lower=args.lower, kind=spec, **pitch)
     if spec.startswith("y="):
         try:
             y = float(spec[2:]) * length_factor(unit)

@@ -72,19 +72,22 @@ def _beside_scene(scene: Scene):
     return replace(scene, receptors=new)
 
 
-def _layout_from_field(scene: Scene, field):
-    """Receptors found on the export: papilla tips or ridge bases, or a regular grid over the export's extent."""
+def _layout_from_field(scene: Scene, field, raw=None):
+    """Receptors found on the export: papilla tips or ridge bases, or a regular grid over the export's extent.
+
+    ``raw``: the export as its reader returned it (its first step; :func:`afferent.io.iter_sed`'s
+    ``on_first_raw``), on which tips and bases are found: the export is not read a second time.
+    """
     rec = scene.receptors
     pitch = dict(pitch_x=rec.pitch_x_m, pitch_z=rec.pitch_z_m)
     if rec.grid in ("tips", "bases"):
-        from ..receptors import sites_from_export
+        from ..receptors._tips import sites_from_raw
 
         files = [f for f in field.provenance.files if not f.lower().endswith(".pvd")] or list(field.provenance.files)
         unit = field.provenance.units.get("length")
         # the region is applied afterwards (as interface_tips' own ranges would be: last), to count what it leaves out
-        return sites_from_export(files[0], length_unit=unit, material_array=rec.material_array, upper=rec.upper,
-                                 lower=rec.lower, kind=rec.grid, allow_outside_files=bool(scene.export.allow_outside_files),
-                                 **pitch)
+        return sites_from_raw(raw, files[0], length_unit=unit, material_array=rec.material_array, upper=rec.upper,
+                              lower=rec.lower, kind=rec.grid, **pitch)
     from ..receptors import grid_layout
 
     lo, hi = field.bounds
