@@ -22,7 +22,7 @@ from .planning import plan, skip_reasons
 from .record import _QUIET_CATEGORIES, build_record, reemit, summary_lines
 from .defaults import class_record, resolve
 from .schema import _LIF_FIELDS, Scene, SceneError, _plain_json
-from .stages import (_beside_scene, _branching, _crop, _hash_all, _inside_field, _judge_placement, _layout_before_reading,
+from .stages import (_beside_scene, _branching, _check_before_reading, _crop, _named_inputs, _hash_all, _inside_field, _judge_placement, _layout_before_reading,
                      _layout_from_field, _params, _refuse_rate_keys_without_rate, _refuse_step_numbers, _restrict, _trim,
                      _waveform)
 
@@ -312,20 +312,11 @@ def _hash_inputs(run: _Run):
             if not os.path.exists(p):
                 raise FileNotFoundError(f"SED file {p!r}{' ([export] file)' if scene.source else ''} not found.")
             check_regular(p)  # a FIFO or a device: refused before hashing (it would block, or never end)
+        _check_before_reading(scene, planned)  # the first step of every route through a scene: nothing read yet
         hashes = _hash_all({p: None for p in exp_files})
         run.inputs.update(hashes)
-        extra_files = [ex.coordinates, scene.receptors.file, scene.outputs.hotspot_beside_file]
-        if "synthesis" in planned and scene.synthesis.kind == "map":
-            extra_files.append(scene.synthesis.map)
-        if "comparison" in planned:
-            extra_files.append(scene.fit.observed)
-        if "spiking" in planned and scene.spikes.branching == "zones":
-            extra_files.append(scene.spikes.zone_map)
-        if "stimulus" in planned and scene.stimulus.waveform == "file":
-            extra_files.append(scene.stimulus.file)
-        for p in extra_files:
-            if p is not None and os.path.isfile(p):
-                run.inputs[p] = None
+        for _, p, _ in _named_inputs(scene, planned):  # each checked by _check_before_reading
+            run.inputs[p] = None
         run.inputs.update(_hash_all(run.inputs))
     return exp_files, hashes
 

@@ -9,7 +9,7 @@ from dataclasses import replace
 import os
 import warnings
 
-from .schema import _GRID_DEFAULTS, ReceptorSpec, RegionSpec, Scene, SceneError
+from .schema import _GRID_DEFAULTS, MESH_GRIDS, ReceptorSpec, RegionSpec, Scene, SceneError
 
 
 def _in_region(layout, region: RegionSpec):
@@ -70,6 +70,54 @@ def _beside_scene(scene: Scene):
         keys = {k: getattr(rec, k) if getattr(rec, k) is not None else v for k, v in _GRID_DEFAULTS.items()}
         new = ReceptorSpec(grid=out.hotspot_beside, **keys)
     return replace(scene, receptors=new)
+
+
+def _given(scene: Scene, name: str) -> str:
+    """The [receptors] key as the user wrote it."""
+    return scene.origin.given.get("receptors", {}).get(name, name)
+
+
+def _named_inputs(scene: Scene, planned) -> list:
+    """(what, path, where) of every file besides the export that the planned stages read, ``where`` the scene key
+    (for a scene file; None for a scene built from options or in Python, whose caller names its own)."""
+    ex, out = scene.export, scene.outputs
+    entries = [("Coordinates file", ex.coordinates, "export", "coordinates"),
+               ("Receptor file", scene.receptors.file, "receptors", "file"),
+               ("Receptor file", out.hotspot_beside_file, "outputs", "hotspot_beside_file")]
+    if "transduction" in planned:
+        entries.append(("Calibration result", scene.transduction.calibration, "transduction", "calibration"))
+    if "synthesis" in planned and scene.synthesis.kind == "map":
+        entries.append(("Branching map file", scene.synthesis.map, "synthesis", "map"))
+    if "comparison" in planned:
+        entries.append(("Observed profile file", scene.fit.observed, "fit", "observed"))
+    if "spiking" in planned and scene.spikes.branching == "zones":
+        entries.append(("Zone map file", scene.spikes.zone_map, "spikes", "zone_map"))
+    if "stimulus" in planned and scene.stimulus.waveform == "file":
+        entries.append(("Waveform file", scene.stimulus.file, "stimulus", "file"))
+    return [(what, path, f"[{table}] {key}" if scene.source else None) for what, path, table, key in entries if path]
+
+
+def _check_before_reading(scene: Scene, planned) -> None:
+    """Every file the planned stages read, and the material array of each set of sites found on the export
+    (``[receptors] grid``, ``[outputs] hotspot_beside``), checked before the export is read
+    (:mod:`afferent._inputs`: the array on the export's header where its format lists the arrays; else
+    right after the one read, before the sites are searched)."""
+    from .._inputs import check_files, check_material_array
+    from ..exceptions import SEDFormatError
+
+    check_files(_named_inputs(scene, planned))
+    ex = scene.export
+    for sc in (scene, _beside_scene(scene)):
+        if sc is None or sc.receptors.grid not in MESH_GRIDS:
+            continue
+        name = sc.receptors.material_array or _GRID_DEFAULTS["material_array"]
+        try:  # a scene built from options: 'material_array', which the command line says as --material-array
+            check_material_array(list(ex.files), name, format=ex.format, where=None if scene.source else "'material_array'",
+                                 allow_outside_files=bool(ex.allow_outside_files))
+        except SEDFormatError as err:
+            if not scene.source:
+                raise
+            raise scene.origin.error("receptors", _given(scene, "material_array"), str(err)) from err
 
 
 def _layout_from_field(scene: Scene, field, raw=None):
