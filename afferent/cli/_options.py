@@ -266,7 +266,7 @@ def positive_number(text: str) -> float:
     return value
 
 
-def layout_from_args(args: argparse.Namespace, field, raw=None):
+def layout_from_args(args: argparse.Namespace, field, raw):
     """The :class:`ReceptorLayout` the options ask for, in m; ``--grid tips|bases`` found on ``raw``, the export
     as read for ``field`` (:func:`afferent.io.iter_sed`'s ``on_first_raw``): the export is read once."""
     from ..receptors import grid_layout, read_receptors

@@ -471,7 +471,7 @@ def iter_sed(path_or_paths, *, format: str | None = None, progress: bool = False
     ``on_first_raw``: a callable given the first :class:`~afferent.io._raw.RawExport` the readers
     return (the first step, or the whole export for formats read at once), in the file's own names
     and units, before it is interpreted; the receptor sites found on the export's materials
-    (:func:`afferent.receptors._tips.sites_from_raw`) take it from there, so that the export is read once.
+    (``afferent.receptors._tips.sites_from_raw``) take it from there, so that the export is read once.
 
     Yields
     ------

@@ -120,7 +120,7 @@ def _check_before_reading(scene: Scene, planned) -> None:
             raise scene.origin.error("receptors", _given(scene, "material_array"), str(err)) from err
 
 
-def _layout_from_field(scene: Scene, field, raw=None):
+def _layout_from_field(scene: Scene, field, raw):
     """Receptors found on the export: papilla tips or ridge bases, or a regular grid over the export's extent.
 
     ``raw``: the export as its reader returned it (its first step; :func:`afferent.io.iter_sed`'s
