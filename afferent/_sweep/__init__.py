@@ -18,7 +18,8 @@ are sweeps too (one task per scene).
 ::
 
     load_sweep(files) -> a specification, tasks counted (every written value checked as a scene)
-        -> tasks made one at a time, dispatched in windows of a few thousand (records.py)
+        -> tasks made one at a time (an id and a group, no resolved scene: ~15 us each), dispatched in windows
+           of a few thousand (records.py); each task's scene is built by the worker that runs it
         -> group tasks by what sampling depends on (export content, receptors, region, method)
         -> sample: one task per group, read + sample once (through the SED cache)
         -> batches of tasks on the sampled SED (stimulus, transduction, synthesis, fit, spikes)
@@ -249,7 +250,7 @@ def _run_serial(windows, sink, *, cache_dir, use_cache, batch_size, info) -> Non
     for groups in windows:
         for g, tasks in groups.items():
             if g not in done:
-                done[g] = engine.sample(tasks[0].scene, cache_dir, use_cache)
+                done[g] = engine.sample(tasks[0], cache_dir, use_cache)
                 info.setdefault("sampled", []).append({"where": done[g].where, "seconds": done[g].seconds})
             for b in engine.batches(tasks, 4, batch_size):
                 sink(engine.run_batch(done[g], b))
@@ -339,9 +340,9 @@ def _cluster_window(client, groups, sink, sampled, *, shared, slots, cache_dir, 
     futures, members = [], {}
     for g, tasks in groups.items():
         if g not in sampled and shared:
-            sampled[g] = client.submit(partial(engine.sample, tasks[0].scene, cache_dir, use_cache), pure=False)
+            sampled[g] = client.submit(partial(engine.sample, tasks[0], cache_dir, use_cache), pure=False)
         elif g not in sampled:
-            sampled[g] = client.scatter(engine.sample(tasks[0].scene, cache_dir, use_cache))
+            sampled[g] = client.scatter(engine.sample(tasks[0], cache_dir, use_cache))
         for b in engine.batches(tasks, slots, batch_size):
             f = client.submit(partial(engine.run_batch, tasks=b), sampled[g], pure=False)
             futures.append(f)
