@@ -28,10 +28,9 @@ _AFFERENT_OUTPUTS = ("currents", "profiles", "fit", "spikes")
 _MODES = ("product", "zip")
 _RANGE_KEYS = ("start", "stop", "num", "spacing")
 #: Most tasks a sweep runs unless told otherwise (``max_tasks``). Tasks are made one at a time as
-#: they are dispatched (:meth:`SweepSpec.iter_tasks`, ~15 us of CPU each: :class:`_Maker`), so their number no longer costs
-#: memory; what still grows with it is the table, held in memory to be written (one row per task x
-#: afferent, ~0.2 kB a row), and the 8-byte id of every task (to keep the table to this sweep's tasks).
-#: 10^6 tasks of the sample sweep (3 afferents each) make a table of ~0.6 GB.
+#: they are dispatched (:meth:`SweepSpec.iter_tasks`, ~15 us of CPU each: :class:`_Maker`), and the table is
+#: streamed to its file (records.py: ``_gather``), so their number costs ~16 bytes a task (its id and index) and
+#: the time to run them; the limit guards against a sweep of many more tasks than meant.
 MAX_TASKS = 1_000_000
 
 
@@ -480,8 +479,8 @@ def _check_count(plans: list, max_tasks: int | None) -> int:
         path, n = max(counts, key=lambda c: c[1])
         raise SceneError(
             f"Sweep file {path!r} makes {n:,} tasks (scene files x parameter sets"
-            + (f"; {total:,} in all" if total != n else "") + f"); a sweep runs at most {limit:,} (its table, one "
-            "row per task and afferent, is held in memory to be written). Sweep fewer values, or raise the limit: "
+            + (f"; {total:,} in all" if total != n else "") + f"); a sweep runs at most {limit:,} unless told "
+            "more (a guard against a sweep of many more tasks than meant). Sweep fewer values, or raise the limit: "
             f"max_tasks={total} (afferent sweep --max-tasks {total}).", path=path)
     return total
 
