@@ -192,6 +192,13 @@ def test_resume_redoes_tasks_whose_export_side_file_changed(tmp_path):
     again = sweep(src, out, scheduler="serial", cache_dir=tmp_path / "cache")
     assert (again.n_ran, again.n_skipped) == (4, 0)
     assert not again.table.equals(table)
+    import dataclasses
+
+    from afferent.exceptions import AfferentError
+
+    with pytest.raises(AfferentError, match=r"table\.csv' was rewritten after this sweep .*read it before running the "
+                                            r"sweep again, or read_table\(path\)"):
+        dataclasses.replace(first, _table=None).table  # not read before the re-run: not the re-run's table instead
 
 
 def test_a_failing_task_is_reported_and_loses_nothing(tmp_path, capsys):

@@ -94,7 +94,7 @@ def test_a_combination_a_scene_refuses_fails_its_task_and_the_others_run(tmp_pat
 
 # ------------------------------------------------------ the table streamed (issue 38, "Also")
 _GATHER = r"""
-import json, os, resource, sys
+import json, os, sys
 import pandas as pd
 from afferent._sweep import records
 folder, n, per = sys.argv[1], int(sys.argv[2]), int(sys.argv[3])
@@ -108,9 +108,15 @@ for lo in range(n - 1000, -1, -1000):  # batch files in reverse task order
             rows = [dict(row, task=ids[i], k=i, afferent=str(a)) for a in range(per)]
             f.write(json.dumps({"task": ids[i], "index": i, "status": "ok", "rows": rows}) + "\n")
 records.BUCKET_ROWS = 2000
-base = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
-path, rows, cols, failures = records._gather(folder, records._Ids(ids), ["k"], sys.argv[4])
-extra = (resource.getrusage(resource.RUSAGE_SELF).ru_maxrss - base) / 1024
+def status(field):  # MB; VmHWM is this process's own peak (ru_maxrss keeps the parent's across the spawn)
+    import re
+    return int(re.search(field + r":\s+(\d+)", open("/proc/self/status").read()).group(1)) / 1024
+done = records._Ids(ids)
+del ids, rows
+open("/proc/self/clear_refs", "w").write("5")  # the peak starts again from here
+base = status("VmRSS")
+path, rows, cols, failures = records._gather(folder, done, ["k"], sys.argv[4])
+extra = status("VmHWM") - base
 t = pd.read_parquet(path) if path.endswith(".parquet") else pd.read_csv(path)
 assert rows == n * per == len(t) and (t.k.to_numpy() == [i for i in range(n) for _ in range(per)]).all(), t.head()
 print(json.dumps({"extra_mb": extra, "rows": rows}))
@@ -129,11 +135,13 @@ def test_the_table_is_streamed_to_its_file_in_bounded_memory_in_task_order(tmp_p
 
     if fmt == "parquet":
         pytest.importorskip("pyarrow")
+    if not os.path.exists("/proc/self/clear_refs"):
+        pytest.skip("the peak memory of a process is read from Linux's /proc/self/status")
     out = subprocess.run([sys.executable, "-c", _GATHER, str(tmp_path / "out"), "10000", "10", fmt],
                          capture_output=True, text=True, timeout=600, env=dict(os.environ, PYTHONPATH=str(ROOT)))
     assert out.returncode == 0, out.stderr[-3000:]
     r = json.loads(out.stdout.strip().splitlines()[-1])
-    assert r["rows"] == 100_000 and r["extra_mb"] < 30, r  # the table held whole: ~65 MB above the start
+    assert r["rows"] == 100_000 and r["extra_mb"] < 32, r  # measured: CSV 11 MB, Parquet 21 MB; held whole 53 MB
 
 
 # --------------------------------------------------- a sweep on a real cluster (issue 38, row 5)
