@@ -128,12 +128,17 @@ def test_every_solid_element_type_becomes_cells_in_vtk_order(path):
     _, volume = _domains(path)
     etype = volume[0].etype
     for ctype, nodes in zip(raw.cells.cell_types, raw.cells.nodes):
-        xyz, edges = raw.points[nodes], _VTK_EDGES[ctype]
+        xyz, edges = raw.points[nodes], _VTK_EDGES.get(ctype, ())  # linear cells: no mid-edge nodes
         for k, (a, b) in enumerate(edges):
             np.testing.assert_allclose(xyz[:, nodes.shape[1] - len(edges) + k], (xyz[:, a] + xyz[:, b]) / 2, atol=1e-6)
     if etype not in ("HEX8", "TET15", "TET20", "HEX27"):
         np.testing.assert_array_equal(np.concatenate(raw.cells.nodes), np.concatenate([d.conn for d in volume]))
-    else:
+    elif etype in ("HEX8", "HEX27"):  # hexahedra keep their 8 corners: sampled with their own trilinear functions
+        assert raw.cells.cell_types == ("hexahedron", "hexahedron")
+        assert [n.shape[1] for n in raw.cells.nodes] == [8, 8]
+        if etype == "HEX8":
+            np.testing.assert_array_equal(np.concatenate(raw.cells.nodes), np.concatenate([d.conn for d in volume]))
+    else:  # tetrahedra by their corners: the tetrahedra themselves
         assert raw.cells.nodes == () and len(raw.cells.cell_types) == 2
     if etype in ("TET15", "TET20", "HEX27"):
         assert f"{etype} elements read by their corner nodes (point data linear between corners)." in raw.notes

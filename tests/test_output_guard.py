@@ -179,7 +179,7 @@ def test_a_sweep_of_a_folder_refuses_an_output_inside_it(tmp_path, capsys, monke
 #: options whose values name no file or folder (a new option must be classified: marked with
 #: afferent.cli._options.reads, or listed here)
 NOT_PATHS = {"output", "accept", "grid", "times", "sed_column", "stress_columns", "strain_columns", "coord_columns",
-             "material_array", "side", "lif_preset", "series_depths_mm", "start", "group", "noise", "scheduler"}
+             "material_array", "side", "lif_preset", "series_depths_mm", "start", "group", "noise", "scheduler", "elastic"}
 
 
 def _commands() -> dict:

@@ -53,7 +53,7 @@ def test_kpa_declared_on_an_mpa_export_is_refused_naming_mpa_and_the_confirming_
         confirmed = read_sed(BLOCK4, length_unit="mm", sed_unit="kPa", accept="modulus")
     np.testing.assert_allclose(confirmed.sed * 1e3, field.sed)
     assert confirmed.provenance.checks["implied_modulus"]["accepted"] is True
-    with pytest.raises(ValueError, match=r"'accept' must name checks among .*'modulus' and 'sed-column'; got 'modulos' "
+    with pytest.raises(ValueError, match=r"'accept' must name checks among .*'modulus', 'sed-column' and 'large-strain'; got 'modulos' "
                                          r"instead. Did you mean 'modulus'\?"):
         read_sed(BLOCK4, length_unit="mm", sed_unit="kPa", accept="modulos")
 
@@ -239,7 +239,7 @@ def test_a_scene_confirms_with_its_accept_key_and_a_wrong_name_is_refused(tmp_pa
     assert main(["run", str(scene), "-q", "--no-cache", "-o", str(tmp_path / "out")]) == 0, capsys.readouterr().err
     scene.write_text(text.replace('"modulus"', '"modulos"'))
     assert main(["run", str(scene), "-q", "--no-cache", "-o", str(tmp_path / "out2")]) == 2
-    assert "'waveform-step', 'modulus' and 'sed-column'; got 'modulos' instead" in capsys.readouterr().err
+    assert "'waveform-step', 'modulus', 'sed-column' and 'large-strain'; got 'modulos' instead" in capsys.readouterr().err
 
 
 def _tensor_block(tmp_path, *, modulus: float, name: str):
