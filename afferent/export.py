@@ -39,7 +39,7 @@ column ``time_s`` is then ``step`` (and ``currents.nc``'s ``time`` is in units `
 With a stimulus waveform, ``waveform.csv`` (and ``waveform.png``) too; with spikes and pynwb
 installed (the ``nwb`` extra) and the output ``nwb``, ``spikes.nwb`` (:func:`write_spikes_nwb`).
 
-Why NetCDF-4 for the time courses (README "Outputs"): measured on 595 receptors x 2301 steps
+Why NetCDF-4 for the time courses (docs/getting-started.md, "Outputs"): measured on 595 receptors x 2301 steps
 (sample_sed/block8, a 2.3 s ramp), the long ``receptors.csv`` took 44 s to write and 141 MB;
 NetCDF-4 through xarray + h5netcdf 0.46 s and 2.0 MB (zlib level 1) or 1.0 s and 22 MB (none);
 Zarr 1.3 s, 1.5 MB in 46 files. Written directly with h5netcdf, uncompressed: 0.085 s, 22 MB.
@@ -300,7 +300,7 @@ def _write_netcdf(path: str, variables: dict, attrs: dict) -> None:
     """``variables`` (name -> (dims, values, attrs)) as a NetCDF-4 file through h5netcdf (xarray not imported:
     0.4 s less per run); numbers uncompressed (float64), strings variable-length.
 
-    Uncompressed because writing must stay within 10 % of a run (README "Outputs"): on 595
+    Uncompressed because writing must stay within 10 % of a run (docs/getting-started.md, "Outputs"): on 595
     receptors x 2301 steps, zlib level 1 with the shuffle filter gave 1.8 MB instead of 22 MB but
     took the write from 0.085 s to 0.15 s, 13 % of that 1.1 s run; ``nccopy -d 1 -s`` compresses a
     file afterwards.
@@ -353,7 +353,7 @@ def _results_variables(sed, current=None, afferent=None) -> tuple[dict, dict]:
                                      {"units": "A", "long_name": "afferent current (sum of its receptors' currents)"})
     attrs = {"Conventions": "CF-1.10", "title": "afferent: time courses at the receptors and afferents",
              "source": f"afferent-skin {__version__}",
-             "comment": "README.md 'Outputs'; run.json beside this file records the run"}
+             "comment": "docs/getting-started.md, 'Outputs'; run.json beside this file records the run"}
     return out, attrs
 
 
