@@ -151,7 +151,8 @@ def run_spikes(result: PipelineResult, lif, *, dt: float, engine: str = "auto", 
                gain: float | None = None, tau: float | None = None, duration: float | None = None,
                drive: str = "resistance", rheobase_multiple: float = 2.0,
                reference_current: float | None = None, static_gain: float | None = None,
-               zones=None) -> PipelineResult:
+               zones=None, rectify: str | None = None, slow_gain: float | None = None,
+               slow_tau: float | None = None) -> PipelineResult:
     """Add spikes to a pipeline result: input current -> leaky integrate-and-fire
     (:func:`afferent.spiking.spike_afferents` on the result's currents and branching).
 
@@ -160,7 +161,7 @@ def run_spikes(result: PipelineResult, lif, *, dt: float, engine: str = "auto", 
     result : PipelineResult
         From :func:`run_pipeline`.
     lif : afferent.spiking.LIFParams
-    dt, engine, input, gain, tau, duration, drive, rheobase_multiple, reference_current, static_gain
+    dt, engine, input, gain, tau, duration, drive, rheobase_multiple, reference_current, static_gain, rectify, slow_gain, slow_tau
         As :func:`afferent.spiking.spike_afferents` (``dt``, ``gain``, ``tau``, ``duration`` in
         s; ``reference_current`` in A).
     zones : afferent.zones.Zones, optional
@@ -192,7 +193,8 @@ def run_spikes(result: PipelineResult, lif, *, dt: float, engine: str = "auto", 
     stage = spike_afferents(result.afferent, lif, dt=dt, engine=engine, input=input, current=result.current,
                             branching=result.branching, gain=gain, tau=tau, duration=duration, drive=drive,
                             rheobase_multiple=rheobase_multiple, reference_current=reference_current,
-                            static_gain=static_gain, zones=zones)
+                            static_gain=static_gain, zones=zones, rectify=rectify, slow_gain=slow_gain,
+                            slow_tau=slow_tau)
     return replace(result, input=stage.input, spikes=stage.spikes, timings={**result.timings, **stage.seconds},
                    drive=stage.drive, zones=zones)
 

@@ -1,4 +1,4 @@
-"""Figures a reader of the study would recognise; the only module that imports matplotlib.
+"""Figures a reader of the study would recognise; with _plot_spikes.py and calibration/_plots.py, the only modules importing matplotlib.
 
 Every function takes ``ax=None`` (a new figure when None) and returns the Axes. Lengths are
 shown in mm and SED in Pa (= J/m^3) on the axes; the data stay SI.
@@ -111,7 +111,9 @@ def plot_frequency(summary, *, title: str | None = None):
     """The study's fig. 4-11 beside fig. 4-12: SED at the site at the deepest points, and mean rate, vs frequency.
 
     ``summary``: :func:`afferent.cycles.frequency_summary` (SED in Pa, frequency and rate in Hz); a line per
-    group (model), the first cycle's deepest point dashed, the last's solid. Returns the Figure.
+    group (model), the first cycle's deepest point dashed, the last's solid, its legend naming each run's own
+    last cycle (``_last_cycles``). Both axes start at zero: a few-percent change between frequencies or
+    cycles looks as small as it is. Returns the Figure.
     """
     import matplotlib.pyplot as plt
 
@@ -120,13 +122,14 @@ def plot_frequency(summary, *, title: str | None = None):
         color = f"C{i}"
         ax_sed.plot(t["frequency_hz"], t["sed_first_pa"], "o--", color=color, label=f"{g}, 1st deepest point")
         ax_sed.plot(t["frequency_hz"], t["sed_last_pa"], "s-", color=color,
-                    label=f"{g}, deepest point {int(t['n_cycles'].max())}")
+                    label=f"{g}, last deepest point: {_last_cycles(t['frequency_hz'], t['n_cycles'])}")
         ax_rate.plot(t["frequency_hz"], t["rate_hz"], "o-", color=color, label=g)
     freqs = sorted(set(summary["frequency_hz"]))
     for ax in (ax_sed, ax_rate):
         ax.set_xticks(freqs, [f"{f:g}" for f in freqs])
         ax.set_xlabel("frequency (Hz)")
         ax.grid(alpha=0.3)
+        ax.set_ylim(bottom=0.0)
     ax_sed.set_ylabel("SED at the site (Pa)")
     ax_sed.set_title("SED at the RA-I site at the deepest points", fontsize="medium")
     ax_rate.set_ylabel("mean rate (spikes/s per afferent)")
@@ -135,6 +138,16 @@ def plot_frequency(summary, *, title: str | None = None):
     legend_beside(ax_rate)
     fig.suptitle(title or "SED and rate vs frequency")
     return fig
+
+
+def _last_cycles(frequency_hz, n_cycles) -> str:
+    """'cycle 3' when every run of a group has 3 cycles, else each run's own: 'cycle 3 at 20, 30 Hz, 5 at 50 Hz'."""
+    by_n: dict[int, list[float]] = {}
+    for f, n in zip(frequency_hz, n_cycles):
+        by_n.setdefault(int(n), []).append(float(f))
+    if len(by_n) == 1:
+        return f"cycle {next(iter(by_n))}"
+    return "cycle " + ", ".join(f"{n} at {', '.join(f'{f:g}' for f in fs)} Hz" for n, fs in by_n.items())
 
 
 def plot_hotspot_summary(runs: dict, groups: dict, *, threshold: float):
@@ -309,8 +322,9 @@ def _norm(v):
 FEW_POINTS = 3
 
 
-def plot_section_profiles(sed, current, afferent=None, *, axis: str = "x", time_index: int = -1, ax=None, title=None):
-    """Normalised SED, receptor current and afferent current along one axis, on one axes.
+def plot_section_profiles(sed, current, afferent=None, *, axis: str = "x", time_index: int = -1, ax=None, title=None,
+                          scale: str = "normalised"):
+    """SED, receptor current and afferent current along one axis, on one axes: min-max normalised, or magnitudes.
 
     The study's figures 5-6 (``axis='x'``, across the ridges, with longitudinal-section
     afferents) and 5-7 (``axis='z'``, along the ridges, with cross-section afferents). The
@@ -319,43 +333,68 @@ def plot_section_profiles(sed, current, afferent=None, *, axis: str = "x", time_
     Parameters
     ----------
     sed : ReceptorSED
+        SED at the receptor sites, J/m^3 (Pa).
     current : ReceptorCurrent
+        Receptor currents, A.
     afferent : AfferentCurrent, optional
-        Plotted against its positions when its axis is ``axis``.
+        Plotted against its positions when its axis is ``axis``; currents in A.
     axis : {'x', 'z'}
     time_index : int, default=-1
+    scale : {'normalised', 'magnitude'}, default='normalised'
+        ``'normalised'``: every curve min-max normalised to 0..1 (the study's figures: shapes compared).
+        ``'magnitude'``: the SED in Pa on the left axis, the receptor and afferent currents in nA on the
+        right one, both from zero: how large the SED and the currents are, not only where they peak.
 
     Returns
     -------
     matplotlib Axes
+        The left (SED or normalised) axis; in ``'magnitude'`` its twin holds the currents.
+
+    Raises
+    ------
+    ValueError
+        ``scale`` is not one of the two.
     """
+    if scale not in ("normalised", "magnitude"):
+        raise ValueError(f"scale must be 'normalised' or 'magnitude'; got {scale!r} instead.")
     ax = _axes(ax, figsize=(8.5, 3.8))
     from .receptors import central_line
 
     idx, coord, at = central_line(sed.layout, axis)
     other = "z" if axis == "x" else "x"
+    norm = scale == "normalised"
+    show = _norm if norm else (lambda v: np.asarray(v, dtype=float) * 1e9)  # currents A -> nA
+    cur_ax = ax if norm else ax.twinx()
     note = None
     if afferent is not None and getattr(afferent, "axis", axis) == axis:
         # drawn first, wide and pale: the receptor curves on top stay visible where they coincide
         order = np.argsort(afferent.positions)
         raw = np.asarray(afferent.values[time_index, order], dtype=float)
-        ax.plot(afferent.positions[order] * 1e3, _norm(raw), "^-", ms=9, lw=6, alpha=0.35, color="tab:green",
-                label=f"afferent current ({afferent.kind} sections)")
-        if raw.size <= FEW_POINTS:
+        cur_ax.plot(afferent.positions[order] * 1e3, show(raw), "^-", ms=9, lw=6, alpha=0.35, color="tab:green",
+                    label=f"afferent current ({afferent.kind} sections)" + ("" if norm else ", nA"))
+        if norm and raw.size <= FEW_POINTS:
             # min-max normalising 2 or 3 values always gives 0-1 or 0-1-0: show the values themselves
             twin = ax.twinx()
             twin.plot(afferent.positions[order] * 1e3, raw * 1e9, "^:", ms=6, color="crimson", label="afferent current (nA)")
             twin.set_ylabel("afferent current, raw (nA)", color="crimson")
             note = (f"only {raw.size} afferents: their min-max\nnormalised profile is 0-1 by construction;\n"
                     "the raw currents are on the right axis")
-    ax.plot(coord * 1e3, _norm(sed.values[time_index, idx]), "o-", ms=7, mfc="none", color="tab:blue",
-            label=f"SED (receptors at {other} = {at * 1e3:.2f} mm)")
-    ax.plot(coord * 1e3, _norm(current.values[time_index, idx]), "s--", ms=3, color="tab:orange", label="receptor current")
+    sed_line = np.asarray(sed.values[time_index, idx], dtype=float)
+    ax.plot(coord * 1e3, _norm(sed_line) if norm else sed_line, "o-", ms=7, mfc="none", color="tab:blue",
+            label=f"SED (receptors at {other} = {at * 1e3:.2f} mm)" + ("" if norm else ", Pa"))
+    cur_ax.plot(coord * 1e3, show(current.values[time_index, idx]), "s--", ms=3, color="tab:orange",
+                label="receptor current" + ("" if norm else ", nA"))
     ax.set_xlabel(f"{axis}, {'across' if axis == 'x' else 'along'} the ridges (mm)")
-    ax.set_ylabel("normalised (min-max)")
-    ax.set_ylim(-0.05, 1.1)
+    if norm:
+        ax.set_ylabel("normalised (min-max)")
+        ax.set_ylim(-0.05, 1.1)
+    else:
+        ax.set_ylabel("SED at the receptors (Pa)", color="tab:blue")
+        cur_ax.set_ylabel("current (nA)", color="tab:orange")
+        ax.set_ylim(bottom=0.0)
+        cur_ax.set_ylim(bottom=0.0)
     legend_beside(ax, title=note)
-    ax.set_title(title or f"Profiles along {axis}")
+    ax.set_title(title or f"Profiles along {axis}" + ("" if norm else ": magnitudes"))
     return ax
 
 
@@ -387,214 +426,5 @@ def _stretch_note(fit) -> str | None:
             + "\n(stretched to 0..1, R² with it)")
 
 
-# ---- spikes and stimuli -------------------------------------------------------------------
-
-#: Above this many afferents the raster's y axis shows indices, not names.
-MAX_RASTER_LABELS = 30
-
-
-def plot_raster(spikes, ax=None, *, color: str = "k", title: str | None = None):
-    """Spike raster: one row per afferent, one tick per spike.
-
-    Parameters
-    ----------
-    spikes : SpikeTrains
-        From :func:`afferent.spiking.simulate_lif`; spike times in s.
-    ax : matplotlib Axes, optional
-    color : str, default='k'
-    title : str, optional
-
-    Returns
-    -------
-    matplotlib Axes
-        x: time (s) over the simulated window; y: afferent (names when at most
-        :data:`MAX_RASTER_LABELS`, else indices).
-
-    Examples
-    --------
-    >>> ax = plot_raster(trains)  # doctest: +SKIP
-    """
-    ax = _axes(ax)
-    n = spikes.n_afferents
-    if n:
-        ax.eventplot(list(spikes.spike_times), lineoffsets=np.arange(n), linelengths=0.8, colors=color,
-                     linewidths=0.8)
-    ax.set_xlim(spikes.t_start, spikes.t_start + spikes.duration)
-    ax.set_ylim(-0.6, max(n, 1) - 0.4)
-    if 0 < n <= MAX_RASTER_LABELS:
-        ax.set_yticks(np.arange(n))
-        ax.set_yticklabels([str(i) for i in spikes.afferent_ids])
-        ax.set_ylabel("afferent")
-    else:
-        ax.set_ylabel("afferent (index)")
-    ax.set_xlabel("time (s)")
-    ax.set_title(title or f"{int(spikes.n_spikes.sum())} spikes, {n} afferents")
-    return ax
-
-
-def rate_table(spikes, waveform=None, positions=None):
-    """The numbers ``rates.png`` shows, one row per afferent: the rate in each stimulus phase
-    (when a waveform is given: loading, hold, unloading, off; :meth:`Waveform.phases`), the mean
-    over the whole window and the peak instantaneous rate, all in Hz.
-
-    Parameters
-    ----------
-    spikes : SpikeTrains
-    waveform : Waveform, optional
-        The stimulus; its phases split the window.
-    positions : array_like or AfferentCurrent, optional
-        Afferent positions in m (a column ``position_m``).
-
-    Returns
-    -------
-    pandas.DataFrame
-        Columns ``afferent``, [``position_m``], ``<phase>_hz`` per phase (``loading_hz``,
-        ``hold_hz``, ...; a phase that repeats, as in a sinusoid, is pooled: its spikes over its
-        total time), ``mean_hz``, ``peak_instantaneous_hz``.
-    """
-    import pandas as pd
-
-    return pd.DataFrame(_rate_columns(spikes, waveform, positions))
-
-
-def _rate_columns(spikes, waveform=None, positions=None) -> dict:
-    """:func:`rate_table`'s columns (name -> array, in order) without pandas: :func:`plot_rates` draws them, and the
-    figure process (``afferent._figure_process``) need not import pandas (~0.3 s)."""
-    df = {"afferent": np.asarray(spikes.afferent_ids)}
-    if positions is not None:
-        df["position_m"] = np.asarray(getattr(positions, "positions", positions), dtype=float)
-    if waveform is not None:
-        spans: dict[str, list] = {}
-        for name, t0, t1 in waveform.phases():
-            lo, hi = max(t0, spikes.t_start), min(t1, spikes.t_start + spikes.duration)
-            if hi > lo:
-                spans.setdefault(name, []).append((lo, hi))
-        for name, parts in spans.items():
-            n = sum(spikes.rates_between(lo, hi) * (hi - lo) for lo, hi in parts)
-            total = sum(hi - lo for lo, hi in parts)
-            df[f"{name}_hz"] = n / total
-    df["mean_hz"] = np.asarray(spikes.rates())
-    df["peak_instantaneous_hz"] = np.asarray(spikes.peak_rate())
-    return df
-
-
-def plot_rates(spikes, positions=None, ax=None, *, waveform=None, label: str | None = None, title: str | None = None):
-    """Firing rate of each afferent: per stimulus phase, the window mean, and the peak
-    instantaneous rate (1 / shortest ISI), against position when given.
-
-    A rate-sensitive RA-I afferent fires bursts at the onset and the release of a ramp-and-hold
-    and nothing through the hold: its window mean (e.g. 30 Hz) hides 300-400 Hz bursts, which
-    the peak instantaneous rate and the loading/unloading rates show.
-
-    Parameters
-    ----------
-    spikes : SpikeTrains
-    positions : array_like of shape (n_afferents,) or AfferentCurrent, optional
-        Afferent coordinate in m (an object with ``positions``, e.g. the AfferentCurrent or
-        InputCurrent that was simulated, is accepted; its ``axis`` names the x label). Without
-        it the rates are plotted against the afferent index.
-    ax : matplotlib Axes, optional
-    waveform : Waveform, optional
-        Splits the window into its phases (:func:`rate_table`).
-    label : str, optional
-        Legend label of the window mean.
-    title : str, optional
-
-    Returns
-    -------
-    matplotlib Axes
-        x: position (mm) or afferent index; y: rate (Hz).
-
-    Raises
-    ------
-    ValueError
-        If ``positions`` does not have one entry per afferent.
-    """
-    ax = _axes(ax, figsize=(7.5, 4.2))
-    rates = spikes.rates()
-    axis = getattr(positions, "axis", None)
-    if positions is not None and hasattr(positions, "positions"):
-        positions = positions.positions
-    if positions is None:
-        x = np.arange(rates.size)
-        ax.set_xlabel("afferent (index)")
-    else:
-        x = np.asarray(positions, dtype=float)
-        if x.shape != rates.shape:
-            raise ValueError(
-                f"'positions' must have one entry per afferent (n_afferents = {rates.size}), in m; "
-                f"got shape {x.shape} instead."
-            )
-        x = x * 1e3
-        ax.set_xlabel(f"{axis or 'position'} (mm)")
-    table = _rate_columns(spikes, waveform)
-    order = np.argsort(x)
-    phases = [c for c in table if c.endswith("_hz") and c not in ("mean_hz", "peak_instantaneous_hz")]
-    for j, col in enumerate(phases):  # later phases drawn smaller and dashed: equal rates (0 Hz) stay visible
-        ax.plot(x[order], np.asarray(table[col])[order], "osDv"[j % 4] + ("-" if j == 0 else "--"), mfc="none",
-                ms=9 - 1.5 * (j % 4), label=f"{col[:-3]} phase")
-    ax.plot(x[order], table["mean_hz"][order], "k:", lw=1.5, label=label or "mean over the window")
-    ax.plot(x[order], table["peak_instantaneous_hz"][order], "^--", ms=4, color="crimson",
-            label="peak instantaneous (1 / shortest ISI)")
-    ax.set_ylabel("rate (Hz)")
-    legend_beside(ax)
-    ax.set_title(title or f"firing rates over {spikes.duration:g} s")
-    return ax
-
-
-def plot_psth(spikes, bin_width: float, ax=None, *, label: str | None = None, title: str | None = None):
-    """Population peri-stimulus time histogram (mean rate per afferent in each bin).
-
-    Parameters
-    ----------
-    spikes : SpikeTrains
-    bin_width : float
-        Bin width in s (see :meth:`SpikeTrains.psth`).
-    ax : matplotlib Axes, optional
-    label : str, optional
-    title : str, optional
-
-    Returns
-    -------
-    matplotlib Axes
-        x: time (s); y: rate (Hz per afferent).
-
-    Raises
-    ------
-    ValueError
-        If ``bin_width`` is not > 0 s.
-    """
-    rate, edges = spikes.psth(bin_width)
-    ax = _axes(ax)
-    ax.stairs(rate, edges, fill=True, alpha=0.6, label=label)
-    ax.set_xlabel("time (s)")
-    ax.set_ylabel("rate per afferent (Hz)")
-    ax.set_xlim(edges[0], edges[-1])
-    if label:
-        legend_beside(ax)  # beside the Axes: the bars fill it
-    ax.set_title(title or f"PSTH, {bin_width * 1e3:g} ms bins")
-    return ax
-
-
-def plot_waveform(waveform, ax=None, *, title: str | None = None):
-    """Indentation depth over time.
-
-    Parameters
-    ----------
-    waveform : Waveform
-        Times in s, depth in m (shown in mm).
-    ax : matplotlib Axes, optional
-    title : str, optional
-
-    Returns
-    -------
-    matplotlib Axes
-        x: time (s); y: depth (mm).
-    """
-    ax = _axes(ax, figsize=(5.5, 2.8))
-    ax.plot(waveform.times, waveform.depth * 1e3, "-", lw=1.2)
-    ax.set_xlabel("time (s)")
-    ax.set_ylabel("depth (mm)")
-    ax.set_ylim(bottom=0)
-    ax.set_title(title or f"{waveform.kind} waveform")
-    return ax
+# the spike and stimulus figures live beside this module (size); they are this module's names
+from ._plot_spikes import MAX_RASTER_LABELS, _rate_columns, plot_psth, plot_raster, plot_rates, plot_waveform, rate_table  # noqa: E402,F401

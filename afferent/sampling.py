@@ -616,6 +616,10 @@ def read_receptor_sed(path):
         raise SEDFormatError(f"SED file {path!r} has no data rows.")
     num = pd.DataFrame(numeric_columns(df, SED_TABLE_COLUMNS[1:], what="SED file", path=path),
                        columns=list(SED_TABLE_COLUMNS[1:]))
+    blank = df["receptor"].isna().to_numpy()
+    if blank.any():
+        raise SEDFormatError(f"SED file {path!r}: column 'receptor' must name the receptor in every data row; data row "
+                             f"{int(np.flatnonzero(blank)[0]) + 1} has none.")
     ids = df["receptor"].astype(str).to_numpy()
     names, first = np.unique(ids, return_index=True)
     order = np.argsort(first, kind="stable")

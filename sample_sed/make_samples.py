@@ -925,11 +925,94 @@ def write_packaged_sample(src: Path, dst: Path = PACKAGED_DIR) -> dict:
     def sha256(path):
         return hashlib.sha256(path.read_bytes()).hexdigest()
 
-    files = {p.relative_to(dst).as_posix(): (p.stat().st_size, sha256(p), sha256(src / p.relative_to(dst)))
+    kept.update(write_packaged_chapter4(src, dst))
+    files = {p.relative_to(dst).as_posix(): (p.stat().st_size, sha256(p), source_sha256(src, p.relative_to(dst).as_posix()))
              for p in sorted(dst.rglob("*")) if p.is_file()}
     (dst / "README.md").write_text(packaged_readme(files, kept))
     print(f"packaged sample: {len(files)} files, {sum(f[0] for f in files.values())} bytes -> {dst}")
     return files
+
+
+def source_sha256(src: Path, name: str) -> str:
+    """sha256 (hex) of what packaged file ``name`` was made from: the file of the same path in ``src``, except for
+    a vibration series (``vibration/<series>/vib.xdmf`` or ``vib.h5``), made from ``vib.pvd`` and its step VTUs:
+    the sha256 of their bytes in a row (the PVD first, then the VTUs in the PVD's order)."""
+    import hashlib
+    import xml.etree.ElementTree as ET
+
+    path = Path(src) / name
+    if not (name.startswith("vibration/") and path.name in ("vib.xdmf", "vib.h5")):
+        return hashlib.sha256(path.read_bytes()).hexdigest()
+    pvd = path.parent / "vib.pvd"
+    h = hashlib.sha256(pvd.read_bytes())
+    for d in ET.parse(pvd).getroot().iter("DataSet"):
+        h.update((path.parent / d.get("file")).read_bytes())
+    return h.hexdigest()
+
+
+def write_packaged_chapter4(src: Path, dst: Path) -> dict:
+    """The chapter-4 part of the packaged sample (what ``afferent demo``'s chapter-4 findings read).
+
+    * ``chapter4/ridged{3d,2d}/``: each indenter's VTU cropped by :func:`crop_to_receptors` to the
+      RA-I and SA-I sites of its tables (``ra_sites.csv``, ``sa_sites.csv``, copied);
+    * ``vibration/``: ``receptors.csv`` copied; each series ``{3d,2d}_{f}Hz/vib.pvd`` (one VTU per step)
+      becomes one XDMF time series ``vib.xdmf`` + ``vib.h5`` (meshio's TimeSeriesWriter) holding, for every
+      step, the point ``SED`` of **one hexahedron per tip** (the first in the mesh's order with that tip among
+      its corners) and of its nodes: the SED at a tip node is copied, so sampling at the tips ('linear' or
+      'nearest', point values) sees what it sees in the full series; 8 hexahedra per tip would not fit the
+      wheel's size. The PVD's step times are kept.
+
+    Returns {folder: (hexahedra kept, of, nodes kept, of)} of the first file of each folder.
+    """
+    import os
+    import shutil
+    import xml.etree.ElementTree as ET
+
+    kept, src, dst = {}, Path(src).resolve(), Path(dst).resolve()
+    c4 = src / "chapter4"
+    if not c4.is_dir():
+        return kept
+    for model in sorted(p.name for p in c4.iterdir() if p.is_dir()):
+        (dst / "chapter4" / model).mkdir(parents=True)
+        nodes = None
+        for name in ("ra_sites.csv", "sa_sites.csv"):
+            shutil.copyfile(c4 / model / name, dst / "chapter4" / model / name)
+        for vtu in sorted((c4 / model).glob("*.vtu")):
+            full = meshio.read(vtu)
+            if nodes is None:
+                nodes = np.concatenate([receptor_nodes(full.points, c4 / model / n) for n in ("ra_sites.csv", "sa_sites.csv")])
+            small = crop_to_receptors(full, nodes)
+            meshio.write(str(dst / "chapter4" / model / vtu.name), small, file_format="vtu", binary=True, compression="zlib")
+            kept.setdefault(f"chapter4/{model}", (len(small.cells[0].data), len(full.cells[0].data), len(small.points),
+                                                  len(full.points)))
+    vib = src / "vibration"
+    if not vib.is_dir():
+        return kept
+    (dst / "vibration").mkdir()
+    shutil.copyfile(vib / "receptors.csv", dst / "vibration" / "receptors.csv")
+    here = Path.cwd()
+    for series in sorted(p for p in vib.iterdir() if (p / "vib.pvd").is_file()):
+        steps = [(float(d.get("timestep")), d.get("file")) for d in ET.parse(series / "vib.pvd").getroot().iter("DataSet")]
+        first = meshio.read(series / steps[0][1])
+        tips = receptor_nodes(first.points, vib / "receptors.csv")
+        hexes = first.cells[0].data
+        one = np.array([int(np.flatnonzero((hexes == t).any(axis=1))[0]) for t in tips])
+        used = np.unique(hexes[one])
+        index = np.full(len(first.points), -1, dtype=np.int64)
+        index[used] = np.arange(used.size)
+        out = dst / "vibration" / series.name
+        out.mkdir()
+        os.chdir(out)  # meshio names the .h5 relative to the working folder
+        try:
+            with meshio.xdmf.TimeSeriesWriter("vib.xdmf") as w:
+                w.write_points_cells(first.points[used], [("hexahedron", index[hexes[one]].astype(np.int32))])
+                for t, name in steps:
+                    m = meshio.read(series / name)
+                    w.write_data(t, point_data={"SED": m.point_data["SED"][used]})
+        finally:
+            os.chdir(here)
+        kept.setdefault("vibration", (len(one), len(hexes), len(used), len(first.points)))
+    return kept
 
 
 def packaged_readme(files: dict, kept: dict) -> str:
@@ -976,7 +1059,15 @@ python sample_sed/make_samples.py --packaged
   * the 0.88 mm loading series `block4/series_0p88mm/` (6 steps, t = 0 ... 0.1 s,
     d = 0 ... 0.5 mm), with its PVD copied;
   * both `receptors.csv` (copied: 119 and 595 papilla tips);
-  * `scenes/spikes_ramp.toml` (copied, with a two-line header).
+  * `scenes/spikes_ramp.toml` (copied, with a two-line header);
+  * for the chapter-4 findings (`afferent.findings`): `chapter4/ridged{{3d,2d}}/` (the four
+    indenters' VTUs cropped to the RA-I and SA-I sites of `ra_sites.csv` and `sa_sites.csv`,
+    both copied) and `vibration/` (`receptors.csv` copied; each series `{{3d,2d}}_{{f}}Hz/` as one
+    XDMF time series `vib.xdmf` + `vib.h5` holding every step of the series' PVD, at its times,
+    with the point `SED` of one hexahedron per tip: the tip's value is copied, so sampling at
+    the tips sees the full series' values; `write_packaged_chapter4`). For these two files the
+    "source sha256" is that of the series' `vib.pvd` and its step VTUs, their bytes in a row
+    (`source_sha256`).
 * Each VTU keeps only the hexahedra that have a receptor (papilla-tip) node among their 8
   corners (the 2 x 2 x 2 elements around each tip: 4 in the dermis, 4 in the epidermis) and
   the nodes of those elements. Nodes and elements keep their order in the full mesh,

@@ -241,12 +241,27 @@ FOOTPRINT = mc.INDENTERS["bar"][0]
 FREQUENCIES = (20.0, 30.0, 50.0, 80.0)   # Hz
 STEPS_PER_PERIOD = 20
 CYCLES = 3
-WAVEFORM = "d(t) = A (1 - cos(2 pi f t)) / 2, A = 0.5 mm: from rest, 0 -> 0.5 mm -> 0 each cycle, deepest at t = (k + 1/2) / f"
+#: The two waveforms (issue 35, item 2). ``sine`` (default) follows the thesis's own example of a deepest point,
+#: t = 0.005 s at 50 Hz = T/4: the plane starts at the skin and moves as A sin(2 pi f t), so it is deepest at
+#: t = (k + 1/4) / f with peak velocity 2 pi f A; while the plane is above the undeformed surface (d < 0) it
+#: touches nothing (the contact opens, as a contact analysis does; the skin is free). ``haversine`` is the
+#: earlier reading, A (1 - cos) / 2, deepest at T/2 with half the peak velocity, which the example contradicts.
+WAVEFORMS = {
+    "sine": "d(t) = A sin(2 pi f t), A = 0.5 mm, from rest: deepest at t = (k + 1/4) / f (the thesis's example: "
+            "t = 0.005 s at 50 Hz); for d < 0 the plane is above the skin and touches nothing (contact open)",
+    "haversine": "d(t) = A (1 - cos(2 pi f t)) / 2, A = 0.5 mm: from rest, 0 -> 0.5 mm -> 0 each cycle, deepest at "
+                 "t = (k + 1/2) / f",
+}
+WAVEFORM_KIND = "sine"
+WAVEFORM = WAVEFORMS[WAVEFORM_KIND]
 
 
-def depth(t, f: float) -> np.ndarray:
-    """Punch depth (mm) at times ``t`` (s): the haversine of WAVEFORM."""
-    return AMPLITUDE * 0.5 * (1.0 - np.cos(2.0 * np.pi * f * np.asarray(t, dtype=float)))
+def depth(t, f: float, kind: str | None = None) -> np.ndarray:
+    """Punch depth (mm, > 0 into the skin) at times ``t`` (s) of the waveform ``kind`` (:data:`WAVEFORMS`)."""
+    phase = 2.0 * np.pi * f * np.asarray(t, dtype=float)
+    if (kind or WAVEFORM_KIND) == "sine":
+        return AMPLITUDE * np.sin(phase)
+    return AMPLITUDE * 0.5 * (1.0 - np.cos(phase))
 
 
 def build_model(model: str, quick: bool):
@@ -306,7 +321,8 @@ def run_series(vp: ViscoPunch, f: float, out: Path, cycles: int) -> dict:
 def deepest_summary(sm, series: dict) -> dict:
     """SED (Pa) at the edge tip with the largest SED at the last deepest point, per cycle's deepest point."""
     steps = series["steps"]
-    deep = [k for k in range(len(steps)) if k % STEPS_PER_PERIOD == STEPS_PER_PERIOD // 2]
+    at = STEPS_PER_PERIOD // 4 if WAVEFORM_KIND == "sine" else STEPS_PER_PERIOD // 2   # the waveform's deepest step
+    deep = [k for k in range(len(steps)) if k % STEPS_PER_PERIOD == at]
     tips = sm.tips
     edge = edge_tips(tips, sm.xc, sm.zc)
     last = np.asarray(steps[deep[-1]]["tip_SED_Pa"])
@@ -329,12 +345,16 @@ def edge_tips(tips: np.ndarray, xc: float, zc: float) -> np.ndarray:
 
 
 def main(argv=None):
+    global WAVEFORM_KIND, WAVEFORM
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--quick", action="store_true", help="coarse mesh, 2 cycles at 20 and 80 Hz, into a temp dir")
     ap.add_argument("--out", type=Path, default=None, help="output folder (default sample_sed/vibration)")
     ap.add_argument("--models", nargs="+", choices=mc.MODELS, default=list(mc.MODELS))
     ap.add_argument("--frequencies", nargs="+", type=float, default=None, help="Hz")
+    ap.add_argument("--waveform", choices=list(WAVEFORMS), default=WAVEFORM_KIND,
+                    help="sine: the thesis's example (deepest at T/4, default); haversine: the earlier reading")
     args = ap.parse_args(argv)
+    WAVEFORM_KIND, WAVEFORM = args.waveform, WAVEFORMS[args.waveform]
     here = Path(__file__).resolve().parent
     out = args.out or (Path(tempfile.gettempdir()) / "afferent_vibration_quick" if args.quick else here / "vibration")
     freqs = args.frequencies or ((20.0, 80.0) if args.quick else FREQUENCIES)

@@ -2,6 +2,7 @@
 """Print the number tables of ``sample_sed/README.md`` from the run records, so they cannot go stale.
 
 ``build_info.json`` is the run of ``make_samples.py`` (the study's bottom-edges restraint);
+the chapter-4 findings table is measured on ``chapter4/`` and ``vibration/`` by ``afferent.findings``;
 ``build_info_bottom_face.json`` is the record of the earlier run with the whole bottom face fixed
 (``make_samples.py --bottom face``), kept for the comparison table. ``tests/test_samples.py``
 checks that every line printed here is in the README. Units: SED in Pa, force in N, widths mm.
@@ -11,9 +12,12 @@ checks that every line printed here is in the README. Units: SED in Pa, force in
 from __future__ import annotations
 
 import json
+import sys
 from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
+sys.path.insert(0, str(HERE))
+import chapter4_reasons  # noqa: E402  (sample_sed/chapter4_reasons.py: the 3-D/2-D ratio read several ways)
 STUDY_PEAK_SED_PA = 190.0      # the study's figure 4-7 scale, 1.9e-4 MPa
 
 
@@ -94,12 +98,25 @@ def mesh_check_table(edges, face) -> list[str]:
     return rows
 
 
+def chapter4_findings_table(sample: Path = HERE) -> list[str]:
+    """Every chapter-4 headline claim on ``chapter4/`` and ``vibration/``, as ``afferent demo`` writes it into
+    findings.csv (``afferent.findings``: the package's readers and the one rule per claim)."""
+    from afferent.findings import chapter4_findings, measure_chapter4
+
+    rows = ["| the study's claim | study | the sample | criterion | holds? |", "|---|---|---|---|---|"]
+    for r in chapter4_findings(measure_chapter4(sample)):
+        cells = [r["finding"], r["study"], r["sample"], r["criterion"], "yes" if r["holds"] else "**no**"]
+        rows.append("| " + " | ".join(c.replace("|", "\\|") for c in cells) + " |")
+    return rows
+
+
 def all_tables(edges=None, face=None) -> dict[str, list[str]]:
     edges = edges or json.loads((HERE / "build_info.json").read_text())
     face = face or json.loads((HERE / "build_info_bottom_face.json").read_text())
     return {"receptor SED": receptor_table(edges), "interchange zone": interchange_table(edges),
             "loading ramp": ramp_table(edges), "bottom face -> bottom edges": comparison_table(edges, face),
-            "mesh check": mesh_check_table(edges, face)}
+            "mesh check": mesh_check_table(edges, face), "chapter 4 findings": chapter4_findings_table(),
+            "chapter 4 reasons": chapter4_reasons.ratio_table()}
 
 
 if __name__ == "__main__":

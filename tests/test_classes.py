@@ -54,8 +54,9 @@ def test_static_plus_rate_on_a_ramp_and_hold_matches_its_closed_form():
 
 
 def test_static_plus_rate_is_one_component_of_the_gerling_generator_function():
-    # gen_function.py of the Gerling group's model code: K * conv(k1 exp(-t / tau) + 1 - k1, dI), rectified;
-    # the same with k_s = K (1 - k1), k_d = K k1 tau (docs/classes.md)
+    # gen_function.py of yw5aj/PlosCompBiol up to its commit 1276cc4 (12 Feb 2016): one component
+    # K * conv(k1 exp(-t / tau) + 1 - k1, dI), rectified whole; the same as rectify='sum' with k_s = K (1 - k1),
+    # k_d = K k1 tau (docs/classes.md)
     dt, tau, big_k, k1 = 5e-5, 8e-3, 2.0, 0.96
     t = np.arange(0, 0.4, dt)
     i = 1e-9 * np.interp(t, [0, 0.1, 0.3, 0.35, 0.4], [0, 1.0, 1.0, 0.2, 0.2])
@@ -67,6 +68,67 @@ def test_static_plus_rate_is_one_component_of_the_gerling_generator_function():
     # the reference jumps by a step per sample, ours is the mean over it: they differ by O(dt / tau) of the peak
     assert np.max(np.abs(out - ref)) / scale < 2 * dt / tau
     assert out[int(0.25 / dt)] == pytest.approx(big_k * (1 - k1) * 1e-9, rel=1e-6)  # the hold: static only
+
+
+def _ramp_hold_release(dt, n):
+    """A current ramping at 1e-6 A/s for n samples, held n samples, released at -1e-6 A/s (A)."""
+    s = 1e-6
+    return np.concatenate([s * dt * np.arange(n), np.full(n, s * dt * n), s * dt * n - s * dt * np.arange(1, n + 1)])
+
+
+def test_rectifying_each_component_keeps_the_static_term_through_the_release():
+    # the current gen_function.py (commit d5bb72c of 13 Feb 2016 to the last, 27fec46) rectifies each component:
+    # while the current falls the static term k_s I still drives, the rate term is clipped at 0; rectifying the
+    # sum (the default) lets the falling rate cancel it: 0 through most of the release
+    dt, tau, k_s, k_d, n = 1e-4, 8e-3, 0.5, 0.2, 3000
+    i = _ramp_hold_release(dt, n)
+    cur = _current(i, dt)
+    summed = adapting_input(cur, gain=k_d, tau=tau, static_gain=k_s, mode="static-plus-rate").values[:, 0]
+    each = adapting_input(cur, gain=k_d, tau=tau, static_gain=k_s, mode="static-plus-rate",
+                          rectify="components").values[:, 0]
+    np.testing.assert_array_equal(each[: 2 * n - 1], summed[: 2 * n - 1])  # ramp and hold: no term is negative
+    j = 2 * n + n // 2  # mid-release: the rate has settled at -1e-6 A/s
+    assert summed[j] == 0.0  # k_s I - k_d s = 0.5 * 1.5e-7 - 2e-7 < 0
+    assert each[j] == pytest.approx(k_s * i[j], rel=1e-9)  # the static term alone
+    assert any("each component rectified" in note for note in adapting_input(
+        cur, gain=k_d, tau=tau, mode="static-plus-rate", rectify="components").notes)
+
+
+def test_components_with_the_slow_term_match_the_cited_code_by_direct_convolution():
+    # the current gen_function.py: sum_c max(k_c conv(exp(-t / tau_c), dI), 0) with tau_1 = 8 ms, tau_2 = 200 ms,
+    # tau_3 = inf and fit_model.py's start values k = 1, 0.3, 0.04; in the package's terms k_s = k_3,
+    # k_d = k_1 tau_1, slow_gain = k_2 tau_2 (docs/classes.md)
+    dt = 5e-5
+    t = np.arange(0, 0.8, dt)
+    i = 1e-9 * np.interp(t, [0, 0.1, 0.4, 0.5, 0.8], [0, 1.0, 1.0, 0.2, 0.2])
+    di = np.r_[0, np.diff(i)]
+    ref = sum(np.maximum(np.convolve(k * np.exp(-t / tau), di)[: t.size], 0)
+              for k, tau in ((1.0, 8e-3), (0.3, 0.2), (0.04, np.inf)))
+    out = adapting_input(_current(i, dt), gain=1.0 * 8e-3, tau=8e-3, static_gain=0.04, mode="static-plus-rate",
+                         rectify="components", slow_gain=0.3 * 0.2, slow_tau=0.2).values[:, 0]
+    assert np.max(np.abs(out - ref)) / ref.max() < 2 * dt / 8e-3  # a step per sample against the interval's mean
+    # the slow term: 0.3 / 0.04 = 7.5 times the static one at a step, left at exp(-0.3 / 0.2) = 0.22 of its
+    # end-of-ramp value 0.3 s into the hold
+    hold_end = int(0.4 / dt) - 1
+    assert out[hold_end] / (0.04 * i[hold_end]) > 1.5
+
+
+def test_generator_options_apply_to_the_sa1_input_only():
+    cur = _current(np.linspace(0, 1e-9, 50))
+    with pytest.raises(ValueError, match=re.escape("'rectify' applies to mode='static-plus-rate', not "
+                                                   "'rectified-rate'; got rectify='components' instead.")):
+        adapting_input(cur, gain=0.1, rectify="components")
+    with pytest.raises(ValueError, match=re.escape("'slow_gain' applies to mode='static-plus-rate'")):
+        adapting_input(cur, gain=0.1, slow_gain=1.0)
+    with pytest.raises(ValueError, match=re.escape("'slow_tau' needs 'slow_gain'")):
+        adapting_input(cur, gain=0.1, slow_tau=0.2, mode="static-plus-rate")
+    with pytest.raises(ValueError, match="Allowed values are 'sum' and 'components', but got 'each' instead"):
+        adapting_input(cur, gain=0.1, rectify="each", mode="static-plus-rate")
+    with pytest.raises(SceneError, match=re.escape("[spikes] 'rectify' applies to input = 'slowly-adapting', "
+                                                   "not 'static'.")):
+        parse_scene(_scene_text('[spikes]\nrectify = "components"\n'))
+    with pytest.raises(SceneError, match=re.escape("[spikes] 'slow_tau_s' needs 'slow_gain_s'")):
+        parse_scene(_scene_text('[afferent]\nclass = "SA-I"\n[spikes]\nslow_tau_s = 0.2\n'))
 
 
 def test_static_part_is_measured_from_the_current_of_unloaded_skin():
@@ -192,6 +254,28 @@ def test_sa1_fires_through_the_hold_and_ra1_does_not(tmp_path):
         assert ramp_rate > 1.5 * hold_rate
     assert _phase_spikes(ra.spikes, 0.3, 2.1) == [0] * ra.spikes.n_afferents  # RA-I: silent through the hold
     assert min(_phase_spikes(ra.spikes, 0.0, 0.15)) > 0 and min(_phase_spikes(ra.spikes, 2.1, 2.3)) > 0
+
+
+@pytest.mark.slow  # 4 s: two SA-I ramp-and-hold runs
+@needs_sample
+def test_sa1_silence_at_release_comes_from_rectifying_the_sum(tmp_path):
+    """docs/classes.md: "no SA-I spike follows the release" is the package's choice of rectifying the sum of the
+    generator's terms; the cited code rectifies each one (rectify = "components"), and its static term then fires
+    the afferents during the release when the hold's last spike falls early enough: hold 2.04 s (release
+    2.14-2.24 s) on sa1_ramp.toml, one spike per afferent at 2.160 s."""
+    def run(rectify):
+        scene = load_scene(SCENES / "sa1_ramp.toml")
+        scene = replace(scene, outputs=replace(scene.outputs, want=("spikes",)),
+                        stimulus=replace(scene.stimulus, hold_s=2.04),
+                        spikes=replace(scene.spikes, rectify=rectify))
+        return run_scene(scene.with_output(tmp_path / str(rectify)), cache_dir=tmp_path / "cache")
+
+    summed, each = run(None), run("components")
+    assert summed.record["spikes"]["input_params"]["rectify"] == "sum"
+    assert each.record["spikes"]["input_params"]["rectify"] == "components"
+    assert _phase_spikes(summed.spikes, 2.14, 2.35) == [0, 0]
+    assert _phase_spikes(each.spikes, 2.14, 2.24) == [1, 1]
+    assert _phase_spikes(each.spikes, 0.0, 2.14) == _phase_spikes(summed.spikes, 0.0, 2.14)  # the same until release
 
 
 def test_sites_of_another_class_are_said():

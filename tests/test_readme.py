@@ -108,7 +108,7 @@ def test_python_example_runs_and_names_the_columns(page, monkeypatch):
 
 
 # ------------------------------------------------------------------ citations of sections, links
-_CITE = re.compile(r"(?P<file>\bREADME(?:\.md)?|\b(?:[\w.-]+/)*[\w.-]+\.md),?\s+(?:section\s+)?"
+_CITE = re.compile(r"(?P<file>\bREADME(?:\.md)?|\b(?:[\w.-]+/)*[\w.-]+\.md)`?,?\s+(?:section\s+)?"
                    r"[\"'](?P<title>[^\"'\n]{2,100})[\"']")
 _LINK = re.compile(r"(?<!!)\[[^\]\n]*\]\((?P<target>[^)\s]+)\)")
 _CITING = ["afferent/**/*.py", "docs/*.md", "README.md", "sample_sed/**/*.py", "sample_sed/**/*.md",
@@ -219,6 +219,7 @@ def test_the_checks_catch_a_section_or_link_that_moved():
     assert citation_errors('see docs/nowhere.md, "Outputs"', code)
     assert not citation_errors('see docs/cli.md, "Outputs and --overwrite"; docs/method.md, "Receptor sites"', code)
     assert not citation_errors('(sample_sed/README.md, "Vibration series")', code)
+    assert citation_errors('(`sample_sed/README.md`, "Vibration serie")', code)  # quoted as code too
     assert link_errors("[a](docs/cli.md#no-such-heading)", README)
     assert link_errors("[a](docs/missing.md)", README)
     assert not link_errors("[a](docs/cli.md#outputs-and---overwrite) [b](https://example.org/#x)", README)

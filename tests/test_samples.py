@@ -163,7 +163,7 @@ def _rows(prominence=0.05, over=None):
     """summary.csv rows as afferent demo writes them (SED Pa, widths mm), the sample's shape made up."""
     rows = []
     for w, zone, lon, cross in [(0.44, False, 1, 1), (0.66, False, 1, 1), (0.88, True, 1, 1), (1.10, True, 1, 1),
-                                (1.32, True, 1, 1), (2.00, True, 2, 1), (4.00, True, 2, 2)]:
+                                (1.32, True, 1, 1), (2.00, True, 1, 1), (4.00, True, 2, 2)]:
         rows.append({"indenter_mm": w, "sed_max_pa": 300.0, "interchange_zone": zone, "afferent_peaks_longitudinal": lon,
                      "afferent_peaks_cross": cross, "peak_prominence": prominence})
     for (w, key), v in (over or {}).items():
@@ -188,7 +188,7 @@ def test_study_findings_decide_by_stated_criteria():
         "interchange zone (peak-valley-peak SED across the central x line) from width",
         "afferent peaks after cross synthesis, 4 mm indenter"]
     gap = study_findings(_rows(over={(1.10, "interchange_zone"): False}))[1]  # must hold at every wider indenter
-    assert gap["sample"] == "1.32 mm" and not gap["holds"]
+    assert gap["sample"] == "1.32 mm (also at 0.88 mm, not at every wider one)" and not gap["holds"]
 
 
 def test_demo_peak_prominence_is_checked(tmp_path, capsys):
@@ -218,7 +218,7 @@ def test_every_finding_says_why():
     from afferent.cli._demo import study_findings
 
     for f in study_findings(_rows()):
-        assert set(f) == {"finding", "study", "sample", "criterion", "holds", "note"} and len(f["note"]) > 40
+        assert set(f) == {"claim", "finding", "study", "sample", "criterion", "holds", "note"} and len(f["note"]) > 40
 
 
 def test_demo_case_records_its_peak_threshold(tmp_path):

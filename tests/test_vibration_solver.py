@@ -139,3 +139,13 @@ def test_moduli_closed_forms_and_bad_prony():
         mv.Prony(g=(0.6, 0.5), tau=(0.1, 1.0))
     with pytest.raises(ValueError, match=r"equal length"):
         mv.Prony(g=(0.3,), tau=(0.1, 1.0))
+
+
+def test_the_waveform_follows_the_thesis_example():
+    """Issue 35, item 2: the thesis's example deepest point is t = 0.005 s at 50 Hz (T/4); the generator's default
+    waveform, A sin(2 pi f t) from rest, is deepest there (the earlier haversine, deepest at T/2, fails this)."""
+    t = np.linspace(0.0, 0.02, 401)
+    assert t[np.argmax(mv.depth(t, 50.0))] == pytest.approx(0.005, abs=1e-9)
+    assert mv.depth(np.array([0.005]), 50.0)[0] == pytest.approx(mv.AMPLITUDE)
+    assert mv.depth(np.array([0.015]), 50.0)[0] < 0  # plane above the skin: make_samples.Problem touches nothing
+    assert t[np.argmax(mv.depth(t, 50.0, "haversine"))] == pytest.approx(0.01, abs=1e-9)

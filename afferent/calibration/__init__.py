@@ -28,8 +28,8 @@ groupings at once), :mod:`.design`, :mod:`.surface`, and the figures of a result
 
 from __future__ import annotations
 
-from ._plots import plot_calibrated_profile, plot_ssd_history
-from .compare import SynthesisComparison, compare_methods, compare_syntheses, methods_table
+from ._plots import plot_calibrated_profile, plot_calibrated_profiles, plot_ssd_history
+from .compare import SynthesisComparison, best_method, compare_methods, compare_syntheses, methods_table
 from .design import box_behnken, central_composite, decode, encode, factorial_design, increments
 from .entry import METHODS, calibrate
 from .conditioning import IDENTIFIABLE_COND, identifiability
@@ -44,9 +44,11 @@ __all__ = [
     "STATUSES",
     "compare_methods",
     "methods_table",
+    "best_method",
     "compare_syntheses",
     "SynthesisComparison",
     "plot_calibrated_profile",
+    "plot_calibrated_profiles",
     "plot_ssd_history",
     "identifiability",
     "IDENTIFIABLE_COND",

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["plot_calibrated_profile", "plot_ssd_history"]
+__all__ = ["plot_calibrated_profile", "plot_calibrated_profiles", "plot_ssd_history"]
 
 
 def _axes(ax, figsize):
@@ -43,10 +43,7 @@ def plot_calibrated_profile(result, *, ax=None, title=None):
     x = fit.positions * 1e3 if fit.positions is not None else np.arange(len(fit.predicted))
     ax.plot(x, fit.observed, "ko", label="observed")
     ax.plot(x, fit.predicted, "-", lw=2, label="calibrated")
-    axis = "x" if result.synthesis in ("longitudinal", "map", "random") else "z"
-    ax.set_xlabel(f"afferent position {axis} (mm)" if fit.positions is not None else "afferent")
-    norm = result.normalise in ("both", "prediction")
-    ax.set_ylabel("response (normalised)" if norm else "response")
+    _profile_axes(ax, result)
     p = result.params
     ax.set_title(title or (
         f"{result.method}, {result.synthesis}: ssd {result.ssd:.3g}, R² (study) {result.r2_study:.3f}\n"
@@ -54,6 +51,63 @@ def plot_calibrated_profile(result, *, ax=None, title=None):
     ), fontsize="small")
     legend_beside(ax)  # beside the Axes, never over a point
     return ax
+
+
+#: plot_calibrated_profiles: the other methods' lines, in turn (thinner than the best's, dashed: none hides another)
+_OTHER_STYLES = (dict(ls="--", marker="s", ms=4, mfc="none"), dict(ls=":", marker="D", ms=4, mfc="none"),
+                 dict(ls="-.", marker="v", ms=4, mfc="none"))
+
+
+def plot_calibrated_profiles(results: dict, *, ax=None, title=None):
+    """Every method's calibrated profile against the observed one, the best by the ssd drawn first and named.
+
+    Parameters
+    ----------
+    results : dict of str -> CalibrationResult
+        Results of several methods on the same data (``afferent calibrate --method all``, or a method and
+        its least-squares reference); each ``fit`` holds the profiles as compared (normalised as
+        ``normalise`` says) and the afferent positions in m (plotted in mm).
+    ax : matplotlib Axes, optional
+    title : str, optional
+        Default: the best method (:func:`afferent.calibration.best_method`: lowest ssd), its synthesis,
+        ssd, R^2 (study) and parameters.
+
+    Returns
+    -------
+    matplotlib Axes
+        The observed points, the best method's line (wide, solid, labelled ``'<method>: ssd <ssd> (best)'``),
+        then each other method's (thin, dashed, ``'<method>: ssd <ssd>'``).
+    """
+    from ..plotting import legend_beside
+    from .compare import best_method
+
+    ax = _axes(ax, (6.2, 3.8))
+    best = best_method(results)
+    order = [best] + [m for m in results if m != best]
+    r = results[best]
+    x = r.fit.positions * 1e3 if r.fit.positions is not None else np.arange(len(r.fit.predicted))
+    ax.plot(x, r.fit.observed, "ko", label="observed")
+    for i, m in enumerate(order):
+        fit = results[m].fit
+        xm = fit.positions * 1e3 if fit.positions is not None else np.arange(len(fit.predicted))
+        style = dict(ls="-", lw=2.5, color="tab:blue") if i == 0 else dict(lw=1.2, color=f"C{i}", **_OTHER_STYLES[(i - 1) % 3])
+        ax.plot(xm, fit.predicted, label=f"{m}: ssd {results[m].ssd:.3g}" + (" (best)" if i == 0 else ""), **style)
+    _profile_axes(ax, r)
+    p = r.params
+    ax.set_title(title or (
+        f"best by ssd: {best}, {r.synthesis}: ssd {r.ssd:.3g}, R² (study) {r.r2_study:.3f}\n"
+        f"alpha {p.alpha:.3g} A, gamma {p.gamma:.3g} 1/Pa, lambda {p.lambda_:.4g} Pa"
+    ), fontsize="small")
+    legend_beside(ax)  # beside the Axes, never over a point
+    return ax
+
+
+def _profile_axes(ax, result) -> None:
+    """The x and y labels of a calibrated profile: afferent position along the synthesis' axis (mm), response."""
+    axis = "x" if result.synthesis in ("longitudinal", "map", "random") else "z"
+    ax.set_xlabel(f"afferent position {axis} (mm)" if result.fit.positions is not None else "afferent")
+    norm = result.normalise in ("both", "prediction")
+    ax.set_ylabel("response (normalised)" if norm else "response")
 
 
 def plot_ssd_history(result, *, ax=None, title=None):

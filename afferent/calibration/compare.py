@@ -10,11 +10,13 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import numpy as np
+
 from .._validation import check_option
 from ..synthesis import Branching
 from .entry import METHODS, calibrate
 
-__all__ = ["compare_methods", "methods_table", "SynthesisComparison", "compare_syntheses"]
+__all__ = ["compare_methods", "methods_table", "best_method", "SynthesisComparison", "compare_syntheses"]
 
 
 def compare_methods(sed, observed, *, methods=("rsm1", "least_squares", "rsm2"), **kwargs):
@@ -44,6 +46,24 @@ def _run_methods(sed, observed, *, methods, **kwargs) -> dict:
     for m in methods:
         check_option("method", m, METHODS)
     return {m: calibrate(sed, observed, method=m, **kwargs) for m in methods}
+
+
+def best_method(results: dict) -> str:
+    """The method whose result fits best by the calibration's own criterion: the lowest finite ssd (the first
+    in ``results``' order on a tie; the first of all when no ssd is finite).
+
+    Parameters
+    ----------
+    results : dict of str -> CalibrationResult
+        Results of several methods on the same data (same profiles, same ``normalise``: their ssd compare).
+
+    Returns
+    -------
+    str
+        A key of ``results``.
+    """
+    finite = [m for m, r in results.items() if np.isfinite(r.ssd)]
+    return min(finite, key=lambda m: results[m].ssd) if finite else next(iter(results))
 
 
 def methods_table(results: dict):

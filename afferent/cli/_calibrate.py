@@ -17,8 +17,10 @@ and reported beside the chosen method.
 Writes into OUTDIR (created whole, or not at all): iterations.csv (iteration, alpha, gamma,
 lambda, ssd, evaluations: the study's table 5.2 for your data), design_runs.csv (every
 evaluated point), coefficients.csv (fitted surface per iteration), comparison.csv
-(method, ssd, R2, model and Jacobian evaluations, status, parameters), result.json,
-profile.png (calibrated vs observed) and ssd.png (ssd per evaluation). With --synthesis both: one such folder per grouping
+(method, ssd, R2, model and Jacobian evaluations, status, parameters), result.json (best_method: the
+lowest ssd), profile.png (calibrated vs observed: every method that ran, the best by the ssd named in the
+title and legend) and ssd.png (ssd per evaluation); each other method's folder OUTDIR/METHOD holds its
+own tables, profile.png and ssd.png. With --synthesis both: one such folder per grouping
 (OUTDIR/longitudinal, OUTDIR/cross), plus OUTDIR/syntheses.csv and OUTDIR/result.json.
 
 Example::
@@ -94,17 +96,21 @@ def parse_start(text: str) -> SigmoidParams:
 
 
 # ------------------------------------------------------------------------------ writing
-def _write_tables(result, folder: str, *, plots: bool) -> list[str]:
+def _write_tables(result, folder: str, *, plots: bool, beside: dict | None = None) -> list[str]:
+    """The tables of one method's ``result`` into ``folder``; with ``plots`` its profile.png (every method of
+    ``beside`` drawn with it, the best by the ssd named: :func:`afferent.calibration.plot_calibrated_profiles`)
+    and ssd.png."""
     written = []
     result.iterations.to_csv(os.path.join(folder, "iterations.csv"), index=False)
     result.design_runs.to_csv(os.path.join(folder, "design_runs.csv"), index=False)
     result.coefficients.to_csv(os.path.join(folder, "coefficients.csv"), index=False)
     written += ["iterations.csv", "design_runs.csv", "coefficients.csv"]
     if plots:
-        from ..calibration import plot_calibrated_profile, plot_ssd_history
+        from ..calibration import plot_calibrated_profile, plot_calibrated_profiles, plot_ssd_history
         from ..plotting import save_figure
 
-        save_figure(plot_calibrated_profile(result), os.path.join(folder, "profile.png"))
+        save_figure(plot_calibrated_profiles(beside) if beside and len(beside) > 1 else plot_calibrated_profile(result),
+                    os.path.join(folder, "profile.png"))
         save_figure(plot_ssd_history(result), os.path.join(folder, "ssd.png"))
         written += ["profile.png", "ssd.png"]
     return written
@@ -117,12 +123,14 @@ def _comparison(results: dict):
 
 
 def _record(results: dict, primary: str, extra: dict) -> dict:
+    from ..calibration import best_method
     from ..export import jsonable
 
     main = results[primary]
     out = dict(extra)
     out.update(main.to_dict())
     out["units"] = {"alpha": "A", "gamma": "1/Pa", "lambda": "Pa", "positions": "m", "ssd": "square of the compared profiles"}
+    out["best_method"] = best_method(results)  # by the ssd, the criterion every method minimises
     out["comparison"] = [
         {"method": m, "ssd": r.ssd, "r2_study": r.r2_study, "r2": r.r2, "evaluations": r.n_evaluations,
          "jacobian_evaluations": r.n_jacobian_evaluations,
@@ -139,12 +147,12 @@ def _record(results: dict, primary: str, extra: dict) -> dict:
 
 
 def _write_one(results: dict, primary: str, folder: str, *, plots: bool, extra: dict) -> None:
-    _write_tables(results[primary], folder, plots=plots)
+    _write_tables(results[primary], folder, plots=plots, beside=results)
     for m, r in results.items():
         if m != primary:
             sub = os.path.join(folder, m)
             os.makedirs(sub)
-            _write_tables(r, sub, plots=False)
+            _write_tables(r, sub, plots=plots)
     _comparison(results).to_csv(os.path.join(folder, "comparison.csv"), index=False)
     with open(os.path.join(folder, "result.json"), "w") as f:
         json.dump(_record(results, primary, extra), f, indent=2)
@@ -223,20 +231,29 @@ def run(args: argparse.Namespace) -> int:
                                      "syntheses": {syn: _record(res, primary, {}) for syn, res in all_results.items()}}),
                           f, indent=2)
     if not args.quiet:
-        for syn, results in all_results.items():
-            r = results[primary]
-            p = r.params
-            line = (f"{syn}, {primary}: ssd {r.ssd:.4g} (R2 study {r.r2_study:.3f}) in {_cost(r)}; "
-                    f"alpha {p.alpha:.4g} A, gamma {p.gamma:.4g} 1/Pa, lambda {p.lambda_:.4g} Pa")
-            for m, ref in results.items():
-                if m != primary:
-                    line += f" | {m}: ssd {ref.ssd:.4g} in {_cost(ref)}"
-            print(line, file=sys.stderr)
-            print(f"  {_say(r.message)}", file=sys.stderr)
-        for msg in dict.fromkeys(caught):
-            print(f"afferent: warning: {_say(msg)}", file=sys.stderr)
-        print(f"wrote {args.output}", file=sys.stderr)
+        _print_results(all_results, primary, caught, args.output)
     return 0
+
+
+def _print_results(all_results: dict, primary: str, caught: list, output: str) -> None:
+    """Per synthesis: the chosen method's result, the others' ssd and cost, the best by the ssd; then the warnings."""
+    from ..calibration import best_method
+
+    for syn, results in all_results.items():
+        r = results[primary]
+        p = r.params
+        line = (f"{syn}, {primary}: ssd {r.ssd:.4g} (R2 study {r.r2_study:.3f}) in {_cost(r)}; "
+                f"alpha {p.alpha:.4g} A, gamma {p.gamma:.4g} 1/Pa, lambda {p.lambda_:.4g} Pa")
+        for m, ref in results.items():
+            if m != primary:
+                line += f" | {m}: ssd {ref.ssd:.4g} in {_cost(ref)}"
+        if len(results) > 1:
+            line += f" | best by ssd: {best_method(results)} (profile.png draws every method)"
+        print(line, file=sys.stderr)
+        print(f"  {_say(r.message)}", file=sys.stderr)
+    for msg in dict.fromkeys(caught):
+        print(f"afferent: warning: {_say(msg)}", file=sys.stderr)
+    print(f"wrote {output}", file=sys.stderr)
 
 
 def _say(msg: str) -> str:

@@ -10,7 +10,8 @@ shell-style pattern on the labels, repeatable; default one group of all runs), e
 Writes into OUT: ``frequency.csv`` (one row per group and run: frequency, SED at the site at the
 first and the last cycle's deepest point, their ratio to the group's lowest frequency, the mean
 rate over the cycles) and ``frequency.png`` (the study's fig. 4-11 beside fig. 4-12: SED at the
-deepest points vs frequency, first and last cycle, and mean rate vs frequency, a line per group).
+deepest points vs frequency, first and last cycle, and mean rate vs frequency, a line per group, both axes
+from zero, the legend naming each run's last cycle).
 
 Example (the vibration samples)::
 

@@ -16,8 +16,11 @@ of ``afferent run``: one folder per indenter holds what ``afferent run`` writes 
   ``STUDY_PEAK_SED_PA``), whether the SED along the central cross-section shows an
   interchange zone (peak-valley-peak), how many peaks the longitudinal and cross-section afferent
   profiles have, and the peak-decision threshold used (``peak_prominence``);
-- ``findings.csv``: the study's chapter-5 findings beside the sample's, each with its criterion and
-  whether it holds, and why (``study_findings``);
+- ``findings.csv``: every headline claim of the study's chapters 4 and 5 beside the sample's number,
+  each with its criterion and whether it holds, and why (``study_findings`` for chapter 5 on the
+  indenters above, ``afferent.findings`` for chapter 4 on the sample's ``chapter4/`` and
+  ``vibration/``); a claim that fails is listed like one that holds; printed and drawn on the figure
+  by one function, ``finding_text``, from the rows themselves;
 - ``indenters_x.png``: normalised receptor SED and longitudinal afferent current along x for
   every indenter (the study's chapter-5 comparison), with the findings and the threshold;
 - ``spikes_ramp/``: the sample's scene ``scenes/spikes_ramp.toml`` (the study's ramp-and-hold on
@@ -87,6 +90,8 @@ STUDY_PEAK_SED_PA = 190.0
 SED_MAGNITUDE_FACTOR = 2.0
 #: The narrowest indenter (mm) at which the study sees the interchange zone: 0.66-0.88 mm.
 STUDY_INTERCHANGE_FROM_MM = 0.88
+#: RA-I afferents fail to resolve stimuli narrower than about this (mm; the study, chapter 5).
+RA_RESOLUTION_MM = 3.0
 
 
 def count_peaks(profile, *, rel_prominence: float = PEAK_PROMINENCE) -> int:
@@ -202,7 +207,7 @@ def study_findings(rows: list[dict]) -> list[dict]:
     Returns
     -------
     list of dict
-        One per finding: ``finding``, ``study``, ``sample``, ``criterion`` (how "holds" is decided,
+        One per finding: ``claim`` (a key), ``finding``, ``study``, ``sample``, ``criterion`` (how "holds" is decided,
         thresholds included), ``holds`` (bool) and ``note`` (why the result comes out as it does, for
         the study's geometry; sample_sed/README.md gives the measurements).
     """
@@ -212,7 +217,7 @@ def study_findings(rows: list[dict]) -> list[dict]:
     two = by_w[2.0]["sed_max_pa"]
     lo, hi = STUDY_PEAK_SED_PA / SED_MAGNITUDE_FACTOR, STUDY_PEAK_SED_PA * SED_MAGNITUDE_FACTOR
     out = [{
-        "finding": "peak SED at the papilla tips, 2 mm indenter 0.5 mm deep",
+        "claim": "ch5_sed_scale", "finding": "peak SED at the papilla tips, 2 mm indenter 0.5 mm deep",
         "study": f"~{STUDY_PEAK_SED_PA:g} Pa (1.9e-4 MPa, figure 4-7 scale)",
         "sample": f"{two:.0f} Pa ({two / STUDY_PEAK_SED_PA:.2f} x); all indenters "
                   f"{min(r['sed_max_pa'] for r in rows):.0f}-{max(r['sed_max_pa'] for r in rows):.0f} Pa",
@@ -221,9 +226,14 @@ def study_findings(rows: list[dict]) -> list[dict]:
                 "depth on fewer tips and concentrate the SED"}]
     widths = sorted(by_w)
     zone_from = next((w for i, w in enumerate(widths) if all(by_w[v]["interchange_zone"] for v in widths[i:])), None)
+    also = [w for w in widths if by_w[w]["interchange_zone"] and (zone_from is None or w < zone_from)]
+    sample = "none" if zone_from is None else f"{zone_from:g} mm"
+    if also:  # the table's narrower indenters with a zone, not followed by one at every wider indenter
+        sample += f" (also at {', '.join(f'{w:g}' for w in also)} mm, not at every wider one)"
     out.append({
+        "claim": "ch5_interchange_width",
         "finding": "interchange zone (peak-valley-peak SED across the central x line) from width",
-        "study": "0.66-0.88 mm", "sample": "none" if zone_from is None else f"{zone_from:g} mm",
+        "study": "0.66-0.88 mm", "sample": sample,
         "criterion": f"appears at <= {STUDY_INTERCHANGE_FROM_MM:g} mm and at every wider indenter; {peaks}",
         "holds": zone_from is not None and zone_from <= STUDY_INTERCHANGE_FROM_MM + 1e-9,
         "note": "the receptor tips sit about 0.65 mm deep and the papilla rows 0.44 mm apart across the ridges: a punch "
@@ -232,11 +242,49 @@ def study_findings(rows: list[dict]) -> list[dict]:
         for w, want in ((0.88, 1), (4.0, 2)):
             got = by_w[w][f"afferent_peaks_{kind}"]
             out.append({
-                "finding": f"afferent peaks after {kind} synthesis, {w:g} mm indenter",
+                "claim": f"ch5_peaks_{kind}_{w:g}mm", "finding": f"afferent peaks after {kind} synthesis, {w:g} mm indenter",
                 "study": f"{want} (RA-I recordings; the study's longitudinal synthesis)", "sample": str(got),
                 "criterion": f"{want} peak(s); {peaks}", "holds": got == want,
                 "note": "summing receptors along a section fills a narrow punch's valley and keeps a wide one's"})
+    zoned = [w for w in widths if by_w[w]["interchange_zone"] and w < RA_RESOLUTION_MM]
+    filled = [w for w in zoned if by_w[w]["afferent_peaks_longitudinal"] == 1]
+    out.append({
+        "claim": "ch5_branching_fills_zone",
+        "finding": "branching explains the recordings: longitudinal synthesis fills the interchange zone's valley of "
+                   f"every indenter narrower than {RA_RESOLUTION_MM:g} mm (RA-I afferents do not resolve it)",
+        "study": "one afferent peak wherever the receptor SED has two, below ~3 mm",
+        "sample": (f"interchange zone at {', '.join(f'{w:g}' for w in zoned)} mm; longitudinal peaks "
+                   + ", ".join(f"{by_w[w]['afferent_peaks_longitudinal']} ({w:g} mm)" for w in zoned)) if zoned
+        else "no indenter below 3 mm shows an interchange zone: nothing to fill",
+        "criterion": f"at least one indenter < {RA_RESOLUTION_MM:g} mm with an interchange zone, and one longitudinal "
+                     f"peak at every such indenter; {peaks}",
+        "holds": bool(zoned) and filled == zoned,
+        "note": "the study's explanation of why RA-I recordings show one peak for narrow stimuli: receptors along a "
+                "ridge share an afferent, whose current sums the two edge maxima into one"})
     return out
+
+
+def finding_text(f: dict, *, why: str = "; why: ") -> str:
+    """One finding of :func:`study_findings` as the demo prints it and draws it on ``indenters_x.png`` (one
+    source: its values are the findings.csv row's, themselves made from the summary.csv rows): verdict, finding,
+    study, sample, criterion, and after ``why`` the note when it does not hold."""
+    return (f"[{'holds' if f['holds'] else 'does NOT hold'}] {f['finding']}: study {f['study']}, sample {f['sample']} "
+            f"({f['criterion']})" + ("" if f["holds"] else f"{why}{f['note']}"))
+
+
+def chapter4_rows(sample: Path, say=lambda msg: None) -> list[dict]:
+    """The chapter-4 headline claims on the sample's ``chapter4/`` and ``vibration/`` (:mod:`afferent.findings`);
+    without ``chapter4/`` every claim is listed as not measured (``holds`` False), none left out."""
+    from ..findings import CHAPTER4_CLAIMS, chapter4_findings, measure_chapter4
+
+    say("afferent demo: chapter 4 (3-D and 2-D ridged blocks, four indenters, vibration) ...")
+    m = measure_chapter4(sample)
+    if m is not None:
+        return chapter4_findings(m)
+    return [{"claim": k, "finding": f"ch. 4: {k}", "study": "see docs/method.md, 'Chapter 4'",
+             "sample": "not measured: the sample has no chapter4/ folder", "criterion": "see afferent.findings",
+             "holds": False, "note": "run on sample_sed/ of a source checkout (afferent demo --sample-dir sample_sed)"}
+            for k in CHAPTER4_CLAIMS]
 
 
 def _plot_indenters(profiles, findings: list[dict], path: str) -> None:
@@ -249,9 +297,7 @@ def _plot_indenters(profiles, findings: list[dict], path: str) -> None:
     fig = plt.figure(figsize=(11, 6.2), layout="constrained")
     top, bottom = fig.subfigures(2, 1, height_ratios=[4, 2.2])
     axes = top.subplots(1, 2, sharey=True)
-    text = "\n".join(f"[{'holds' if f['holds'] else 'does NOT hold'}] {f['finding']}: study {f['study']}, "
-                     f"sample {f['sample']} ({f['criterion']})" + ("" if f["holds"] else f"\n    why: {f['note']}")
-                     for f in findings)
+    text = "\n".join(finding_text(f, why="\n    why: ") for f in findings)
     bottom.text(0.01, 0.95, "The study's findings on this sample\n" + text, va="top", ha="left", fontsize=7.5,
                 family="monospace", wrap=True)
     for width, x, sed_line, xa, lon in profiles:
@@ -285,7 +331,7 @@ def run(args: argparse.Namespace) -> int:
             rows.append(row)
             profiles.append(profile)
         pd.DataFrame(rows).to_csv(os.path.join(tmp, "summary.csv"), index=False)
-        findings = study_findings(rows)
+        findings = study_findings(rows) + chapter4_rows(sample, say)
         pd.DataFrame(findings).to_csv(os.path.join(tmp, "findings.csv"), index=False)
         _plot_indenters(profiles, findings, os.path.join(tmp, "indenters_x.png"))
         scene_path = sample / "scenes" / "spikes_ramp.toml"
@@ -293,8 +339,7 @@ def run(args: argparse.Namespace) -> int:
         spikes = run_scene(load_scene(scene_path).with_output(os.path.join(tmp, "spikes_ramp")), use_cache=False)
     say(pd.DataFrame(rows).to_string(index=False))
     for f in findings:
-        say(f"[{'holds' if f['holds'] else 'does NOT hold'}] {f['finding']}: study {f['study']}, sample {f['sample']} "
-            f"({f['criterion']})" + ("" if f["holds"] else f"; why: {f['note']}"))
+        say(finding_text(f))
     n = sum(len(t) for t in spikes.spikes.spike_times)
     say(f"spikes_ramp: {n} spikes from {len(spikes.spikes.spike_times)} afferents (rate-sensitive input: onset and release)")
     say(f"afferent demo: wrote {args.output}")

@@ -22,8 +22,9 @@ __all__ = ["VtuCountError", "_Decoder"]
 
 class VtuCountError(SEDFormatError):
     """A VTU that parses but whose pieces' arrays disagree with their counts (or with one another, or a
-    compressed block with the size its header declares): refused as it is, not handed to VTK's reader
-    (which reads such a file without a word, or inflates the block)."""
+    compressed block with the size its header declares, or a binary array's header cut short): refused as it
+    is, not handed to VTK's reader (which reads such a file without a word, inflates the block, or loops on a
+    corrupt header: fuzz/fuzz_loop.py, session 9)."""
 
 
 _NOT_SPACE = re.compile(r"\S")
@@ -131,12 +132,12 @@ class _Decoder:
             first = source.head(item)
             blocks = int(np.frombuffer(first, self.head)[0]) if len(first) == item else -1
             if not 0 <= blocks <= source.size // item:
-                raise SEDFormatError(f"{label}: its header is cut short or corrupt (a truncated file?).")
+                raise VtuCountError(f"{label}: its header is cut short or corrupt (a truncated file?).")
             n = (3 + blocks) * item
         raw = source.head(n)
         header = np.frombuffer(raw[:len(raw) // item * item], self.head).astype(np.int64)
         if len(raw) < n or header.min(initial=0) < 0:
-            raise SEDFormatError(f"{label}: its header is cut short or corrupt (a truncated file?).")
+            raise VtuCountError(f"{label}: its header is cut short or corrupt (a truncated file?).")
         return header
 
     def declared(self, header: np.ndarray) -> int:

@@ -347,6 +347,10 @@ def class_record(scene: Scene, site) -> dict:
     return cls.record(class_overrides(scene))
 
 
+#: [spikes] keys of the slowly-adapting (SA-I) input only.
+_SLOWLY_ADAPTING_KEYS = ("static_gain", "rectify", "slow_gain_s", "slow_tau_s")
+
+
 def _spikes(scene: Scene, err, out):
     """[spikes]: the afferent class's values where the scene gives none, defaults filled, requirements checked."""
     from ..classes import afferent_class
@@ -354,12 +358,16 @@ def _spikes(scene: Scene, err, out):
     preset = afferent_class(scene.afferent.afferent_class).spikes_defaults()
     if scene.spikes.input is not None and scene.spikes.input != preset.get("input"):
         # another input than the class's: the class's parameters of its own input do not apply
-        preset = {k: v for k, v in preset.items() if k not in ("gain_s", "tau_s", "static_gain")}
+        preset = {k: v for k, v in preset.items() if k not in ("gain_s", "tau_s", *_SLOWLY_ADAPTING_KEYS)}
     sp = replace(scene.spikes, **{k: v for k, v in preset.items() if getattr(scene.spikes, k) is None})
     sp = _fill(sp)
-    if sp.static_gain is not None and sp.input != "slowly-adapting":
-        key = _given(scene, "spikes", "static_gain")
-        raise err("spikes", key, f"[spikes] {key!r} applies to input = 'slowly-adapting', not {sp.input!r}.")
+    for name in _SLOWLY_ADAPTING_KEYS:
+        if getattr(sp, name) is not None and sp.input != "slowly-adapting":
+            key = _given(scene, "spikes", name)
+            raise err("spikes", key, f"[spikes] {key!r} applies to input = 'slowly-adapting', not {sp.input!r}.")
+    if sp.slow_tau_s is not None and sp.slow_gain_s is None:
+        key = _given(scene, "spikes", "slow_tau_s")
+        raise err("spikes", key, f"[spikes] {key!r} needs 'slow_gain_s', the gain of the slow rate component (s).")
     rate = [k for k in ("gain_s", "tau_s") if getattr(scene.spikes, k) is not None]
     if rate and sp.input == "static":  # the RA-I class's input, or given: a static input has no rate term
         key = _given(scene, "spikes", rate[0])

@@ -627,7 +627,7 @@ def _spike(run: _Run) -> None:
     pr = spike_afferents(out["afferent"], lif, dt=sp.dt_s, engine=sp.engine, input=sp.input, current=out["current"],
                          branching=out["branching"], gain=sp.gain_s, tau=sp.tau_s, duration=duration, drive=sp.drive,
                          rheobase_multiple=sp.rheobase_multiple, reference_current=sp.reference_current_a, static_gain=sp.static_gain,
-                         zones=zones)
+                         zones=zones, rectify=sp.rectify, slow_gain=sp.slow_gain_s, slow_tau=sp.slow_tau_s)
     run.steps.seconds.update(pr.seconds)
     spikes = pr.spikes
     out.update(spikes=spikes, drive=pr.input)
@@ -635,7 +635,9 @@ def _spike(run: _Run) -> None:
     run.record["spikes"] = {
         "engine": spikes.engine, "backend": getattr(spikes, "backend", None), "dt_s": spikes.dt,
         "duration_s": spikes.duration, "input": getattr(pr.input, "kind", None),
-        "input_params": {k: getattr(pr.input, k, None) for k in ("mode", "tau", "gain", "off_gain", "static_gain")},
+        "input_params": {**{k: getattr(pr.input, k, None) for k in ("mode", "tau", "gain", "off_gain", "static_gain")},
+                         **({"rectify": sp.rectify or "sum", "slow_gain_s": sp.slow_gain_s, "slow_tau_s": sp.slow_tau_s}
+                            if sp.input == "slowly-adapting" else {})},
         "branching": sp.branching, **({"zones": zones.record()} if zones is not None else {}),
         "n_afferents": int(spikes.n_afferents), "n_spikes": int(sum(len(t) for t in spikes.spike_times)),
         "silent_skipped": [str(spikes.afferent_ids[i]) for i in spikes.silent_skipped],

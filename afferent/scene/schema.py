@@ -342,6 +342,13 @@ class SpikesSpec:
     zone_map: str | None = _f("path", doc="branching = 'zones': CSV receptor, zone naming each receptor's zone "
                                           "(instead of zones_per_afferent)")
     static_gain: float | None = _f("number", doc="input = 'slowly-adapting': gain k_s on the static current")
+    rectify: str | None = _f("choice", choices=("sum", "components"),
+                             doc="input = 'slowly-adapting': rectify the sum of the terms (default) or each term, as "
+                                 "the cited SA-I model code does")
+    slow_gain_s: float | None = _f("number", quantity="time",
+                                   doc="input = 'slowly-adapting': gain of a second, slow rate component (s)")
+    slow_tau_s: float | None = _f("number", quantity="time",
+                                  doc="input = 'slowly-adapting': time constant of the slow component (s); default 0.2")
 
 
 @dataclass(frozen=True)

@@ -115,12 +115,13 @@ rheobase, up to ~180 Hz); the longitudinal fit (alpha = 9.29e-7 A, saturated) gi
 The study's currents are not physiological (real receptor currents are pA-nA), so neither is
 this resistance.
 
-``'sa1'`` - SA-I skin-neuron model values from the public Gerling-lab model code (Python
-constants file of the mouse SA-I model with Merkel-cell groups [8, 5, 3, 1] per heminode, the
-model line of Lesniak & Gerling 2009, Math Biosci 220:15, and Lesniak et al. 2014, eLife
-3:e01488): ``LIF_PARAMS = [30 mV threshold, 30 pF, 5 GOhm]`` (marked "Original Version"; a
-sibling version of the file has 1.667 GOhm), ``REFRACTORY_PERIOD = 1 ms``; voltages measured
-from rest (V_rest = V_reset = 0). So ``tau_m = R C = 150 ms`` and the rheobase is 6 pA. These
+``'sa1'`` - SA-I skin-neuron model values from the public Gerling-lab model code
+(``yw5aj/PlosCompBiol``, ``model_constants.py``, the mouse SA-I model with Merkel-cell groups
+[8, 5, 3, 1] per heminode, the model line of Lesniak & Gerling 2009, Math Biosci 220:15, and
+Lesniak et al. 2014, eLife 3:e01488): ``LIF_PARAMS = [30 mV threshold, 30 pF, 5 GOhm]`` from
+commit 7c55d9b (25 Feb 2016) to the last (27fec46), with the earlier 1.667 GOhm of the
+versions before it (10-20 Feb 2016) commented out; ``REFRACTORY_PERIOD = 1 ms``; voltages
+measured from rest (V_rest = V_reset = 0). So ``tau_m = R C = 150 ms`` and the rheobase is 6 pA. These
 values were read from that code, not checked against the papers' tables. With the study's
 currents (>= 10 nA) every afferent would sit at the 1 / t_ref ceiling: this set expects
 pA-scale generator currents. The SA-I afferent class (:mod:`afferent.classes`) uses it with

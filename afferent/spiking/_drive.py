@@ -126,7 +126,8 @@ def spike_afferents(afferent, lif: LIFParams, *, dt: float, engine: str = "auto"
                     current=None, branching=None, gain: float | None = None, tau: float | None = None,
                     duration: float | None = None, drive: str = "resistance", rheobase_multiple: float = 2.0,
                     reference_current: float | None = None, static_gain: float | None = None,
-                   zones=None) -> SpikeStage:
+                    zones=None, rectify: str | None = None, slow_gain: float | None = None,
+                    slow_tau: float | None = None) -> SpikeStage:
     """The stages 'input' and 'spiking': the input current -> its drive mapping -> leaky integrate-and-fire.
 
     Parameters
@@ -168,6 +169,10 @@ def spike_afferents(afferent, lif: LIFParams, *, dt: float, engine: str = "auto"
     static_gain : float, optional
         With ``input='slowly-adapting'``: the gain of the static term (dimensionless; default
         that of ``adapting_input``).
+    rectify, slow_gain, slow_tau : optional
+        With ``input='slowly-adapting'``: how the terms are rectified (``'sum'``, default, or
+        ``'components'``) and a second rate component (gain in s, time constant in s), as
+        :func:`afferent.stimulus.adapting_input`.
     zones : afferent.zones.Zones, optional
         The ``zones`` branching model (:func:`afferent.zones.split_zones` of ``branching``): the
         input is synthesized per zone and each zone drives its own LIF; the afferent fires when
@@ -201,8 +206,10 @@ def spike_afferents(afferent, lif: LIFParams, *, dt: float, engine: str = "auto"
         if gain is None:
             raise ValueError(f"input={input!r} needs gain= (s): how much input current (A) per A/s of rate.")
         kw = {} if tau is None else {"tau": tau}
-        if static_gain is not None:
-            kw["static_gain"] = static_gain
+        for key, value in (("static_gain", static_gain), ("rectify", rectify), ("slow_gain", slow_gain),
+                           ("slow_tau", slow_tau)):
+            if value is not None:
+                kw[key] = value
         drive_current = stimulus.adapting_input(current, gain=gain, mode=_ADAPTATION_OF_INPUT[input],
                                                 **kw).synthesize(target)
     check_option("drive", drive, DRIVE_MAPPINGS)

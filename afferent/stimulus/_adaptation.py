@@ -21,6 +21,10 @@ INPUT_KINDS = ("static", "rate-sensitive", "slowly-adapting")
 _KIND_OF_MODE = {"rectified-rate": "rate-sensitive", "static-plus-rate": "slowly-adapting"}
 # Default low-pass time constant of the rate in s (documented in afferent.stimulus).
 DEFAULT_TAU = 5e-3
+# Mode 'static-plus-rate': how the terms are rectified, and the slow component's default time constant in s
+# (tau_2 = 200 ms of fit_model.py in yw5aj/PlosCompBiol; docs/classes.md).
+RECTIFY_CHOICES = ("sum", "components")
+DEFAULT_SLOW_TAU = 0.2
 
 
 # --------------------------------------------------------------------------------------------
@@ -247,7 +251,8 @@ def _lowpass_rate(values: np.ndarray, times: np.ndarray, tau: float) -> np.ndarr
 
 
 def adapting_input(current, *, gain: float, tau: float = DEFAULT_TAU, off_gain: float | None = None,
-                   mode: str = "rectified-rate", static_gain: float | None = None) -> InputCurrent:
+                   mode: str = "rectified-rate", static_gain: float | None = None, rectify: str | None = None,
+                   slow_gain: float | None = None, slow_tau: float | None = None) -> InputCurrent:
     """Rate-sensitive input from a static current: RA-I (onset and offset) or SA-I (static plus rate).
 
     Mode ``'rectified-rate'`` (RA-I, rapidly adapting; ``kind='rate-sensitive'``)::
@@ -258,6 +263,12 @@ def adapting_input(current, *, gain: float, tau: float = DEFAULT_TAU, off_gain: 
     Mode ``'static-plus-rate'`` (SA-I, slowly adapting; ``kind='slowly-adapting'``)::
 
         I_in(t)   = max(k_s (I - I_rest) + k_d r, 0)     k_s dimensionless, k_d = gain in s
+                                                         (rectify='sum', the default)
+        I_in(t)   = max(k_s (I - I_rest), 0) + max(k_d r, 0)                 (rectify='components')
+
+    With ``slow_gain`` (``k_2``, s) a second rate component ``k_2 r_2``, ``r_2`` the rate
+    low-passed with ``slow_tau`` (``tau_2``, s; default 0.2 s), joins the sum (or, with
+    ``rectify='components'``, is rectified on its own as ``max(k_2 r_2, 0)``).
 
     ``I_rest`` is the current of unloaded skin: the sigmoid at zero SED for a receptor current
     that carries its sigmoid parameters (``alpha / (1 + exp(gamma lambda))``, 0.2 alpha for the
@@ -266,10 +277,15 @@ def adapting_input(current, *, gain: float, tau: float = DEFAULT_TAU, off_gain: 
 
     A step ``dI`` then gives ``k_s dI + k_d dI / tau`` at once, decaying with ``tau`` to the
     sustained ``k_s dI``: the neuron fires through a hold, faster during the ramp, and a
-    falling current lowers the input (to 0 at most, no offset burst). This is one component
-    of the SA-I generator function of the Gerling group (the Closing table of the Afferent
-    classes page, docs/classes.md): ``K int [k1 exp(-(t - s) / tau) + 1 - k1] dI(s)`` is
-    ``K (1 - k1) I + K k1 tau r``, so ``k_s = K (1 - k1)`` and ``k_d = K k1 tau``.
+    falling current lowers the input (to 0 at most, no offset burst). This is the SA-I
+    generator function of the Gerling group's model code (yw5aj/PlosCompBiol, the Afferent
+    classes page, docs/classes.md) applied to the current: its components ``k_c int
+    exp(-(t - s) / tau_c) dI(s)`` are ``k_c tau_c r_c`` (``tau_c`` finite) and ``k_c I`` (``tau_c``
+    infinite, the static term), so ``k_d = k_1 tau_1`` and ``k_s = k_3``. That code rectifies
+    each component (``rectify='components'``): then the static part keeps driving while the
+    current falls, and a release can fire the neuron. The default ``'sum'`` rectifies the sum,
+    as the code's earliest form did (one component ``K int [k1 exp(-(t - s) / tau) + 1 - k1]
+    dI(s)``, rectified whole, up to its commit 1276cc4): a falling current then silences it.
 
     ``I`` is the static (sigmoid) receptor or afferent current. During a hold ``dI/dt = 0``,
     so ``r`` decays to 0 within a few ``tau`` and the neuron falls silent. Both the rising
@@ -304,6 +320,14 @@ def adapting_input(current, *, gain: float, tau: float = DEFAULT_TAU, off_gain: 
     static_gain : float, optional
         Mode ``'static-plus-rate'`` only: ``k_s``, the dimensionless gain on the static
         current, >= 0; default 1 (the sigmoid current itself is the sustained input).
+    rectify : {'sum', 'components'}, optional
+        Mode ``'static-plus-rate'`` only: rectify the sum of the terms (default ``'sum'``) or
+        each term on its own (``'components'``, as the cited model code does).
+    slow_gain : float, optional
+        Mode ``'static-plus-rate'`` only: ``k_2`` in s, >= 0, the gain of a second, slower rate
+        component (the cited model's 200 ms term). Default None: no such component.
+    slow_tau : float, optional
+        With ``slow_gain``: its time constant ``tau_2`` in s, > 0; default 0.2.
 
     Returns
     -------
@@ -376,6 +400,7 @@ def adapting_input(current, *, gain: float, tau: float = DEFAULT_TAU, off_gain: 
     gain = check_positive("gain", gain, unit="s", strict=False)
     tau = check_positive("tau", tau, unit="s")
     static_gain, off_gain = _mode_gains(mode, gain, off_gain, static_gain)
+    rectify, slow = _generator_terms(mode, rectify, slow_gain, slow_tau)
     values, times, level, source = _unwrap_current(current)
     values = np.asarray(values, dtype=np.float64)
     if values.shape[0] == 1 and mode == "static-plus-rate":
@@ -403,7 +428,15 @@ def adapting_input(current, *, gain: float, tau: float = DEFAULT_TAU, off_gain: 
     if mode == "static-plus-rate":
         rest, note = _rest_current(source)
         notes.append(note)
-        out = np.maximum(static_gain * (values - rest) + gain * r, 0.0)
+        terms = [static_gain * (values - rest), gain * r]
+        if slow is not None:
+            terms.append(slow[0] * _lowpass_rate(values, times, slow[1]))
+            notes.append(f"a second rate component: gain {slow[0]:g} s, tau {slow[1]:g} s")
+        if rectify == "components":
+            notes.append("each component rectified on its own (rectify='components')")
+            out = sum(np.maximum(term, 0.0) for term in terms)
+        else:
+            out = np.maximum(sum(terms), 0.0)
     else:
         out = gain * np.maximum(r, 0.0) + off_gain * np.maximum(-r, 0.0)
         # Rates that are pure float noise on a constant current (|dI| ~ 1e-16 I) must not drive anything.
@@ -422,6 +455,25 @@ def _rest_current(source) -> tuple:
 
     rest = float(sigmoid(np.zeros(1), params)[0])
     return rest, f"static term measured from the sigmoid's current at zero SED, {rest:.4g} A"
+
+
+def _generator_terms(mode: str, rectify, slow_gain, slow_tau) -> tuple:
+    """(rectify, (slow_gain, slow_tau) or None) of mode 'static-plus-rate', checked; refused in another mode."""
+    given = {k: v for k, v in (("rectify", rectify), ("slow_gain", slow_gain), ("slow_tau", slow_tau)) if v is not None}
+    if mode != "static-plus-rate":
+        if given:
+            key, value = next(iter(given.items()))
+            raise ValueError(f"{key!r} applies to mode='static-plus-rate', not {mode!r}; got {key}={value!r} instead.")
+        return None, None
+    rectify = "sum" if rectify is None else check_option("rectify", rectify, RECTIFY_CHOICES)
+    if slow_gain is None:
+        if slow_tau is not None:
+            raise ValueError(f"'slow_tau' needs 'slow_gain' (the gain of the slow component, s); got slow_tau={slow_tau!r} "
+                             "and no slow_gain instead.")
+        return rectify, None
+    slow_gain = check_positive("slow_gain", slow_gain, unit="s", strict=False)
+    slow_tau = DEFAULT_SLOW_TAU if slow_tau is None else check_positive("slow_tau", slow_tau, unit="s")
+    return rectify, (slow_gain, slow_tau)
 
 
 def _mode_gains(mode: str, gain: float, off_gain, static_gain) -> tuple:
