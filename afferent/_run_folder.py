@@ -190,7 +190,7 @@ def read_results_nc(nc: str, run: dict):
         h5_refuse_external(h5, "Results file")
     _check_results_file(nc, run)
     try:
-        with xr.open_dataset(nc, engine="h5netcdf") as f:
+        with xr.open_dataset(nc, engine="h5netcdf", decode_times=False) as f:  # seconds, not dates (afferent._netcdf)
             return f.load()
     except (OSError, ValueError, KeyError, TypeError) as err:
         raise SEDFormatError(f"Results file {nc!r} could not be read as netCDF-4 ({' '.join(str(err).split())}); "
@@ -207,8 +207,11 @@ def _time_column(path: str) -> str:
 
 
 def dataset_from_csv(folder: str):
-    """The Dataset of :func:`afferent.export.results_dataset` from the long CSV tables of ``results_format='csv'``."""
+    """The Dataset of :func:`afferent.export.results_dataset` from the long CSV tables of ``results_format='csv'``:
+    receptors and afferents in the tables' order, the same integer dimensions and ``*_id`` labels."""
     import xarray as xr
+
+    from ._netcdf import dataset_from_variables
 
     rec, aff = os.path.join(folder, "receptors.csv"), os.path.join(folder, "afferents.csv")
     if not os.path.lexists(rec):
@@ -216,20 +219,40 @@ def dataset_from_csv(folder: str):
     tcol = _time_column(rec)  # 'step' in the tables of an export without times: step numbers as the time axis
     df = read_run_table(rec, what="the long table of results_format='csv'", rows=False, text=("receptor",),
                         finite=(tcol, "x_m", "y_m", "z_m"), numbers=("sed_pa", "current_a"),
-                        columns=("longitudinal", "cross"), unique=(tcol, "receptor")).rename(columns={"step": "time_s"})
-    ds = df.set_index(["time_s", "receptor"])[["sed_pa", "current_a"]].to_xarray().rename(time_s="time")
-    first = df.drop_duplicates("receptor").set_index("receptor")
-    ds = ds.assign_coords({c: ("receptor", first.loc[ds.receptor.values, c].to_numpy())
-                           for c in ("x_m", "y_m", "z_m", "longitudinal", "cross")})
+                        columns=("longitudinal", "cross"), unique=(tcol, "receptor"))
+    variables = _long_variables(df, tcol, "receptor", {"sed_pa": "sed_pa", "current_a": "current_a"},
+                                ("x_m", "y_m", "z_m", "longitudinal", "cross"))
     if os.path.lexists(aff):
         da = read_run_table(aff, what="the long table of results_format='csv'", rows=False, text=("afferent",),
                             finite=(tcol, "position_m"), numbers=("current_a",), unique=(tcol, "afferent"))
-        da = da.rename(columns={"step": "time_s"})
-        a = da.set_index(["time_s", "afferent"])["current_a"].to_xarray().rename(time_s="time")
-        ds["afferent_current_a"] = a.reindex(time=ds.time)
-        pos = da.drop_duplicates("afferent").set_index("afferent")["position_m"]
-        ds = ds.assign_coords(position_m=("afferent", pos.loc[ds.afferent.values].to_numpy()))
-    return ds
+        more = _long_variables(da, tcol, "afferent", {"current_a": "afferent_current_a"}, ("position_m",),
+                               times=variables["time"][1])
+        variables.update({k: v for k, v in more.items() if k != "time"})
+    return dataset_from_variables(variables, {})
+
+
+def _long_variables(df, tcol: str, dim: str, values: dict, per_site: tuple, times=None) -> dict:
+    """The variables of one long table (rows: time x site): ``time``, the integer ``dim`` and its ``*_id`` labels
+    (sites in the order the table first names them), ``per_site`` columns and ``values`` (column -> variable name)
+    over (time, dim), NaN where the table has no row; ``times``: the time axis to use (the receptors')."""
+    import numpy as np
+
+    from ._netcdf import integer_ids
+
+    ids = df[dim].drop_duplicates().to_numpy(str)
+    t = np.unique(df[tcol].to_numpy(float)) if times is None else np.asarray(times, dtype=float)
+    row = np.searchsorted(t, df[tcol].to_numpy(float))
+    col = {s: k for k, s in enumerate(ids.tolist())}
+    cols = np.array([col[s] for s in df[dim].astype(str).tolist()], dtype=np.int64)
+    inside = (row < t.size) & (t[np.minimum(row, t.size - 1)] == df[tcol].to_numpy(float))
+    first = df.drop_duplicates(dim)
+    out = {"time": (("time",), t, {}), dim: ((dim,), integer_ids(ids), {}), f"{dim}_id": ((dim,), ids, {})}
+    out.update({c: ((dim,), first[c].to_numpy(), {}) for c in per_site})
+    for column, name in values.items():
+        grid = np.full((t.size, ids.size), np.nan)
+        grid[row[inside], cols[inside]] = df[column].to_numpy(float)[inside]
+        out[name] = (("time", dim), grid, {})
+    return out
 
 
 def _check_results_file(nc: str, run: dict) -> None:

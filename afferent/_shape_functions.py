@@ -1,5 +1,6 @@
-"""Shape functions of the quadratic volume cells, in VTK/meshio node order, and the natural
-coordinates of points in them (Newton on the isoparametric map).
+"""Shape functions of the volume cells, in VTK/meshio node order, and the natural coordinates of
+points in them (Newton on the isoparametric map): 'linear' sampling interpolates in each cell with
+its own shape functions (trilinear in a hexahedron, not linear in tetrahedra cut from it).
 
 Each cell type's shape functions are the Lagrange basis of its polynomial space on its nodes:
 the coefficients over a monomial basis come from inverting the (n_nodes x n_nodes) matrix of
@@ -17,7 +18,17 @@ meshio type           nodes  polynomial space
 ``hexahedron27``      27     triquadratic (r^a s^b t^c, a, b, c <= 2)
 ``wedge15``           15     quadratic triangle x linear in t, plus t^2, r t^2, s t^2
 ``wedge18``           18     quadratic triangle x quadratic in t
+``hexahedron``        8      trilinear (r^a s^b t^c, a, b, c <= 1)
+``wedge``             6      linear triangle x linear in t
+``pyramid``           5      VTK's (``vtkPyramid``): the hexahedron's trilinear functions with the
+                             top face collapsed to the apex, (1-r)(1-s)(1-t), r(1-s)(1-t),
+                             rs(1-t), (1-r)s(1-t), t; linear on the triangular faces, bilinear on
+                             the base; r, s, t in [0, 1]
 ====================  =====  ============================================================
+
+Tetrahedra need no Newton: their barycentric weights (``afferent/_mesh_geometry.py``) are their
+shape functions. Every basis sums to 1 and interpolates the node coordinates, so a field linear
+in x, y, z is reproduced exactly in any cell whose map is not singular.
 
 Lengths in the unit of the node coordinates (m in the package); natural coordinates have none.
 """
@@ -29,8 +40,8 @@ from functools import lru_cache
 
 import numpy as np
 
-__all__ = ["QUADRATIC", "shape_functions", "natural_coordinates", "inside_reference", "node_offsets", "quadratic_weights",
-           "QuadraticHits"]
+__all__ = ["QUADRATIC", "LINEAR_SHAPED", "SHAPED", "shape_functions", "natural_coordinates", "inside_reference",
+           "node_offsets", "shape_weights", "ShapeHits", "shaped_types"]
 
 _H = 0.5
 _HEX_CORNERS = [(0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0), (0, 0, 1), (1, 0, 1), (1, 1, 1), (0, 1, 1)]
@@ -70,10 +81,20 @@ _LINEAR = {"tetra10": "tetra", "hexahedron20": "hexahedron", "hexahedron27": "he
 
 #: The quadratic meshio cell types interpolated with their own shape functions.
 QUADRATIC = tuple(_LINEAR)
+#: The linear cell types other than the tetrahedron, interpolated with their own shape functions
+#: (before: in the tetrahedra of their split, whose diagonals changed the answer).
+LINEAR_SHAPED = ("hexahedron", "wedge", "pyramid")
+#: Every cell type located by Newton and interpolated with its own shape functions.
+SHAPED = QUADRATIC + LINEAR_SHAPED
+
+
+_PYRAMID_CORNERS = [(0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0), (0, 0, 1)]  # the apex: VTK puts it at (0, 0, 1)
 
 
 def _nodes(ctype: str) -> np.ndarray:
     """Natural coordinates of a type's nodes, (n_nodes, 3), VTK order."""
+    if ctype == "pyramid":
+        return np.asarray(_PYRAMID_CORNERS, float)
     if ctype not in _LINEAR:  # a linear cell: the corners of its quadratic kin
         return np.asarray(_CORNERS[next(q for q, lin in _LINEAR.items() if lin == ctype)], float)
     corners = np.asarray(_CORNERS[ctype], float)
@@ -98,8 +119,10 @@ def shape_functions(ctype: str, xi: np.ndarray, *, derivatives: bool = False):
     With ``derivatives=True`` also their derivatives with respect to the natural coordinates,
     (m, n_nodes, 3). The functions sum to 1 and reproduce the type's polynomial space exactly.
     """
-    exps, coef = _basis(ctype)
     xi = np.asarray(xi, float)
+    if ctype == "pyramid":
+        return _pyramid(xi, derivatives)
+    exps, coef = _basis(ctype)
     powers = np.stack([np.ones_like(xi), xi, xi * xi], axis=2)  # (m, 3 axes, exponent 0..2)
     per_axis = [powers[:, d, exps[:, d]] for d in range(3)]  # (m, n_monomials) each
     n = (per_axis[0] * per_axis[1] * per_axis[2]) @ coef
@@ -113,9 +136,24 @@ def shape_functions(ctype: str, xi: np.ndarray, *, derivatives: bool = False):
     return n, dn
 
 
+def _pyramid(xi: np.ndarray, derivatives: bool):
+    """VTK's pyramid functions (``vtkPyramid::InterpolationFunctions``/``InterpolationDerivs``) at ``xi`` (m, 3)."""
+    r, s, t = xi.T
+    rm, sm, tm = 1 - r, 1 - s, 1 - t
+    n = np.stack([rm * sm * tm, r * sm * tm, r * s * tm, rm * s * tm, t], axis=1)
+    if not derivatives:
+        return n
+    zero, one = np.zeros_like(r), np.ones_like(r)
+    dn = np.stack([np.stack([-sm * tm, sm * tm, s * tm, -s * tm, zero], axis=1),
+                   np.stack([-rm * tm, -r * tm, r * tm, rm * tm, zero], axis=1),
+                   np.stack([-rm * sm, -r * sm, -r * s, -rm * s, one], axis=1)], axis=2)
+    return n, dn
+
+
 #: Centre of each reference cell: the Newton start.
 _CENTRE = {"tetra10": (0.25, 0.25, 0.25), "hexahedron20": (_H, _H, _H), "hexahedron27": (_H, _H, _H),
-           "wedge15": (1 / 3, 1 / 3, _H), "wedge18": (1 / 3, 1 / 3, _H)}
+           "wedge15": (1 / 3, 1 / 3, _H), "wedge18": (1 / 3, 1 / 3, _H), "hexahedron": (_H, _H, _H),
+           "wedge": (1 / 3, 1 / 3, _H), "pyramid": (_H, _H, 0.25)}
 #: Newton steps at most, and the step (in natural coordinates) below which it has converged.
 NEWTON_STEPS, NEWTON_TOL = 25, 1e-12
 
@@ -125,30 +163,36 @@ def natural_coordinates(ctype: str, points: np.ndarray, nodes_xyz: np.ndarray):
 
     Newton's method on the isoparametric map x(xi) = sum_j N_j(xi) x_j, from the cell's centre,
     vectorised over the points; exact in one step for a straight-sided tetrahedron, a few for
-    a curved cell. Returns ``(xi (m, 3), converged (m,) bool)``; a point whose Jacobian turns
-    singular or that does not converge in :data:`NEWTON_STEPS` is not converged (its xi is NaN).
-    Lengths in any one unit.
+    a curved cell. Converged when the step is below :data:`NEWTON_TOL`; where the Jacobian is
+    singular (a pyramid's apex, where r and s are free) or the steps do not settle (near the apex),
+    when x(xi) is the point within :data:`NEWTON_TOL` x the cell's size. Returns ``(xi (m, 3),
+    converged (m,) bool)``; a point that is not converged has xi NaN. Lengths in any one unit.
     """
     m = points.shape[0]
     xi = np.tile(np.asarray(_CENTRE[ctype], float), (m, 1))
     done = np.zeros(m, bool)
+    there = np.zeros(m, bool)  # x(xi) within NEWTON_TOL x the cell's size of the point, at the last step
+    tol = NEWTON_TOL * (np.ptp(nodes_xyz, axis=1).max(axis=1) if m else np.zeros(0))
     active = np.arange(m)
     for _ in range(NEWTON_STEPS):
         if not active.size:
             break
         n, dn = shape_functions(ctype, xi[active], derivatives=True)
         nodes = nodes_xyz[active]
-        x = np.matmul(n[:, None, :], nodes)[:, 0]
+        miss = points[active] - np.matmul(n[:, None, :], nodes)[:, 0]
+        there[active] = np.linalg.norm(miss, axis=1) <= tol[active]
         jac = np.matmul(nodes.transpose(0, 2, 1), dn)  # dx_d / dxi_e
         ok = np.abs(np.linalg.det(jac)) > 1e-300
         step = np.full((active.size, 3), np.nan)
         if ok.any():
-            step[ok] = np.linalg.solve(jac[ok], (points[active[ok]] - x[ok])[..., None])[..., 0]
+            step[ok] = np.linalg.solve(jac[ok], miss[ok][..., None])[..., 0]
+        step[~ok & there[active]] = 0.0  # a singular point of the map (a pyramid's apex), reached
         xi[active] += step
         small = np.all(np.abs(step) < NEWTON_TOL, axis=1)
         done[active[small]] = True
         bad = ~np.all(np.isfinite(xi[active]), axis=1) | (np.abs(xi[active]) > 1e3).any(axis=1)
         active = active[~small & ~bad]
+    done |= there & np.all(np.isfinite(xi), axis=1)
     xi[~done] = np.nan
     return xi, done
 
@@ -161,6 +205,7 @@ def inside_reference(ctype: str, xi: np.ndarray, tol: float) -> np.ndarray:
             return (r >= -tol) & (s >= -tol) & (t >= -tol) & (r + s + t <= 1 + tol)
         if ctype.startswith("wedge"):
             return (r >= -tol) & (s >= -tol) & (r + s <= 1 + tol) & (t >= -tol) & (t <= 1 + tol)
+        # hexahedra and pyramids: the unit cube (a pyramid's is the hexahedron's with its top collapsed)
         return np.all((xi >= -tol) & (xi <= 1 + tol), axis=1)
 
 
@@ -193,12 +238,12 @@ NEIGHBOUR_NODES = 8
 
 
 @dataclass(frozen=True)
-class QuadraticHits:
-    """Points placed in quadratic cells by their own shape functions (:func:`quadratic_weights`).
+class ShapeHits:
+    """Points placed in cells by their own shape functions (:func:`shape_weights`).
 
     ``points`` (k,) indices of the points placed; ``rows``, ``cols``, ``vals``: the sparse weights
     (row = point index, col = node index); ``cells`` (k,) the cell holding each; ``corner_only``:
-    points in a quadratic cell left to the corner interpolation, by reason (``'node without
+    points in such a cell left to the tetrahedra of its corners, by reason (``'node without
     values'``, ``'node order'``, ``'not found'``).
     """
 
@@ -228,14 +273,14 @@ def _usable(ctype, conn, xyz, cand):
     rows = conn[cand]
     missing = (rows < 0).any(axis=1)
     out[missing] = "node without values"
-    if (~missing).any():
+    if ctype in QUADRATIC and (~missing).any():  # a linear cell has only corners: no order to suspect
         bad = node_offsets(ctype, rows[~missing], xyz) > ORDER_SUSPECT
         out[np.flatnonzero(~missing)[bad]] = "node order"
     return out
 
 
-def quadratic_weights(points: np.ndarray, xyz: np.ndarray, cells, guess: np.ndarray) -> QuadraticHits:
-    """Weights of the points that lie in quadratic cells, from those cells' own shape functions.
+def shape_weights(points: np.ndarray, xyz: np.ndarray, cells, guess: np.ndarray, types: tuple = SHAPED) -> ShapeHits:
+    """Weights of the points that lie in cells of ``types``, from those cells' own shape functions.
 
     Parameters
     ----------
@@ -247,19 +292,21 @@ def quadratic_weights(points: np.ndarray, xyz: np.ndarray, cells, guess: np.ndar
         With :attr:`~afferent.field.Cells.nodes` (VTK node order).
     guess : ndarray of shape (n,), int
         The cell each point's corner tetrahedra put it in (-1: none).
+    types : tuple of str, default :data:`SHAPED`
+        The cell types interpolated with their own shape functions (the others keep their tetrahedra).
 
-    Each point whose guessed cell is quadratic is located in it by Newton on the isoparametric
+    Each point whose guessed cell is of ``types`` is located in it by Newton on the isoparametric
     map; a point not inside it (a curved cell, a warped face), or in no cell's corner tetrahedra
-    while quadratic cells exist, is tried in the quadratic cells around its nearest nodes.
-    Cells with a node left out (no values there) or whose nodes sit far from where their corners
-    put them (:data:`ORDER_SUSPECT`) are left to the corner interpolation.
+    while such cells exist, is tried in the cells of ``types`` around its nearest nodes.
+    Cells with a node left out (no values there) or whose mid-nodes sit far from where their
+    corners put them (:data:`ORDER_SUSPECT`) are left to the tetrahedra of their corners.
     """
     mesh = _blocks(cells)
-    types, starts, conns = mesh
-    quad = [k for k, t in enumerate(types) if t in QUADRATIC]
+    block_types, starts, conns = mesh
+    quad = [k for k, t in enumerate(block_types) if t in types]
     empty = np.zeros(0, np.int64)
     if not quad or not points.shape[0]:
-        return QuadraticHits(empty, empty, empty, np.zeros(0), empty, {})
+        return ShapeHits(empty, empty, empty, np.zeros(0), empty, {})
     guess = np.asarray(guess)
     block = np.searchsorted(starts, guess, side="right") - 1
     found = np.full(points.shape[0], -1, np.int64)
@@ -273,11 +320,11 @@ def quadratic_weights(points: np.ndarray, xyz: np.ndarray, cells, guess: np.ndar
         if not idx.size:
             continue
         local = guess[idx] - starts[k]
-        why = _usable(types[k], conns[k], xyz, local)
+        why = _usable(block_types[k], conns[k], xyz, local)
         for r in sorted(set(why) - {"ok"}):
             reasons[r] = int(np.sum(why == r)) + reasons.get(r, 0)
         idx, local = idx[why == "ok"], local[why == "ok"]
-        xi, inside = _try_cells(types[k], conns[k], xyz, points[idx], local)
+        xi, inside = _try_cells(block_types[k], conns[k], xyz, points[idx], local)
         found[idx[inside]], xi_all[idx[inside]] = guess[idx[inside]], xi[inside]
         retry.append(idx[~inside])
     retry = np.sort(np.concatenate(retry))
@@ -290,7 +337,8 @@ def quadratic_weights(points: np.ndarray, xyz: np.ndarray, cells, guess: np.ndar
 
 
 def _search_near(points, xyz, mesh, quad, retry, found, xi_all) -> None:
-    """Try the points ``retry`` in the usable quadratic cells around their nearest nodes (fills ``found``, ``xi_all``)."""
+    """Try the points ``retry`` in the usable cells of blocks ``quad`` around their nearest nodes (fills ``found``,
+    ``xi_all``)."""
     import scipy.sparse as sp
     from scipy.spatial import cKDTree
 
@@ -325,8 +373,8 @@ def _search_near(points, xyz, mesh, quad, retry, found, xi_all) -> None:
                 break
 
 
-def _hits(found, xi_all, mesh, reasons) -> QuadraticHits:
-    """The sparse weights of the points placed in quadratic cells."""
+def _hits(found, xi_all, mesh, reasons) -> ShapeHits:
+    """The sparse weights of the points placed in cells by their own shape functions."""
     types, starts, conns = mesh
     placed = np.flatnonzero(found >= 0)
     block = np.searchsorted(starts, found[placed], side="right") - 1
@@ -339,24 +387,30 @@ def _hits(found, xi_all, mesh, reasons) -> QuadraticHits:
         cols.append(nodes.ravel())
         vals.append(w.ravel())
     cat = (lambda parts, dtype: np.concatenate(parts) if parts else np.zeros(0, dtype))
-    return QuadraticHits(placed, cat(rows, np.int64), cat(cols, np.int64), cat(vals, float), found[placed], reasons)
+    return ShapeHits(placed, cat(rows, np.int64), cat(cols, np.int64), cat(vals, float), found[placed], reasons)
 
 
-def has_quadratic(cells) -> bool:
-    """Whether ``cells`` (afferent.field.Cells) hold quadratic cells with their full connectivity."""
-    return cells is not None and bool(cells.nodes) and any(t in QUADRATIC for t in cells.cell_types)
+def shaped_types(cells, location: str) -> tuple:
+    """The cell types of ``cells`` that 'linear' sampling interpolates with their own shape functions: for point
+    data every type of :data:`SHAPED`; for cell data (averaged to the corner nodes, which alone get values)
+    the linear ones, :data:`LINEAR_SHAPED`. Empty without the full connectivity (:attr:`Cells.nodes`)."""
+    if cells is None or not cells.nodes:
+        return ()
+    own = SHAPED if location == "point" else LINEAR_SHAPED
+    return tuple(t for t in dict.fromkeys(cells.cell_types) if t in own)
 
 
 def with_shape_functions(weights, outside: np.ndarray, points: np.ndarray, xyz: np.ndarray, cells, guess: np.ndarray,
-                         placement: str):
-    """Corner-tetrahedra weights (n, n_points) with the rows of points in quadratic cells replaced.
+                         placement: str, types: tuple = SHAPED):
+    """Corner-tetrahedra weights (n, n_points) with the rows of points in cells of ``types`` replaced by
+    those cells' own shape functions.
 
     ``weights``: scipy sparse (n_receptors, n_points) from the corner tetrahedra; ``outside``
     (n,) bool; ``points`` (n, 3) m; ``guess`` (n,) the cell of each point's tetrahedron (-1:
     none); ``placement``: how the values are placed. Returns ``(weights (csr), outside,
     placement)``: a point outside every corner tetrahedron but inside a curved cell is inside;
-    the placement gets a note on the points left to their cell's corners and why (and an :class:`~afferent.exceptions.AfferentWarning` is
-    issued when the reason is a suspect node order).
+    the placement gets a note on the points left to their cell's corner tetrahedra and why (and an
+    :class:`~afferent.exceptions.AfferentWarning` is issued when the reason is a suspect node order).
     """
     import warnings
 
@@ -364,17 +418,17 @@ def with_shape_functions(weights, outside: np.ndarray, points: np.ndarray, xyz: 
 
     from .exceptions import AfferentWarning
 
-    hits = quadratic_weights(points, xyz, cells, guess)
+    hits = shape_weights(points, xyz, cells, guess, types)
     keep = sp.diags((~np.isin(np.arange(points.shape[0]), hits.points)).astype(float))
     quad = sp.csr_matrix((hits.vals, (hits.rows, hits.cols)), shape=weights.shape)
     out = (keep @ weights + quad).tocsr()
     outside = outside.copy()
     outside[hits.points] = False
     if hits.corner_only:
-        why = ", ".join(f"{n} with a {r}" if r != "not found" else f"{n} not found inside a curved cell"
+        why = ", ".join(f"{n} with a {r}" if r != "not found" else f"{n} not found by Newton inside a cell"
                         for r, n in hits.corner_only.items())
-        placement += (f"; {sum(hits.corner_only.values())} receptor(s) in quadratic cells interpolated between "
-                      f"the cell's corners ({why})")
+        placement += (f"; {sum(hits.corner_only.values())} receptor(s) interpolated linearly in the tetrahedra of "
+                      f"their cell's corners ({why})")
         if "node order" in hits.corner_only:
             warnings.warn(f"{hits.corner_only['node order']} receptor(s) lie in quadratic cells whose nodes sit more "
                           f"than {ORDER_SUSPECT} of the longest edge from where the corners put them: a node order "

@@ -160,6 +160,8 @@ ACCEPTS = {
                "tissue's 1 kPa..10 MPa, where another unit would not",
     "sed-column": "an SED array named like a stress measure (von Mises, Tresca, pressure, a principal stress), equal "
                   "to one of the stress tensor's, or unlike 1/2 sigma:eps of the file's tensors",
+    "large-strain": "SED from stress alone (linear elastic, small strain) where the export's strain is large (its 99th "
+                    "percentile of sqrt(eps:eps) beyond 0.1) and its stress is not Hooke's law of its strain",
 }
 
 

@@ -74,7 +74,8 @@ __all__ = [
 #: point data in quadratic cells interpolated with their own shape functions (was: between corners).
 #: 4: reads the unit and SED-array checks refuse (io._unit_physics) are no longer served from entries made before
 #: them; the confirmed checks ([scene] accept) in the key.
-CACHE_VERSION = 4
+#: 5: 'linear' in hexahedra, wedges and pyramids with their own shape functions (was: their split's tetrahedra).
+CACHE_VERSION = 5
 
 _SUBDIR = "sed"
 _ARRAYS = ("values", "times", "positions", "ids", "longitudinal", "cross", "outside", "meta")

@@ -18,7 +18,8 @@ sed_map  ``sed_map.csv`` (receptor, x_m, y_m, z_m,          ``sed_map.png`` (stu
          longitudinal, cross, time_s, sed_pa)
 currents ``currents.nc`` (NetCDF-4: sed_pa, current_a
          over (time, receptor); afferent_current_a over
-         (time, afferent)); with ``results_format='csv'``
+         (time, afferent)) and ``currents.xdmf`` (its
+         ParaView index); with ``results_format='csv'``
          ``receptors.csv`` and ``afferents.csv`` (long)
 profiles ``profiles.csv`` (afferent, position_m, time_s,    ``profiles_x.png``, ``profiles_z.png``
          current_a at the profile step)                     (figs. 5-6, 5-7)
@@ -26,7 +27,8 @@ fit      ``fit.csv``, ``profile_fit.csv``                   ``fit.png``
 spikes   ``spikes.csv``, ``spike_summary.csv``              ``raster.png``, ``rates.png``, ``psth.png``
 vtu      ``receptors.vtu`` (sed_pa [, current_a], sections)
 hotspots ``hotspots.csv`` (site_kind, site, x_m, z_m,       ``hotspots.png`` (study fig. 4-9; a second
-         time_s, sed_pa, normalised, hot)                   site set beside: :mod:`afferent.hotspots`)
+         time_s, sed_pa, normalised, hot),                  site set beside: :mod:`afferent.hotspots`)
+         ``hotspots.vtu`` (the maps at the sites)
 cycles   ``cycles.csv`` (per cycle: deepest point, SED
          at the chosen site, spikes, rate;
          :mod:`afferent.cycles`)
@@ -37,9 +39,12 @@ column ``time_s`` is then ``step`` (and ``currents.nc``'s ``time`` is in units `
 ``time_s`` never holds step numbers.
 
 With a stimulus waveform, ``waveform.csv`` (and ``waveform.png``) too; with spikes and pynwb
-installed (the ``nwb`` extra) and the output ``nwb``, ``spikes.nwb`` (:func:`write_spikes_nwb`).
+installed (the ``nwb`` extra) and the output ``nwb``, ``spikes.nwb`` (:func:`write_spikes_nwb`,
+``afferent._nwb``). With ``currents`` as NetCDF, ``currents.xdmf`` beside ``currents.nc``: an index
+ParaView opens as a time series of the receptor sites (``afferent._netcdf``); with ``hotspots``,
+``hotspots.vtu`` (the maps at the sites).
 
-Why NetCDF-4 for the time courses (docs/getting-started.md, "Outputs"): measured on 595 receptors x 2301 steps
+Why NetCDF-4 for the time courses: measured on 595 receptors x 2301 steps
 (sample_sed/block8, a 2.3 s ramp), the long ``receptors.csv`` took 44 s to write and 141 MB;
 NetCDF-4 through xarray + h5netcdf 0.46 s and 2.0 MB (zlib level 1) or 1.0 s and 22 MB (none);
 Zarr 1.3 s, 1.5 MB in 46 files. Written directly with h5netcdf, uncompressed: 0.085 s, 22 MB.
@@ -55,15 +60,17 @@ import json
 import os
 import platform
 from importlib import metadata
+from dataclasses import dataclass
 from types import SimpleNamespace
 
 import numpy as np
 
+from ._nwb import write_spikes_nwb
 from ._tables import write_table
 
 __all__ = ["write_outputs", "write_json", "file_sha256", "versions", "jsonable",
            "receptors_table", "write_receptor_vtu", "step_title", "profile_step_record", "results_dataset",
-           "load_results", "RESULTS_FORMATS", "write_spikes_nwb"]
+           "load_results", "RunResults", "RESULTS_FORMATS", "write_spikes_nwb"]
 
 #: how the time courses are written: one NetCDF-4 array file, or long CSV tables
 RESULTS_FORMATS = ("netcdf", "csv")
@@ -183,7 +190,7 @@ def write_json(path: str, data: dict) -> None:
 def write_outputs(folder: str, *, want, plots: bool, sed_static, sed, current=None, branching=None, afferent=None,
                   fit=None, waveform=None, spikes=None, drive=None, saturation=None,
                   profile_index: int = -1, results_format: str = "netcdf", sed_beside=None,
-                  hotspot_threshold: float = 0.6, cycles=None, figures=None) -> list[str]:
+                  hotspot_threshold: float = 0.6, cycles=None, figures=None, nwb=None) -> list[str]:
     """Write the tables and figures of ``want`` into ``folder``; returns the file names written.
 
     Parameters
@@ -216,6 +223,9 @@ def write_outputs(folder: str, *, want, plots: bool, sed_static, sed, current=No
     figures : FigureProcess or SameProcess, optional
         Who draws the figures (``afferent._figure_process``): a second process, handed them before
         the tables are written and waited for after; default: this process, after the tables.
+    nwb : dict, optional
+        ``nwb``: what ``spikes.nwb`` says beside the spikes (:func:`write_spikes_nwb`'s ``context``:
+        the afferent class, the spikes' record, the scene's ``[nwb]`` table).
     """
     written: list[str] = []
 
@@ -255,7 +265,7 @@ def write_outputs(folder: str, *, want, plots: bool, sed_static, sed, current=No
         write_table(path("spike_summary.csv"), {"afferent": summary.pop("afferent"), "position_m": afferent.positions,
                                                 **summary})
     if "nwb" in want and spikes is not None:
-        write_spikes_nwb(path("spikes.nwb"), spikes, afferent)
+        write_spikes_nwb(path("spikes.nwb"), spikes, afferent, waveform=waveform, context=nwb)
     if "vtu" in want:
         if current is not None:
             write_receptor_vtu(path("receptors.vtu"), sed, current=current, time_index=profile_index)
@@ -289,75 +299,11 @@ def _write_currents(path, sed, current, afferent, results_format: str) -> None:
             table = table.rename(columns={"time_s": "step"})
         table.to_csv(path("afferents.csv"), index=False)
         return
-    _write_netcdf(path(RESULTS_NC), *_results_variables(sed, current, afferent))
+    from ._netcdf import RESULTS_NC, RESULTS_XDMF, results_variables, write_netcdf, write_xdmf_index
 
-
-#: the array file of the time courses (output ``currents``)
-RESULTS_NC = "currents.nc"
-
-
-def _write_netcdf(path: str, variables: dict, attrs: dict) -> None:
-    """``variables`` (name -> (dims, values, attrs)) as a NetCDF-4 file through h5netcdf (xarray not imported:
-    0.4 s less per run); numbers uncompressed (float64), strings variable-length.
-
-    Uncompressed because writing must stay within 10 % of a run (docs/getting-started.md, "Outputs"): on 595
-    receptors x 2301 steps, zlib level 1 with the shuffle filter gave 1.8 MB instead of 22 MB but
-    took the write from 0.085 s to 0.15 s, 13 % of that 1.1 s run; ``nccopy -d 1 -s`` compresses a
-    file afterwards.
-    """
-    import h5netcdf
-    import h5py
-
-    with h5netcdf.File(path, "w") as f:
-        f.dimensions = {d: len(values) for name, (dims, values, _) in variables.items() for d in dims[:1]
-                        if dims == (name,)}
-        for name, (dims, values, var_attrs) in variables.items():
-            values = np.asarray(values)
-            if values.dtype.kind in "UO":
-                v = f.create_variable(name, dims, h5py.string_dtype(), data=values.astype(object))
-            else:
-                v = f.create_variable(name, dims, values.dtype, data=values)
-            v.attrs.update(var_attrs)
-            aux = [c for c in _COORDS if c in variables and c not in dims and set(variables[c][0]) <= set(dims)]
-            if name not in _COORDS and aux:  # CF: the auxiliary coordinates (positions, section ids) of a variable
-                v.attrs["coordinates"] = " ".join(aux)
-        f.attrs.update(attrs)
-
-
-def _results_variables(sed, current=None, afferent=None) -> tuple[dict, dict]:
-    """What ``currents.nc`` holds (:func:`results_dataset`): name -> (dims, values, CF attributes), and the global
-    attributes; the dimension coordinates (``time``, ``receptor``, ``afferent``) are variables of their own name."""
-    from . import __version__
-
-    layout = sed.layout
-    pos = np.asarray(layout.positions, dtype=float)
-    tr = ("time", "receptor")
-    clock = ({"units": "1", "long_name": "step number (the export states no times)"}
-             if getattr(sed, "numbered", False) else {"units": "s", "long_name": "time"})
-    out = {"time": (("time",), np.asarray(sed.times, dtype=float), clock),
-           "receptor": (("receptor",), np.asarray(layout.ids).astype(str), {"long_name": "receptor id"})}
-    for k, name in enumerate(("x_m", "y_m", "z_m")):
-        out[name] = (("receptor",), pos[:, k], {"units": "m", "long_name": f"receptor {name[0]} coordinate"})
-    for name in ("longitudinal", "cross"):
-        out[name] = (("receptor",), np.asarray(getattr(layout, name)).astype(np.int32),
-                     {"long_name": f"{name} section index of the receptor"})
-    out["sed_pa"] = (tr, np.asarray(sed.values, dtype=float),
-                     {"units": "J m-3", "long_name": "strain-energy density at the receptor (J/m^3 = Pa)"})
-    if current is not None:
-        out["current_a"] = (tr, np.asarray(current.values, dtype=float), {"units": "A", "long_name": "receptor current"})
-    if afferent is not None:
-        out["afferent"] = (("afferent",), np.asarray(afferent.afferent_ids).astype(str), {"long_name": "afferent id"})
-        out["position_m"] = (("afferent",), np.asarray(afferent.positions, dtype=float),
-                             {"units": "m", "long_name": f"afferent position along {afferent.axis}"})
-        out["afferent_current_a"] = (("time", "afferent"), np.asarray(afferent.values, dtype=float),
-                                     {"units": "A", "long_name": "afferent current (sum of its receptors' currents)"})
-    attrs = {"Conventions": "CF-1.10", "title": "afferent: time courses at the receptors and afferents",
-             "source": f"afferent-skin {__version__}",
-             "comment": "docs/getting-started.md, 'Outputs'; run.json beside this file records the run"}
-    return out, attrs
-
-
-_COORDS = ("time", "receptor", "x_m", "y_m", "z_m", "longitudinal", "cross", "afferent", "position_m")
+    variables, attrs = results_variables(sed, current, afferent)
+    write_netcdf(path(RESULTS_NC), variables, attrs)
+    write_xdmf_index(path(RESULTS_XDMF), variables, RESULTS_NC)
 
 
 def results_dataset(sed, current=None, afferent=None):
@@ -379,15 +325,42 @@ def results_dataset(sed, current=None, afferent=None):
     -------
     xarray.Dataset
         Variables ``sed_pa`` (time, receptor) in J m-3, ``current_a`` (time, receptor) in A,
-        ``afferent_current_a`` (time, afferent) in A; coordinates ``time`` (s), ``receptor``
-        (ids), ``x_m``, ``y_m``, ``z_m`` (m), ``longitudinal``, ``cross`` (section ids),
-        ``afferent`` (ids) and ``position_m`` (m, along the afferents' axis).
+        ``afferent_current_a`` (time, afferent) in A; coordinates ``time`` (s; ``standard_name``
+        time, ``axis`` T), ``receptor`` and ``afferent`` (integers: the id where every id is an
+        integer, else the 0-based position; ``ds.sel(receptor=1)``), ``receptor_id`` and
+        ``afferent_id`` (the ids as the tables write them), ``x_m``, ``y_m``, ``z_m`` (m),
+        ``longitudinal``, ``cross`` (section ids) and ``position_m`` (m, along the afferents' axis).
     """
-    import xarray as xr
+    from ._netcdf import dataset_from_variables, results_variables
 
-    variables, attrs = _results_variables(sed, current, afferent)
-    coords = {k: v for k, v in variables.items() if k in _COORDS}
-    return xr.Dataset({k: v for k, v in variables.items() if k not in _COORDS}, coords=coords, attrs=attrs)
+    return dataset_from_variables(*results_variables(sed, current, afferent))
+
+
+@dataclass(frozen=True)
+class RunResults:
+    """A run's output folder read back by :func:`load_results`.
+
+    Attributes
+    ----------
+    dataset : xarray.Dataset
+        The time courses (:func:`results_dataset`); only netCDF attributes, so
+        ``dataset.to_netcdf(path)`` writes it as it is.
+    tables : dict
+        Each CSV table's name (``'spikes'`` for ``spikes.csv``) -> :class:`pandas.DataFrame`.
+    run : dict
+        ``run.json``, the run record.
+    folder : str
+        The folder read.
+    """
+
+    dataset: object
+    tables: dict
+    run: dict
+    folder: str
+
+    def __repr__(self) -> str:
+        sizes = ", ".join(f"{k}: {v}" for k, v in self.dataset.sizes.items()) or "no time courses"
+        return f"<RunResults {self.folder!r}: {sizes}; tables {', '.join(self.tables) or 'none'}>"
 
 
 def load_results(folder):
@@ -400,11 +373,12 @@ def load_results(folder):
 
     Returns
     -------
-    xarray.Dataset
-        ``currents.nc`` (:func:`results_dataset`) when present, else the same built from the
-        long ``receptors.csv`` / ``afferents.csv`` of ``results_format='csv'`` (an empty Dataset
-        when the run wrote neither). ``attrs['tables']`` maps each CSV table's name (e.g.
-        ``'spikes'``) to a :class:`pandas.DataFrame`; ``attrs['run']`` is ``run.json``.
+    RunResults
+        ``.dataset``: ``currents.nc`` (:func:`results_dataset`) when present, else the same built
+        from the long ``receptors.csv`` / ``afferents.csv`` of ``results_format='csv'`` (an empty
+        Dataset when the run wrote neither); ``.tables``: each CSV table's name (e.g.
+        ``'spikes'``) -> :class:`pandas.DataFrame`; ``.run``: ``run.json``. The dataset holds
+        only netCDF attributes: ``load_results(folder).dataset.to_netcdf(path)`` writes it.
 
     Raises
     ------
@@ -420,11 +394,8 @@ def load_results(folder):
         records (receptors, afferents, steps), a variable larger than its dimensions, values
         its file does not store; checked before anything is read.
 
-    Notes
-    -----
-    The ``tables`` and ``run`` attributes are Python objects, not netCDF attributes: remove
-    them before writing the Dataset back (``ds.attrs.pop('tables'); ds.attrs.pop('run')``).
     """
+    from ._netcdf import RESULTS_NC
     from ._run_folder import dataset_from_csv, read_results_nc, read_run_record, read_run_table
 
     folder = os.fspath(folder)
@@ -435,58 +406,7 @@ def load_results(folder):
     for name in sorted(os.listdir(folder)):
         if name.endswith(".csv") and name not in ("receptors.csv", "afferents.csv"):
             tables[name[:-4]] = read_run_table(os.path.join(folder, name), what="a table afferent wrote", rows=False)
-    ds.attrs["run"] = record
-    ds.attrs["tables"] = tables
-    return ds
-
-
-def write_spikes_nwb(path: str, spikes, afferent) -> None:
-    """Spike trains as an NWB file (pynwb): one row of the Units table per afferent.
-
-    Columns beside ``spike_times`` (s) and ``obs_intervals`` (the simulated span, s):
-    ``afferent`` (id), ``position_m`` (m, along ``position_axis``), the LIF parameters
-    ``tau_m_s``, ``r_m_ohm``, ``v_rest_v``, ``v_thresh_v``, ``v_reset_v``, ``t_ref_s`` (SI), and
-    ``skipped_silent`` (not simulated: provably silent). The engine and time step are in the
-    file's ``notes``. Readable by pynwb, pynapple, Neo (Elephant) and NWB Widgets.
-
-    Parameters
-    ----------
-    path : str
-        The file to write (inside a folder ``afferent._output.atomic_dir`` is creating).
-    spikes : SpikeTrains
-        From :func:`afferent.spiking.simulate_lif`.
-    afferent : AfferentCurrent
-        The afferents simulated (positions in m).
-    """
-    from datetime import datetime, timezone
-    from uuid import uuid4
-
-    from pynwb import NWBHDF5IO, NWBFile
-
-    from . import __version__
-
-    lif = spikes.params
-    cols = {"afferent": "afferent id", "position_m": f"afferent position along {afferent.axis}, m",
-            "tau_m_s": "membrane time constant, s", "r_m_ohm": "membrane resistance, ohm",
-            "v_rest_v": "resting potential, V", "v_thresh_v": "threshold, V", "v_reset_v": "reset potential, V",
-            "t_ref_s": "refractory period, s", "skipped_silent": "not simulated: provably silent (run.json spikes)"}
-    nwb = NWBFile(session_description="afferent: simulated tactile afferent spike trains (RA-I LIF)",
-                  identifier=str(uuid4()), session_start_time=datetime.now(timezone.utc),
-                  source_script=f"afferent-skin {__version__}", source_script_file_name="afferent",
-                  notes=f"engine {spikes.engine} ({getattr(spikes, 'backend', '')}), dt {spikes.dt:g} s (0: exact, no "
-                        f"grid), duration {spikes.duration:g} s from t = {getattr(spikes, 't_start', 0.0):g} s")
-    for name, doc in cols.items():
-        nwb.add_unit_column(name=name, description=doc)
-    t0 = float(getattr(spikes, "t_start", 0.0))
-    silent = set(np.asarray(spikes.silent_skipped, dtype=int).tolist())
-    for i, times in enumerate(spikes.spike_times):
-        nwb.add_unit(spike_times=np.asarray(times, dtype=float), obs_intervals=[[t0, t0 + float(spikes.duration)]],
-                     afferent=str(spikes.afferent_ids[i]), position_m=float(afferent.positions[i]),
-                     tau_m_s=float(lif.tau_m), r_m_ohm=float(lif.r_m), v_rest_v=float(lif.v_rest),
-                     v_thresh_v=float(lif.v_thresh), v_reset_v=float(lif.v_reset), t_ref_s=float(lif.t_ref),
-                     skipped_silent=i in silent)
-    with NWBHDF5IO(path, "w") as io:
-        io.write(nwb)
+    return RunResults(dataset=ds, tables=tables, run=record, folder=folder)
 
 
 #: The PNGs :func:`_figures` can draw, in the order it draws them.

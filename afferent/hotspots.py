@@ -173,10 +173,37 @@ def write_hotspots(path, sed_static, sed_beside=None, *, threshold: float = DEFA
 
     tables = hotspot_maps(sed_static, sed_beside, threshold=threshold)
     pd.concat(tables, ignore_index=True).to_csv(path("hotspots.csv"), index=False)
+    write_hotspot_vtu(path("hotspots.vtu"), tables, [s.layout for s in (sed_static, sed_beside) if s is not None])
     if plots:
         from .plotting import plot_hotspot_maps, save_figure
 
         save_figure(plot_hotspot_maps(tables, threshold=threshold), path("hotspots.png"))
+
+
+def write_hotspot_vtu(path: str, tables, layouts) -> None:
+    """``hotspots.vtu``: the sites of every map as VTK vertices (ParaView), at their positions (m), with the
+    values of ``hotspots.csv`` at each: ``sed_pa`` (J/m^3), ``normalised`` (0..1), ``hot`` (1 = a hot spot),
+    ``map`` (0: the scene's sites, 1: the second site set) and the section ids, as ``receptors.vtu`` does.
+
+    Parameters
+    ----------
+    path : str
+    tables : list of DataFrame
+        :func:`hotspot_maps`' tables, one per site set, rows in the order of its layout's sites.
+    layouts : list of ReceptorLayout
+        The site sets of ``tables``, in the same order.
+    """
+    import meshio
+
+    pos = np.concatenate([np.asarray(lay.positions, dtype=float) for lay in layouts])
+    data = {"sed_pa": np.concatenate([t["sed_pa"].to_numpy(float) for t in tables]),
+            "normalised": np.concatenate([t["normalised"].to_numpy(float) for t in tables]),
+            "hot": np.concatenate([t["hot"].to_numpy(bool) for t in tables]).astype(np.int32),
+            "map": np.concatenate([np.full(len(t), k, dtype=np.int32) for k, t in enumerate(tables)]),
+            "longitudinal": np.concatenate([lay.longitudinal for lay in layouts]).astype(np.int32),
+            "cross": np.concatenate([lay.cross for lay in layouts]).astype(np.int32)}
+    meshio.write(path, meshio.Mesh(pos, [("vertex", np.arange(len(pos)).reshape(-1, 1))], point_data=data),
+                 file_format="vtu")
 
 
 #: What a ``hotspots.csv`` read back must hold (``afferent._run_folder.check_table``): a row per site.

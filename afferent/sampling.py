@@ -5,8 +5,9 @@
     SEDField + ReceptorLayout --sample_sed--> ReceptorSED   (n_times, n_receptors) J/m^3
 
 ``'nearest'`` takes the value of the nearest mesh node (for cell data: of the cell holding
-the receptor). ``'linear'`` interpolates inside the mesh's own cells (split into linear
-tetrahedra; quadratic cells with their own shape functions, ``afferent/_shape_functions.py``),
+the receptor). ``'linear'`` interpolates inside the mesh's own cells with each cell's own shape functions
+(barycentric in tetrahedra, trilinear in hexahedra, ..., quadratic in quadratic cells:
+``afferent/_shape_functions.py``; the cells split into tetrahedra locate the points),
 with weights computed once and reused for every time step; cell
 data is first averaged to the nodes, each cell weighing its volume on each of its corners.
 A table of points without connectivity (CSV) is triangulated (scipy ``Delaunay``) around the
@@ -44,7 +45,7 @@ from ._mesh_geometry import (  # noqa: F401 (locate_in_tets, JOGGLE, NEAR_NODES_
     locate_in_tets,
     node_average,
 )
-from ._shape_functions import clip_overshoot, has_quadratic, with_shape_functions
+from ._shape_functions import clip_overshoot, shaped_types, with_shape_functions
 from ._validation import check_option
 from ._plausibility import refuse_collapse
 from .exceptions import AfferentWarning, FieldCoverageError, SEDFormatError
@@ -192,11 +193,14 @@ class Sampler:
 PLACEMENTS = {
     ("point", "nearest"): "value of the nearest node",
     ("point", "linear"): "linear in the mesh's cells (split into tetrahedra)",
-    ("point", "quadratic"): "the cells' own shape functions: quadratic in quadratic cells (located by Newton on "
-                            "their isoparametric map; values below 0 between non-negative nodes set to 0), linear "
-                            "in linear cells (split into tetrahedra)",
+    ("point", "shape"): "the cells' own shape functions (located by Newton on their isoparametric map): linear in "
+                        "tetrahedra, trilinear in hexahedra, linear x linear in wedges, VTK's basis in pyramids, "
+                        "quadratic in quadratic cells (values below 0 between non-negative nodes set to 0)",
     ("cell", "nearest"): "cell value of the containing cell",
     ("cell", "linear"): "cells averaged to nodes by cell volume, then linear",
+    ("cell", "shape"): "cells averaged to nodes by cell volume, then the cells' own linear shape functions (linear "
+                       "in tetrahedra, trilinear in hexahedra, linear x linear in wedges, VTK's basis in pyramids; "
+                       "quadratic cells: linear in the tetrahedra of their corners)",
     ("scattered", "nearest"): "value of the nearest point",
     ("scattered", "linear"): "linear in a Delaunay tetrahedralisation of the points",
     ("plane", "linear"): "linear in a Delaunay triangulation of the points' plane (surface-only table)",
@@ -248,12 +252,13 @@ def build_sampler(field: SEDField, layout: ReceptorLayout, *, method: str = "lin
             w = sp.csr_matrix(
                 (bary[inside].ravel(), (np.repeat(inside, 4), nodes.ravel())), shape=(n_r, field.n_points)
             )
-            if field.location == "cell":
-                w = w @ node_average(field.cells, xyz, field.n_points)
-            elif has_quadratic(field.cells):
+            types = shaped_types(field.cells, field.location)
+            if types:  # the cells' own shape functions where they have them (not their tetrahedra's)
                 guess = np.where(outside, -1, field.cells.parent[np.maximum(tet, 0)])
                 w, outside, placement = with_shape_functions(w, outside, pos, xyz, field.cells, guess,
-                                                             PLACEMENTS[("point", "quadratic")])
+                                                             PLACEMENTS[(field.location, "shape")], types)
+            if field.location == "cell":
+                w = w @ node_average(field.cells, xyz, field.n_points)
         return Sampler(w.tocsr(), outside, method, placement)
     # Scattered points (a CSV table): no connectivity.
     if method == "nearest":
@@ -433,9 +438,10 @@ def sample_sed(
     layout : ReceptorLayout
         Receptor sites in m (from :func:`afferent.read_receptors`).
     method : {'linear', 'nearest'}, default='linear'
-        ``'linear'``: barycentric interpolation in the mesh's cells (exact for a field linear
-        in space), with quadratic cells' own shape functions in quadratic cells (see
-        docs/fe-export.md, "Quadratic cells"); cell data is first averaged to the nodes, weighted by cell volume (exact at
+        ``'linear'``: interpolation in the mesh's cells with each cell's own shape functions
+        (barycentric in tetrahedra, trilinear in hexahedra, linear x linear in wedges, VTK's basis in
+        pyramids, quadratic in quadratic cells: exact for a field linear in space; see
+        docs/fe-export.md, "Each cell's own shape functions"); cell data is first averaged to the nodes, weighted by cell volume (exact at
         interior nodes of a regular grid for cell values linear in space); a table of points
         is triangulated (Delaunay, in its plane when the points are coplanar). ``'nearest'``:
         value of the nearest node, or of the containing cell for cell data. ``'nearest'`` is

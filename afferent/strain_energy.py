@@ -17,6 +17,10 @@ Two formulas (:ref:`method-sed`):
 - ``'equivalent'``: the study's equivalent SED (Glinka), U ~ 1/2 sigma_e eps_e with the von
   Mises stress sigma_e from principal stresses and
   eps_e = 1/(1+nu) sqrt(((e1-e2)^2 + (e2-e3)^2 + (e3-e1)^2) / 2) from principal strains.
+
+And from stress alone, with the elastic constants (``'stress'``, :func:`sed_from_stress`):
+U = (1 + nu)/(2E) sigma:sigma - nu/(2E) tr(sigma)^2, the linear-elastic, small-strain SED of an
+isotropic material.
 """
 
 from __future__ import annotations
@@ -27,7 +31,7 @@ import numpy as np
 
 from ._validation import check_option
 
-__all__ = ["Convention", "PRESETS", "CANONICAL_ORDER", "to_canonical", "sed_exact", "sed_equivalent", "full_tensor"]
+__all__ = ["Convention", "PRESETS", "CANONICAL_ORDER", "to_canonical", "sed_exact", "sed_equivalent", "sed_from_stress", "full_tensor"]
 
 #: Internal component order.
 CANONICAL_ORDER: tuple[str, ...] = ("xx", "yy", "zz", "xy", "yz", "xz")
@@ -82,6 +86,9 @@ PRESETS: dict[str, Convention] = {
     "kratos": Convention(_VOIGT_VTK, "engineering",
                          "CAUCHY_STRESS_VECTOR, GREEN_LAGRANGE_STRAIN_VECTOR xx yy zz xy yz xz; engineering shear [V]"),
     "vtk": Convention(_VOIGT_VTK, "tensor", "VTK symmetric-tensor order XX YY ZZ XY YZ XZ [UNVERIFIED]; shear assumed tensor"),
+    "openfoam": Convention(("xx", "xy", "xz", "yy", "yz", "zz"), "tensor",
+                           "symmTensor XX XY XZ YY YZ ZZ (the upper triangle row by row) [V, symmTensor.C componentNames]; "
+                           "tensor shear [UNVERIFIED]"),
 }
 
 
@@ -182,3 +189,42 @@ def sed_equivalent(stress, strain, poisson) -> np.ndarray:
     sigma_e = _equivalent(s_principal)
     eps_e = _equivalent(e_principal) / (1.0 + nu)
     return 0.5 * sigma_e * eps_e
+
+
+def sed_from_stress(stress, young, poisson) -> np.ndarray:
+    """Linear-elastic SED of an isotropic material from its stress alone (small strain).
+
+    U = (1 + nu)/(2E) sigma:sigma - nu/(2E) tr(sigma)^2, which is 1/2 sigma:eps with
+    eps = ((1 + nu) sigma - nu tr(sigma) I) / E (Hooke's law inverted).
+
+    Parameters
+    ----------
+    stress : array_like of shape (..., 6)
+        Cauchy stress, canonical order ``xx yy zz xy yz xz``, in Pa.
+    young : float or array_like of shape (...)
+        Young's modulus E of the material at each value, in Pa (> 0).
+    poisson : float or array_like of shape (...)
+        Poisson's ratio nu, in (-1, 0.5] (0.5: incompressible, the volumetric energy is 0).
+
+    Returns
+    -------
+    ndarray of shape (...)
+        SED in J/m^3.
+
+    Examples
+    --------
+    Uniaxial stress 2 Pa in a material of E = 4 Pa: sigma^2 / (2E) = 0.5 J/m^3:
+
+    >>> float(sed_from_stress([2, 0, 0, 0, 0, 0], 4.0, 0.3))
+    0.5
+    """
+    s = np.asarray(stress, dtype=float)
+    e = np.asarray(young, dtype=float)
+    nu = np.asarray(poisson, dtype=float)
+    if np.any(~np.isfinite(e)) or np.any(e <= 0):
+        raise ValueError(f"'young' must be finite and > 0 Pa; got {young!r} instead.")
+    if np.any(~np.isfinite(nu)) or np.any(nu <= -1) or np.any(nu > 0.5):
+        raise ValueError(f"'poisson' must be in (-1, 0.5]; got {poisson!r} instead.")
+    squares = np.sum(s[..., :3] ** 2, axis=-1) + 2.0 * np.sum(s[..., 3:] ** 2, axis=-1)
+    trace = np.sum(s[..., :3], axis=-1)
+    return ((1.0 + nu) * squares - nu * trace ** 2) / (2.0 * e)

@@ -7,7 +7,8 @@ set, inserted, deleted or repeated, a splice of another seed, tokens that name f
 ``/proc/self/environ``, ``/dev/zero``, ``file=``) or odd numbers. No coverage guidance.
 
 A supervisor runs one worker process and watches it: a worker that dies (a native crash, the
-kernel's OOM killer) or spends more than ``--hang`` seconds on one input is recorded as a crash
+kernel's OOM killer) or spends more than ``--hang`` seconds of CPU on one input (:data:`WALL_FACTOR` x that in
+wall time) is recorded as a crash
 or a hang with the input (``crash-<hash>.bin``, ``hang-<hash>.bin`` and a ``.txt``) and replaced.
 Every other finding is recorded as fuzz_readers.py does (``<kind>.bin``/``.txt``, the first input
 of each kind). At the end ``DIR/summary.json`` holds the counts: inputs tried, results, clean
@@ -133,6 +134,32 @@ def _keep(findings: Path, what: str, detail: str) -> None:
     (findings / f"{name}.txt").write_text(f"target: {target}\n{detail}\n")
 
 
+#: an input is a hang when its worker (with the reader processes it started) spends more than ``--hang`` seconds of
+#: CPU on it, or waits this many times as long (a blocked read uses no CPU). CPU, not wall time: on a loaded machine
+#: (session 9: load average 7-8 on 2 cores) ANSYS's reader alone took > 30 s of wall time to import, 5 s of CPU.
+WALL_FACTOR = 4
+
+
+def _group_cpu_seconds(pgid: int) -> float:
+    """CPU seconds (user + system, and of waited-for children) of every process in the group ``pgid`` (Linux
+    ``/proc``; elsewhere 0, and the wall-time bound alone decides)."""
+    tick = os.sysconf("SC_CLK_TCK") if hasattr(os, "sysconf") else 100
+    total = 0
+    try:
+        pids = [d for d in os.listdir("/proc") if d.isdigit()]
+    except OSError:
+        return 0.0
+    for pid in pids:
+        try:
+            with open(f"/proc/{pid}/stat") as f:
+                fields = f.read().rsplit(")", 1)[1].split()
+        except (OSError, IndexError):
+            continue
+        if int(fields[2]) == pgid:  # after the name: state, ppid, pgrp, ..., utime stime cutime cstime at 11-14
+            total += sum(int(x) for x in fields[11:15])
+    return total / tick
+
+
 def supervise(seconds: float, findings: Path, corpus: Path, hang: float, seed: int) -> dict:
     """Run workers for ``seconds``; returns the summary (also written to ``findings/summary.json``)."""
     findings.mkdir(parents=True, exist_ok=True)
@@ -142,16 +169,23 @@ def supervise(seconds: float, findings: Path, corpus: Path, hang: float, seed: i
     while time.time() < deadline - 1:
         (findings / "current.bin").unlink(missing_ok=True)
         proc = subprocess.Popen([sys.executable, __file__, "--worker", str(findings), str(corpus), str(deadline),
-                                 str(seed + k)])
+                                 str(seed + k)], start_new_session=True)  # its own group: the readers' children too
         k += 1
+        started, cpu0 = None, 0.0
         while proc.poll() is None:
             time.sleep(1)
             current = findings / "current.bin"
-            if current.exists() and time.time() - current.stat().st_mtime > hang:
-                proc.send_signal(signal.SIGKILL)
+            if not current.exists():
+                continue
+            mtime = current.stat().st_mtime
+            if mtime != started:  # a new input: its CPU time counts from here
+                started, cpu0 = mtime, _group_cpu_seconds(proc.pid)
+            cpu, wall = _group_cpu_seconds(proc.pid) - cpu0, time.time() - mtime
+            if cpu > hang or wall > WALL_FACTOR * hang:
+                os.killpg(proc.pid, signal.SIGKILL)
                 proc.wait()
                 extra["hangs"] += 1
-                _keep(findings, "hang", f"still reading after {hang:g} s: killed")
+                _keep(findings, "hang", f"still reading after {cpu:.0f} s of CPU ({wall:.0f} s wall): killed")
                 break
         else:
             if proc.returncode != 0:

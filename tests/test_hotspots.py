@@ -145,6 +145,16 @@ def test_hotspots_output_maps_the_scene_sites_and_a_second_set_beside(tmp_path, 
     assert np.allclose(first["sed_pa"], res.sed.values[-1])
     record = json.loads((Path(res.output) / "run.json").read_text())
     assert record["hotspots_beside"]["receptors"]["source"] == str(beside)
+    # issue 37: the maps for ParaView, the values at the sites as receptors.vtu holds them
+    import meshio
+
+    vtu = meshio.read(Path(res.output) / "hotspots.vtu")
+    assert "hotspots.vtu" in res.files and len(vtu.points) == len(t) == len(vtu.cells_dict["vertex"])
+    np.testing.assert_allclose(vtu.points[:, [0, 2]], t[["x_m", "z_m"]].to_numpy(), rtol=1e-15)
+    for name in ("sed_pa", "normalised"):
+        np.testing.assert_allclose(vtu.point_data[name], t[name], rtol=1e-15, err_msg=name)
+    np.testing.assert_array_equal(vtu.point_data["hot"], t["hot"].astype(int))
+    np.testing.assert_array_equal(vtu.point_data["map"], (t["map"] == "some_sites.csv").astype(int))
 
 
 @pytest.mark.parametrize("extra, message", [

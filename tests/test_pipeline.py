@@ -11,6 +11,7 @@ import pandas as pd
 import pytest
 
 from afferent import read_sed, sample_sed
+from afferent.sampling import PLACEMENTS
 from afferent.cli import main
 from afferent.pipeline import run_pipeline
 from afferent.profiles import ObservedProfile
@@ -116,8 +117,7 @@ def test_run_cli_writes_every_output(capsys, tmp_path, bump):
     assert record["transduction"]["alpha_a"] == STUDY_PARAMS["start"].alpha
     assert record["field"]["units"]["sed"] == "MPa" and len(record["inputs"]) == 3
     assert (record["field"]["location"], record["field"]["location_source"]) == ("point", "only point data")
-    assert (record["sampling"]["method"], record["sampling"]["placement"]) == (
-        "linear", "linear in the mesh's cells (split into tetrahedra)")
+    assert (record["sampling"]["method"], record["sampling"]["placement"]) == ("linear", PLACEMENTS[("point", "shape")])
     vtk = meshio.read(out / "receptors.vtu")
     assert vtk.points.shape == (n, 3) and "sed_pa" in vtk.point_data
     # a second run into the same folder refuses, and leaves it intact
@@ -209,7 +209,7 @@ def test_run_json_records_cell_data_and_its_placement(capsys, tmp_path, bump):
     points, hexes = hex_box(16, 4, 16, size=(4.0, 3.1, 4.0))
     vtu = tmp_path / "cells.vtu"
     meshio.write(vtu, meshio.Mesh(points, [("hexahedron", hexes)], cell_data={"SED": [np.full(len(hexes), 1e-4)]}))
-    for method, placement in (("linear", "cells averaged to nodes by cell volume, then linear"),
+    for method, placement in (("linear", PLACEMENTS[("cell", "shape")]),
                               ("nearest", "cell value of the containing cell")):
         out = tmp_path / method
         code = main(["run", str(vtu), "--receptors", str(receptors), "--length-unit", "mm", "--sed-unit", "MPa",
@@ -440,7 +440,7 @@ def test_receptors_outside_the_field_are_left_out_of_every_stage_and_said(tmp_pa
                 f"{len(partly)} afferent(s) keep only their receptors "
                 "inside, so their currents sum fewer receptors than they have: " in err), err
     with xr.open_dataset(out / "currents.nc", engine="h5netcdf") as ds:
-        assert ds.sizes["receptor"] == n - n_out and not set(record["receptors"]) & set(ds.receptor.values.tolist())
+        assert ds.sizes["receptor"] == n - n_out and not set(record["receptors"]) & set(ds.receptor_id.values.tolist())
         for v in ("sed_pa", "current_a", "afferent_current_a"):
             assert np.isfinite(ds[v].values).all(), v
         by_section = ds.current_a.groupby("longitudinal").sum().values

@@ -19,7 +19,7 @@ import numpy as np
 import pytest
 
 from afferent import read_sed
-from afferent._shape_functions import QUADRATIC, _nodes, natural_coordinates, node_offsets, shape_functions
+from afferent._shape_functions import QUADRATIC, SHAPED, _nodes, natural_coordinates, node_offsets, shape_functions
 from afferent.exceptions import AfferentWarning, SEDFormatError
 from afferent.field import Cells, SEDField
 from afferent.io import read_raw
@@ -66,7 +66,7 @@ def _inside(points, n, seed=0, margin=0.02):
 
 # --- the shape functions -------------------------------------------------------------------------
 
-@pytest.mark.parametrize("ctype", QUADRATIC)
+@pytest.mark.parametrize("ctype", SHAPED)
 def test_shape_functions_interpolate_their_nodes_and_sum_to_one(ctype):
     assert np.allclose(shape_functions(ctype, _nodes(ctype)), np.eye(len(_nodes(ctype))), atol=1e-12)
     xi = np.random.default_rng(1).random((20, 3)) * [0.5, 0.5, 1.0]
@@ -76,10 +76,11 @@ def test_shape_functions_interpolate_their_nodes_and_sum_to_one(ctype):
 
 VTK_CELLS = {"tetra10": "vtkQuadraticTetra", "hexahedron20": "vtkQuadraticHexahedron",
              "hexahedron27": "vtkTriQuadraticHexahedron", "wedge15": "vtkQuadraticWedge",
-             "wedge18": "vtkBiQuadraticQuadraticWedge"}
+             "wedge18": "vtkBiQuadraticQuadraticWedge", "hexahedron": "vtkHexahedron", "wedge": "vtkWedge",
+             "pyramid": "vtkPyramid"}
 
 
-@pytest.mark.parametrize("ctype", QUADRATIC)
+@pytest.mark.parametrize("ctype", SHAPED)
 def test_shape_functions_and_nodes_are_vtks(ctype):
     vtk = pytest.importorskip("vtk")
     cell = getattr(vtk, VTK_CELLS[ctype])()
@@ -106,7 +107,7 @@ def test_vtk_lagrange_cells_of_degree_2_number_their_nodes_as_the_quadratic_cell
 
 def test_newton_finds_the_natural_coordinates_in_a_curved_cell():
     rng = np.random.default_rng(3)
-    for ctype in QUADRATIC:
+    for ctype in SHAPED:
         nodes = _nodes(ctype) @ np.array([[2, 0.3, 0], [0, 1, 0.2], [0.1, 0, 1.5]]).T
         nodes[len(nodes) // 2:] += 0.04 * rng.standard_normal((len(nodes) - len(nodes) // 2, 3))  # curved edges
         xi = np.array([[0.2, 0.3, 0.25], [0.1, 0.1, 0.7]])
@@ -138,7 +139,7 @@ def test_a_quadratic_field_is_exact_in_calculix_quadratic_cells(ctype):
     got, s = _sample(f.points, f.cells, quadratic(f.points * scale), pos)
     span = np.ptp(quadratic(f.points * scale))
     assert np.abs(got - exact).max() < 1e-12 * span
-    assert s.placement == PLACEMENTS[("point", "quadratic")] and not s.outside.any()
+    assert s.placement == PLACEMENTS[("point", "shape")] and not s.outside.any()
     before, s0 = _sample(f.points, _corners_only(f.cells), quadratic(f.points * scale), pos)
     assert s0.placement == PLACEMENTS[("point", "linear")]
     assert np.abs(before - exact).max() > 0.01 * span  # corners only: several % of the range off
@@ -242,8 +243,8 @@ def test_a_cell_with_a_node_left_out_is_interpolated_from_its_corners():
     pos = _inside(f.points, 200)
     got, s = _sample(f.points, cells, linear(f.points), pos)
     assert np.abs(got - linear(pos)).max() < 1e-12
-    assert re.search(r"; \d+ receptor\(s\) in quadratic cells interpolated between the cell's corners \(\d+ with a "
-                     r"node without values\)$", s.placement)
+    assert re.search(r"; \d+ receptor\(s\) interpolated linearly in the tetrahedra of their cell's corners \(\d+ with "
+                     r"a node without values\)$", s.placement)
 
 
 def test_drop_valueless_nodes_marks_the_mid_side_nodes_it_leaves_out():
@@ -297,7 +298,7 @@ def test_quadratic_wedges_and_pyramids_load(name, monkeypatch):
     assert np.abs(got[:-1] - quadratic(pos)).max() < 1e-12
     corner_weights = s.weights[len(pos)].toarray().ravel()
     assert set(np.flatnonzero(corner_weights)) <= set(f.cells.nodes[1][0, :5]) and np.isfinite(got[-1])
-    assert s.placement == PLACEMENTS[("point", "quadratic")]
+    assert s.placement == PLACEMENTS[("point", "shape")]
 
 
 @pytest.mark.parametrize("name", ["lagrange_hex27.vtk", "lagrange_hex27.vtu"])

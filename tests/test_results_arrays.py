@@ -35,27 +35,30 @@ def test_time_courses_are_one_netcdf_file_with_named_dimensions_units_and_coordi
     assert not (out / "receptors.csv").exists() and not (out / "afferents.csv").exists()
     assert "currents.nc" in json.loads((out / ".afferent-output.json").read_text())["files"]
     assert "currents.nc" in json.loads((out / "run.json").read_text())["outputs"]
-    ds = afferent.load_results(out)
+    res = afferent.load_results(out)
+    ds = res.dataset
     n_t = ds.sizes["time"]
     assert dict(ds.sizes) == {"time": n_t, "receptor": 9 * 18, "afferent": 9} and n_t > 100
     assert ds.sed_pa.dims == ds.current_a.dims == ("time", "receptor")
     assert ds.afferent_current_a.dims == ("time", "afferent")
-    assert {"x_m", "y_m", "z_m", "longitudinal", "cross", "position_m"} <= set(ds.coords)
+    assert {"x_m", "y_m", "z_m", "longitudinal", "cross", "position_m", "receptor_id", "afferent_id"} <= set(ds.coords)
     units = {k: ds[k].attrs["units"] for k in ("time", "x_m", "sed_pa", "current_a", "afferent_current_a", "position_m")}
-    assert units == {"time": "s", "x_m": "m", "sed_pa": "J m-3", "current_a": "A", "afferent_current_a": "A",
-                     "position_m": "m"}
-    assert all("long_name" in ds[k].attrs for k in ds.variables) and ds.attrs["Conventions"] == "CF-1.10"
+    assert units == {"time": "seconds since 1970-01-01 00:00:00", "x_m": "m", "sed_pa": "J m-3", "current_a": "A",
+                     "afferent_current_a": "A", "position_m": "m"}
+    assert ds.time.dtype == np.float64 and ds.time.values[1] == pytest.approx(1e-3)  # seconds, never dates
+    assert all("long_name" in ds[k].attrs for k in ds.variables) and ds.attrs["Conventions"] == "CF-1.11"
     np.testing.assert_allclose(ds.x_m.max(), 3.74e-3 + PITCH_X / 2 * 1e-3 - 0.22e-3, rtol=1e-12)
     # synthesis sums each longitudinal section: the afferent current is the sum of its receptors'
     by_section = ds.current_a.groupby("longitudinal").sum().values
     np.testing.assert_allclose(by_section, ds.afferent_current_a.values, rtol=1e-12)
     # the tables beside it, as pandas; the record
-    assert set(ds.attrs["tables"]) == {"profiles", "sed_map", "waveform"}
-    assert ds.attrs["run"]["outputs"] == sorted(ds.attrs["run"]["outputs"])
+    assert set(res.tables) == {"profiles", "sed_map", "waveform"} and res.folder == str(out)
+    assert res.run["outputs"] == sorted(res.run["outputs"]) and "currents.xdmf" in res.run["outputs"]
     # a plain netCDF-4 / HDF5 file (no filter), what ncread, R ncdf4, ParaView read; CF auxiliary coordinates
     with h5py.File(out / "currents.nc") as f:
         assert f["current_a"].compression is None and f["current_a"].dtype == np.float64
-        assert f["current_a"].attrs["coordinates"].split() == ["x_m", "y_m", "z_m", "longitudinal", "cross"]
+        assert f["current_a"].attrs["coordinates"].split() == [b"receptor_id", b"x_m", b"y_m", b"z_m", b"longitudinal",
+                                                                b"cross"]
 
 
 def test_results_format_csv_writes_the_long_tables_with_the_same_numbers(tmp_path, bump):
@@ -63,11 +66,11 @@ def test_results_format_csv_writes_the_long_tables_with_the_same_numbers(tmp_pat
     assert not (csv / "currents.nc").exists()
     rec = pd.read_csv(csv / "receptors.csv")
     assert list(rec.columns) == ["receptor", "x_m", "y_m", "z_m", "longitudinal", "cross", "time_s", "sed_pa", "current_a"]
-    a, b = afferent.load_results(nc), afferent.load_results(csv)
-    b = b.reindex(receptor=a.receptor.values, afferent=a.afferent.values)
+    a, b = afferent.load_results(nc).dataset, afferent.load_results(csv).dataset
     for v in ("sed_pa", "current_a", "afferent_current_a", "x_m", "z_m", "position_m"):
         np.testing.assert_allclose(a[v].values, b[v].values, rtol=1e-15, err_msg=v)
-    np.testing.assert_array_equal(a.time.values, b.time.values)
+    for v in ("time", "receptor", "afferent", "receptor_id", "afferent_id", "longitudinal", "cross"):
+        np.testing.assert_array_equal(a[v].values, b[v].values, err_msg=v)
 
 
 def test_scene_key_and_bad_format_and_load_results_on_a_non_output(tmp_path, bump, capsys):

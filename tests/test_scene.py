@@ -18,6 +18,7 @@ import pytest
 from afferent.cache import SEDCache, clear_cache
 from afferent.exceptions import AfferentWarning, OutputExistsError
 from afferent.receptors import grid_layout
+from afferent.sampling import PLACEMENTS
 from afferent.scene import (
     OUTPUTS,
     STAGES,
@@ -350,7 +351,7 @@ def test_sed_only_scene_never_imports_brian2_nor_pandas(tmp_path):
     assert record["inputs"][str(RECEPTORS)] == file_sha256(str(RECEPTORS))
     assert record["scene"]["sampling"]["method"] == "linear"
     assert {k: record["sampling"][k] for k in ("method", "placement", "side")} == {
-        "method": "linear", "placement": "linear in the mesh's cells (split into tetrahedra)", "side": "average"}
+        "method": "linear", "placement": PLACEMENTS[("point", "shape")], "side": "average"}
     interface = record["sampling"]["interface"]  # the tips on the epidermis/dermis interface; nodal SED: no sides
     assert (interface["interfaces"], interface["separable"], interface["side"]) == ({"1/2": 119}, False, "average")
     assert (record["field"]["location"], record["field"]["location_source"]) == ("point", "point preferred over cell")
@@ -477,7 +478,8 @@ def test_region_restricts_receptors_and_afferents(tmp_path):
         res.record["sampling"]["mesh_cropped_to_receptors"]["tetra_total"] / 10
     # the same receptors get the same SED as in the full run; only the afferents they feed are built
     idx = [list(full.sed.layout.ids).index(i) for i in lay.ids]
-    np.testing.assert_array_equal(res.sed.values, full.sed.values[:, idx])
+    # to round-off: a receptor on a face between two hexahedra may be placed in either, with the same value
+    np.testing.assert_allclose(res.sed.values, full.sed.values[:, idx], rtol=1e-12)
     assert res.afferent.n_afferents == 3 < full.afferent.n_afferents == 7
     for k, name in enumerate(res.afferent.afferent_ids):
         j = list(full.afferent.afferent_ids).index(name)

@@ -64,6 +64,7 @@ WRITTEN = {
     "elmer": (("xx", "yy", "zz", "xy", "yz", "xz"), 1),    # Stress_xx ... Stress_xz
     "vtk": (("XX", "YY", "ZZ", "XY", "YZ", "XZ"), 1),      # VTK symmetric tensor
     "kratos": (("XX", "YY", "ZZ", "XY", "YZ", "XZ"), 2),   # CAUCHY_STRESS_VECTOR Voigt; GREEN_LAGRANGE_STRAIN_VECTOR engineering
+    "openfoam": (("XX", "XY", "XZ", "YY", "YZ", "ZZ"), 1),  # symmTensor.C componentNames xx xy xz yy yz zz
 }
 _AXIS = {"1": "x", "2": "y", "3": "z", "X": "x", "Y": "y", "Z": "z", "x": "x", "y": "y", "z": "z"}
 

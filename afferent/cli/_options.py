@@ -17,9 +17,18 @@ def add_input_options(parser: argparse.ArgumentParser) -> None:
     g.add_argument("--length-unit", metavar="U", type=unit_type("length"), help=f"unit of the coordinates ({', '.join(k for k in LENGTH_UNITS if k != 'µm')}); required unless the file states it")
     g.add_argument("--sed-unit", metavar="U", type=unit_type("sed"), help=f"unit of the SED array ({', '.join(SED_UNITS)}); required unless the file states it")
     g.add_argument("--stress-unit", metavar="U", type=unit_type("sed"), help="unit of the stress components when SED is computed from tensors")
-    g.add_argument("--sed-from", choices=("field", "exact", "equivalent"), default="field",
-                   help="read an SED array (field), or compute 1/2 sigma:eps (exact) or the study's equivalent SED from tensors")
+    g.add_argument("--sed-from", choices=("field", "exact", "equivalent", "stress"), default="field",
+                   help="read an SED array (field), or compute 1/2 sigma:eps (exact) or the study's equivalent SED from "
+                        "tensors, or the linear-elastic SED from the stress alone (stress: needs --elastic or --materials)")
     g.add_argument("--poisson", type=float, metavar="NU", help="Poisson's ratio for --sed-from equivalent (the study: 0.48)")
+    g.add_argument("--elastic", metavar="E,NU", help="--sed-from stress on a homogeneous model: Young's modulus E (unit "
+                                                     "--modulus-unit) and Poisson's ratio NU, e.g. 0.1,0.45")
+    g.add_argument("--modulus-unit", metavar="U", type=unit_type("sed"),
+                   help="unit of E in --elastic or in --materials (Pa, kPa, MPa, ...); required unless the table's header "
+                        "states it, 'E (MPa)'")
+    reads(g.add_argument("--materials", metavar="MATERIALS.csv",
+                         help="--sed-from stress with constants per material: a CSV with columns material (the id in the "
+                              "export's material array, --material-array), E, nu"))
     g.add_argument("--preset", choices=tuple(PRESETS), help="FE tool whose tensor component order and shear convention apply")
     g.add_argument("--shear", choices=("tensor", "engineering"), help="override the preset's shear-strain convention")
     g.add_argument("--location", choices=("point", "cell"), help="use point data or cell data when the file has both")
@@ -58,6 +67,15 @@ def input_kwargs(args: argparse.Namespace) -> dict:
             times = [float(t) for t in args.times.split(",")]
         except ValueError as err:
             raise ValueError(f"--times must be comma-separated numbers; got {args.times!r} instead.") from err
+    elastic = None
+    if args.elastic is not None:
+        try:
+            elastic = [float(v) for v in args.elastic.split(",")]
+        except ValueError:
+            elastic = []
+        if len(elastic) != 2:
+            raise ValueError(f"--elastic must be E,NU (two comma-separated numbers, E in --modulus-unit); got "
+                             f"{args.elastic!r} instead.")
     coord = _names(args.coord_columns)
     if coord is not None and (isinstance(coord, str) or len(coord) != 3):
         raise ValueError(f"--coord-columns must name 3 columns as X,Y,Z; got {args.coord_columns!r} instead.")
@@ -67,7 +85,8 @@ def input_kwargs(args: argparse.Namespace) -> dict:
         stress_columns=_names(args.stress_columns), strain_columns=_names(args.strain_columns), coord_columns=coord,
         times=times, time_unit=args.time_unit, coordinates=args.coordinates, on_nan=args.on_nan,
         negative_tolerance=args.negative_tolerance, allow_outside_files=args.allow_outside_files, format=args.format,
-        progress=show_progress(args),
+        elastic=elastic, modulus_unit=args.modulus_unit, materials=args.materials,
+        material_array=getattr(args, "material_array", None) if args.materials else None, progress=show_progress(args),
     )
 
 
@@ -161,7 +180,9 @@ def add_receptor_options(parser: argparse.ArgumentParser, *, required: bool = Tr
     g.add_argument("--receptor-unit", metavar="U", type=unit_type("length"), help="length unit of R.csv (default: the export's length unit)")
     g.add_argument("--pitch-x-mm", type=positive_number, default=0.44, help="grid pitch across the ridges, mm (default 0.44)")
     g.add_argument("--pitch-z-mm", type=positive_number, default=0.22, help="grid pitch along the ridges, mm (default 0.22)")
-    g.add_argument("--material-array", default="layer", help="cell array of material/layer ids for --grid tips|bases (default 'layer')")
+    g.add_argument("--material-array", metavar="NAME",
+                   help="cell array of material/layer ids for --grid tips|bases (default 'layer') and for --materials "
+                        "(default: the one the export names like a material array)")
     g.add_argument("--upper", type=int, default=1, help="material id above the interface (epidermis; default 1)")
     g.add_argument("--lower", type=int, default=2, help="material id below the interface (dermis; default 2)")
 
@@ -211,7 +232,7 @@ def layout_from_args(args: argparse.Namespace, field):
         source = field.provenance.files[0]
         if source.lower().endswith(".pvd"):
             source = field.provenance.files[1]
-        return sites_from_export(source, length_unit=unit, material_array=args.material_array,
+        return sites_from_export(source, length_unit=unit, material_array=args.material_array or "layer",
                                  upper=args.upper, lower=args.lower, kind=spec,
                                  allow_outside_files=args.allow_outside_files, **pitch)
     if spec.startswith("y="):

@@ -9,14 +9,15 @@ writer, one run.json record.
 Writes into OUTDIR (the scene outputs currents, profiles, sed_map, vtu [, fit] [, spikes] [, plots]):
 currents.nc (NetCDF-4: sed_pa and current_a over time x receptor, afferent_current_a over
 time x afferent, positions and section ids as coordinates, units as attributes; read it with
-afferent.load_results(OUTDIR), xarray, MATLAB ncread or R ncdf4; --results-format csv writes the
-long tables receptors.csv and afferents.csv instead), profiles.csv (the profile step), sed_map.csv (SED
+afferent.load_results(OUTDIR).dataset, xarray, MATLAB ncread or R ncdf4), currents.xdmf (its index: ParaView
+opens the receptor sites over time; --results-format csv writes the long tables receptors.csv and
+afferents.csv instead of both), profiles.csv (the profile step), sed_map.csv (SED
 sampled from the export), fit.csv and profile_fit.csv with --observed, receptors.vtu
 (ParaView), run.json (the record), and the figures sed_map.png, profiles_x.png,
 profiles_z.png [, fit.png].
 
 With --spikes, also spikes.csv (afferent, spike_time_s), spike_summary.csv (rate, first-spike
-latency, ISI per afferent), spikes.nwb when pynwb is installed (the nwb extra), raster.png,
+latency, ISI per afferent), with --nwb spikes.nwb (the nwb extra; docs/outputs.md), raster.png,
 rates.png and psth.png; a static export can be driven by
 --waveform (SED scaled by (d/d_ref)^2, valid for linear elasticity with a fixed contact area).
 
@@ -98,7 +99,8 @@ def add_args(parser: argparse.ArgumentParser) -> None:
                              "long tables receptors.csv and afferents.csv ([outputs] format; --format names the export's)")
     parser.add_argument("--nwb", action="store_true",
                         help="with --spikes, also spikes.nwb (Neurodata Without Borders; needs pip install "
-                             "'afferent-skin[nwb]')")
+                             "'afferent-skin[nwb]'); subject, experimenter and the like come from a scene's [nwb] "
+                             "table (docs/outputs.md)")
     parser.add_argument("--no-cache", action="store_true",
                         help="neither read nor write the sampled-SED cache ($AFFERENT_CACHE_DIR or ~/.cache/afferent)")
     add_receptor_options(parser, required=False)
@@ -202,7 +204,7 @@ def _receptors_table(args) -> dict:
     spec = args.grid.strip()
     pitch = {"pitch_x_mm": args.pitch_x_mm, "pitch_z_mm": args.pitch_z_mm}
     if spec in ("tips", "bases"):
-        return {"grid": spec, "material_array": args.material_array, "upper": args.upper, "lower": args.lower, **pitch}
+        return {"grid": spec, "material_array": args.material_array or "layer", "upper": args.upper, "lower": args.lower, **pitch}
     if spec.startswith("y="):
         try:
             y = float(spec[2:])

@@ -245,6 +245,8 @@ def read_sed(
     negative_tolerance: float = NEGATIVE_SED_RTOL,
     allow_outside_files: bool = False,
     accept=None,
+    elastic: Sequence[float] | None = None, modulus_unit: str | None = None,
+    materials: str | os.PathLike | None = None, material_array: str | None = None,
     format: str | None = None,
     progress: bool = False,
 ) -> SEDField:
@@ -268,9 +270,10 @@ def read_sed(
         An mm/N/s model exports SED in MPa (= mJ/mm^3).
     stress_unit : str, optional
         Unit of the stress components when SED is computed from tensors (strain is dimensionless).
-    sed_from : {'field', 'exact', 'equivalent'}, default='field'
+    sed_from : {'field', 'exact', 'equivalent', 'stress'}, default='field'
         ``'field'`` reads an SED array; ``'exact'`` computes 1/2 sigma:eps from stress and strain;
-        ``'equivalent'`` computes the study's 1/2 sigma_e eps_e (needs ``poisson``).
+        ``'equivalent'`` computes the study's 1/2 sigma_e eps_e (needs ``poisson``); ``'stress'`` the linear-elastic
+        SED of the stress alone (docs/fe-export.md, "SED from stress alone").
     poisson : float, optional
         Poisson's ratio for ``sed_from='equivalent'`` (the study's skin: 0.48).
     preset : str, optional
@@ -325,6 +328,10 @@ def read_sed(
         material that really is that stiff or soft); ``'sed-column'`` lets through an SED array named
         like a stress measure, equal to one of the stress tensor's, or unlike 1/2 sigma:eps of the
         file's tensors. Each is otherwise refused (docs/fe-export.md, "Units from physics").
+    elastic, modulus_unit, materials, material_array : optional
+        ``sed_from='stress'``: ``elastic=(E, nu)`` for a homogeneous model, or a CSV table ``materials`` (columns
+        ``material``: the integer id in the export's material array ``material_array``, default the one found by
+        its name; ``E``; ``nu``). E in ``modulus_unit`` or the unit the table's header states (``E (MPa)``).
     format : {'csv', 'vtu', 'vtk', 'pvtu', 'vtm', 'pvd', 'xdmf', 'frd', 'exodus', 'rst', 'med', 'xplt'}, optional
         Overrides the format deduced from the file name.
     progress : bool, default=False
@@ -368,13 +375,14 @@ def read_sed(
         times=None if times is None else tuple(float(t) for t in times),
         coordinates=None if coordinates is None else os.fspath(coordinates), on_nan=on_nan,
         negative_tolerance=negative_tolerance, allow_outside_files=allow_outside_files, accept=accept,
+        elastic=elastic, modulus_unit=modulus_unit, materials=materials, material_array=material_array,
     )
     raw = read_raw(path_or_paths, format=format, progress=progress, allow_outside_files=opts.allow_outside_files)
     return assemble(raw, opts)
 
 
 def _read_options(*, sed_column, stress_columns, strain_columns, coord_columns, times, coordinates, accept=None,
-                  **kw) -> ReadOptions:
+                  elastic=None, materials=None, **kw) -> ReadOptions:
     """The user's declarations as a :class:`ReadOptions` (sequences as tuples, ``accept`` checked)."""
     from .._validation import check_accept
 
@@ -385,7 +393,9 @@ def _read_options(*, sed_column, stress_columns, strain_columns, coord_columns, 
         sed_column=seq(sed_column), stress_columns=seq(stress_columns), strain_columns=seq(strain_columns),
         coord_columns=None if coord_columns is None else tuple(coord_columns),
         times=None if times is None else tuple(float(t) for t in times),
-        coordinates=None if coordinates is None else os.fspath(coordinates), accept=check_accept(accept), **kw,
+        coordinates=None if coordinates is None else os.fspath(coordinates), accept=check_accept(accept),
+        elastic=elastic if elastic is None or isinstance(elastic, str) else tuple(elastic),
+        materials=None if materials is None else os.fspath(materials), **kw,
     )
 
 

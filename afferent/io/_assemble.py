@@ -43,6 +43,7 @@ from ._find_arrays import (
     find_coordinates,
     find_material_array,
     find_sed_array,
+    find_tensor,
     find_tensors,
     integration_point_groups,
     join_coordinates,
@@ -96,6 +97,8 @@ def _location_source(raw: RawExport, opts: ReadOptions, location: str) -> str:
     try:
         if opts.sed_from == "field":
             found = find_sed_array(raw, replace(opts, location=other))[0].location
+        elif opts.sed_from == "stress":
+            found = find_tensor(raw, replace(opts, location=other), "stress")[2]
         else:
             found = find_tensors(raw, replace(opts, location=other), need_convention=False)[0][2]
     except SEDFormatError:
@@ -268,6 +271,8 @@ def _stiffness(raw: RawExport, opts: ReadOptions, sed: np.ndarray, location: str
     not is refused unless ``accept='modulus'``. A series (``memo``) is judged at its first loaded step."""
     from ._unit_physics import implied_modulus, modulus_message, modulus_verdict
 
+    if opts.sed_from == "stress":  # Hooke's law of the file's strain under the declared constants checks the units
+        return
     key = "sed" if opts.sed_from == "field" else "stress"
     record = memo.get("modulus")
     if record is None:
@@ -425,7 +430,8 @@ def _plausibility(raw: RawExport, opts: ReadOptions, sed: np.ndarray, xyz_m: np.
     return span
 
 
-def _mesh(raw: RawExport, xyz: np.ndarray, sed: np.ndarray, location: str, rec: _Record, memo: dict):
+def _mesh(raw: RawExport, xyz: np.ndarray, sed: np.ndarray, location: str, rec: _Record, memo: dict,
+          material_array: str | None = None):
     """Material ids onto the cells, coincident points merged into nodes: (xyz, sed, cells, report, sides).
 
     ``memo`` (a series' steps on one mesh): the cells with the same material ids are the same object
@@ -434,7 +440,7 @@ def _mesh(raw: RawExport, xyz: np.ndarray, sed: np.ndarray, location: str, rec: 
     cells = raw.cells
     if cells is None:
         return xyz, sed, None, None, None
-    material = find_material_array(raw)
+    material = find_material_array(raw, name=material_array)
     if material is not None:
         same = memo.get("same") and memo.get("materials") is not None and np.array_equal(memo["materials"].materials,
                                                                                            material[2])
@@ -484,6 +490,10 @@ def assemble(raw: RawExport, opts: ReadOptions, memo: dict | None = None) -> SED
     xyz, lf, lu, lsrc = _coordinates(raw, opts, rec, checked=same)
     if opts.sed_from == "field":
         sed, location = _sed_from_field(raw, opts, rec)
+    elif opts.sed_from == "stress":
+        from ._elastic import sed_from_stress_field
+
+        sed, location = sed_from_stress_field(raw, opts, rec, _unit)
     else:
         sed, location = _sed_from_tensors(raw, opts, rec)
     _stiffness(raw, opts, sed, location, rec, memo)
@@ -496,13 +506,13 @@ def assemble(raw: RawExport, opts: ReadOptions, memo: dict | None = None) -> SED
         xyz, sed, merged = _merge_duplicate_points(raw, xyz, sed)
         if merged:
             rec.notes.append(f"{merged} point(s) listed twice with the same SED merged (a table written per element?).")
-    xyz, sed, cells, coincident, sides = _mesh(raw, xyz, sed, location, rec, memo)
+    xyz, sed, cells, coincident, sides = _mesh(raw, xyz, sed, location, rec, memo, opts.material_array)
     reuse = same and memo.get("xyz_key") == (lf, f"{lu} {lsrc}")
     xyz_m = memo["xyz_m"] if reuse else xyz * lf
     memo["span"] = _plausibility(raw, opts, sed, xyz_m, f"{lu} {lsrc}", rec, span=memo["span"] if reuse else False)
     memo.update(xyz_key=(lf, f"{lu} {lsrc}"), xyz_m=xyz_m)
     prov = Provenance(
-        files=raw.files, format=raw.format, sed_from=opts.sed_from, columns=rec.columns, units=rec.units,
+        files=raw.files + ((opts.materials,) if opts.materials else ()), format=raw.format, sed_from=opts.sed_from, columns=rec.columns, units=rec.units,
         factors=rec.factors, notes=tuple(rec.notes), negative_sed=negative, checks=rec.checks,
         location=location, location_source=_location_source(raw, opts, location), coincident=coincident,
     )

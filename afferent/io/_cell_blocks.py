@@ -129,8 +129,8 @@ def _volume_blocks(cells) -> list[tuple[int, str, np.ndarray]]:
 def cells_from_meshio(cells, path: str) -> Cells | None:
     """Split meshio volume cell blocks into linear tetrahedra; None when the mesh has no volume cells.
 
-    Quadratic cells are split by their corner nodes (to locate points); a mesh with quadratic
-    cells keeps every block's full connectivity in VTK/meshio node order (:attr:`Cells.nodes`),
+    Every cell is split by its corner nodes (to locate points); a mesh with cells other than linear
+    tetrahedra keeps every block's full connectivity in VTK/meshio node order (:attr:`Cells.nodes`),
     which 'linear' sampling interpolates in with the cells' own shape functions. Surface and
     line blocks are ignored. A block whose rows do not hold its cell type's node count is
     refused, naming ``path`` (the export).
@@ -154,8 +154,10 @@ def cells_from_meshio(cells, path: str) -> Cells | None:
         tets.append(np.take(conn.astype(np.int64, copy=False), pattern.ravel(), axis=1).reshape(-1, 4))
         parents.append(np.repeat(np.arange(offset, offset + n), len(pattern)))
         offset += n
-    higher = any(ctype in _HIGHER for _, ctype, _ in blocks)  # linear meshes need no more than their tetrahedra
-    nodes = tuple(b[2] for b in blocks) if higher else ()
+    # every cell but the tetrahedron has shape functions of its own (afferent/_shape_functions.py): its full
+    # connectivity is kept; a mesh of tetrahedra alone needs no more than its tetrahedra
+    shaped = any(ctype != "tetra" for _, ctype, _ in blocks)
+    nodes = tuple(b[2] for b in blocks) if shaped else ()
     if len(tets) == 1:  # one block: no copy
         return Cells(tets[0], parents[0], offset, (blocks[0][1],), nodes=nodes)
     return Cells(np.concatenate(tets), np.concatenate(parents), offset, tuple(b[1] for b in blocks), nodes=nodes)

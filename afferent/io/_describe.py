@@ -10,8 +10,8 @@ from .._plausibility import robust_level
 from ..exceptions import SEDFormatError
 from ..strain_energy import sed_exact
 from ..units import LENGTH_UNITS, SED_UNITS, parse_unit
-from ._assemble import ReadOptions, _percent, find_coordinates, find_sed_array, find_tensors, negative_sed_report, \
-    tensor_sed_crosscheck
+from ._assemble import ReadOptions, _percent, find_coordinates, find_sed_array, find_tensor, find_tensors, \
+    negative_sed_report, tensor_sed_crosscheck
 
 __all__ = ["describe_raw"]
 
@@ -62,13 +62,13 @@ def describe_raw(raw) -> list[str]:
         add("points", f"{xyz.shape[0]:,}" + ("" if coord_names == ("points",) else f" (columns {', '.join(coord_names)})"))
         add("bounds", "  ".join(f"{a} [{l:.6g}, {h:.6g}]" for a, l, h in zip("xyz", lo, hi)) + " (file units)")
     if raw.cells is not None:
-        from .._shape_functions import has_quadratic
+        from .._shape_functions import shaped_types
 
         types = ", ".join(dict.fromkeys(raw.cells.cell_types))  # each once: NGSolve's subdivision alternates blocks
         add("cells", f"{raw.cells.n_cells:,} volume cells ({types}), "
                      f"{raw.cells.tetra.shape[0]:,} tetrahedra for sampling"
-                     + ("; point data interpolated with the quadratic cells' shape functions"
-                        if has_quadratic(raw.cells) else ""))
+                     + ("; 'linear' sampling interpolates with each cell's own shape functions"
+                        if shaped_types(raw.cells, "point") else ""))
     else:
         add("cells", "none (a table of points: 'linear' sampling triangulates around the receptors)")
     n_t = raw.n_times
@@ -211,7 +211,12 @@ def _tensor_lines(raw, add) -> None:
         stated = {a.unit for a in raw.arrays.values() if a.name in s_name.split(", ")} - {None}
         _physics_line(raw, sed_exact(s, e), s_loc, "stress", parse_unit(stated.pop()) if len(stated) == 1 else None, add)
     except (SEDFormatError, ValueError):
-        add("tensors", "no complete stress and strain tensors")
+        try:
+            s_name, _, s_loc = find_tensor(raw, ReadOptions(), "stress")
+            add("tensors", f"stress {s_name} ({s_loc} data), no strain: --sed-from stress with --elastic E,NU "
+                           "--modulus-unit U or --materials TABLE (linear elastic, small strain)")
+        except (SEDFormatError, ValueError):
+            add("tensors", "no complete stress and strain tensors")
     check = tensor_sed_crosscheck(raw, ReadOptions())
     if check is not None and not check["checkable"]:
         add("cross-check", f"1/2 sigma:eps from the tensors vs the SED array {check['sed_array']!r}: {check['note']}")

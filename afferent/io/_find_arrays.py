@@ -324,13 +324,23 @@ def find_sed_array(raw: RawExport, opts: ReadOptions) -> list[RawArray]:
         f" It has stress and strain tensors ({tensors}): pass sed_from='exact' (1/2 sigma:eps) or "
         "sed_from='equivalent' (the study's equivalent SED) with the tool's preset."
         if tensors
-        else " Pass sed_column='NAME' to name it."
+        else " Pass sed_column='NAME' to name it" + _stress_only(raw) + "."
     )
     raise SEDFormatError(
         f"SED file {_where(raw)!r} has no strain-energy-density array or column "
         f"(looked for SED, SENER, ESEDEN, SEND, solid.Ws, ENER, 'strain energy density', ...). "
         f"Found {_names(raw)}.{hint}"
     )
+
+
+def _stress_only(raw: RawExport) -> str:
+    """The clause for an export with a stress tensor and no strain: SED from the stress alone."""
+    try:
+        name, _, loc = find_tensor(raw, ReadOptions(), "stress")
+    except (SEDFormatError, ValueError):
+        return ""
+    return (f"; it has a stress tensor ({name}, {loc} data) without strain: sed_from='stress' computes the linear-elastic "
+            "SED from it with the elastic constants, elastic=(E, nu) and modulus_unit= or materials='TABLE.csv'")
 
 
 def _undecided(raw: RawExport) -> str:
@@ -514,19 +524,19 @@ def _key(name: str) -> str:
     return "".join(ch for ch in name.lower() if ch.isalnum())
 
 
-def find_material_array(raw: RawExport, cells=None) -> tuple[str, str, np.ndarray] | None:
+def find_material_array(raw: RawExport, cells=None, *, name: str | None = None) -> tuple[str, str, np.ndarray] | None:
     """The material id of each cell: (array name, where it was found, ids of shape (n_cells,)) or None.
 
     A cell array named like :data:`MATERIAL_ARRAY_NAMES` holding whole numbers; or a point array
     of such a name that is constant over each cell's corners (deal.II's ``DataOut`` writes cell
     data that way: one patch per cell, the cell's value at each of its copies of the nodes).
     ``where`` is ``'cell data'`` or ``'point data constant per cell'``. The first time step is
-    used. ``cells`` defaults to ``raw.cells``.
+    used. ``cells`` defaults to ``raw.cells``. ``name``: that array only (the user's ``material_array``).
     """
     cells = raw.cells if cells is None else cells
     if cells is None:
         return None
-    wanted = {_key(n) for n in MATERIAL_ARRAY_NAMES}
+    wanted = {_key(n) for n in MATERIAL_ARRAY_NAMES} if name is None else {_key(name)}
     for loc in ("cell", "point"):
         for arr in raw.arrays.values():
             scalar = arr.ndim == 2 or (arr.ndim == 3 and arr.shape[2] == 1)  # NumberOfComponents="1": NGSolve

@@ -185,6 +185,9 @@ def _arrays_from_mesh(mesh, path: str, cells_obj: Cells | None, components: dict
     n_points = len(mesh.points)
 
     def raw(name, data, location):
+        if not isinstance(data, Deferred) and np.ndim(data) > 1:  # meshio's legacy TENSORS (n, 3, 3) and SCALARS
+            data = np.reshape(data, (len(data), -1))  # (n, 1): as VTK reads them, 9 components and (n,)
+            data = data[:, 0] if data.shape[1] == 1 else data
         names = components.get(name, ())
         named = len(data.shape) == 2 and data.shape[1] == len(names)
         return RawArray(name, _one_step(path, data), location, None, names if named else ())

@@ -24,10 +24,10 @@ from ..strain_energy import PRESETS
 #: (SED >= 0 for an elastic solid). Anything else is refused.
 NEGATIVE_SED_RTOL = 0.25
 
-SED_FROM = ("field", "exact", "equivalent")
+SED_FROM = ("field", "exact", "equivalent", "stress")
 
 #: The confirmations (:data:`afferent._validation.ACCEPTS`) that change what a read lets through (``accept=``).
-READ_ACCEPTS = ("modulus", "sed-column")
+READ_ACCEPTS = ("modulus", "sed-column", "large-strain")
 
 #: Relative L2 difference (at the most loaded step, after the best scale factor) above which
 #: the SED computed from an export's tensors and the export's own SED array are said to
@@ -106,6 +106,10 @@ class ReadOptions:
     negative_tolerance: float = NEGATIVE_SED_RTOL
     allow_outside_files: bool = False
     accept: frozenset = frozenset()
+    elastic: tuple[float, float] | None = None
+    modulus_unit: str | None = None
+    materials: str | None = None
+    material_array: str | None = None
 
     def __post_init__(self):
         check_option("sed_from", self.sed_from, SED_FROM)
@@ -127,3 +131,25 @@ class ReadOptions:
             )
         if self.poisson is not None and not (-1 < float(self.poisson) <= 0.5):
             raise ValueError(f"'poisson' must be in (-1, 0.5]; got {self.poisson!r} instead.")
+        self._check_elastic()
+
+    def _check_elastic(self) -> None:
+        """``sed_from='stress'`` takes exactly one of ``elastic`` and ``materials``; neither applies otherwise."""
+        given = [k for k in ("elastic", "materials", "modulus_unit") if getattr(self, k) is not None]
+        if self.sed_from != "stress":
+            if given:
+                raise ValueError(f"{given[0]!r} applies to sed_from='stress' (SED from stress alone); got "
+                                 f"sed_from={self.sed_from!r}.")
+            return
+        if (self.elastic is None) == (self.materials is None):
+            raise ValueError("sed_from='stress' needs the elastic constants: elastic=(E, NU) with modulus_unit= for a "
+                             "homogeneous model, or materials='materials.csv' (columns material, E, nu) - one of them"
+                             + ("; got both." if self.elastic is not None else "."))
+        if self.elastic is not None:
+            pair = self.elastic
+            if isinstance(pair, (str, bytes)) or not hasattr(pair, "__len__") or len(pair) != 2 or not all(
+                    isinstance(v, (int, float)) and not isinstance(v, bool) for v in pair):
+                raise ValueError(f"'elastic' must be a pair (E, nu) of numbers; got {pair!r} instead.")
+        if self.poisson is not None:
+            raise ValueError("'poisson' applies to sed_from='equivalent'; with sed_from='stress' give nu in elastic= "
+                             "or in the materials table.")

@@ -120,6 +120,8 @@ def _datasets(path: str, mods, warned: list, scope: Scope) -> list:
         return [ds for piece in _pvtu_pieces(path, scope) for ds in _datasets(piece, mods, warned, scope)]
     reader = {".vtk": legacy.vtkGenericDataObjectReader, ".vtu": xml.vtkXMLUnstructuredGridReader,
               ".vtm": xml.vtkXMLMultiBlockDataReader}.get(ext, xml.vtkXMLGenericDataObjectReader)()
+    if ext == ".vtk":
+        _read_all_arrays(reader)
     warned.extend(_run_reader(reader, path, core))
     out = reader.GetOutput()
     if out is None:
@@ -136,6 +138,18 @@ def _datasets(path: str, mods, warned: list, scope: Scope) -> list:
             raise SEDFormatError(f"SED file {path!r} lists no readable blocks (missing block files?).")
         return leaves
     return [out]
+
+
+#: The legacy reader's switches that keep every array of a kind: off by default, it keeps only the first
+#: ``SCALARS`` (``VECTORS``, ``TENSORS``, ...) section of a POINT_DATA or CELL_DATA part (GetFEM's
+#: ``export_to_vtk`` writes one section an array: its SED, after ``von_mises``, was lost).
+_READ_ALL = ("Scalars", "Vectors", "Tensors", "Normals", "TCoords", "ColorScalars", "Fields")
+
+
+def _read_all_arrays(reader) -> None:
+    """Switch on every ``ReadAll*`` option of a VTK legacy reader (:data:`_READ_ALL`)."""
+    for kind in _READ_ALL:
+        getattr(reader, f"ReadAll{kind}On")()
 
 
 def _pvtu_pieces(path: str, scope: Scope | None = None) -> list[str]:

@@ -18,7 +18,8 @@ A full example, every key with its default (``#`` marks optional keys)::
     file = "../block4/indent_0p88mm.vtu"   # or files = ["step0.vtu", "step1.vtu"] (one per time step)
     length_unit = "mm"            # required unless the file states it (as for read_sed)
     sed_unit = "MPa"
-    # stress_unit, time_unit, sed_from = "field"|"exact"|"equivalent", poisson, preset, shear,
+    # stress_unit, time_unit, sed_from = "field"|"exact"|"equivalent"|"stress", poisson, preset, shear,
+    # elastic = [E, nu] or materials = "materials.csv" (sed_from = "stress"), modulus_unit, material_array,
     # location = "point"|"cell", sed_column, stress_columns, strain_columns, coord_columns,
     # times = [..] (in time_unit), coordinates = "nodes.csv", on_nan = "raise"|"drop",
     # negative_tolerance = 0.25 (accepted negative SED / largest SED), format,

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import re
 from dataclasses import fields, replace
 from pathlib import Path
 
@@ -62,6 +63,7 @@ def resolve(scene: Scene) -> Scene:
     af = _fill(scene.afferent)
     sp = _spikes(replace(scene, afferent=af), err, out)
     fi = _fit(scene, err, out, ex)
+    _nwb(scene, err, out)
     resolved = replace(scene, info=info, export=ex, receptors=rec, sampling=_fill(scene.sampling), transduction=tr,
                        synthesis=sy, stimulus=st, spikes=sp, fit=fi, outputs=out, afferent=af, resolved=True)
     return resolved
@@ -75,10 +77,13 @@ def _export(scene: Scene, o, err):
     if not ex.files:
         raise err("export", None, "[export] must name the FE export: file = \"PATH\" (or files = [...], one per time step).")
     for name, checker in (("length_unit", length_factor), ("sed_unit", sed_factor), ("stress_unit", sed_factor),
-                          ("time_unit", time_factor)):
+                          ("modulus_unit", sed_factor), ("time_unit", time_factor)):
         _check_unit(scene, o, "export", name, checker)
     if ex.sed_from == "equivalent" and ex.poisson is None:
         raise err("export", "sed_from", "[export] sed_from = 'equivalent' needs 'poisson' (the study's skin: 0.48).")
+    if ex.sed_from == "stress" and (ex.elastic is None) == (ex.materials is None):
+        raise err("export", "sed_from", "[export] sed_from = 'stress' needs the elastic constants: elastic = [E, nu] "
+                  "with modulus_unit, or materials = \"materials.csv\" (columns material, E, nu) - one of them.")
     return ex
 
 
@@ -324,6 +329,22 @@ def _cycle_keys(scene: Scene, out, err):
         raise err("outputs", _given(scene, "outputs", "cycles_edge_m"), "[outputs] 'cycles_edge' is a distance and "
                   f"must be >= 0; got {out.cycles_edge_m!r} m instead.")
     return out
+
+
+#: ISO 8601 duration (NWB Subject.age): 'P30Y', 'P2Y6M', 'P10D', 'PT12H'; a range is two joined by '/'
+_ISO_DURATION = re.compile(r"P(?=\d|T\d)(\d+Y)?(\d+M)?(\d+W)?(\d+D)?(T(?=\d)(\d+H)?(\d+M)?(\d+(\.\d+)?S)?)?")
+
+
+def _nwb(scene: Scene, err, out) -> None:
+    """[nwb]: only with want 'nwb'; ``age`` an ISO 8601 duration (or a range of two)."""
+    given = [f.name for f in fields(scene.nwb) if getattr(scene.nwb, f.name) is not None]
+    if given and "nwb" not in out.want:
+        raise err("nwb", _given(scene, "nwb", given[0]), f"[nwb] {_given(scene, 'nwb', given[0])!r} describes "
+                  f"spikes.nwb, the output 'nwb', which is not requested (want = {list(out.want)!r}).")
+    age = scene.nwb.age
+    if age is not None and not all(_ISO_DURATION.fullmatch(a) for a in age.split("/", 1)):
+        raise err("nwb", "age", f"[nwb] 'age' must be an ISO 8601 duration such as 'P30Y' (30 years) or 'P25Y/P35Y' "
+                  f"(a range); got {age!r} instead.")
 
 
 def class_overrides(scene: Scene) -> list:

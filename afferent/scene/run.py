@@ -314,7 +314,7 @@ def _hash_inputs(run: _Run):
             check_regular(p)  # a FIFO or a device: refused before hashing (it would block, or never end)
         hashes = _hash_all({p: None for p in exp_files})
         run.inputs.update(hashes)
-        extra_files = [ex.coordinates, scene.receptors.file, scene.outputs.hotspot_beside_file]
+        extra_files = [ex.coordinates, ex.materials, scene.receptors.file, scene.outputs.hotspot_beside_file]
         if "synthesis" in planned and scene.synthesis.kind == "map":
             extra_files.append(scene.synthesis.map)
         if "comparison" in planned:
@@ -345,8 +345,9 @@ def _cache_key(run: _Run, layout, exp_files, hashes) -> str:
     read_checks = sorted(set(scene.info.accept or ()) & set(READ_ACCEPTS))  # the reader's confirmations
     if read_checks:  # a read the checks refuse without them is not served from one they confirmed
         read_opts["accept"] = read_checks
-    if read_opts.get("coordinates"):
-        read_opts["coordinates"] = run.inputs.get(read_opts["coordinates"])
+    for name in ("coordinates", "materials"):  # a side table keys the cache by its content, not its name
+        if read_opts.get(name):
+            read_opts[name] = run.inputs.get(read_opts[name])
     if layout is not None:
         rkey = {"positions_sha256": positions_digest(layout.positions), "n": int(layout.n_receptors)}
     else:
@@ -645,6 +646,12 @@ def _spike(run: _Run) -> None:
         "lif": {k: getattr(lif, k) for k in ("tau_m", "r_m", "v_rest", "v_thresh", "v_reset", "t_ref")},
         "drive": pr.drive,
     }
+    if "nwb" in run.scene.outputs.want:  # what spikes.nwb says beside the spikes (afferent._nwb)
+        from .._nwb import nwb_missing
+
+        out["nwb"] = {"afferent_class": run.scene.afferent.afferent_class, "spikes": run.record["spikes"],
+                      "metadata": run.scene.nwb}
+        run.record["nwb"] = {"missing": nwb_missing(run.scene.nwb)}
 
 
 # --------------------------------------------------------------------------------- CLI

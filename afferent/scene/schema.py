@@ -181,8 +181,12 @@ class ExportSpec:
     sed_unit: str | None = _f("str")
     stress_unit: str | None = _f("str")
     time_unit: str | None = _f("str")
-    sed_from: str | None = _f("choice", "field", choices=("field", "exact", "equivalent"))
+    sed_from: str | None = _f("choice", "field", choices=("field", "exact", "equivalent", "stress"))
     poisson: float | None = _f("number")
+    elastic: tuple | None = _f("numbers", doc="sed_from = 'stress', homogeneous model: [E, nu], E in modulus_unit")
+    modulus_unit: str | None = _f("str", doc="unit of E in elastic or in the materials table")
+    materials: str | None = _f("path", doc="sed_from = 'stress': CSV of material (id), E, nu")
+    material_array: str | None = _f("str", doc="the export's material-id array the materials table is looked up with")
     preset: str | None = _f("str")
     shear: str | None = _f("choice", choices=("tensor", "engineering"))
     location: str | None = _f("choice", choices=("point", "cell"))
@@ -391,6 +395,23 @@ class OutputSpec:
                                      doc="cycles: sites within this of the outline are near the edge")
 
 
+@dataclass(frozen=True)
+class NwbSpec:
+    """``[nwb]``: who and what ``spikes.nwb`` (output ``nwb``) describes, as the NWB standard asks
+    (nwbinspector checks each; ``afferent._nwb``). Only with want ``nwb``."""
+
+    description: str | None = _f("str", doc="the experiment's description (NWB experiment_description)")
+    experimenter: tuple | None = _f("strs", doc="names, 'Last, First'")
+    institution: str | None = _f("str")
+    lab: str | None = _f("str")
+    keywords: tuple | None = _f("strs")
+    subject_id: str | None = _f("str", doc="the subject (the skin modelled): an id")
+    species: str | None = _f("str", doc="Latin binomial ('Homo sapiens') or an NCBI taxonomy URL")
+    sex: str | None = _f("choice", choices=("M", "F", "U", "O"), doc="M, F, U (unknown) or O (other)")
+    age: str | None = _f("str", doc="ISO 8601 duration: 'P30Y', 'P25Y/P35Y' for a range")
+    subject_description: str | None = _f("str", doc="e.g. which finger, which FE model")
+
+
 #: TOML table -> Scene field
 _TABLES = {
     "scene": ("info", SceneInfo),
@@ -405,6 +426,7 @@ _TABLES = {
     "fit": ("fit", FitSpec),
     "outputs": ("outputs", OutputSpec),
     "afferent": ("afferent", AfferentSpec),
+    "nwb": ("nwb", NwbSpec),
 }
 _TABLE_OF_FIELD = {attr: table for table, (attr, _) in _TABLES.items()}
 
@@ -420,7 +442,7 @@ class Scene:
 
     Attributes
     ----------
-    info, export, receptors, sampling, region, transduction, synthesis, stimulus, spikes, fit, outputs, afferent
+    info, export, receptors, sampling, region, transduction, synthesis, stimulus, spikes, fit, outputs, afferent, nwb
         The ``[scene]``, ``[export]``, ... tables.
     source : str or None
         The scene file (absolute path), if read from one.
@@ -440,6 +462,7 @@ class Scene:
     spikes: SpikesSpec = field(default_factory=SpikesSpec)
     fit: FitSpec = field(default_factory=FitSpec)
     afferent: AfferentSpec = field(default_factory=AfferentSpec)
+    nwb: NwbSpec = field(default_factory=NwbSpec)
     source: str | None = None
     resolved: bool = False
     origin: _Origin = field(default_factory=lambda: _Origin(None, os.getcwd(), {}), compare=False, repr=False)
@@ -457,9 +480,10 @@ class Scene:
 
     @property
     def input_files(self) -> tuple:
-        """Every file the scene names (its own file, exports, coordinates, receptors, calibration, map,
+        """Every file the scene names (its own file, exports, coordinates, materials, receptors, calibration, map,
         waveform, observed profile, zone map): an output may not be, hold or lie inside one of them."""
-        paths = (self.source, *(self.export.files or ()), self.export.coordinates, self.receptors.file,
+        paths = (self.source, *(self.export.files or ()), self.export.coordinates, self.export.materials,
+                 self.receptors.file,
                  self.outputs.hotspot_beside_file,
                  self.transduction.calibration, self.synthesis.map, self.stimulus.file, self.fit.observed,
                  self.spikes.zone_map)
