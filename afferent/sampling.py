@@ -253,8 +253,9 @@ def build_sampler(field: SEDField, layout: ReceptorLayout, *, method: str = "lin
                 (bary[inside].ravel(), (np.repeat(inside, 4), nodes.ravel())), shape=(n_r, field.n_points)
             )
             types = shaped_types(field.cells, field.location)
-            if types:  # the cells' own shape functions where they have them (not their tetrahedra's)
-                guess = np.where(outside, -1, field.cells.parent[np.maximum(tet, 0)])
+            if types and inside.size:  # the cells' own shape functions where they have them (not their tetrahedra's)
+                guess = np.full(n_r, -1, dtype=np.int64)
+                guess[inside] = field.cells.parent[tet[inside]]
                 w, outside, placement = with_shape_functions(w, outside, pos, xyz, field.cells, guess,
                                                              PLACEMENTS[(field.location, "shape")], types)
             if field.location == "cell":
@@ -542,37 +543,63 @@ def sample_steps(fields, layout: ReceptorLayout, *, method: str = "linear", on_o
     ValueError
         No field at all.
     """
+    return sample_steps_together(fields, [layout], method=method, on_outside=on_outside,
+                                 samplers=None if sampler is None else [sampler], side=side)[0]
+
+
+def sample_steps_together(fields, layouts, *, method: str = "linear", on_outside: str = "raise", samplers=None,
+                          side: str | int = "average") -> list:
+    """:func:`sample_steps` for several receptor layouts in one pass over ``fields``: each step is read once
+    and sampled at every layout (a scene's receptors and its second hot-spot map's sites, from one read of
+    the export). ``samplers``: one per layout (or None, built from the first field). Returns one
+    :class:`ReceptorSED` per layout, in order (J/m^3, times in s); errors as :func:`sample_steps`.
+    """
     from ._interfaces import build_interface, check_side, sided
-    from .exceptions import SEDFormatError
 
     side = check_side(side)
-    first, values, times, isamp, side_values = None, [], [], None, []
+    n = len(layouts)
+    samplers = [None] * n if samplers is None else list(samplers)
+    first, times, heads, isamps = None, [], [None] * n, [None] * n
+    values, side_values = [[] for _ in range(n)], [[] for _ in range(n)]
     for field in fields:
         if first is None:
             first = field
-            if sampler is None:
-                sampler = build_sampler(field, layout, method=method)
-            head = _sample_field(field, layout, method=method, on_outside=on_outside, sampler=sampler)
-            values.append(head.values)
-            isamp = build_interface(field, layout)
+            for i, layout in enumerate(layouts):
+                if samplers[i] is None:
+                    samplers[i] = build_sampler(field, layout, method=method)
+                heads[i] = _sample_field(field, layout, method=method, on_outside=on_outside, sampler=samplers[i])
+                values[i].append(heads[i].values)
+                isamps[i] = build_interface(field, layout)
         else:
-            same = (field.location == first.location and field.sed.shape[1] == first.sed.shape[1]
-                    and (field.cells is first.cells or (field.cells is not None and first.cells is not None
-                                                       and np.array_equal(field.cells.tetra, first.cells.tetra)))
-                    and (field.points is first.points or np.array_equal(field.points, first.points)))
-            if not same:
-                where = f"SED file {field.provenance.files[0]!r}" if field.provenance.files else "A step"
-                raise SEDFormatError(f"{where} (t = {float(field.times[0]):g} s) is not on the mesh of the first step "
-                                     f"({first.sed.shape[1]} {first.location} values); a series must share one mesh.")
-            values.append(sampler.apply(field.sed))
+            _check_same_mesh(first, field)
+            for i in range(n):
+                values[i].append(samplers[i].apply(field.sed))
         times.append(field.times)
-        if isamp is not None:
-            side_values.append(isamp.step_values(field))
+        for i in range(n):
+            if isamps[i] is not None:
+                side_values[i].append(isamps[i].step_values(field))
     if first is None:
         raise ValueError("'fields' must hold at least one SEDField; got none.")
-    sed = ReceptorSED(np.concatenate(values), np.concatenate(times), layout, method, sampler.outside.copy(),
-                      sampler.placement, time_unit=head.time_unit)
-    return sided(sed, first, isamp, side_values, side)
+    out = []
+    for i, layout in enumerate(layouts):
+        sed = ReceptorSED(np.concatenate(values[i]), np.concatenate(times), layout, method, samplers[i].outside.copy(),
+                          samplers[i].placement, time_unit=heads[i].time_unit)
+        out.append(sided(sed, first, isamps[i], side_values[i], side))
+    return out
+
+
+def _check_same_mesh(first: SEDField, field: SEDField) -> None:
+    """Refuse a later step of a series that is not on the first step's mesh (points or cells differ)."""
+    from .exceptions import SEDFormatError
+
+    same = (field.location == first.location and field.sed.shape[1] == first.sed.shape[1]
+            and (field.cells is first.cells or (field.cells is not None and first.cells is not None
+                                               and np.array_equal(field.cells.tetra, first.cells.tetra)))
+            and (field.points is first.points or np.array_equal(field.points, first.points)))
+    if not same:
+        where = f"SED file {field.provenance.files[0]!r}" if field.provenance.files else "A step"
+        raise SEDFormatError(f"{where} (t = {float(field.times[0]):g} s) is not on the mesh of the first step "
+                             f"({first.sed.shape[1]} {first.location} values); a series must share one mesh.")
 
 
 #: Columns of the long-form table written by ``afferent sample`` (:meth:`ReceptorSED.to_dataframe`).

@@ -125,7 +125,7 @@ def sampled_bytes(src: Path) -> dict:
     spec = load_sweep(src)
     tasks = next(iter(spec.groups.values()))
     t = time.perf_counter()
-    s = engine.sample(tasks[0].scene, use_cache=False)
+    s = engine.sample(tasks[0], use_cache=False)
     t_sample = time.perf_counter() - t
     t = time.perf_counter()
     engine.run_task(tasks[0], s)  # the first spike run of a process loads the compiled LIF

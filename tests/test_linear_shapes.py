@@ -137,3 +137,10 @@ def test_a_mixed_mesh_reproduces_a_linear_field_and_cell_data_use_the_shapes_too
     nodal = node_average(cells, pts, len(pts)) @ cell_values
     assert got[0] == pytest.approx(nodal[:8].mean(), rel=1e-14)
     assert abs(got[0] - (nodal[0] + nodal[6]) / 2) > 0.05
+
+
+def test_receptors_all_outside_a_hexahedral_mesh_are_nan_not_an_index_error():
+    # the shape-function step took the containing cell of every receptor, inside or not: with none inside it
+    # indexed an empty array (IndexError, exit 1) - found by test_figure_process's all-outside scene
+    got, s = _sample(HEX, [("hexahedron", [list(range(8))])], np.arange(8.0), [[0.5, 0.5, 9.0], [3, 3, 3]])
+    assert np.isnan(got).all() and s.outside.all()

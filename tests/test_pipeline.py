@@ -457,19 +457,19 @@ def test_sites_found_on_the_export_outside_the_field_are_left_out_too(tmp_path, 
     "'sed' must not contain NaN" (exit 2)."""
     import xarray as xr
 
-    import afferent.receptors
-    from afferent.receptors import ReceptorLayout
+    import afferent.receptors._tips
+    from afferent.receptors import ReceptorLayout, sites_from_export as found
     from conftest import ROOT
 
-    found = afferent.receptors.sites_from_export
+    on_raw = afferent.receptors._tips.sites_from_raw  # the finder on the export as read (one read)
 
     def lifted(*args, **kwargs):
-        tips = found(*args, **kwargs)
+        tips = on_raw(*args, **kwargs)
         pos = tips.positions.copy()
         pos[:3, 1] += 1e-3
         return ReceptorLayout(pos, tips.ids, tips.longitudinal, tips.cross, source=tips.source, site=tips.site)
 
-    monkeypatch.setattr(afferent.receptors, "sites_from_export", lifted)
+    monkeypatch.setattr(afferent.receptors._tips, "sites_from_raw", lifted)
     out = tmp_path / "out"
     code = main(["run", str(ROOT / "afferent" / "data" / "sample" / "block4" / "indent_0p88mm.vtu"), "--grid", "tips",
                  "--length-unit", "mm", "--sed-unit", "MPa", "--params", "start", "--spikes", "--drive", "rheobase",

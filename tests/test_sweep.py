@@ -186,11 +186,19 @@ def test_resume_redoes_tasks_whose_export_side_file_changed(tmp_path):
     src = write_sweep(tmp_path, SMALL, base=base)
     out = tmp_path / "out"
     first = sweep(src, out, scheduler="serial", cache_dir=tmp_path / "cache")
+    table = first.table  # read from table.csv on first access (issue 38): before the re-run rewrites it
     assert all(r["inputs"][str(tmp_path / "series" / "indent_003.vtu")] for r in records(out).values())
     shutil.copy(tmp_path / "series" / "indent_001.vtu", tmp_path / "series" / "indent_003.vtu")
     again = sweep(src, out, scheduler="serial", cache_dir=tmp_path / "cache")
     assert (again.n_ran, again.n_skipped) == (4, 0)
-    assert not again.table.equals(first.table)
+    assert not again.table.equals(table)
+    import dataclasses
+
+    from afferent.exceptions import AfferentError
+
+    with pytest.raises(AfferentError, match=r"table\.csv' was rewritten after this sweep .*read it before running the "
+                                            r"sweep again, or read_table\(path\)"):
+        dataclasses.replace(first, _table=None).table  # not read before the re-run: not the re-run's table instead
 
 
 def test_a_failing_task_is_reported_and_loses_nothing(tmp_path, capsys):

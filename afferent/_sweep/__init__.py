@@ -18,7 +18,8 @@ are sweeps too (one task per scene).
 ::
 
     load_sweep(files) -> a specification, tasks counted (every written value checked as a scene)
-        -> tasks made one at a time, dispatched in windows of a few thousand (records.py)
+        -> tasks made one at a time (an id and a group, no resolved scene: ~15 us each), dispatched in windows
+           of a few thousand (records.py); each task's scene is built by the worker that runs it
         -> group tasks by what sampling depends on (export content, receptors, region, method)
         -> sample: one task per group, read + sample once (through the SED cache)
         -> batches of tasks on the sampled SED (stimulus, transduction, synthesis, fit, spikes)
@@ -86,9 +87,13 @@ class SweepResult:
     output : str
         The output folder.
     table : pandas.DataFrame
-        One row per scene x parameter set x afferent (``COLUMNS``: name -> meaning), tasks that succeeded.
+        One row per scene x parameter set x afferent (``COLUMNS``: name -> meaning), tasks that succeeded:
+        read from ``table_path`` on first access (:func:`read_table`), not held by the sweep (it is
+        streamed to its file as the records are gathered, so a sweep of 10^6 tasks never holds it).
     table_path : str
         ``table.csv`` or ``table.parquet`` (``table_format``).
+    n_rows : int
+        Rows of the table.
     n_tasks, n_ran, n_skipped, n_failed : int
         Tasks in the sweep; run now; skipped (done before: resume); failed.
     failures : list of dict
@@ -98,7 +103,6 @@ class SweepResult:
     """
 
     output: str
-    table: object = field(repr=False)
     table_path: str
     n_tasks: int
     n_ran: int
@@ -106,10 +110,31 @@ class SweepResult:
     n_failed: int
     failures: list = field(default_factory=list, repr=False)
     record: dict = field(default_factory=dict, repr=False)
+    n_rows: int = 0
+    _table: object = field(default=None, repr=False, compare=False)
+    _stamp: tuple = field(default=(), repr=False, compare=False)
+
+    @property
+    def table(self):
+        if self._table is None:
+            if self._stamp and _stamp(self.table_path) != self._stamp:
+                from ..exceptions import AfferentError
+
+                raise AfferentError(f"{self.table_path!r} was rewritten after this sweep (a later run into its folder?): "
+                                    "SweepResult.table reads the table from its file on first access; read it before "
+                                    "running the sweep again, or read_table(path) for the table there now.")
+            object.__setattr__(self, "_table", read_table(self.table_path))
+        return self._table
 
     def __repr__(self) -> str:
         return (f"<SweepResult {self.output}: {self.n_tasks} tasks ({self.n_ran} run, {self.n_skipped} done before, "
-                f"{self.n_failed} failed), {len(self.table)} rows in {os.path.basename(self.table_path)}>")
+                f"{self.n_failed} failed), {self.n_rows} rows in {os.path.basename(self.table_path)}>")
+
+
+def _stamp(path: str) -> tuple:
+    """What tells a file rewritten since: its inode, size and modification time (ns)."""
+    st = os.stat(path)
+    return st.st_ino, st.st_size, st.st_mtime_ns
 
 
 def _note(message: str) -> None:
@@ -249,7 +274,7 @@ def _run_serial(windows, sink, *, cache_dir, use_cache, batch_size, info) -> Non
     for groups in windows:
         for g, tasks in groups.items():
             if g not in done:
-                done[g] = engine.sample(tasks[0].scene, cache_dir, use_cache)
+                done[g] = engine.sample(tasks[0], cache_dir, use_cache)
                 info.setdefault("sampled", []).append({"where": done[g].where, "seconds": done[g].seconds})
             for b in engine.batches(tasks, 4, batch_size):
                 sink(engine.run_batch(done[g], b))
@@ -339,9 +364,9 @@ def _cluster_window(client, groups, sink, sampled, *, shared, slots, cache_dir, 
     futures, members = [], {}
     for g, tasks in groups.items():
         if g not in sampled and shared:
-            sampled[g] = client.submit(partial(engine.sample, tasks[0].scene, cache_dir, use_cache), pure=False)
+            sampled[g] = client.submit(partial(engine.sample, tasks[0], cache_dir, use_cache), pure=False)
         elif g not in sampled:
-            sampled[g] = client.scatter(engine.sample(tasks[0].scene, cache_dir, use_cache))
+            sampled[g] = client.scatter(engine.sample(tasks[0], cache_dir, use_cache))
         for b in engine.batches(tasks, slots, batch_size):
             f = client.submit(partial(engine.run_batch, tasks=b), sampled[g], pure=False)
             futures.append(f)
@@ -405,7 +430,7 @@ def sweep(sources, output, *, scheduler=None, overwrite: bool = False, cache_dir
     max_tasks : int, optional
         Most tasks the sweep may have (default 1,000,000): counted before any task is made;
         more is refused (:func:`load_sweep`). The tasks are made as they are dispatched, in
-        windows of ``afferent._sweep.records.WINDOW`` (4096); the table is what grows with the count.
+        windows of ``afferent._sweep.records.WINDOW`` (4096); the table is streamed to its file.
 
     Returns
     -------
@@ -457,14 +482,14 @@ def sweep(sources, output, *, scheduler=None, overwrite: bool = False, cache_dir
     if overwrite and os.path.lexists(output):  # the previous sweep stays whole until this one is complete
         with atomic_dir(output, overwrite=True, inputs=inputs, task_records=True) as tmp:
             os.mkdir(os.path.join(tmp, "tasks"))
-            table, table_path, full = _execute(spec, tmp, done, **run)
+            table_path, full = _execute(spec, tmp, done, **run)
         table_path = os.path.join(output, os.path.basename(table_path))
     else:
         _open_folder(output, existed=os.path.lexists(output))
-        table, table_path, full = _execute(spec, output, done, **run)
-    return SweepResult(output=output, table=table, table_path=table_path, n_tasks=spec.n_tasks,
+        table_path, full = _execute(spec, output, done, **run)
+    return SweepResult(output=output, table_path=table_path, n_tasks=spec.n_tasks, n_rows=full["n_rows"],
                        n_ran=full["n_ran"], n_skipped=full["n_skipped"], n_failed=full["n_failed"],
-                       failures=full["failures"], record=full)
+                       failures=full["failures"], record=full, _stamp=_stamp(table_path))
 
 
 def _specification(spec: SweepSpec) -> list:
@@ -479,8 +504,6 @@ def _specification(spec: SweepSpec) -> list:
 def _execute(spec: SweepSpec, where: str, done: _Ids, *, scheduler, cache_dir, use_cache, batch_size, shared_disk,
              progress, head: dict, t0: float, probe: list, table_format: str = "csv"):
     """Run the tasks not ``done`` (made as they are dispatched) and write their records, the table and sweep.json."""
-    from .table import write_table
-
     _write_json(os.path.join(where, "sweep.json"), dict(head, status="running"))
     info: dict = {}
     kind = LOCAL_DEFAULT if scheduler in (None, "local") else scheduler
@@ -519,12 +542,11 @@ def _execute(spec: SweepSpec, where: str, done: _Ids, *, scheduler, cache_dir, u
                          batch_size=batch_size, shared_disk=shared_disk, progress=progress, info=info)
     finally:
         sink.close()
-    table, failures = _gather(where, _Ids.of(ids), spec.keys)
-    table_path = write_table(table, where, table_format)
+    table_path, n_rows, columns, failures = _gather(where, _Ids.of(ids), spec.keys, table_format)
     full = dict(head, status="done" if not failures else "done, with failed tasks", engine=info,
                 n_sampling_groups=counts["groups"], n_ran=sink.n, n_skipped=counts["skipped"],
-                n_failed=len(failures), failures=failures, table=os.path.basename(table_path), n_rows=len(table),
-                columns={c: COLUMNS.get(c, "swept key, as written") for c in table.columns if c not in ("scene", "task")},
+                n_failed=len(failures), failures=failures, table=os.path.basename(table_path), n_rows=n_rows,
+                columns={c: COLUMNS.get(c, "swept key, as written") for c in columns if c not in ("scene", "task")},
                 task_seconds=sink.seconds, wall_seconds=time.perf_counter() - t0)
     _write_json(os.path.join(where, "sweep.json"), full)
-    return table, table_path, full
+    return table_path, full

@@ -39,7 +39,7 @@ def _run_window(groups, sink, sampled, *, kind, n, cache_dir, use_cache, batch_s
         if g in sampled:
             dsk[skey] = sampled[g]
         else:
-            dsk[skey] = (partial(engine.sample, tasks[0].scene, cache_dir, use_cache),)
+            dsk[skey] = (partial(engine.sample, tasks[0], cache_dir, use_cache),)
             new[skey] = g
         for bi, b in enumerate(engine.batches(tasks, n, batch_size)):
             k = f"batch-{gi}-{bi}"

@@ -23,6 +23,7 @@ import warnings
 from dataclasses import dataclass, field
 
 from ..scene.record import _QUIET_CATEGORIES
+from ..scene.schema import SceneError
 
 
 @dataclass(frozen=True)
@@ -69,11 +70,15 @@ def _messages(caught) -> list[dict]:
             for w in caught if not issubclass(w.category, _QUIET_CATEGORIES)]
 
 
-def sample(scene, cache_dir=None, use_cache: bool = True) -> Sampled:
-    """Read and sample one group's export (its first task's scene); never raises (a failure is returned)."""
+def sample(task, cache_dir=None, use_cache: bool = True) -> Sampled:
+    """Read and sample one group's export (with its first task's scene); never raises (a failure is returned)."""
     from ..scene.planning import plan, skip_reasons
     from ..scene.run import _hash_inputs, _receptor_sed, _Run, _Steps
 
+    try:
+        scene = task.scene
+    except SceneError as err:  # the task's scene refuses its parameter set: each task of the group says so
+        return Sampled(error=f"{type(err).__name__}: {' '.join(str(err).split())}", where=_here())
     run = _Run(scene, plan(scene), skip_reasons(scene), _Steps())
     run.region_info["region"] = {"x_range_m": scene.region.x_range_m, "z_range_m": scene.region.z_range_m}
     try:
@@ -96,8 +101,13 @@ def run_task(task, sampled: Sampled) -> dict:
     from .table import task_rows
 
     t0 = time.perf_counter()
-    rec = {"task": task.id, "index": task.index, "scene": task.label, "scene_file": task.scene.source,
+    rec = {"task": task.id, "index": task.index, "scene": task.label, "scene_file": task.base.scene_path,
            "params": task.params, "group": task.group, "where": _here()}
+    try:
+        task.scene  # built here, in the worker (a value inside a range that the scene refuses fails its task)
+    except SceneError as err:
+        return dict(rec, status="failed", error=f"{type(err).__name__}: {' '.join(str(err).split())}", stage="scene",
+                    seconds=time.perf_counter() - t0)
     if sampled.error is not None:
         return dict(rec, status="failed", error=f"sampling the export failed: {sampled.error}", stage="sampling",
                     seconds=0.0)
@@ -126,8 +136,11 @@ def record_line(task, rec: dict) -> str:
     from .. import __version__
     from ..export import jsonable
 
-    return json.dumps(jsonable(dict(rec, afferent=__version__, scene_tables=task.scene.to_dict())),
-                      separators=(",", ":"))
+    try:
+        tables = task.scene.to_dict()
+    except SceneError:  # recorded as the task's error
+        tables = None
+    return json.dumps(jsonable(dict(rec, afferent=__version__, scene_tables=tables)), separators=(",", ":"))
 
 
 def run_batch(sampled: Sampled, tasks) -> list[tuple]:
@@ -147,7 +160,7 @@ def failed_batch(tasks, error: str) -> list[tuple]:
     """What :func:`run_batch` would return for tasks whose worker was lost."""
     out = []
     for t in tasks:
-        rec = {"task": t.id, "index": t.index, "scene": t.label, "scene_file": t.scene.source, "params": t.params,
+        rec = {"task": t.id, "index": t.index, "scene": t.label, "scene_file": t.base.scene_path, "params": t.params,
                "group": t.group, "status": "failed", "error": error, "seconds": 0.0}
         out.append((t.id, "failed", 0.0, record_line(t, rec)))
     return out

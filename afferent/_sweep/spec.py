@@ -28,10 +28,9 @@ _AFFERENT_OUTPUTS = ("currents", "profiles", "fit", "spikes")
 _MODES = ("product", "zip")
 _RANGE_KEYS = ("start", "stop", "num", "spacing")
 #: Most tasks a sweep runs unless told otherwise (``max_tasks``). Tasks are made one at a time as
-#: they are dispatched (:meth:`SweepSpec.iter_tasks`, ~1 ms each), so their number no longer costs
-#: memory; what still grows with it is the table, held in memory to be written (one row per task x
-#: afferent, ~0.2 kB a row), and the 8-byte id of every task (to keep the table to this sweep's tasks).
-#: 10^6 tasks of the sample sweep (3 afferents each) make a table of ~0.6 GB.
+#: they are dispatched (:meth:`SweepSpec.iter_tasks`, ~15 us of CPU each: :class:`_Maker`), and the table is
+#: streamed to its file (records.py: ``_gather``), so their number costs ~16 bytes a task (its id and index) and
+#: the time to run them; the limit guards against a sweep of many more tasks than meant.
 MAX_TASKS = 1_000_000
 
 
@@ -56,16 +55,37 @@ class _Range:
 
 
 @dataclass(frozen=True)
+class _Base:
+    """One scene of one sweep file: what each of its tasks is built from (shared by its tasks, pickled once a batch)."""
+
+    sweep_path: str
+    sweep_lines: dict = field(repr=False)
+    params: dict = field(repr=False)  # swept key -> (values, line keys): only the line keys are used (errors)
+    scene_path: str = ""
+    tables: dict = field(default_factory=dict, repr=False)
+    lines: dict = field(default_factory=dict, repr=False)
+
+    def build(self, pset: dict) -> Scene:
+        """The resolved scene of parameter set ``pset`` (SceneError, at the [sweep] line, for a value it refuses)."""
+        scene = _build(self.tables, self.lines, scene_path=self.scene_path, base_dir=os.path.dirname(self.scene_path),
+                       pset=pset, params=self.params, sweep_path=self.sweep_path, sweep_lines=self.sweep_lines)
+        _check_outputs(scene, f"Scene file {self.scene_path!r}")
+        return scene
+
+
+@dataclass(frozen=True)
 class Task:
     """One scene with one parameter set: the unit of work, of resume and of failure.
 
     Attributes
     ----------
     id : str
-        16 hex digits: a digest of the scene as resolved (keys in SI) and of the content of
-        every file it reads; equal ids mean equal results, so a re-run skips it.
+        16 hex digits: a digest of the scene's tables as written with the parameter set applied
+        (and of its folder, its first parameter set's resolved scene and the content of every file
+        it reads); equal ids mean equal results, so a re-run skips it.
     scene : Scene
-        The resolved scene with the parameter set applied.
+        The resolved scene with the parameter set applied: built on first use (in the worker that
+        runs the task), not when the task is made; a value it refuses raises SceneError then.
     label : str
         The scene's name (``[scene] name`` or the file's stem).
     params : dict
@@ -79,11 +99,18 @@ class Task:
     """
 
     id: str
-    scene: Scene = field(repr=False)
     label: str
     params: dict
     group: str
     index: int = 0
+    base: _Base | None = field(default=None, repr=False, compare=False)
+    built: Scene | None = field(default=None, repr=False, compare=False)
+
+    @property
+    def scene(self) -> Scene:
+        if self.built is None:
+            object.__setattr__(self, "built", self.base.build(self.params))
+        return self.built
 
 
 @dataclass(frozen=True)
@@ -125,11 +152,9 @@ class SweepSpec:
         index = 0
         for path, lines, mode, params, bases in self.plans:
             for scene_path, sdata, slines in bases:
+                maker = _Maker(_Base(path, lines, params, scene_path, sdata, slines), mode, hashes)
                 for pset in _combinations(params, mode or "product"):
-                    scene = _build(sdata, slines, scene_path=scene_path, base_dir=os.path.dirname(scene_path),
-                                   pset=pset, params=params, sweep_path=path, sweep_lines=lines)
-                    _check_outputs(scene, f"Scene file {scene_path!r}")
-                    yield _task(scene, pset, hashes, index)
+                    yield maker.task(pset, index)
                     index += 1
 
     @property
@@ -155,11 +180,9 @@ class SweepSpec:
             sets = [first] + [dict(first, **{p: v}) for p, (vals, _) in params.items()
                               for v in (vals if isinstance(vals, list) else (float(vals.start), float(vals.stop)))]
             for scene_path, sdata, slines in bases:
+                maker = _Maker(_Base(path, lines, params, scene_path, sdata, slines), mode, hashes)
                 for pset in sets:
-                    scene = _build(sdata, slines, scene_path=scene_path, base_dir=os.path.dirname(scene_path),
-                                   pset=pset, params=params, sweep_path=path, sweep_lines=lines)
-                    _check_outputs(scene, f"Scene file {scene_path!r}")
-                    yield _task(scene, pset, hashes, -1)
+                    yield maker.task(pset, -1, maker.base.build(pset))
 
 
 # --------------------------------------------------------------------------- reading
@@ -347,18 +370,73 @@ def _input_files(scene: Scene) -> list[str]:
     return files
 
 
-def _task(scene: Scene, pset: dict, hashes: dict, index: int = 0) -> Task:
+def _sampling_of(scene: Scene, hashes: dict) -> tuple:
+    """(the sampling group's digest, the task's input files as canonical JSON {path: sha256}) of a resolved scene."""
     from ..scene.stages import _hash_all
 
     files = _input_files(scene)
     hashes.update(_hash_all({p: hashes.get(p) for p in files}))
     d = scene.to_dict()
-    d["outputs"]["dir"] = None
     group = _digest({"tables": {t: d[t] for t in _SAMPLING_TABLES},
                      "exports": [hashes[p] for p in dict.fromkeys(scene.export.files) if p in hashes],
                      "files": {p: hashes[p] for p in (scene.export.coordinates, scene.receptors.file) if p in hashes}})
-    return Task(id=_digest({"scene": d, "inputs": {p: hashes[p] for p in files}})[:16], scene=scene,
-                label=scene.info.name, params=dict(pset), group=group, index=index)
+    return group, json.dumps({p: hashes[p] for p in files}, sort_keys=True)
+
+
+def _field_kind(param: str) -> str:
+    from ..scene.parse import _keys_of
+
+    tbl, _, key = param.partition(".")
+    return _keys_of(_TABLES[tbl][1])[key][0].metadata["kind"]
+
+
+class _Maker:
+    """Makes the tasks of one scene of a sweep file, ~20 us each rather than a resolved scene's ~1 ms.
+
+    A task's id and group need no resolved scene of its own: the id is a digest of what determines the
+    scene (the tables as written, the parameter set as written, the scene's folder; and, so that a changed
+    default changes every id, the resolved scene of its first parameter set) and of the files it reads; the
+    group depends only on the swept keys of the sampling tables ([export], [receptors], [sampling], [region]:
+    :func:`afferent.scene.resolve` fills them from themselves alone), the files only on the swept keys that
+    name files. Both are taken from a scene resolved once per distinct value of those keys, and the task's
+    own scene is built when it runs (:attr:`Task.scene`).
+    """
+
+    def __init__(self, base: _Base, mode, hashes: dict):
+        self.base, self.hashes = base, hashes
+        names = list(base.params)
+        self.sampling = [p for p in names if p.partition(".")[0] in _SAMPLING_TABLES]
+        self.files = [p for p in names if _field_kind(p) in ("path", "paths")]
+        first = next(_combinations(base.params, mode or "product"))
+        scene = base.build(first)  # checked by load_sweep (SweepSpec.probe_tasks)
+        self.label = scene.info.name
+        d = scene.to_dict()
+        d["outputs"]["dir"] = None
+        self.prefix = _digest({"tables": _apply(base.tables, dict.fromkeys(names)), "dir": os.path.dirname(base.scene_path),
+                               "label": self.label, "first": d})
+        self.groups: dict = {}  # sampling keys' values -> group
+        self.inputs: dict = {}  # file keys' values -> input files (JSON)
+
+    def task(self, pset: dict, index: int, scene: Scene | None = None) -> Task:
+        skey = tuple(_key(pset[p]) for p in self.sampling)
+        fkey = tuple(_key(pset[p]) for p in self.files)
+        group, inputs = self.groups.get(skey), self.inputs.get(fkey)
+        if group is None or inputs is None:
+            try:
+                scene = scene or self.base.build(pset)
+            except SceneError as err:  # the task fails when it runs, with this error; its own group samples nothing
+                group, inputs = "!" + _digest(str(err))[:15], self.inputs.get(fkey, "")
+            else:
+                group, inputs = _sampling_of(scene, self.hashes)
+                self.groups[skey], self.inputs[fkey] = group, inputs
+        text = f"{self.prefix}|{json.dumps(pset, separators=(',', ':'), default=str)}|{inputs}"
+        return Task(id=hashlib.sha256(text.encode()).hexdigest()[:16], label=self.label, params=dict(pset),
+                    group=group, index=index, base=self.base, built=scene)
+
+
+def _key(value):
+    """A swept value as a dictionary key (an array value is written as JSON)."""
+    return json.dumps(value) if isinstance(value, (list, dict)) else (type(value).__name__, value)
 
 
 def _check_outputs(scene: Scene, where: str) -> None:
@@ -401,8 +479,8 @@ def _check_count(plans: list, max_tasks: int | None) -> int:
         path, n = max(counts, key=lambda c: c[1])
         raise SceneError(
             f"Sweep file {path!r} makes {n:,} tasks (scene files x parameter sets"
-            + (f"; {total:,} in all" if total != n else "") + f"); a sweep runs at most {limit:,} (its table, one "
-            "row per task and afferent, is held in memory to be written). Sweep fewer values, or raise the limit: "
+            + (f"; {total:,} in all" if total != n else "") + f"); a sweep runs at most {limit:,} unless told "
+            "more (a guard against a sweep of many more tasks than meant). Sweep fewer values, or raise the limit: "
             f"max_tasks={total} (afferent sweep --max-tasks {total}).", path=path)
     return total
 

@@ -9,6 +9,8 @@ from __future__ import annotations
 
 import json
 import math
+import sys
+from contextlib import contextmanager
 
 import numpy as np
 
@@ -66,13 +68,16 @@ def task_rows(task, out: dict) -> list[dict]:
     return [dict(head, **{c: (v[i] if c == "afferent" else float(v[i])) for c, v in cols.items()}) for i in range(n)]
 
 
-def assemble(records: list[dict], keys) -> "pandas.DataFrame":  # noqa: F821
-    """The tidy table from the task records (those with status 'ok'), in task order."""
+def columns_of(keys) -> list:
+    """The table's columns: scene, task, the swept keys, then :data:`COLUMNS`."""
+    return ["scene", "task", *keys, *COLUMNS]
+
+
+def frame(rows: list, keys) -> "pandas.DataFrame":  # noqa: F821
+    """The tidy table from rows as tuples in :func:`columns_of` order (None: not computed, not swept)."""
     import pandas as pd
 
-    rows = [r for rec in records if rec.get("status") == "ok" for r in rec.get("rows", [])]
-    columns = ["scene", "task", *keys, *COLUMNS]
-    df = pd.DataFrame(rows, columns=columns)
+    df = pd.DataFrame(rows, columns=columns_of(keys))
     for c in COLUMNS:
         if c != "afferent":
             df[c] = pd.to_numeric(df[c], errors="coerce").astype(float)
@@ -102,30 +107,92 @@ def check_table_format(table_format: str) -> str:
     return table_format
 
 
-def write_table(df, folder: str, table_format: str = "csv") -> str:
-    """Write the table atomically as ``table.csv`` or ``table.parquet`` (``table_format``); returns the path.
+def _swept_dtype(types: set):
+    """The dtype of a swept key's column from the Python types of its values (NoneType: a row without the key),
+    as pandas gives a whole column of them: every chunk of a streamed table gets it."""
+    t, missing = types - {type(None)}, type(None) in types
+    if t and t <= {int}:
+        return float if missing else "int64"
+    if t and t <= {int, float}:
+        return float
+    if t == {bool} and not missing:
+        return bool
+    return object
 
+
+class _Writer:
+    """Appends chunks of task records to a table file (CSV: text appended; Parquet: one row group a chunk)."""
+
+    def __init__(self, tmp: str, path: str, fmt: str, keys, kinds: dict):
+        self.tmp, self.path, self.fmt, self.keys = tmp, path, fmt, list(keys)
+        self.dtypes = {k: _swept_dtype(kinds.get(k, set())) for k in self.keys}
+        self.rows, self.columns, self._out = 0, [], None
+
+    def __call__(self, rows: list) -> None:
+        """Append rows (tuples in :func:`columns_of` order)."""
+        df = frame(rows, self.keys)
+        for k, dtype in self.dtypes.items():
+            df[k] = df[k].astype(dtype)
+        if self.fmt == "csv":
+            if self._out is None:
+                self._out = open(self.tmp, "w", newline="")
+            df.to_csv(self._out, index=False, header=not self.columns)
+        else:
+            import pyarrow as pa
+            import pyarrow.parquet as pq
+
+            if self._out is None:
+                schema = pa.Table.from_pandas(df, preserve_index=False).schema
+                for i, f in enumerate(schema):  # a column without a value in this chunk: text, as written
+                    if pa.types.is_null(f.type):
+                        schema = schema.set(i, f.with_type(pa.string()))
+                self._out = pq.ParquetWriter(self.tmp, schema)
+            self._out.write_table(pa.Table.from_pandas(df, schema=self._out.schema, preserve_index=False))
+        self.columns = list(df.columns)
+        self.rows += len(df)
+
+    def close(self) -> None:
+        if self._out is None:
+            self(())  # no task succeeded: the columns alone
+        self._out.close()
+
+
+@contextmanager
+def table_writer(folder: str, table_format: str, keys, kinds: dict):
+    """Yield a writer of ``table.csv`` or ``table.parquet`` (``table_format``) in ``folder``: called with chunks of
+    task records (in task order), it appends their rows; the file is written under a temporary name and renamed
+    when the block ends (:func:`afferent._output.atomic_file`), so a table is whole or absent.
+
+    ``kinds``: swept key -> the Python types of its values (every chunk gets the column's dtype of the whole table).
     The table of the other format, left by an earlier run of the sweep, is removed only if the folder's record
     proves afferent wrote it (:mod:`afferent._owned`); both are recorded there as written or removed."""
     import os
 
-    from .._output import write_csv
+    from .._output import atomic_file
     from .._owned import add_to_record, recorded
 
     fmt = check_table_format(table_format)
     path = os.path.join(folder, f"table.{fmt}")
     other = os.path.join(folder, "table.csv" if fmt == "parquet" else "table.parquet")
-    writer = (lambda d, p: d.to_parquet(p, index=False)) if fmt == "parquet" else None
-    write_csv(df, path, overwrite=True, writer=writer)  # derived from the task records: rewritten on every run
+    with atomic_file(path, overwrite=True) as tmp:  # derived from the task records: rewritten on every run
+        writer = _Writer(tmp, path, fmt, keys, kinds)
+        try:
+            yield writer
+        finally:
+            if writer._out is not None or not sys.exc_info()[0]:
+                writer.close()
     gone = [os.path.basename(other)] if recorded(folder, os.path.basename(other)) else []
     if gone:
         os.remove(other)
     add_to_record(folder, [os.path.basename(path)], drop=gone, task_records=True)
-    return path
 
 
 def read_table(path: str):
-    """Read a sweep table back (Parquet or CSV) as a DataFrame."""
+    """Read a sweep table back (Parquet or CSV) as a DataFrame, with its types (CSV: ``scene``, ``task`` and
+    ``afferent`` text, ``n_spikes`` an Int64 count, the results floats; the swept keys as pandas reads them)."""
     import pandas as pd
 
-    return pd.read_parquet(path) if str(path).endswith(".parquet") else pd.read_csv(path)
+    if str(path).endswith(".parquet"):
+        return pd.read_parquet(path)
+    return pd.read_csv(path, dtype={"scene": str, "task": str, "afferent": str, "n_spikes": "Int64",
+                                    **{c: float for c in COLUMNS if c not in ("afferent", "n_spikes")}})

@@ -50,12 +50,12 @@ def add_args(parser: argparse.ArgumentParser) -> None:
     reads(parser.add_argument("sed", metavar="SED_AT_RECEPTORS.csv", help="SED at the receptors, as written by 'afferent "
                                                                            "sample'"))
     reads(parser.add_argument("--observed", required=True, metavar="OBS.csv", help="recorded profile: columns position, "
-                                                                                   "response"))
+                                                                                   "response"), what="Observed profile file")
     parser.add_argument("--observed-unit", required=True, metavar="U", type=unit_type("length"),
                         help="length unit of the observed positions (m, mm, um); required, as everywhere: never guessed")
     reads(parser.add_argument("--synthesis", default="longitudinal", metavar="longitudinal|cross|both|map:FILE|random:N",
                               help="receptor -> afferent grouping; 'both' calibrates longitudinal and cross-sections "
-                                   "(default longitudinal)"), after_prefix("map:"))
+                                   "(default longitudinal)"), after_prefix("map:"), what="Branching map file")
     parser.add_argument("--start", default="start", metavar="ALPHA,GAMMA,LAMBDA",
                         help="start point in A, 1/Pa, Pa, or a table-5.2 row: start (default), longitudinal, cross")
     parser.add_argument("--method", choices=_METHOD_CHOICES, default="rsm1", help="calibration method (default rsm1, the study's)")

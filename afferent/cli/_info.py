@@ -37,7 +37,8 @@ def add_args(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     source = args.exports if len(args.exports) > 1 else args.exports[0]
-    raw = read_raw(source, format=args.format, progress=show_progress(args), allow_outside_files=args.allow_outside_files)
+    raw = first = read_raw(source, format=args.format, progress=show_progress(args),
+                           allow_outside_files=args.allow_outside_files)
     if args.coordinates is not None:  # a table of labels (a MAPDL PRNSOL listing, a report): its NLIST / node table
         from ..io._find_arrays import join_coordinates
 
@@ -45,11 +46,12 @@ def run(args: argparse.Namespace) -> int:
     print("\n".join(describe_raw(raw)))
     if args.receptors is not None or args.grid is not None:
         from .._interfaces import interface_lines
-        from ..io import read_sed
+        from ..io import sed_from_raw
         from ..receptors import describe_sites
 
-        field = read_sed(source, accept=accepted(args), **input_kwargs(args))
-        layout = layout_from_args(args, field)
+        read = {k: v for k, v in input_kwargs(args).items() if k not in ("format", "progress")}
+        field = sed_from_raw(first, accept=accepted(args), **read)  # the export as read above: read once
+        layout = layout_from_args(args, field, first)
         print(describe_sites(layout))
         print("\n".join(interface_lines(field, layout, method=args.method)))
     return 0

@@ -220,14 +220,20 @@ def _main(argv: list[str] | None) -> int:
 def _guarded(args: argparse.Namespace) -> int:
     """Run the command with every path it reads (``_options.reads``) handed to the output guard: its ``-o`` is
     checked against them now, before any work, and every writer checks its output against them too
-    (``afferent._output.command_inputs``), whatever the command. A new command inherits this."""
+    (``afferent._output.command_inputs``), whatever the command. Then every file its options name is
+    checked (:func:`afferent._inputs.check_files`) and so are the combinations of its options (``args._checks``,
+    set by the option groups that add them). A new command inherits this."""
+    from .._inputs import check_files
     from .._output import check_place, command_inputs
-    from ._options import input_paths
+    from ._options import input_paths, named_files
 
     inputs = input_paths(args)
     with command_inputs(inputs):
         if getattr(args, "output", None) is not None:
             check_place(args.output, (), getattr(args, "_output_what", "Output"))
+        check_files(named_files(args))  # every file an option names, before any export is read (afferent._inputs)
+        for check in getattr(args, "_checks", ()):  # the options' combinations (add_receptor_options, ...)
+            check(args)
         return args.func(args)
 
 

@@ -28,7 +28,7 @@ def add_input_options(parser: argparse.ArgumentParser) -> None:
                         "states it, 'E (MPa)'")
     reads(g.add_argument("--materials", metavar="MATERIALS.csv",
                          help="--sed-from stress with constants per material: a CSV with columns material (the id in the "
-                              "export's material array, --material-array), E, nu"))
+                              "export's material array, --material-array), E, nu"), what="Elastic constants table")
     g.add_argument("--preset", choices=tuple(PRESETS), help="FE tool whose tensor component order and shear convention apply")
     g.add_argument("--shear", choices=("tensor", "engineering"), help="override the preset's shear-strain convention")
     g.add_argument("--location", choices=("point", "cell"), help="use point data or cell data when the file has both")
@@ -36,7 +36,8 @@ def add_input_options(parser: argparse.ArgumentParser) -> None:
     g.add_argument("--stress-columns", metavar="NAMES", help="stress array name, or 6 comma-separated column names xx,yy,zz,xy,yz,xz")
     g.add_argument("--strain-columns", metavar="NAMES", help="strain array name, or 6 comma-separated column names xx,yy,zz,xy,yz,xz")
     g.add_argument("--coord-columns", metavar="X,Y,Z", help="names of the coordinate columns of a CSV")
-    reads(g.add_argument("--coordinates", metavar="NODES.csv", help="node/element table id,x,y,z (or an ANSYS NLIST listing, a CalculiX .frd) to join on a table that has only labels"))
+    reads(g.add_argument("--coordinates", metavar="NODES.csv", help="node/element table id,x,y,z (or an ANSYS NLIST listing, a CalculiX .frd) to join on a table that has only labels"),
+          what="Coordinates file")
     g.add_argument("--on-nan", choices=("raise", "drop"), default="raise", help="NaN rows of a point table: error (default) or leave them out")
     g.add_argument("--negative-tolerance", type=float, default=0.25, metavar="R",
                    help="accept negative SED down to -R x the largest SED, summing to at most R x the positive values "
@@ -106,13 +107,30 @@ def add_output_options(parser: argparse.ArgumentParser, *, what: str, required: 
     parser.set_defaults(_output_what="Output folder" if folder else "Output file")
 
 
-def reads(action: argparse.Action, paths=None) -> argparse.Action:
+def reads(action: argparse.Action, paths=None, what: str | None = None) -> argparse.Action:
     """Mark an option or positional as naming files or folders the command reads: ``paths(value)`` gives the paths
     one value names (default: the value itself). :func:`input_paths` gathers them; ``afferent.cli`` checks the
     output against them before the command starts and hands them to every writer
-    (``afferent._output.command_inputs``), so that no output is, holds or lies inside one of them."""
+    (``afferent._output.command_inputs``), so that no output is, holds or lies inside one of them. With ``what``
+    (the kind of file, 'Receptor file'), each path must be a regular file, checked before the command starts
+    (:func:`named_files`, :func:`afferent._inputs.check_files`): no export is read for a command that would fail
+    on a missing file after it."""
     action.afferent_reads = paths or (lambda value: (value,))
+    action.afferent_what = what
     return action
+
+
+def named_files(args: argparse.Namespace) -> list:
+    """(what, path, flag) of every file the parsed command's options marked ``reads(..., what=...)`` name."""
+    out = []
+    for action in getattr(args, "_reads", ()):
+        what, value = getattr(action, "afferent_what", None), getattr(args, action.dest, None)
+        if what is None or value is None:
+            continue
+        flag = max(action.option_strings, key=len) if action.option_strings else None
+        for v in value if isinstance(value, list) else [value]:
+            out.extend((what, p, flag) for p in action.afferent_reads(v) if p)
+    return out
 
 
 def after_prefix(prefix: str):
@@ -171,20 +189,75 @@ def add_receptor_options(parser: argparse.ArgumentParser, *, required: bool = Tr
     g = parser.add_argument_group("receptor sites")
     m = g.add_mutually_exclusive_group(required=required)
     reads(m.add_argument("--receptors", metavar="R.csv", help="receptor sites: columns x, y, z (optional id, longitudinal, "
-                                                              "cross)"))
+                                                              "cross)"), what="Receptor file")
     m.add_argument("--grid", metavar="SPEC",
                    help="generate the sites: 'tips' = papilla tips (RA-I) found on the export's epidermis/dermis "
                         "interface (cell array --material-array, ids --upper/--lower); 'bases' = the intermediate-ridge "
                         "bases (SA-I) found there; 'y=H' = a ridge/papilla grid of papilla rows at height H "
                         "(export length unit) over the export's x-z extent")
     g.add_argument("--receptor-unit", metavar="U", type=unit_type("length"), help="length unit of R.csv (default: the export's length unit)")
-    g.add_argument("--pitch-x-mm", type=positive_number, default=0.44, help="grid pitch across the ridges, mm (default 0.44)")
-    g.add_argument("--pitch-z-mm", type=positive_number, default=0.22, help="grid pitch along the ridges, mm (default 0.22)")
+    g.add_argument("--pitch-x-mm", type=positive_number, help="grid pitch across the ridges, mm (default 0.44)")
+    g.add_argument("--pitch-z-mm", type=positive_number, help="grid pitch along the ridges, mm (default 0.22)")
     g.add_argument("--material-array", metavar="NAME",
                    help="cell array of material/layer ids for --grid tips|bases (default 'layer') and for --materials "
                         "(default: the one the export names like a material array)")
-    g.add_argument("--upper", type=int, default=1, help="material id above the interface (epidermis; default 1)")
-    g.add_argument("--lower", type=int, default=2, help="material id below the interface (dermis; default 2)")
+    g.add_argument("--upper", type=int, help="material id above the interface (epidermis; default 1)")
+    g.add_argument("--lower", type=int, help="material id below the interface (dermis; default 2)")
+    add_check(parser, check_receptor_options)
+
+
+#: the receptor options that apply to generated sites, with their defaults (filled by check_receptor_options)
+GRID_OPTIONS = {"pitch_x_mm": ("--pitch-x-mm", 0.44), "pitch_z_mm": ("--pitch-z-mm", 0.22),
+                "material_array": ("--material-array", "layer"), "upper": ("--upper", 1), "lower": ("--lower", 2)}
+
+
+def add_check(parser: argparse.ArgumentParser, check) -> None:
+    """Have ``check(args)`` run before the command starts (``afferent.cli._main._guarded``), after every file the
+    options name was checked: the combinations of the options an option group adds, in one place for every
+    command that adds the group."""
+    parser.set_defaults(_checks=(*(parser.get_default("_checks") or ()), check))
+
+
+def check_receptor_options(args: argparse.Namespace) -> None:
+    """Refuse receptor options that would be ignored (their defaults: :func:`grid_option`).
+
+    ``--material-array``, ``--upper``, ``--lower`` apply to ``--grid tips|bases`` (sites found on the
+    export's materials); ``--pitch-x-mm``, ``--pitch-z-mm`` to ``--grid``; ``--receptor-unit`` to
+    ``--receptors``. Each given where it does not apply is an error naming it, before any file is read.
+    With ``--grid tips|bases``, the material array must be one of the export's cell arrays: checked on
+    its header where the format lists them (:func:`afferent._inputs.check_material_array`), else right
+    after the one read, before the sites are searched.
+    """
+    grid = (args.grid or "").strip()
+    given = [k for k in GRID_OPTIONS if getattr(args, k, None) is not None]
+    found = grid in ("tips", "bases")
+    for key in given:
+        flag = GRID_OPTIONS[key][0]
+        if key == "material_array" and getattr(args, "materials", None) is not None:
+            continue  # it names the array the elastic-constants table (--materials) is keyed by
+        if args.receptors is not None:
+            raise ValueError(f"{flag} applies to sites generated with --grid, not to a receptor file (--receptors "
+                             f"{args.receptors}); remove {flag}, or use --grid instead of --receptors.")
+        if key.startswith("pitch") and not grid:
+            raise ValueError(f"{flag} applies to sites generated with --grid tips|bases|y=H; add --grid or remove {flag}.")
+        if not key.startswith("pitch") and not found:
+            raise ValueError(f"{flag} applies to --grid tips|bases (sites found on the export's materials), not to "
+                             f"{'--grid ' + grid if grid else 'a command without --grid'}; remove {flag}.")
+    if found and getattr(args, "exports", None):  # on the export's header where its format lists the arrays
+        from .._inputs import check_material_array
+
+        check_material_array(args.exports, grid_option(args, "material_array"), format=args.format,
+                             allow_outside_files=args.allow_outside_files, where="--material-array")
+    if args.receptor_unit is not None and args.receptors is None:
+        takes = "--grid y=H takes H in the export's length unit" if grid else "no receptor file is given"
+        raise ValueError(f"--receptor-unit is the unit of a receptor file (--receptors R.csv); {takes}; "
+                         "remove --receptor-unit.")
+
+
+def grid_option(args: argparse.Namespace, key: str):
+    """The value of a :data:`GRID_OPTIONS` option: as given, else its default."""
+    value = getattr(args, key, None)
+    return GRID_OPTIONS[key][1] if value is None else value
 
 
 def unit_type(kind: str):
@@ -218,13 +291,15 @@ def positive_number(text: str) -> float:
     return value
 
 
-def layout_from_args(args: argparse.Namespace, field):
-    """The :class:`ReceptorLayout` the options ask for, in m."""
-    from ..receptors import grid_layout, read_receptors, sites_from_export
+def layout_from_args(args: argparse.Namespace, field, raw):
+    """The :class:`ReceptorLayout` the options ask for, in m; ``--grid tips|bases`` found on ``raw``, the export
+    as read for ``field`` (:func:`afferent.io.iter_sed`'s ``on_first_raw``): the export is read once."""
+    from ..receptors import grid_layout, read_receptors
+    from ..receptors._tips import sites_from_raw
     from ..units import length_factor
 
     unit = field.provenance.units.get("length")
-    pitch = dict(pitch_x=args.pitch_x_mm * 1e-3, pitch_z=args.pitch_z_mm * 1e-3)
+    pitch = dict(pitch_x=grid_option(args, "pitch_x_mm") * 1e-3, pitch_z=grid_option(args, "pitch_z_mm") * 1e-3)
     if args.receptors is not None:
         return read_receptors(args.receptors, length_unit=args.receptor_unit or unit)
     spec = args.grid.strip()
@@ -232,9 +307,8 @@ def layout_from_args(args: argparse.Namespace, field):
         source = field.provenance.files[0]
         if source.lower().endswith(".pvd"):
             source = field.provenance.files[1]
-        return sites_from_export(source, length_unit=unit, material_array=args.material_array or "layer",
-                                 upper=args.upper, lower=args.lower, kind=spec,
-                                 allow_outside_files=args.allow_outside_files, **pitch)
+        return sites_from_raw(raw, source, length_unit=unit, material_array=grid_option(args, "material_array"),
+                              upper=grid_option(args, "upper"), lower=grid_option(args, "lower"), kind=spec, **pitch)
     if spec.startswith("y="):
         try:
             y = float(spec[2:]) * length_factor(unit)

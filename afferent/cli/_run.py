@@ -46,8 +46,8 @@ import argparse
 import os
 import shlex
 
-from ._options import add_accept_option, add_input_options, add_output_options, add_receptor_options, input_kwargs, \
-    unit_type, after_prefix, reads
+from ._options import add_accept_option, add_input_options, add_output_options, add_receptor_options, grid_option, \
+    input_kwargs, unit_type, after_prefix, reads
 
 # the stage modules (pandas, scipy) load when the run needs them, not to parse the command line
 SYNTHESES = ("longitudinal", "cross", "map:FILE", "random:N")  # afferent.synthesis.SYNTHESES
@@ -65,7 +65,8 @@ def add_args(parser: argparse.ArgumentParser) -> None:
                              "every stage from transduction on, with a warning naming them and the afferents they "
                              "shorten (warn, nan; run.json 'outside')")
     reads(parser.add_argument("--synthesis", default="longitudinal", metavar="|".join(SYNTHESES),
-                              help="receptor -> afferent grouping (default longitudinal)"), after_prefix("map:"))
+                              help="receptor -> afferent grouping (default longitudinal)"), after_prefix("map:"),
+          what="Branching map file")
     parser.add_argument("--seed", type=int, default=0, help="seed for --synthesis random:N")
     g = parser.add_argument_group("transduction (sigmoid) parameters, SI units")
     g.add_argument("--params", choices=STUDY_ROWS, help="the study's table-5.2 row")
@@ -73,7 +74,8 @@ def add_args(parser: argparse.ArgumentParser) -> None:
     g.add_argument("--gamma", type=float, metavar="G", help="slope, 1/Pa")
     g.add_argument("--lambda", dest="lambda_", type=float, metavar="L", help="midpoint SED, Pa")
     g = parser.add_argument_group("comparison with a recording")
-    reads(g.add_argument("--observed", metavar="OBS.csv", help="recorded profile: columns position, response"))
+    reads(g.add_argument("--observed", metavar="OBS.csv", help="recorded profile: columns position, response"),
+          what="Observed profile file")
     g.add_argument("--observed-unit", metavar="U", type=unit_type("length"), help="length unit of the observed positions (m, mm, um); required with --observed")
     g.add_argument("--normalise", choices=("both", "prediction", "observation", "neither"), default="both",
                    help="what is min-max normalised before comparing (the study: both)")
@@ -81,7 +83,7 @@ def add_args(parser: argparse.ArgumentParser) -> None:
     reads(g.add_argument("--waveform", metavar="SPEC",
                          help="indentation depth over time: 'ramp:DEPTH_MM,SPEED_MM_PER_S,HOLD_S' (ramp-and-hold with "
                               "release), 'sine:FREQ_HZ,AMPLITUDE_MM,DURATION_S', or a CSV 'FILE' with columns time, depth"),
-          lambda v: () if v.strip().partition(":")[0] in ("ramp", "sine") else (v.strip(),))
+          lambda v: () if v.strip().partition(":")[0] in ("ramp", "sine") else (v.strip(),), what="Waveform file")
     g.add_argument("--waveform-unit", default="mm", metavar="U", type=unit_type("length"), help="depth unit of a waveform CSV (default mm; time in s)")
     g.add_argument("--reference-step", type=int, metavar="K",
                    help="with --waveform on a multi-step export: the step solved at --d-ref-mm (-1: the last); required there")
@@ -142,7 +144,7 @@ def _add_spike_args(parser: argparse.ArgumentParser) -> None:
                    help="with --branching zones: each afferent's receptors split into K groups along it (default 4)")
     reads(g.add_argument("--zone-map", metavar="ZONES.csv",
                          help="with --branching zones: each receptor's zone (columns receptor, zone) instead of "
-                              "--zones-per-afferent"))
+                              "--zones-per-afferent"), what="Zone map file")
 
 
 def _transduction_table(args) -> dict:
@@ -202,9 +204,9 @@ def _receptors_table(args) -> dict:
                              "(the receptors are read before the export, to key the sampled-SED cache).")
         return {"file": args.receptors, "length_unit": unit}
     spec = args.grid.strip()
-    pitch = {"pitch_x_mm": args.pitch_x_mm, "pitch_z_mm": args.pitch_z_mm}
+    pitch = {k: grid_option(args, k) for k in ("pitch_x_mm", "pitch_z_mm")}
     if spec in ("tips", "bases"):
-        return {"grid": spec, "material_array": args.material_array or "layer", "upper": args.upper, "lower": args.lower, **pitch}
+        return {"grid": spec, **{k: grid_option(args, k) for k in ("material_array", "upper", "lower")}, **pitch}
     if spec.startswith("y="):
         try:
             y = float(spec[2:])

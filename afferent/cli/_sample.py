@@ -40,9 +40,11 @@ def run(args: argparse.Namespace) -> int:
     inputs = (*args.exports, args.receptors)
     check_writable(args.output, overwrite=args.overwrite, inputs=inputs)  # before the reading, not after
     # one step at a time: memory is one step of the mesh plus the result (iter_sed, sample_steps)
-    steps = iter_sed(args.exports if len(args.exports) > 1 else args.exports[0], accept=accepted(args), **input_kwargs(args))
+    raws = []  # the first step as read: --grid tips|bases are found on it (one read of the export)
+    steps = iter_sed(args.exports if len(args.exports) > 1 else args.exports[0], accept=accepted(args),
+                     on_first_raw=raws.append, **input_kwargs(args))
     first = next(steps)
-    layout = layout_from_args(args, first)
+    layout = layout_from_args(args, first, raws.pop())
     sed = sample_steps(chain([first], steps), layout, method=args.method, on_outside=args.on_outside,
                        side=check_side(args.side))
     write_csv(sed.to_dataframe(), args.output, overwrite=args.overwrite, inputs=inputs)

@@ -58,7 +58,7 @@ def run(args: argparse.Namespace) -> int:
                 record_extra={"command": command}, max_tasks=args.max_tasks, table_format=args.table_format)
     if not args.quiet:
         eng = res.record.get("engine", {})
-        print(f"afferent sweep: wrote {args.output}: {res.table_path.rsplit('/', 1)[-1]} ({len(res.table)} rows), "
+        print(f"afferent sweep: wrote {args.output}: {res.table_path.rsplit('/', 1)[-1]} ({res.n_rows} rows), "
               f"tasks/, sweep.json", file=sys.stderr)
         print(f"  tasks: {res.n_tasks} ({res.n_ran} run, {res.n_skipped} done before, {res.n_failed} failed) on "
               f"{eng.get('kind')}; {res.record['n_sampling_groups']} export sampling(s); "

@@ -19,6 +19,9 @@ list becomes :attr:`~afferent.field.Provenance.files`; the sampled-SED cache
 ``run.json`` records each with its SHA-256. A new reader must do the same (details in
 ``afferent.io._raw``); a file it opens but does not list is a file whose rewrite goes
 unnoticed.
+
+Size: just over 600 lines: the registry of readers and the entry points that share one list of
+declarations (read_sed, iter_sed, sed_from_raw); each reader lives in its own module.
 """
 
 from __future__ import annotations
@@ -399,6 +402,26 @@ def _read_options(*, sed_column, stress_columns, strain_columns, coord_columns, 
     )
 
 
+def _declared(declarations: dict, caller: str) -> ReadOptions:
+    """The :class:`ReadOptions` of :func:`read_sed`'s keyword ``declarations`` (its defaults for the rest): one
+    list of declarations, so that the entry points cannot drift apart."""
+    import inspect
+
+    defaults = {name: p.default for name, p in inspect.signature(read_sed).parameters.items()
+                if p.kind is p.KEYWORD_ONLY and name not in ("format", "progress")}
+    unknown = sorted(set(declarations) - set(defaults))
+    if unknown:
+        raise TypeError(f"{caller}() got an unexpected keyword argument {unknown[0]!r}.")
+    return _read_options(**{**defaults, **declarations})
+
+
+def sed_from_raw(raw: RawExport, **declarations) -> SEDField:
+    """:func:`read_sed` of an export already read by :func:`read_raw` (with the same ``format`` and
+    ``allow_outside_files``): the declarations of :func:`read_sed`, no file read again (``afferent info``
+    describes the raw export, then samples its field)."""
+    return assemble(raw, _declared(declarations, "sed_from_raw"))
+
+
 def _raw_steps(path_or_paths, fmt: str | None, progress: bool, allow: bool = False):
     """(number of steps, iterator of one-step RawExports) for the formats read step by step, else None
     (``allow``: files outside the export's folder allowed, :func:`read_sed`'s ``allow_outside_files``)."""
@@ -436,7 +459,7 @@ def _step_reader(paths: list[str], fmt: str | None, progress: bool, scope: Scope
     return None
 
 
-def iter_sed(path_or_paths, *, format: str | None = None, progress: bool = False, **declarations):
+def iter_sed(path_or_paths, *, format: str | None = None, progress: bool = False, on_first_raw=None, **declarations):
     """Read the SED of an export one time step at a time, in SI units (memory: one step).
 
     Takes the same arguments as :func:`read_sed` and yields :class:`SEDField` objects in time
@@ -455,6 +478,11 @@ def iter_sed(path_or_paths, *, format: str | None = None, progress: bool = False
     ``benchmarks/bench_large_series.py`` measures time and peak memory against
     :func:`read_sed`.
 
+    ``on_first_raw``: a callable given the first :class:`~afferent.io._raw.RawExport` the readers
+    return (the first step, or the whole export for formats read at once), in the file's own names
+    and units, before it is interpreted; the receptor sites found on the export's materials
+    (``afferent.receptors._tips.sites_from_raw``) take it from there, so that the export is read once.
+
     Yields
     ------
     SEDField
@@ -468,18 +496,15 @@ def iter_sed(path_or_paths, *, format: str | None = None, progress: bool = False
     import warnings
     from dataclasses import replace
 
-    import inspect
-
-    # read_sed's own declarations and defaults: one list, so the two entry points cannot drift apart
-    defaults = {name: p.default for name, p in inspect.signature(read_sed).parameters.items()
-                if p.kind is p.KEYWORD_ONLY and name not in ("format", "progress")}
-    unknown = sorted(set(declarations) - set(defaults))
-    if unknown:
-        raise TypeError(f"iter_sed() got an unexpected keyword argument {unknown[0]!r}.")
-    opts = _read_options(**{**defaults, **declarations})
+    opts = _declared(declarations, "iter_sed")
     steps = None if opts.coordinates is not None else _raw_steps(path_or_paths, format, progress, opts.allow_outside_files)
     if steps is None:
-        yield read_sed(path_or_paths, format=format, progress=progress, **declarations)
+        if on_first_raw is None:
+            yield read_sed(path_or_paths, format=format, progress=progress, **declarations)
+            return
+        raw = read_raw(path_or_paths, format=format, progress=progress, allow_outside_files=opts.allow_outside_files)
+        on_first_raw(raw)  # read_sed's two steps, the raw export shown between them
+        yield assemble(raw, opts)
         return
     n_steps, raws = steps
     if opts.times is not None and len(opts.times) != n_steps:
@@ -491,6 +516,8 @@ def iter_sed(path_or_paths, *, format: str | None = None, progress: bool = False
     zero = []  # the all-zero warning of each step that gave it: shown only if every step did (a loading series
     # starts from the undeformed state)
     for k, raw in enumerate(raws):
+        if k == 0 and on_first_raw is not None:
+            on_first_raw(raw)
         numbered = raw.times is None and opts.times is None  # numbered 0, 1, ... as read_sed does
         if numbered:
             raw = replace(raw, times=np.array([float(k)]), notes=raw.notes + (

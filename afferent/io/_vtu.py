@@ -410,3 +410,34 @@ def read_vtu(path: str, parts=ALL_PARTS) -> VtuContent:
         blocks = _cells(pieces)
     return VtuContent(points, blocks, point_data, cell_values, sum(p.n_points for p in pieces),
                       sum(p.n_cells for p in pieces), n_pieces, components)
+
+
+def cell_array_names(path: str, chunk: int = 1 << 16) -> tuple[str, ...] | None:
+    """The names of the cell-data arrays of a VTU's first piece, from its XML alone: no array decoded.
+
+    The file is read in ``chunk`` bytes through a pull parser up to the end of that piece's
+    ``<CellData>`` (or of the piece): with raw or base64 appended data (the usual binary VTU) only
+    the small XML header; with inline data, the text of the arrays written before ``<CellData>``.
+    None when the XML does not tell (not well-formed up to there, not an UnstructuredGrid): the
+    caller then checks after the file is read.
+    """
+    parser = ET.XMLPullParser(events=("start", "end"))
+    names, inside, grid = [], False, False
+    with open(path, "rb") as f:
+        while True:
+            data = f.read(chunk)
+            broken = False
+            try:
+                parser.feed(data) if data else parser.close()
+            except ET.ParseError:  # raw appended bytes, or a damaged file: the events before it still count
+                broken = True
+            for event, el in parser.read_events():
+                grid = grid or (event == "start" and el.tag == "UnstructuredGrid")
+                if event == "start" and el.tag == "CellData":
+                    inside = True
+                elif event == "start" and el.tag == "DataArray" and inside and el.get("Name") is not None:
+                    names.append(el.get("Name"))
+                elif event == "end" and el.tag in ("CellData", "Piece") or event == "start" and el.tag == "AppendedData":
+                    return tuple(names) if grid else None
+            if broken or not data:
+                return None

@@ -604,12 +604,28 @@ def sites_from_export(
     153
     >>> sites_from_export("ridged.vtu", length_unit="mm", upper=1, lower=2, kind="bases")  # doctest: +SKIP
     """
-    from ..exceptions import UnitError
     from ..io import read_raw
+
+    path = os.fspath(path)
+    length_factor(length_unit)  # an unknown unit refused before the file is read
+    raw = read_raw(path, allow_outside_files=allow_outside_files)
+    return sites_from_raw(raw, path, length_unit=length_unit, material_array=material_array, upper=upper, lower=lower,
+                          kind=kind, **kwargs)
+
+
+def sites_from_raw(raw, path, *, length_unit: str, material_array: str = "layer", upper, lower, kind: str = "tips",
+                   **kwargs) -> ReceptorLayout:
+    """:func:`sites_from_export` on an export already read: ``raw`` (a :class:`~afferent.io._raw.RawExport`, the
+    first step's, or the whole export's, as :func:`afferent.io.iter_sed` hands it to ``on_first_raw``), named
+    ``path`` in the messages. The sites of a command that samples the same export come from its one read.
+
+    Parameters, result and errors as :func:`sites_from_export` (positions in m; ``length_unit`` the
+    coordinates' unit, checked against the unit the file states).
+    """
+    from ..exceptions import UnitError
 
     factor = length_factor(length_unit)
     path = os.fspath(path)
-    raw = read_raw(path, allow_outside_files=allow_outside_files)
     if raw.length_unit is not None and not np.isclose(length_factor(raw.length_unit), factor):
         raise UnitError(
             f"'length_unit' must agree with the unit {raw.length_unit!r} that {path!r} states; "
@@ -622,11 +638,7 @@ def sites_from_export(
         )
     cell_arrays = {arr.name: arr for arr in raw.arrays.values() if arr.location == "cell"}
     if material_array not in cell_arrays:
-        found = f"cell arrays {', '.join(repr(n) for n in cell_arrays)}" if cell_arrays else "no cell arrays"
-        hint = suggest(material_array, list(cell_arrays))
-        raise SEDFormatError(
-            f"Export {path!r} must have a cell array {material_array!r} of material ids; found {found} instead.{hint}"
-        )
+        raise SEDFormatError(missing_material_array(path, material_array, list(cell_arrays)))
     values = cell_arrays[material_array].values
     if values.ndim != 2:
         raise SEDFormatError(
@@ -639,6 +651,14 @@ def sites_from_export(
         return interface_sites(raw.points * factor, raw.cells, values[0], upper=upper, lower=lower, kind=kind, **kwargs)
     except ValueError as err:
         raise ValueError(f"Export {path!r}: {err}") from err
+
+
+def missing_material_array(path, material_array: str, cell_arrays) -> str:
+    """The sentence refusing an export ``path`` without the cell array ``material_array`` (its cell arrays
+    ``cell_arrays``; the nearest named)."""
+    found = f"cell arrays {', '.join(repr(n) for n in cell_arrays)}" if cell_arrays else "no cell arrays"
+    return (f"Export {os.fspath(path)!r} must have a cell array {material_array!r} of material ids; found {found} "
+            f"instead.{suggest(material_array, list(cell_arrays))}")
 
 
 def tips_from_export(path, *, length_unit: str, material_array: str = "layer", upper, lower, **kwargs) -> ReceptorLayout:

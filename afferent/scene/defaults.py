@@ -97,10 +97,16 @@ def _receptors(scene: Scene, o, err, ex):
         raise err("receptors", None, "[receptors] must give exactly one of 'file' (a receptor CSV) and 'grid' "
                   f"('tips', 'bases' or 'regular'); got {'both' if rec.file else 'neither'} instead.")
     if rec.file is not None:
-        extra = [_given(scene, "receptors", k) for k in _GRID_KEYS + _TIPS_KEYS + ("rows",) if getattr(raw, k) is not None]
+        # with [outputs] hotspot_beside, the materials and pitches say how the sites beside the file's are found
+        beside = _TIPS_KEYS + ("pitch_x_m", "pitch_z_m") if scene.outputs.hotspot_beside is not None else ()
+        extra = [_given(scene, "receptors", k) for k in _GRID_KEYS + _TIPS_KEYS + ("rows",)
+                 if getattr(raw, k) is not None and k not in beside]
         if extra:
+            also = (" (material_array, upper, lower and the pitches also apply to the sites [outputs] hotspot_beside = "
+                    "'tips' | 'bases' finds beside the file's)") if extra[0] in _TIPS_KEYS + ("pitch_x_mm", "pitch_z_mm",
+                                                                                              "pitch_x_m", "pitch_z_m") else ""
             raise err("receptors", extra[0], f"[receptors] {extra[0]!r} applies to a generated grid, not to a receptor "
-                      "file; remove it or use grid = ... instead of file.")
+                      f"file{also}; remove it or use grid = ... instead of file.")
         if rec.length_unit is None:
             if ex.length_unit is None:
                 raise err("receptors", "file", "[receptors] needs 'length_unit' (the unit of the CSV's x, y, z): "

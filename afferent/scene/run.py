@@ -22,7 +22,7 @@ from .planning import plan, skip_reasons
 from .record import _QUIET_CATEGORIES, build_record, reemit, summary_lines
 from .defaults import class_record, resolve
 from .schema import _LIF_FIELDS, Scene, SceneError, _plain_json
-from .stages import (_beside_scene, _branching, _crop, _hash_all, _inside_field, _judge_placement, _layout_before_reading,
+from .stages import (_beside_scene, _branching, _check_before_reading, _crop, _named_inputs, _hash_all, _inside_field, _judge_placement, _layout_before_reading,
                      _layout_from_field, _params, _refuse_rate_keys_without_rate, _refuse_step_numbers, _restrict, _trim,
                      _waveform)
 
@@ -235,15 +235,15 @@ def _compute(run: _Run, *, cache_dir, use_cache: bool, progress: bool) -> None:
     scene = run.scene
     run.region_info["region"] = {"x_range_m": scene.region.x_range_m, "z_range_m": scene.region.z_range_m}
     exp_files, hashes = _hash_inputs(run)
-    sed = _receptor_sed(run, exp_files, hashes, cache_dir=cache_dir, use_cache=use_cache, progress=progress)
-    _compute_downstream(run, sed)
-    run.out["hotspot_threshold"] = scene.outputs.hotspot_threshold
     beside = _beside_scene(scene)
-    if beside is not None:  # the second hot-spot map: its sites sampled as the scene's are (region, cache)
-        sub = _Run(beside, run.planned, {}, run.steps, inputs=run.inputs)
-        run.out["sed_beside"] = _leave_outside(run, _receptor_sed(sub, exp_files, hashes, cache_dir=cache_dir,
-                                                                  use_cache=use_cache, progress=progress), "outside_beside",
-                                              drop=False)
+    # the second hot-spot map's sites are sampled as the scene's are (region, cache), from the same one read
+    sub = None if beside is None else _Run(beside, run.planned, {}, run.steps, inputs=run.inputs)
+    seds = _receptor_seds([run] if sub is None else [run, sub], exp_files, hashes, cache_dir=cache_dir,
+                          use_cache=use_cache, progress=progress)
+    _compute_downstream(run, seds[0])
+    run.out["hotspot_threshold"] = scene.outputs.hotspot_threshold
+    if sub is not None:
+        run.out["sed_beside"] = _leave_outside(run, seds[1], "outside_beside", drop=False)
         run.record["hotspots_beside"] = {k: sub.record.get(k) for k in ("receptors", "cache", "sampling")}
 
 
@@ -312,20 +312,11 @@ def _hash_inputs(run: _Run):
             if not os.path.exists(p):
                 raise FileNotFoundError(f"SED file {p!r}{' ([export] file)' if scene.source else ''} not found.")
             check_regular(p)  # a FIFO or a device: refused before hashing (it would block, or never end)
+        _check_before_reading(scene, planned)  # the first step of every route through a scene: nothing read yet
         hashes = _hash_all({p: None for p in exp_files})
         run.inputs.update(hashes)
-        extra_files = [ex.coordinates, ex.materials, scene.receptors.file, scene.outputs.hotspot_beside_file]
-        if "synthesis" in planned and scene.synthesis.kind == "map":
-            extra_files.append(scene.synthesis.map)
-        if "comparison" in planned:
-            extra_files.append(scene.fit.observed)
-        if "spiking" in planned and scene.spikes.branching == "zones":
-            extra_files.append(scene.spikes.zone_map)
-        if "stimulus" in planned and scene.stimulus.waveform == "file":
-            extra_files.append(scene.stimulus.file)
-        for p in extra_files:
-            if p is not None and os.path.isfile(p):
-                run.inputs[p] = None
+        for _, p, _ in _named_inputs(scene, planned):  # each checked by _check_before_reading
+            run.inputs[p] = None
         run.inputs.update(_hash_all(run.inputs))
     return exp_files, hashes
 
@@ -365,60 +356,82 @@ def _cache_key(run: _Run, layout, exp_files, hashes) -> str:
 
 def _receptor_sed(run: _Run, exp_files, hashes, *, cache_dir, use_cache: bool, progress: bool):
     """Stages 'reading' and 'sampling' (or a cache hit): SED at the region's receptors, J/m^3."""
+    return _receptor_seds([run], exp_files, hashes, cache_dir=cache_dir, use_cache=use_cache, progress=progress)[0]
+
+
+def _receptor_seds(runs: list, exp_files, hashes, *, cache_dir, use_cache: bool, progress: bool) -> list:
+    """:func:`_receptor_sed` of runs on one export (a scene's and its second hot-spot map's): each served by the
+    cache where it can be; the others sampled together from one read of the export (:func:`_read_sample_store`)."""
     from ..cache import SEDCache
 
-    scene = run.scene
-    with run.steps("receptors"):
-        run.full_layout = _layout_before_reading(scene)
-        layout = None if run.full_layout is None else _restrict(run.full_layout, scene, run.region_info)
-    key = _cache_key(run, layout, exp_files, hashes)
     cache = SEDCache(cache_dir) if use_cache else None
-    cache_info: dict = {"enabled": bool(use_cache), "key": key}
-    entry = None
-    if cache is not None:
-        cache_info["dir"] = str(cache.directory)
-        with run.steps("cache"):
-            entry = cache.get(key, positions=None if layout is None else layout.positions, base=_base(scene),
-                              hashes=run.inputs)
-        cache_info["hit"] = entry is not None
-        if entry is None:
-            cache_info["miss"] = cache.last_miss
-    if entry is not None:
-        sed = _from_cache(run, entry, layout, key)
-        _add_inputs(run, entry.files)
-    else:
-        sed = _read_sample_store(run, layout, key, cache, cache_info, progress=progress)
-    run.record["cache"] = cache_info
-    _judge_placement(scene, run.record.get("receptor_sites"), run.planned)
-    run.region_info["n_receptors_sampled"] = int(sed.layout.n_receptors)
-    rec = scene.receptors
-    source = rec.file or f"grid = {rec.grid!r}" + (f", rows = {rec.rows!r}" if rec.grid == "regular" else "")
-    run.record["receptors"] = {"source": source, "site": sed.layout.site, **run.region_info}
-    return sed
+    seds, pending = [None] * len(runs), []
+    for k, run in enumerate(runs):
+        scene = run.scene
+        with run.steps("receptors"):
+            run.full_layout = _layout_before_reading(scene)
+            layout = None if run.full_layout is None else _restrict(run.full_layout, scene, run.region_info)
+        key = _cache_key(run, layout, exp_files, hashes)
+        cache_info: dict = {"enabled": bool(use_cache), "key": key}
+        entry = None
+        if cache is not None:
+            cache_info["dir"] = str(cache.directory)
+            with run.steps("cache"):
+                entry = cache.get(key, positions=None if layout is None else layout.positions, base=_base(scene),
+                                  hashes=run.inputs)
+            cache_info["hit"] = entry is not None
+            if entry is None:
+                cache_info["miss"] = cache.last_miss
+        run.record["cache"] = cache_info
+        if entry is not None:
+            seds[k] = _from_cache(run, entry, layout, key)
+            _add_inputs(run, entry.files)
+        else:
+            pending.append((k, run, layout, key))
+    if pending:
+        read = _read_sample_store([(run, layout, key) for _, run, layout, key in pending], cache, progress=progress)
+        for (k, *_), sed in zip(pending, read):
+            seds[k] = sed
+    for run, sed in zip(runs, seds):
+        _judge_placement(run.scene, run.record.get("receptor_sites"), run.planned)
+        run.region_info["n_receptors_sampled"] = int(sed.layout.n_receptors)
+        rec = run.scene.receptors
+        source = rec.file or f"grid = {rec.grid!r}" + (f", rows = {rec.rows!r}" if rec.grid == "regular" else "")
+        run.record["receptors"] = {"source": source, "site": sed.layout.site, **run.region_info}
+    return seds
 
 
-def _read_sample_store(run: _Run, layout, key: str, cache, cache_info: dict, *, progress: bool):
-    """Read and sample (cache miss); hash every file the reader opened; store the entry with their list.
+def _read_sample_store(pending: list, cache, *, progress: bool) -> list:
+    """Read and sample (cache misses): ``pending`` holds (run, layout or None, cache key) of runs on one export,
+    sampled from one read; hash every file the reader opened; store each run's entry with their list.
 
     A file modified after reading began (its modification time is later) may have been read
     half old, half new: its hash would not describe the values, so no entry is written then.
     """
     from ..cache import file_records
 
-    _start_figures(run)
+    for run, _, _ in pending:
+        _start_figures(run)
     t_read = time.time_ns()
-    sed = _read_and_sample(run, layout, progress=progress)
-    read = run.record["field"]["files"]
-    with run.steps("hashing"):
-        _add_inputs(run, _hash_all({p: run.inputs.get(p) for p in read}))
-        records = file_records(read, run.inputs)
-    if cache is None:
-        return sed
+    seds = _read_and_sample([(run, layout) for run, layout, _ in pending], progress=progress)
+    for (run, _, key), sed in zip(pending, seds):
+        read = run.record["field"]["files"]
+        with run.steps("hashing"):
+            _add_inputs(run, _hash_all({p: run.inputs.get(p) for p in read}))
+            records = file_records(read, run.inputs)
+        if cache is not None:
+            _store(run, sed, key, cache, records, t_read)
+    return seds
+
+
+def _store(run: _Run, sed, key: str, cache, records: list, t_read: int) -> None:
+    """Write the run's sampled SED into the cache (unless a file read changed after ``t_read``, ns)."""
+    cache_info = run.record["cache"]
     late = [r["path"] for r in records if r["mtime_ns"] >= t_read]
     if late:
         cache_info["not_written"] = (f"file {late[0]!r} was modified after reading began: the values may not match "
                                      "its content; not cached")
-        return sed
+        return
     with run.steps("cache"):
         try:
             path = cache.put(key, sed, meta={"field": run.record["field"], "region_info": {
@@ -428,7 +441,6 @@ def _read_sample_store(run: _Run, layout, key: str, cache, cache_info: dict, *, 
             cache_info["written"] = str(path)
         except OSError as err:  # a read-only or full cache disk must not fail the run
             cache_info["write_error"] = str(err)
-    return sed
 
 
 def _add_inputs(run: _Run, hashes: dict) -> None:
@@ -467,8 +479,10 @@ def _sampling_outside(scene: Scene) -> str:
     return "raise" if scene.sampling.on_outside == "raise" else "nan"
 
 
-def _read_and_sample(run: _Run, layout, *, progress: bool):
-    """Stages 'reading' and 'sampling', one export step at a time (memory: one step of the mesh).
+def _read_and_sample(pairs: list, *, progress: bool) -> list:
+    """Stages 'reading' and 'sampling' of (run, layout) pairs on one export, from one read of it, one export
+    step at a time (memory: one step of the mesh). A layout None is found on the first step as read
+    (``receptors`` tips, bases; :func:`afferent.io.iter_sed`'s ``on_first_raw``): the export is read once.
 
     'reading' times the first step (the mesh); the later steps are read while they are sampled.
     """
@@ -476,18 +490,23 @@ def _read_and_sample(run: _Run, layout, *, progress: bool):
 
     from .._placement import placement_record
     from ..io import iter_sed, series_provenance
-    from ..sampling import build_sampler, sample_steps
+    from ..sampling import build_sampler, sample_steps_together
 
-    scene = run.scene
-    ex, method = scene.export, scene.sampling.method
-    with run.steps("reading"):
+    scene = pairs[0][0].scene
+    ex, method, steps_of = scene.export, scene.sampling.method, pairs[0][0].steps
+    raws = []
+    with steps_of("reading"):
         steps = iter_sed(list(ex.files) if len(ex.files) > 1 else ex.files[0], progress=progress,
-                         accept=scene.info.accept, **ex.read_kwargs())
+                         accept=scene.info.accept, on_first_raw=raws.append, **ex.read_kwargs())
         first = next(steps)
-    if layout is None:
-        with run.steps("receptors"):
-            run.full_layout = _layout_from_field(scene, first)
-            layout = _restrict(run.full_layout, scene, run.region_info)
+    layouts = []
+    for run, layout in pairs:
+        if layout is None:
+            with run.steps("receptors"):
+                run.full_layout = _layout_from_field(run.scene, first, raws[0])
+                layout = _restrict(run.full_layout, run.scene, run.region_info)
+        layouts.append(layout)
+    raws.clear()  # the first step as read: no longer needed once the sites are found
     provenances = []
 
     def recorded(fields):
@@ -495,20 +514,22 @@ def _read_and_sample(run: _Run, layout, *, progress: bool):
             provenances.append(f.provenance)
             yield f
 
-    with run.steps("sampling"):
-        cropped, crop_info = _crop(first, layout.positions, method)
-        sampler = build_sampler(cropped, layout, method=method)
-        sed = sample_steps(recorded(chain([first], steps)), layout, method=method,
-                           on_outside=_sampling_outside(scene), sampler=sampler, side=scene.sampling.side)
-    run.record["field"] = dict(series_provenance(provenances).to_dict(), n_points=int(first.n_points),
-                               n_cells=int(first.cells.n_cells) if first.cells is not None else 0,
-                               n_times=int(sed.values.shape[0]))
-    run.record["sampling"] = {"method": sed.method, "placement": sed.placement, "side": scene.sampling.side,
-                              "interface": sed.interface}
-    run.record["receptor_sites"] = placement_record(first, layout, sed.outside)
-    if crop_info:
-        run.record["sampling"]["mesh_cropped_to_receptors"] = crop_info
-    return sed
+    with steps_of("sampling"):
+        crops = [_crop(first, layout.positions, method) for layout in layouts]
+        samplers = [build_sampler(cropped, layout, method=method) for (cropped, _), layout in zip(crops, layouts)]
+        seds = sample_steps_together(recorded(chain([first], steps)), layouts, method=method,
+                                     on_outside=_sampling_outside(scene), samplers=samplers, side=scene.sampling.side)
+    field_record = dict(series_provenance(provenances).to_dict(), n_points=int(first.n_points),
+                        n_cells=int(first.cells.n_cells) if first.cells is not None else 0,
+                        n_times=int(seds[0].values.shape[0]))
+    for (run, _), layout, sed, (_, crop_info) in zip(pairs, layouts, seds, crops):
+        run.record["field"] = dict(field_record)
+        run.record["sampling"] = {"method": sed.method, "placement": sed.placement, "side": scene.sampling.side,
+                                  "interface": sed.interface}
+        run.record["receptor_sites"] = placement_record(first, layout, sed.outside)
+        if crop_info:
+            run.record["sampling"]["mesh_cropped_to_receptors"] = crop_info
+    return seds
 
 
 def _stimulus(run: _Run, sed):

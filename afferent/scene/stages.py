@@ -9,7 +9,7 @@ from dataclasses import replace
 import os
 import warnings
 
-from .schema import _GRID_DEFAULTS, ReceptorSpec, RegionSpec, Scene, SceneError
+from .schema import _GRID_DEFAULTS, MESH_GRIDS, ReceptorSpec, RegionSpec, Scene, SceneError
 
 
 def _in_region(layout, region: RegionSpec):
@@ -72,19 +72,71 @@ def _beside_scene(scene: Scene):
     return replace(scene, receptors=new)
 
 
-def _layout_from_field(scene: Scene, field):
-    """Receptors found on the export: papilla tips or ridge bases, or a regular grid over the export's extent."""
+def _given(scene: Scene, name: str) -> str:
+    """The [receptors] key as the user wrote it."""
+    return scene.origin.given.get("receptors", {}).get(name, name)
+
+
+def _named_inputs(scene: Scene, planned) -> list:
+    """(what, path, where) of every file besides the export that the planned stages read, ``where`` the scene key
+    (for a scene file; None for a scene built from options or in Python, whose caller names its own)."""
+    ex, out = scene.export, scene.outputs
+    entries = [("Coordinates file", ex.coordinates, "export", "coordinates"),
+               ("Elastic constants table", ex.materials, "export", "materials"),
+               ("Receptor file", scene.receptors.file, "receptors", "file"),
+               ("Receptor file", out.hotspot_beside_file, "outputs", "hotspot_beside_file")]
+    if "transduction" in planned:
+        entries.append(("Calibration result", scene.transduction.calibration, "transduction", "calibration"))
+    if "synthesis" in planned and scene.synthesis.kind == "map":
+        entries.append(("Branching map file", scene.synthesis.map, "synthesis", "map"))
+    if "comparison" in planned:
+        entries.append(("Observed profile file", scene.fit.observed, "fit", "observed"))
+    if "spiking" in planned and scene.spikes.branching == "zones":
+        entries.append(("Zone map file", scene.spikes.zone_map, "spikes", "zone_map"))
+    if "stimulus" in planned and scene.stimulus.waveform == "file":
+        entries.append(("Waveform file", scene.stimulus.file, "stimulus", "file"))
+    return [(what, path, f"[{table}] {key}" if scene.source else None) for what, path, table, key in entries if path]
+
+
+def _check_before_reading(scene: Scene, planned) -> None:
+    """Every file the planned stages read, and the material array of each set of sites found on the export
+    (``[receptors] grid``, ``[outputs] hotspot_beside``), checked before the export is read
+    (:mod:`afferent._inputs`: the array on the export's header where its format lists the arrays; else
+    right after the one read, before the sites are searched)."""
+    from .._inputs import check_files, check_material_array
+    from ..exceptions import SEDFormatError
+
+    check_files(_named_inputs(scene, planned))
+    ex = scene.export
+    for sc in (scene, _beside_scene(scene)):
+        if sc is None or sc.receptors.grid not in MESH_GRIDS:
+            continue
+        name = sc.receptors.material_array or _GRID_DEFAULTS["material_array"]
+        try:  # a scene built from options: 'material_array', which the command line says as --material-array
+            check_material_array(list(ex.files), name, format=ex.format, where=None if scene.source else "'material_array'",
+                                 allow_outside_files=bool(ex.allow_outside_files))
+        except SEDFormatError as err:
+            if not scene.source:
+                raise
+            raise scene.origin.error("receptors", _given(scene, "material_array"), str(err)) from err
+
+
+def _layout_from_field(scene: Scene, field, raw):
+    """Receptors found on the export: papilla tips or ridge bases, or a regular grid over the export's extent.
+
+    ``raw``: the export as its reader returned it (its first step; :func:`afferent.io.iter_sed`'s
+    ``on_first_raw``), on which tips and bases are found: the export is not read a second time.
+    """
     rec = scene.receptors
     pitch = dict(pitch_x=rec.pitch_x_m, pitch_z=rec.pitch_z_m)
     if rec.grid in ("tips", "bases"):
-        from ..receptors import sites_from_export
+        from ..receptors._tips import sites_from_raw
 
         files = [f for f in field.provenance.files if not f.lower().endswith(".pvd")] or list(field.provenance.files)
         unit = field.provenance.units.get("length")
         # the region is applied afterwards (as interface_tips' own ranges would be: last), to count what it leaves out
-        return sites_from_export(files[0], length_unit=unit, material_array=rec.material_array, upper=rec.upper,
-                                 lower=rec.lower, kind=rec.grid, allow_outside_files=bool(scene.export.allow_outside_files),
-                                 **pitch)
+        return sites_from_raw(raw, files[0], length_unit=unit, material_array=rec.material_array, upper=rec.upper,
+                              lower=rec.lower, kind=rec.grid, **pitch)
     from ..receptors import grid_layout
 
     lo, hi = field.bounds
