@@ -3,7 +3,7 @@
 
 A spikes-only run synthesizes a few hundred receptors into a few afferents; importing
 scipy.sparse for that cost 0.16 s of CPU, more than the rest of the run's numerical work
-(README "Speed on the default install"). :class:`CSRWeights` holds scipy's CSR arrays
+(docs/performance.md, "What a spikes-only scene imports"). :class:`CSRWeights` holds scipy's CSR arrays
 (``data``, ``indices``, ``indptr``) and multiplies a dense array (``W @ x``) with the same
 floating-point operations in the same order as scipy's ``csr_array @ x``: each row's sum
 starts at 0 and adds ``data[k] * x[indices[k]]`` in column order, so results are bit for bit

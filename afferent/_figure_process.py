@@ -1,7 +1,7 @@
 """A run's figures drawn in a second process, while the run itself reads, samples and writes its tables.
 
-matplotlib's import and the drawing of a run's seven figures take ~1.3 s of one core (README "Speed
-on the default install"); most of it cannot be made shorter in one process. On a machine with two
+matplotlib's import and the drawing of a run's seven figures take ~1.3 s of one core (docs/performance.md,
+"The figures in a second process"); most of it cannot be made shorter in one process. On a machine with two
 usable cores :func:`afferent.scene.run_scene` therefore starts one child process as a run that wants
 ``plots`` begins to read its export: the child imports matplotlib (Agg) and :mod:`afferent.plotting`
 while the run reads and samples; at the writing stage the run hands it the small objects the
@@ -9,7 +9,7 @@ figures need and it draws them with :func:`afferent.export._figures`, the one fi
 function (the same code draws them in the run's own process otherwise), into the run's temporary
 output folder, each PNG written whole through :func:`afferent.plotting.save_figure`. Meanwhile the
 run, its tables written, draws :data:`RUN_DRAWS` itself (it would otherwise wait idle: the bench
-run's figures 0.92-1.02 s instead of 1.20-1.24 s, README "Speed on the default install"), then
+run's figures 0.92-1.02 s instead of 1.20-1.24 s, docs/performance.md, "On the default install"), then
 waits for the child before ``run.json`` and the folder's rename.
 
 What crosses back: the PNGs' names, the warnings raised while drawing (re-emitted in the run, so

@@ -1,5 +1,5 @@
 """Writing results safely: to a temporary name, then renamed; never silently overwritten, and never
-deleting what the package did not write (README "Outputs and --overwrite").
+deleting what the package did not write (docs/cli.md, "Outputs and --overwrite").
 
 One guard, :func:`check_writable`, runs before any work and again at the final rename:
 

@@ -1,5 +1,5 @@
 """What afferent wrote in an output folder: the record :data:`MARKER`, the proof that a folder holds
-nothing else, and the removal of exactly those files (README "Outputs and --overwrite").
+nothing else, and the removal of exactly those files (docs/cli.md, "Outputs and --overwrite").
 
 The record names each file afferent wrote, one by one, with its size (bytes) and SHA-256, and each
 subfolder it made. A folder may be replaced (``overwrite``) only if every entry below it is proven

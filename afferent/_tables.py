@@ -170,7 +170,7 @@ def write_table(path, columns: dict) -> None:
     byte for byte what ``pandas.DataFrame(columns).to_csv(path, index=False)`` writes (tested):
     a header row, ``,`` between cells, ``\\n`` after each row, quotes only where a cell needs them,
     NaN as an empty cell. pandas is not imported (its import costs more than a run of a few
-    afferents: README "Speed on the default install").
+    afferents: docs/performance.md, "What a spikes-only scene imports").
 
     Raises
     ------

@@ -82,8 +82,8 @@ class Prony:
         return 1.0 - float(sum(self.g))
 
 
-# The set used for the samples (README "Vibration series", "Material"): relaxation times from
-# Pawluk & Howe 1999, weights from Wang et al. 2015 (see SOURCE); one set for dermis and subcutis.
+# The set used for the samples (sample_sed/README.md, "Vibration series", "Material and time integration"):
+# relaxation times from Pawluk & Howe 1999, weights from Wang et al. 2015 (see SOURCE); one set for dermis and subcutis.
 SOURCE = (
     "tau_1 = 0.07 s, tau_2 = 1.4 s: the two slower of the three time constants (about 4 ms, 70 ms "
     "and 1.4 s) of the reduced relaxation function fitted to in vivo ramp-and-hold indentations of "

@@ -53,7 +53,7 @@ want = ["sed_map", "profiles", "spikes", "hotspots", "plots"]
 def _ignores_sigint(pid: int) -> bool:
     """Whether process ``pid`` ignores SIGINT (Linux /proc: bit 2 of SigIgn): the figure process's own code sets it
     first thing. Before that, a Ctrl-C while its interpreter starts can still make it print a traceback of
-    multiprocessing's start (SIGINT is blocked for the start, but not in every path of it): noted in the README."""
+    multiprocessing's start (SIGINT is blocked for the start, but not in every path of it): noted in docs/performance.md."""
     try:
         with open(f"/proc/{pid}/status") as f:
             line = next(x for x in f if x.startswith("SigIgn:"))

@@ -1,4 +1,4 @@
-"""The package's shape: short functions, modules of one concern, and a README tree that matches the code.
+"""The package's shape: short functions, modules of one concern, and a module tree (docs/contributing.md) that matches the code.
 
 Rules (issue 13), checked with :mod:`ast` on every module of ``afferent/``:
 
@@ -9,7 +9,7 @@ Rules (issue 13), checked with :mod:`ast` on every module of ``afferent/``:
   parent and are also checked on their own.
 - **Modules**: at most :data:`MAX_MODULE_LINES` lines (the whole file), unless the module's
   docstring holds a line starting with ``Size:`` that says why it is longer.
-- **README**: the "Development" tree names every module file and subpackage of ``afferent/``.
+- **docs/contributing.md**: the "The code's layout" tree names every module file and subpackage of ``afferent/``.
 
 A function or module over the limit that this change may not edit is listed in
 :data:`FUNCTION_ALLOWLIST` with the reason; an entry that is no longer needed fails the test,
@@ -111,9 +111,9 @@ def test_module_size_is_within_the_limit_or_explained(path):
 
 
 def _development_tree() -> str:
-    text = (ROOT / "README.md").read_text(encoding="utf-8")
-    m = re.search(r"^## Development\n.*?^```\n(.*?)^```", text, flags=re.S | re.M)
-    assert m, "README.md has no '## Development' section with a fenced tree"
+    text = (ROOT / "docs" / "contributing.md").read_text(encoding="utf-8")
+    m = re.search(r"^## The code's layout\n.*?^```text\n(.*?)^```", text, flags=re.S | re.M)
+    assert m, "docs/contributing.md has no \"## The code's layout\" section with a fenced tree"
     return m.group(1)
 
 
@@ -129,7 +129,7 @@ def test_readme_development_tree_names_every_module():
     for pkg in sorted({p.parent for p in _modules()} - {PACKAGE}):
         if pkg.name + "/" not in names:
             missing.append(pkg.relative_to(PACKAGE).as_posix() + "/")
-    assert not missing, f"README.md's Development tree does not name: {missing}"
+    assert not missing, f"docs/contributing.md's tree does not name: {missing}"
 
 
 def test_readme_development_tree_names_only_what_exists():
@@ -138,7 +138,7 @@ def test_readme_development_tree_names_only_what_exists():
     top = {"afferent/", "tests/", "benchmarks/", "notebooks/", "sample_sed/", "docs/", "fuzz/", "data/"}
     named = set(re.findall(r"^\s*([A-Za-z_][A-Za-z0-9_]*(?:\.py|/))", tree, flags=re.M))
     ghost = sorted(named - files - top)
-    assert not ghost, f"README.md's Development tree names modules that do not exist: {ghost}"
+    assert not ghost, f"docs/contributing.md's tree names modules that do not exist: {ghost}"
 
 
 #: The orchestra: what chains the stages (the Python API's pipeline, scenes, sweeps, the commands, the

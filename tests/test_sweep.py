@@ -300,9 +300,10 @@ def test_sample_sweep_file_is_a_valid_scene_plus_sweep():
 
 
 def test_readme_sweep_example_runs_on_the_sample(tmp_path, monkeypatch, capsys):
-    """The README's "Sweeps" example, as written (output folder moved into tmp_path)."""
-    readme = (ROOT / "README.md").read_text(encoding="utf-8")
-    section = readme.split("## Sweeps")[1].split("\n## ")[0]
+    """The "Sweeps" example of docs/scenes.md (moved there from the README), as written (output folder moved into
+    tmp_path)."""
+    page = (ROOT / "docs" / "scenes.md").read_text(encoding="utf-8")
+    section = page.split("\n## Sweeps")[1].split("\n## ")[0]
     cmd = next(line[2:] for line in section.splitlines() if line.startswith("$ afferent sweep "))
     argv = cmd.split()[1:]
     monkeypatch.chdir(ROOT)
@@ -310,9 +311,9 @@ def test_readme_sweep_example_runs_on_the_sample(tmp_path, monkeypatch, capsys):
     assert main(argv) == 0
     assert "tasks: 12 (12 run, 0 done before, 0 failed)" in capsys.readouterr().err
     table = read_table(next((tmp_path / "sweep_gamma").glob("table.*")))
-    assert len(table) == 36  # 12 tasks x 3 afferents in the region, as the README says
+    assert len(table) == 36  # 12 tasks x 3 afferents in the region, as docs/scenes.md says
     n = table.pivot_table(index="transduction.gamma_per_pa", columns="spikes.gain_ms", values="n_spikes", aggfunc="sum")
-    # golden: the README's numbers, from this example run with the exact LIF engine (deterministic)
+    # golden: the page's numbers, from this example run with the exact LIF engine (deterministic)
     assert (n.loc[2e-3, 100.0], n.loc[1e-2, 300.0]) == (23, 226)  # (80, 273) on the sample before issue 21
     assert "23 ... 226 spikes per task" in section
 

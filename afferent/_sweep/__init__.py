@@ -408,7 +408,7 @@ def sweep(sources, output, *, scheduler=None, overwrite: bool = False, cache_dir
         when Dask is not installed; ``'threads'``, ``'processes'``, ``'serial'``; a scheduler
         address (``'tcp://host:8786'``) or a ``distributed.Client``.
     overwrite : bool, default=False
-        Replace an existing output folder that afferent wrote (README "Outputs and --overwrite"); the
+        Replace an existing output folder that afferent wrote (docs/cli.md, "Outputs and --overwrite"); the
         previous sweep stays whole until the new one is complete.
     cache_dir : str or path-like, optional
         Sampled-SED cache (:mod:`afferent.cache`); default ``$AFFERENT_CACHE_DIR`` or

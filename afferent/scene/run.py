@@ -102,7 +102,7 @@ def run_scene(scene: Scene, *, overwrite: bool = False, cache_dir=None, progress
     scene : Scene
         From :func:`load_scene` (resolved here if it is not yet).
     overwrite : bool, default=False
-        Replace an existing output folder that afferent wrote (README "Outputs and --overwrite"),
+        Replace an existing output folder that afferent wrote (docs/cli.md, "Outputs and --overwrite"),
         once the new results are complete. Without it an existing folder is an error, raised
         before any work is done.
     cache_dir : str or path-like, optional

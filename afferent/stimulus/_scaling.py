@@ -114,12 +114,13 @@ def scale_static(sed, waveform: Waveform, *, d_ref: float, time_index: int | Non
       full quadratic ``a d^2 + b d + c`` per point, not ``a d^2``. This is the case of the
       bundled series; :func:`depth_scaling_error` measures how far off d^2 it is. In
       ``sample_sed/block4/series_0p88mm`` (119 papilla tips), the last step (0.5 mm)
-      predicts the 0.4, 0.3, 0.2 and 0.1 mm steps with relative L2 errors of 3.5 %,
-      9.8 %, 24 % and 85 % over the receptors (89 % at 0.1 mm over the 51 tips of the
+      predicts the 0.4, 0.3, 0.2 and 0.1 mm steps with relative L2 errors of 4.3 %,
+      12 %, 30 % and 107 % over the receptors (120 % at 0.1 mm over the 51 tips of the
       ``spikes_ramp`` scene's region; measured with :func:`depth_scaling_error` on the
       series sampled at ``sample_sed/block4/receptors.csv``, depths 0-0.5 mm in 0.1 mm
-      steps). The effective exponent is 2.15-2.38: the SED falls faster than d^2, because
-      the ridge valleys are pushed by less than d (:ref:`method-scaling`). A
+      steps; the table of docs/method.md, recomputed by tests/test_doc_figures.py). The
+      effective exponent is 2.18-2.43: the SED falls faster than d^2, because the ridge
+      valleys are pushed by less than d (:ref:`method-scaling`). A
       per-receptor fit of ``a d^2 + b d + c`` to the full-contact steps (d >= 0.1 mm)
       reproduces them to 3e-7, the float32 precision of the export.
 
@@ -181,7 +182,7 @@ def interpolate_series(sed, waveform: Waveform, *, series_depths):
     """SED over time from a loading series: per receptor, linear in depth between the series' steps.
 
     Where the user has solved several depths, this follows the FE model itself instead of the
-    d^2 law (:func:`scale_static`), which fails where the contact changes (89 % off at 0.1 mm on
+    d^2 law (:func:`scale_static`), which fails where the contact changes (107 % off at 0.1 mm on
     the bundled ridged-skin series).
 
     Parameters
