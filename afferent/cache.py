@@ -123,11 +123,8 @@ def _changed_file(records, base_then: str | None, base_now: str | None, hashes: 
     from .export import file_sha256
 
     for rec in records:
-        where = [rec["path"]]
-        if base_then and base_now and os.path.abspath(base_then) != os.path.abspath(base_now):
-            moved = os.path.normpath(os.path.join(os.path.abspath(base_now), os.path.relpath(rec["path"], base_then)))
-            where.append(moved)
-        present = [p for p in dict.fromkeys(where) if os.path.isfile(p)]
+        where = [_now(rec["path"], base_then, base_now)]
+        present = [p for p in where if os.path.isfile(p)]
         if not present:
             return f"file {rec['path']!r} read for the entry is missing; entry ignored"
         for p in present:
@@ -371,14 +368,21 @@ class SEDCache:
         return path
 
 
+def _now(path: str, base_then: str | None, base_now: str | None) -> str:
+    """Where an entry's file is for the export as it is now: a file under the export's folder then, under its folder
+    now (moved with it); any other file (outside the folder, allowed explicitly) where it was. Only there: a copy
+    left in the old folder is never read (nothing is read that the user did not give)."""
+    if not (base_then and base_now) or os.path.abspath(base_then) == os.path.abspath(base_now):
+        return path
+    rel = os.path.relpath(path, base_then)
+    if rel == os.pardir or rel.startswith(os.pardir + os.sep):
+        return path
+    return os.path.normpath(os.path.join(os.path.abspath(base_now), rel))
+
+
 def _where(meta: dict, base: str | None) -> set:
-    """Every place the entry's files were checked (as they were, and moved with the export)."""
-    out = set()
-    for rec in meta.get("files", ()):
-        out.add(rec["path"])
-        if meta.get("base") and base:
-            out.add(os.path.normpath(os.path.join(os.path.abspath(base), os.path.relpath(rec["path"], meta["base"]))))
-    return out
+    """Where the entry's files were checked (:func:`_now`)."""
+    return {_now(rec["path"], meta.get("base"), base) for rec in meta.get("files", ())}
 
 
 def clear_cache(directory=None) -> int:

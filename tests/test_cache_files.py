@@ -172,6 +172,10 @@ def test_copied_export_with_a_changed_side_file_misses(tmp_path):
     shutil.copytree(tmp_path / "a", tmp_path / "b")
     copy = _scene(tmp_path, tmp_path / "b" / "block.xdmf")
     assert _run(copy, tmp_path / "cache").cache_hit is True  # identical copy: hit
+    # the copy's run lists (and read) the copy's files only, not the first export's left in a/
+    inputs = json.loads((tmp_path / "out" / "run.json").read_text())["inputs"]
+    assert not [p for p in inputs if Path(p).is_relative_to(tmp_path / "a")], inputs
+    assert {Path(p).name for p in inputs if Path(p).is_relative_to(tmp_path / "b")} == {"block.xdmf", "data.h5"}
     _scale(tmp_path / "b" / "data.h5", "Function/sed", 0.5)
     changed = _run(copy, tmp_path / "cache")
     assert changed.cache_hit is False
