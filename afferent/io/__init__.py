@@ -56,6 +56,7 @@ FORMATS: dict[str, tuple[str, ...]] = {
     "rst": (".rst", ".rth"),
     "med": (".med", ".rmed"),
     "xplt": (".xplt",),
+    "msh": (".msh",),
 }
 
 
@@ -193,7 +194,7 @@ def _read_raw(paths: list[str], format: str | None, progress: bool, allow: bool,
 
         return read_csv(paths if len(paths) > 1 else paths[0], progress=progress, **csv_kwargs)
     if len(paths) > 1:
-        if fmt in ("pvd", "xdmf", "frd", "exodus", "rst", "med", "xplt"):
+        if fmt in ("pvd", "xdmf", "frd", "exodus", "rst", "med", "xplt", "msh"):
             raise SEDFormatError(f"Pass one .{fmt} file, not a list: it lists its own time steps ({paths!r}).")
         return _meshio.read_vtu_series(paths, progress=progress, allow=allow)
     if fmt == "pvd":
@@ -220,6 +221,10 @@ def _read_raw(paths: list[str], format: str | None, progress: bool, allow: bool,
         from ._xplt import read_xplt
 
         return read_xplt(paths[0], progress=progress)
+    if fmt == "msh":
+        from ._gmsh import read_msh
+
+        return read_msh(paths[0], progress=progress)
     return _meshio.read_mesh_file(paths[0], scope=scope, fmt=fmt)
 
 
@@ -255,7 +260,7 @@ def read_sed(
     path_or_paths : str, path-like or list of them
         One export (``.vtu``, ``.vtk``, ``.pvtu``, ``.vtm``, ``.pvd``, a JSON ``.vtu.series``/``.vtm.series``,
         ``.xdmf``, ``.csv``/``.txt``/``.rpt``, optionally ``.gz``, ANSYS MAPDL listings ``.lis``/``.out``, ``.frd``,
-        Exodus, ``.rst``, MED ``.med``/``.rmed``, FEBio ``.xplt``), or several files of one format, one per time step,
+        Exodus, ``.rst``, MED ``.med``/``.rmed``, FEBio ``.xplt``, Gmsh ``.msh``), or several files of one format, one per time step,
         in time order (MAPDL listings of different items, ``S`` in one and ``EPEL`` in another: side by side).
         ``.pvtu`` and ``.vtm`` files, and ``.vtk``/``.vtu`` files meshio refuses, are read through VTK
         (``pip install 'afferent-skin[vtk]'``); a ``.pvtu``'s pieces are joined into one mesh, the nodes
@@ -325,7 +330,7 @@ def read_sed(
         material that really is that stiff or soft); ``'sed-column'`` lets through an SED array named
         like a stress measure, equal to one of the stress tensor's, or unlike 1/2 sigma:eps of the
         file's tensors. Each is otherwise refused (docs/fe-export.md, "Units from physics").
-    format : {'csv', 'vtu', 'vtk', 'pvtu', 'vtm', 'pvd', 'xdmf', 'frd', 'exodus', 'rst', 'med', 'xplt'}, optional
+    format : {'csv', 'vtu', 'vtk', 'pvtu', 'vtm', 'pvd', 'xdmf', 'frd', 'exodus', 'rst', 'med', 'xplt', 'msh'}, optional
         Overrides the format deduced from the file name.
     progress : bool, default=False
         Show a progress bar while reading a series.
