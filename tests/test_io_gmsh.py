@@ -192,6 +192,18 @@ def test_every_truncation_is_read_or_refused_with_a_sentence(path, tmp_path):
     assert refused > len(data) // 613 // 2
 
 
+def test_a_surface_mesh_reads_as_points_and_its_element_node_views_are_named(tmp_path):
+    text = ("$MeshFormat\n2.2 0 8\n$EndMeshFormat\n$Nodes\n3\n1 0 0 0\n2 1 0 0\n3 0 1 0\n$EndNodes\n"
+            "$Elements\n1\n1 2 2 0 1 1 2 3\n$EndElements\n"
+            '$NodeData\n1\n"SED"\n1\n0\n3\n0\n1\n3\n1 1.0\n2 2.0\n3 3.0\n$EndNodeData\n'
+            '$ElementNodeData\n1\n"E"\n1\n0\n3\n0\n1\n1\n1 3 1 2 3\n$EndElementNodeData\n')
+    (tmp_path / "flat.msh").write_text(text)
+    raw = read_raw(tmp_path / "flat.msh")
+    assert raw.cells is None and set(raw.arrays) == {"SED"}
+    np.testing.assert_array_equal(raw.arrays["SED"].values, [[1.0, 2.0, 3.0]])
+    assert "View 'E' (ElementNodeData) left out: the file has no volume elements." in raw.notes
+
+
 def test_cli_reads_a_msh_file(tmp_path):
     shutil.copy(FILES[1], tmp_path / "b.msh")
     assert main(["info", str(tmp_path / "b.msh")]) == 0

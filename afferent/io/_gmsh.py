@@ -190,8 +190,12 @@ def read_msh(path: str, *, progress: bool = False) -> RawExport:
            "cell_block": np.repeat(np.arange(len(blocks)), counts), "orders": [b[4] for b in blocks],
            "n_nodes": xyz.shape[0], "n_cells": cell_tags.size, "n_copies": int(cell_nodes.sum())}
     series = _series(parsed["views"], path)
+    dropped = [k for k in series if k[0] == "ElementNodeData"] if not blocks else []
+    for key in dropped:  # element-node values need volume elements to sit on
+        del series[key]
     notes = [f"Gmsh MSH {parsed['version']:g} {'binary' if parsed['binary'] else 'ASCII'}; views: "
              + (", ".join(f"{name!r} ({kind}, {len(s)} step(s))" for (kind, name), s in series.items()) or "none")]
+    notes += [f"View {name!r} (ElementNodeData) left out: the file has no volume elements." for _, name in dropped]
     copies = None
     conns = [b[1] for b in blocks]
     if any(kind == "ElementNodeData" for kind, _ in series):

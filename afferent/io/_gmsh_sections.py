@@ -148,10 +148,7 @@ class _Numbers:
     def done(self) -> None:
         if self.tokens is not None and self.at != self.tokens.size:
             raise self.cur.fail(f"{self.tokens.size - self.at} number(s) beyond what the section's counts announce.")
-        if self.tokens is None:
-            self.cur.end()
-        else:
-            self.cur.end()
+        self.cur.end()
 
 
 def _mesh_format(cur: _Cursor) -> float:
