@@ -72,6 +72,7 @@ TARGETS: list[tuple[str, str]] = [
     # paths and links in every index format (fuzz_paths.py): the input chooses how each file the export points to
     # is named and where it leads; the read is judged by fuzz_paths.check
     *((f"paths-{kind}", "") for kind in fuzz_paths.KINDS),
+    ("msh", ".msh"),  # Gmsh MSH 2.2 / 4.1, ASCII and binary (appended: the findings' first bytes are below 34)
 ]
 
 #: the longest input the csv-long target builds (bytes): a 10 MB line is what a user's broken export can hold
@@ -209,13 +210,14 @@ def _seed_corpus(corpus: Path) -> None:
         "observed": ROOT / "sample_sed/observed", "waveform": HERE / "seeds", "sed_table": HERE / "seeds",
         "frd": ROOT / "tests/data/calculix", "exodus": ROOT / "tests/data/exodus", "med": ROOT / "tests/data/med",
         "xdmf-text": HERE / "seeds", "xdmf-heavy": HERE / "seeds", "csv-long": HERE / "seeds",
-        "lis": ROOT / "tests/data/mapdl",
+        "lis": ROOT / "tests/data/mapdl", "msh": ROOT / "tests/data/gmsh",
     }
     suffixes = {"csv": (".csv",), "txt": (".txt",), "dat": (".dat",), "rpt": (".rpt",), "vtu": (".vtu",),
                 "vtk": (".vtk",), "pvd": (".pvd",), "xdmf": (".xdmf",), "scene": (".toml",), "receptors": ("receptors.csv",),
                 "observed": (".csv",), "waveform": ("waveform.csv",), "sed_table": ("sed_table.csv",), "frd": (".frd",),
                 "exodus": (".e", ".ex2", ".g"), "med": (".med", ".rmed"), "xdmf-text": ("collection.xdmf",),
-                "xdmf-heavy": ("heavy.h5",), "csv-long": ("long_row.csv",), "lis": (".lis",)}
+                "xdmf-heavy": ("heavy.h5",), "csv-long": ("long_row.csv",), "lis": (".lis",),
+                "msh": (".msh",)}
     for target, folder in picks.items():
         if not folder.is_dir():
             continue

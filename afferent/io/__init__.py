@@ -59,6 +59,7 @@ FORMATS: dict[str, tuple[str, ...]] = {
     "rst": (".rst", ".rth"),
     "med": (".med", ".rmed"),
     "xplt": (".xplt",),
+    "msh": (".msh",),
 }
 
 
@@ -196,7 +197,7 @@ def _read_raw(paths: list[str], format: str | None, progress: bool, allow: bool,
 
         return read_csv(paths if len(paths) > 1 else paths[0], progress=progress, **csv_kwargs)
     if len(paths) > 1:
-        if fmt in ("pvd", "xdmf", "frd", "exodus", "rst", "med", "xplt"):
+        if fmt in ("pvd", "xdmf", "frd", "exodus", "rst", "med", "xplt", "msh"):
             raise SEDFormatError(f"Pass one .{fmt} file, not a list: it lists its own time steps ({paths!r}).")
         return _meshio.read_vtu_series(paths, progress=progress, allow=allow)
     if fmt == "pvd":
@@ -223,6 +224,10 @@ def _read_raw(paths: list[str], format: str | None, progress: bool, allow: bool,
         from ._xplt import read_xplt
 
         return read_xplt(paths[0], progress=progress)
+    if fmt == "msh":
+        from ._gmsh import read_msh
+
+        return read_msh(paths[0], progress=progress)
     return _meshio.read_mesh_file(paths[0], scope=scope, fmt=fmt)
 
 
@@ -260,7 +265,7 @@ def read_sed(
     path_or_paths : str, path-like or list of them
         One export (``.vtu``, ``.vtk``, ``.pvtu``, ``.vtm``, ``.pvd``, a JSON ``.vtu.series``/``.vtm.series``,
         ``.xdmf``, ``.csv``/``.txt``/``.rpt``, optionally ``.gz``, ANSYS MAPDL listings ``.lis``/``.out``, ``.frd``,
-        Exodus, ``.rst``, MED ``.med``/``.rmed``, FEBio ``.xplt``), or several files of one format, one per time step,
+        Exodus, ``.rst``, MED ``.med``/``.rmed``, FEBio ``.xplt``, Gmsh ``.msh``), or several files of one format, one per time step,
         in time order (MAPDL listings of different items, ``S`` in one and ``EPEL`` in another: side by side).
         ``.pvtu`` and ``.vtm`` files, and ``.vtk``/``.vtu`` files meshio refuses, are read through VTK
         (``pip install 'afferent-skin[vtk]'``); a ``.pvtu``'s pieces are joined into one mesh, the nodes
@@ -335,7 +340,7 @@ def read_sed(
         ``sed_from='stress'``: ``elastic=(E, nu)`` for a homogeneous model, or a CSV table ``materials`` (columns
         ``material``: the integer id in the export's material array ``material_array``, default the one found by
         its name; ``E``; ``nu``). E in ``modulus_unit`` or the unit the table's header states (``E (MPa)``).
-    format : {'csv', 'vtu', 'vtk', 'pvtu', 'vtm', 'pvd', 'xdmf', 'frd', 'exodus', 'rst', 'med', 'xplt'}, optional
+    format : {'csv', 'vtu', 'vtk', 'pvtu', 'vtm', 'pvd', 'xdmf', 'frd', 'exodus', 'rst', 'med', 'xplt', 'msh'}, optional
         Overrides the format deduced from the file name.
     progress : bool, default=False
         Show a progress bar while reading a series.
