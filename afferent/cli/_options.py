@@ -87,7 +87,7 @@ def input_kwargs(args: argparse.Namespace) -> dict:
         times=times, time_unit=args.time_unit, coordinates=args.coordinates, on_nan=args.on_nan,
         negative_tolerance=args.negative_tolerance, allow_outside_files=args.allow_outside_files, format=args.format,
         elastic=elastic, modulus_unit=args.modulus_unit, materials=args.materials,
-        material_array=getattr(args, "material_array", None) if args.materials else None, progress=show_progress(args),
+        material_array=getattr(args, "material_array", None), progress=show_progress(args),
     )
 
 
@@ -233,8 +233,9 @@ def check_receptor_options(args: argparse.Namespace) -> None:
     found = grid in ("tips", "bases")
     for key in given:
         flag = GRID_OPTIONS[key][0]
-        if key == "material_array" and getattr(args, "materials", None) is not None:
-            continue  # it names the array the elastic-constants table (--materials) is keyed by
+        if key == "material_array" and (getattr(args, "materials", None) is not None
+                                        or getattr(args, "side", "average") != "average"):
+            continue  # it names the material ids of the elastic-constants table (--materials) or of --side
         if args.receptors is not None:
             raise ValueError(f"{flag} applies to sites generated with --grid, not to a receptor file (--receptors "
                              f"{args.receptors}); remove {flag}, or use --grid instead of --receptors.")

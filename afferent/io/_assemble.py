@@ -441,6 +441,10 @@ def _mesh(raw: RawExport, xyz: np.ndarray, sed: np.ndarray, location: str, rec: 
     if cells is None:
         return xyz, sed, None, None, None
     material = find_material_array(raw, name=material_array)
+    if material is None and material_array is not None:  # named by the user: never silently no materials
+        held = ", ".join(repr(a.name) for a in raw.arrays.values() if a.location == "cell") or "none"
+        raise SEDFormatError(f"SED file {_where(raw)!r} has no cell array {material_array!r} of whole-number material "
+                             f"ids (material_array, --material-array); its cell arrays: {held}.")
     if material is not None:
         same = memo.get("same") and memo.get("materials") is not None and np.array_equal(memo["materials"].materials,
                                                                                            material[2])

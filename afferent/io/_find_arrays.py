@@ -517,7 +517,10 @@ def _convention(opts: ReadOptions, raw: RawExport | None = None) -> Convention:
 #: writes each element's attribute as cell data).
 MATERIAL_ARRAY_NAMES = ("material_id", "materialids", "material", "materials", "mat_id", "matid", "layer",
                         "gmsh:physical", "medit:ref", "cellentityids", "elementblockids", "blockid", "block_id",
-                        "objectid", "subdomain", "domain", "region", "attribute")
+                        "objectid", "subdomain", "domain", "region", "attribute", "material_index",
+                        "materialindex", "cell_tag", "cell_tags", "celltags", "physicalids", "physical_id",
+                        "physicaltag", "physical_tag", "elem_set", "elset", "element_set", "subdomain_id",
+                        "domain_id", "region_id", "regionid")
 
 
 def _key(name: str) -> str:
