@@ -40,7 +40,7 @@ def plot_calibrated_profile(result, *, ax=None, title=None):
 
     ax = _axes(ax, (5.5, 3.8))
     fit = result.fit
-    x = fit.positions * 1e3 if fit.positions is not None else np.arange(len(fit.predicted))
+    x = _positions_mm(fit)
     ax.plot(x, fit.observed, "ko", label="observed")
     ax.plot(x, fit.predicted, "-", lw=2, label="calibrated")
     _profile_axes(ax, result)
@@ -51,6 +51,11 @@ def plot_calibrated_profile(result, *, ax=None, title=None):
     ), fontsize="small")
     legend_beside(ax)  # beside the Axes, never over a point
     return ax
+
+
+def _positions_mm(fit):
+    """A fit's profile positions in mm, or the afferents' indices where it has none."""
+    return fit.positions * 1e3 if fit.positions is not None else np.arange(len(fit.predicted))
 
 
 #: plot_calibrated_profiles: the other methods' lines, in turn (thinner than the best's, dashed: none hides another)
@@ -85,11 +90,11 @@ def plot_calibrated_profiles(results: dict, *, ax=None, title=None):
     best = best_method(results)
     order = [best] + [m for m in results if m != best]
     r = results[best]
-    x = r.fit.positions * 1e3 if r.fit.positions is not None else np.arange(len(r.fit.predicted))
+    x = _positions_mm(r.fit)
     ax.plot(x, r.fit.observed, "ko", label="observed")
     for i, m in enumerate(order):
         fit = results[m].fit
-        xm = fit.positions * 1e3 if fit.positions is not None else np.arange(len(fit.predicted))
+        xm = _positions_mm(fit)
         style = dict(ls="-", lw=2.5, color="tab:blue") if i == 0 else dict(lw=1.2, color=f"C{i}", **_OTHER_STYLES[(i - 1) % 3])
         ax.plot(xm, fit.predicted, label=f"{m}: ssd {results[m].ssd:.3g}" + (" (best)" if i == 0 else ""), **style)
     _profile_axes(ax, r)
