@@ -54,6 +54,10 @@ FLAT_REL = 0.05
 STUDY_BAR_SED_PA, SED_FACTOR = 190.0, 2.0
 #: The hot-spot threshold of the study's maps (normalised SED).
 HOT = 0.6
+#: The side of the epidermis/dermis interface the chapter-4 maps read at a site node: the dermis, material id 2
+#: of the samples' ``layer`` array. The study's tool (ANSYS) does not average nodal results across materials by
+#: default (``AVRES,2``) and its fig. 4-6 shows only the dermis (sample_sed/README.md, "Chapter 4").
+STUDY_SIDE = 2
 
 #: The claim keys :func:`chapter4_findings` returns, in order (tests check every one is present).
 CHAPTER4_CLAIMS = ("focalizing", "separates", "solid_vs_gap", "edges_vs_corners", "interchange_zone", "x_equal",
@@ -66,12 +70,13 @@ def _sites(path: Path):
     return read_receptors(str(path), length_unit="mm")
 
 
-def _sample(export: Path, layout):
-    """SED (Pa) at ``layout``'s sites, every step: array (n_t, n_sites)."""
+def _sample(export: Path, layout, side="average"):
+    """SED (Pa) at ``layout``'s sites, every step: array (n_t, n_sites); ``side`` as :func:`afferent.sample_sed`."""
     from .io import read_sed
     from .sampling import sample_sed
 
-    return np.asarray(sample_sed(read_sed(str(export), length_unit="mm", sed_unit="MPa"), layout).values, dtype=float)
+    field = read_sed(str(export), length_unit="mm", sed_unit="MPa")
+    return np.asarray(sample_sed(field, layout, side=side).values, dtype=float)
 
 
 def _series_file(folder: Path) -> Path:
@@ -88,7 +93,8 @@ def measure_chapter4(sample) -> dict | None:
     Returns
     -------
     dict
-        ``maps``: {(model, site kind 'ra'/'sa', indenter): SED at the table's sites, Pa, at the last step};
+        ``maps``: {(model, site kind 'ra'/'sa', indenter): SED at the table's sites, Pa, at the last step, the
+        dermis side (``STUDY_SIDE``)};
         ``pos``: {(model, kind): site (x, z) in mm from the indenter centre (the RA-I table's centre)};
         ``vibration`` (absent without ``vibration/``): {model: {frequency Hz: (SED Pa at the site at the first
         deepest point, at the last deepest point)}}, the site chosen as ``afferent cycles`` does
@@ -110,7 +116,7 @@ def measure_chapter4(sample) -> dict | None:
                 centre = xz.mean(axis=0)
             pos[(model, kind)] = xz - centre
             for ind in INDENTERS:
-                maps[(model, kind, ind)] = _sample(sample / "chapter4" / folder / f"{ind}.vtu", layout)[-1]
+                maps[(model, kind, ind)] = _sample(sample / "chapter4" / folder / f"{ind}.vtu", layout, STUDY_SIDE)[-1]
     out = {"maps": maps, "pos": pos, "centre_mm": [float(c) for c in centre]}
     vib = sample / "vibration"
     if vib.is_dir():

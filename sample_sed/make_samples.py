@@ -412,10 +412,12 @@ class Problem:
     """
 
     def __init__(self, sm: SkinMesh, integration: str = "sri", log=print, bottom: str = "edges",
-                 moduli=None, solver: str = "amg"):
+                 moduli=None, solver: str = "amg", fixed=None):
         """``moduli``: optional per-element (mu, kappa) in MPa replacing the layers' elastic values
         (the viscoelastic generator, make_vibration.py, passes its own); ``solver``: 'amg' (CG with
-        AMG, the static samples) or 'lu' (sparse LU kept per Dirichlet set, many steps on a small mesh)."""
+        AMG, the static samples) or 'lu' (sparse LU kept per Dirichlet set, many steps on a small mesh);
+        ``fixed``: optional function (dof locations (3, n) mm, dof components (n,) 0/1/2) -> boolean mask
+        of further dofs held at zero (the symmetry planes of a quarter model, make_chapter4.py)."""
         if solver not in ("amg", "lu"):
             raise ValueError(f"solver: expected 'amg' or 'lu', got {solver!r}")
         self.solver = solver
@@ -439,10 +441,10 @@ class Problem:
         nd = self.basis.nodal_dofs                 # (3, n_nodes) vertex dofs
         self.vdofs = nd
         self.dofloc = self.basis.doflocs           # (3, ndof) location of every dof
-        comp = np.empty(self.ndof, dtype=int)      # displacement component of every dof
-        names = self.element.dofnames
-        for i, name in enumerate(names):
-            comp[self.basis.element_dofs[i]] = int(name.split("^")[1]) - 1
+        comp = np.full(self.ndof, -1, dtype=int)   # displacement component of every dof (0, 1, 2)
+        for k in range(3):
+            comp[nd[k]] = k
+        assert comp.min() >= 0, "a dof that is not a vertex dof"
         self.comp = comp
         m = sm.mesh
         fj = sm.node_j[m.facets]
@@ -459,6 +461,9 @@ class Problem:
             self.bottom_dofs = self.bottom_dofs[on_edge]
         elif bottom != "face":
             raise ValueError(bottom)
+        if fixed is not None:
+            self.bottom_dofs = np.union1d(self.bottom_dofs,
+                                          np.flatnonzero(fixed(self.dofloc, self.comp))).astype(np.int64)
         self.top_ydofs = np.asarray(self.basis.get_dofs(top_f).all("u^2"), dtype=np.int64)
         self._ml_cache = {}
         log(f"  assembled K: {self.ndof} dofs, nnz {self.K.nnz}, {self.t_assemble:.1f} s")

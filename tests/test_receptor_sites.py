@@ -251,37 +251,40 @@ def test_info_grid_says_the_site_kind_and_refuses_bases_on_a_flat_base(tmp_path,
 # A real FE export with intermediate ridges: the chapter-4 blocks (sample_sed/make_chapter4.py)
 # --------------------------------------------------------------------------------------
 CHAPTER4 = Path(__file__).resolve().parents[1] / "sample_sed" / "chapter4"
-C4_CENTRE, C4_APEX_Y, C4_TIP_Y, C4_TOP_HALF_X = 2.42, 2.35, 2.50, 0.08  # mm, sample_sed/README.md "Chapter 4"
+C4_CENTRE, C4_APEX_Y, C4_TIP_Y, C4_PITCH = 2.42, 2.35, 2.50, 0.22  # mm, sample_sed/README.md "Chapter 4"
 
 
 @pytest.mark.parametrize("model", ["ridged3d", "ridged2d"])
 def test_chapter4_export_sites_are_the_generators(model):
-    """Every intermediate-ridge apex and papilla tip of the solved block is found, at the generator's positions:
-    bases on the ridges x = c + k 0.44 mm, tips on the papilla rows x = c + (k + 1/2) 0.44 mm, both at the papilla
-    pitch z = c + j 0.22 mm (c = 2.42 mm, the block's centre), and the site tables the chapter-4 scenes map
-    (sa_sites.csv, ra_sites.csv) among them."""
+    """Every intermediate-ridge apex and papilla tip of the solved block is found, at the generator's positions
+    (pitch_x 0.22 mm: twelve intermediate ridges under six fingerprints): bases on the ridges x = c + k 0.22 mm,
+    tips on the papilla rows x = c + (k + 1/2) 0.22 mm (c = 2.42 mm, the block's centre), one site per 0.22 mm
+    along z; on the 3-D block the tips are the pegs, z = c + (j + 1/2) 0.22 mm, and both site tables the
+    chapter-4 scenes map (sa_sites.csv, ra_sites.csv) are among the sites found, exactly."""
     vtu = CHAPTER4 / model / "bar.vtu"
     if not vtu.is_file():
         pytest.skip(f"{vtu} not generated (python sample_sed/make_chapter4.py)")
-    bases = sites_from_export(vtu, length_unit="mm", upper=1, lower=2, kind="bases")
-    tips = sites_from_export(vtu, length_unit="mm", upper=1, lower=2, kind="tips")
-    for found, y, offset, n_x in ((bases, C4_APEX_Y, 0.0, 11), (tips, C4_TIP_Y, 0.5, 10)):
+    kw = dict(length_unit="mm", upper=1, lower=2, pitch_x=C4_PITCH * 1e-3)
+    bases = sites_from_export(vtu, kind="bases", **kw)
+    tips = sites_from_export(vtu, kind="tips", **kw)
+    for found, y, offset in ((bases, C4_APEX_Y, 0.0), (tips, C4_TIP_Y, 0.5)):
         pos = found.positions * 1e3  # mm
         np.testing.assert_allclose(pos[:, 1], y, rtol=0, atol=1e-9)
-        k = (pos[:, 2] - C4_CENTRE) / 0.22
-        np.testing.assert_allclose(k, np.round(k), rtol=0, atol=1e-6)  # on the papilla rows along z
-        assert found.n_receptors == n_x * 21  # every ridge (row) the block holds, 21 sites along each
-        dx = np.abs((pos[:, 0] - C4_CENTRE) / 0.44 - offset - np.round((pos[:, 0] - C4_CENTRE) / 0.44 - offset))
-        assert np.all(dx * 0.44 <= C4_TOP_HALF_X + 1e-9)  # on the ridge's apex / the papilla's flat top
-    assert np.all(np.isclose(bases.positions[:, 0] * 1e3 - C4_CENTRE, np.round((bases.positions[:, 0] * 1e3 - C4_CENTRE)
-                                                                              / 0.44) * 0.44, rtol=0, atol=1e-9))
+        kx = (pos[:, 0] - C4_CENTRE) / C4_PITCH - offset
+        np.testing.assert_allclose(kx, np.round(kx), rtol=0, atol=1e-6)  # on the ridge / papilla row lines
+        z = np.unique(np.round(pos[:, 2], 6))
+        np.testing.assert_allclose(np.diff(z), C4_PITCH, rtol=0, atol=1e-6)  # one site per papilla pitch along z
+        if model == "ridged3d":
+            kz = (pos[:, 2] - C4_CENTRE) / C4_PITCH - 0.5
+            np.testing.assert_allclose(kz, np.round(kz), rtol=0, atol=1e-6)  # at the pegs
     for found, csv in ((bases, "sa_sites.csv"), (tips, "ra_sites.csv")):
         table = read_receptors(CHAPTER4 / model / csv, length_unit="mm").positions
         gap = np.min(np.linalg.norm(table[:, None, :] - found.positions[None, :, :], axis=2), axis=1)
-        if csv == "sa_sites.csv":
-            np.testing.assert_array_less(gap, 1e-12)  # every table base found exactly
-        else:  # a papilla top 2 nodes wide (the mesh's x-lines thin out near the faces): its first node
-            assert np.sum(gap < 1e-12) >= 90 and np.all(gap <= C4_TOP_HALF_X * 1e-3 + 1e-12)
+        if model == "ridged3d":
+            np.testing.assert_array_less(gap, 1e-12)  # every table site found exactly
+        else:  # continuous ridges: the same x lines, the sites along z where the finder places them
+            assert np.all(np.isin(np.round(table[:, 0], 9), np.round(found.positions[:, 0], 9)))
+            assert gap.max() <= 0.5 * C4_PITCH * 1e-3 + 1e-12
 
 
 def test_a_sweep_over_the_site_kind_records_it_per_task(tmp_path):
@@ -292,14 +295,14 @@ def test_a_sweep_over_the_site_kind_records_it_per_task(tmp_path):
     if not vtu.is_file():
         pytest.skip(f"{vtu} not generated (python sample_sed/make_chapter4.py)")
     src = tmp_path / "s.toml"
-    src.write_text(f'[export]\nfile = {str(vtu)!r}\nlength_unit = "mm"\nsed_unit = "MPa"\n[receptors]\ngrid = "tips"\n'
+    src.write_text(f'[export]\nfile = {str(vtu)!r}\nlength_unit = "mm"\nsed_unit = "MPa"\n[receptors]\ngrid = "tips"\npitch_x_mm = 0.22\n'
                    '[transduction]\nparams = "start"\n[outputs]\nwant = ["currents"]\n'
                    '[sweep]\n"receptors.grid" = ["tips", "bases"]\n')
     out = sweep(src, tmp_path / "out", scheduler="serial", use_cache=False)
     recs = [json.loads(line) for f in (tmp_path / "out" / "tasks").glob("*.jsonl") for line in f.read_text().splitlines()]
     sites = {r["params"]["receptors.grid"]: r["record"]["receptors"] for r in recs}
-    assert sites["tips"]["site"] == "RA-I" and sites["tips"]["n_receptors_total"] == 210
-    assert sites["bases"]["site"] == "SA-I" and sites["bases"]["n_receptors_total"] == 231
+    assert sites["tips"]["site"] == "RA-I" and sites["tips"]["n_receptors_total"] == 14 * 14  # the crop's tips
+    assert sites["bases"]["site"] == "SA-I" and sites["bases"]["n_receptors_total"] == 15 * 14
     assert set(out.table["receptors.grid"]) == {"tips", "bases"}
 
 
