@@ -221,14 +221,17 @@ def read_msh(path: str, *, progress: bool = False, data: bytes | None = None) ->
 
 
 def read_gmsh(path: str, *, progress: bool = False) -> RawExport:
-    """A Gmsh result file, ``.msh`` or ``.pos``, by its content: an MSH file (``$MeshFormat``, whatever its
-    name) by :func:`read_msh`, parsed views (``View "name" {...};``) by :mod:`afferent.io._gmsh_pos`."""
+    """A Gmsh result file, ``.msh`` or ``.pos``, by its content: MSH sections (``$MeshFormat``, whatever the
+    name) by :func:`read_msh`; parsed views (``View "name" {...};``, or anything else named ``.pos``) and
+    the legacy ``$PostFormat`` (refused) by :mod:`afferent.io._gmsh_pos`."""
     from ._gmsh_pos import parse_pos, pos_export
 
     check_export_file(path)
     with open_regular(path, "SED file") as fh:
         data = fh.read()
-    if data.lstrip()[:11] == b"$MeshFormat":
+    head = data.lstrip()[:12]
+    legacy = head.startswith(b"$PostFormat")
+    if not legacy and (head.startswith(b"$") or not (head.startswith(b"View") or path.lower().endswith(".pos"))):
         return read_msh(path, progress=progress, data=data)
     points, blocks, arrays, times, notes = pos_export(path, parse_pos(path, data))
     points.setflags(write=False)
