@@ -94,7 +94,7 @@ def _at(data: bytes, pos: int) -> str:
 def parse_pos(path: str, data: bytes) -> list[dict]:
     """Every view of a parsed ``.pos`` file: [{'name', 'times', 'kind', 'steps', 'shapes': {letter: (xyz
     (k, nn, 3), values (k, steps, nn, ncomp))}, 'left_out': {type: count}}] in file order."""
-    if data.lstrip()[:12] == b"$PostFormat":
+    if data.lstrip().startswith(b"$PostFormat"):
         raise _err(path, "Gmsh's legacy post-processing format ($PostFormat, PostProcessing.Format 0 or 1) is not "
                          "read: save the view as a parsed view (PostProcessing.Format = 2, or gmsh.view.write(tag, "
                          "'x.pos')) or as a mesh file (.msh).")
