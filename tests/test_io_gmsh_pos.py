@@ -136,7 +136,7 @@ _TET = "0,0,0,1,0,0,0,1,0,0,0,1"
     ('$PostFormat /* Gmsh 1.3, ascii */\n1.3 0 8\n$EndPostFormat\n',
      r"Gmsh's legacy post-processing format \(\$PostFormat, PostProcessing.Format 0 or 1\) is not read"),
     ("Point(1) = {0, 0, 0};", r"expected a view \(View \"name\" \{ ... \};\) at byte 0 .*not a Gmsh parsed .pos file"),
-    (f'View "a" {{ ST(0,0,0,1,0,0,0,1,0){{1,2,3}}; }};', r"no view holds volume elements \(S, H, I, Y\) or points"),
+    ('View "a" { ST(0,0,0,1,0,0,0,1,0){1,2,3}; };', r"no view holds volume elements \(S, H, I, Y\) or points"),
     (f'View "a" {{ SS({_TET}){{1,2,3,4}}; }}; View "b" {{ SS({_TET.replace("1", "2")}){{1,2,3,4}}; }};',
      r"view 'b' is on other elements than view 'a' \(S: 1 vs 1\): afferent reads views over one mesh"),
 ])

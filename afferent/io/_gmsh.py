@@ -10,7 +10,7 @@ How each view becomes an array, named by the view's first string tag (its name):
   and line elements are left out); ``$ElementNodeData`` (each element's own value at each of its
   nodes): point data on **each volume element's own copies of its nodes**, i.e. the mesh is written
   out as discontinuous output, and the copies are merged as for any discontinuous export
-  (:mod:`afferent.io._coincident`: the volume-weighted mean at each node, how far the copies
+  (:mod:`afferent.io._coincident`: the element-node rule, the mean of the copies at each node, how far the copies
   disagree is reported). Node data then sits on every copy of its node.
 - Several blocks of one name are one series: the integer tag (the step index) orders them, the
   first real tag is the step's time. Blocks of one name and step (the partitions of a partitioned

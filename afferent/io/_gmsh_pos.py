@@ -196,7 +196,7 @@ def pos_export(path: str, views: list[dict]):
         raise _err(path, "no view holds volume elements (S, H, I, Y) or points (P): nothing to sample.")
     use = [v for v in views if any(s in v["shapes"] for s in shapes)]
     first = use[0]
-    notes = [f"Gmsh parsed views: " + ", ".join(f"{v['name']!r} ({ {'S': 'scalar', 'V': 'vector', 'T': 'tensor'}[v['kind']]}, "
+    notes = ["Gmsh parsed views: " + ", ".join(f"{v['name']!r} ({ {'S': 'scalar', 'V': 'vector', 'T': 'tensor'}[v['kind']]}, "
                                                  f"{v['steps']} step(s))" for v in use)]
     for v in views:
         if v not in use:
