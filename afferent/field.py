@@ -196,7 +196,7 @@ class NodeSides:
     materials : ndarray of shape (k,), int
         Material id of each entry.
     sed : ndarray of shape (n_times, k)
-        SED in J/m^3: the volume-weighted mean of the node's copies in cells of that material.
+        SED in J/m^3: the mean of the node's copies in cells of that material (the element-node rule).
     """
 
     nodes: np.ndarray

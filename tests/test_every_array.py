@@ -19,7 +19,10 @@ The arrays each file declares are counted from the file itself, not by afferent'
   its 8-character result name (``RESU____DEPL`` -> ``DEPL``);
 - FEBio ``.xplt``: the ``<var type=...>`` list of the ``<plotfile>`` of the ``.feb`` input beside it
   (the binary plot file is FEBio's own format: its dictionary is what afferent parses; the input
-  says independently what FEBio was asked to write).
+  says independently what FEBio was asked to write);
+- Gmsh ``.msh``: the first string tag (the view's name) of each ``$NodeData``/``$ElementNodeData``
+  (point) and ``$ElementData`` (cell) block, text in binary files too; ``.pos``: each ``View "name"``
+  (point data, and ``name@cell``).
 
 Tables (CSV and the text listings of CalculiX, Abaqus, COMSOL, MAPDL) are left out here: their
 "arrays" are header columns grouped into tensors by afferent's own name rules, which their own
@@ -47,9 +50,10 @@ _REFUSED = {"ngsolve/block_order3.vtu": "Lagrange cells of degree 3", "vtk/lagra
             "mfem/order3/order3.pvd": "degree 3", "mfem/order3/Cycle000003/data.pvtu": "degree 3",
             "mfem/order3/Cycle000003/proc000000.vtu": "degree 3", "ngsolve/plane_2d.vtu": "no volume cells",
             "febio/block_hex8_shell.xplt": "shell elements",
-            "exodus/plate_ioss.e": "a 2-D section: its element arrays are on the QUAD4 blocks afferent ignores"}
+            "exodus/plate_ioss.e": "a 2-D section: its element arrays are on the QUAD4 blocks afferent ignores",
+            "gmsh/sed_without_mesh.msh": "a view without its mesh"}
 _ENDINGS = (".vtk", ".vtu", ".pvtu", ".vtm", ".pvd", ".series", ".xdmf", ".frd", ".frd.gz", ".e", ".rmed", ".med",
-            ".xplt")
+            ".xplt", ".msh", ".pos")
 
 
 def _files() -> list[str]:
@@ -231,13 +235,27 @@ def _xplt(path: str) -> set[tuple[str, str]]:
     return {(v.get("type"), "any") for p in feb.iter("plotfile") for v in p.iter("var")}
 
 
+def _msh(path: str) -> set[tuple[str, str]]:
+    with open(path, "rb") as fh:
+        text = fh.read()
+    where = {b"NodeData": "point", b"ElementNodeData": "point", b"ElementData": "cell"}
+    return {(m.group(2).decode(), where[m.group(1)])
+            for m in re.finditer(rb'\n\$(NodeData|ElementData|ElementNodeData)\s*\n\s*\d+\s*\n\s*"([^"]*)"', text)}
+
+
+def _pos(path: str) -> set[tuple[str, str]]:
+    with open(path, "rb") as fh:
+        names = re.findall(rb'View\s*"([^"]*)"', fh.read())
+    return {(n.decode(), "point") for n in names} | {(n.decode() + "@cell", "cell") for n in names}
+
+
 def declared(path: str) -> set[tuple[str, str]]:
     """(name, 'point' | 'cell' | 'any') of each array ``path`` declares, read from the file itself."""
     if path.endswith((".pvd", ".series")):
         return declared(_series_first(path))
     ext = ".frd" if path.endswith(".frd.gz") else os.path.splitext(path)[1]
     return {".vtk": _legacy_vtk, ".vtu": _vtk_xml, ".pvtu": _vtk_xml, ".vtm": _vtm, ".xdmf": _xdmf, ".frd": _frd,
-            ".e": _exodus, ".rmed": _med, ".med": _med, ".xplt": _xplt}[ext](path)
+            ".e": _exodus, ".rmed": _med, ".med": _med, ".xplt": _xplt, ".msh": _msh, ".pos": _pos}[ext](path)
 
 
 # -- what afferent info lists ---------------------------------------------------------------------------------------
@@ -255,7 +273,7 @@ FILES = _files()
 def test_the_mesh_test_files_cover_every_reader():
     kinds = {".frd" if f.endswith(".frd.gz") else os.path.splitext(f)[1] for f in FILES}
     assert kinds >= {".vtk", ".vtu", ".pvtu", ".vtm", ".pvd", ".series", ".xdmf", ".frd", ".e", ".rmed", ".med",
-                     ".xplt"}
+                     ".xplt", ".msh", ".pos"}
     assert len(FILES) > 40
 
 

@@ -86,19 +86,19 @@ def test_info_lists_every_view_the_file_declares(path, capsys):
 
 
 def test_element_node_data_is_merged_as_discontinuous_output(ref):
-    """ElementNodeData: each element's own copies of its nodes, merged into the 64 nodes at the volume-weighted mean."""
+    """ElementNodeData: each element's own copies of its nodes, merged into the 64 nodes by the element-node rule
+    (the mean of the copies, each element once); tests/test_element_node_rule.py compares every reader."""
     field = read_sed(FILES[3], sed_column="SED_nodal_elements", length_unit="mm", sed_unit="kPa")
     report = field.provenance.coincident
     assert report["n_points"] == 360 and report["n_nodes"] == 64 and report["n_copies_merged"] == 296
     assert report["max_relative"] > 0.01  # the copies really differ (5 % steps from element to element)
     node = {_key(x): k for k, x in enumerate(ref["node_xyz"])}
-    total, weight = np.zeros((2, 64)), np.zeros(64)
-    for e, x, k in zip(ref["copy_elem"], ref["copy_xyz"], range(ref["copy_elem"].size)):
-        n = node[_key(x)]
-        total[:, n] += ref["elem_volume"][e] * ref["copy_sed"][:, k]
-        weight[n] += ref["elem_volume"][e]
+    total, count = np.zeros((2, 64)), np.zeros(64)
+    for x, k in zip(ref["copy_xyz"], range(ref["copy_elem"].size)):
+        total[:, node[_key(x)]] += ref["copy_sed"][:, k]
+        count[node[_key(x)]] += 1
     at = np.array([node[_key(p * 1e3)] for p in field.points])
-    np.testing.assert_allclose(field.sed, 1e3 * (total / weight)[:, at], rtol=1e-12)
+    np.testing.assert_allclose(field.sed, 1e3 * (total / count)[:, at], rtol=1e-12)
     np.testing.assert_allclose(field.times, [0.5, 1.0])
 
 

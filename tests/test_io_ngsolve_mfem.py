@@ -106,8 +106,10 @@ def test_material_ids_of_both_tools_are_found():
 
 @pytest.mark.parametrize("folder, name, low, high", [
     (MFEM, "block/block.pvd", 0.94, 1.02),  # Q2 copies merged into nodes, per material
-    (NGSOLVE, "block_order2.vtu", 0.86, 1.18),  # 326 tetrahedra: the merge moves a coarse mesh's SED more
-    (NGSOLVE, "block.pvd", 1.17, 1.53),  # order-1 output of a quadratic SED: linear between merged corners
+    # the merge by the element-node rule (unweighted mean of the copies; the volume-weighted mean before gave
+    # 0.87-1.18, mean |log ratio| 0.078 on block_order2 and 1.17-1.53, 0.315 on block.pvd: now 0.071 and 0.254)
+    (NGSOLVE, "block_order2.vtu", 0.95, 1.27),  # 326 tetrahedra: the merge moves a coarse mesh's SED more
+    (NGSOLVE, "block.pvd", 1.15, 1.40),  # order-1 output of a quadratic SED: linear between merged corners
 ])
 def test_receptor_sed_against_the_tool(folder, name, low, high):
     ref, points = _reference(folder)

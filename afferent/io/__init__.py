@@ -60,6 +60,7 @@ FORMATS: dict[str, tuple[str, ...]] = {
     "med": (".med", ".rmed"),
     "xplt": (".xplt",),
     "msh": (".msh",),
+    "pos": (".pos",),
 }
 
 
@@ -197,7 +198,7 @@ def _read_raw(paths: list[str], format: str | None, progress: bool, allow: bool,
 
         return read_csv(paths if len(paths) > 1 else paths[0], progress=progress, **csv_kwargs)
     if len(paths) > 1:
-        if fmt in ("pvd", "xdmf", "frd", "exodus", "rst", "med", "xplt", "msh"):
+        if fmt in ("pvd", "xdmf", "frd", "exodus", "rst", "med", "xplt", "msh", "pos"):
             raise SEDFormatError(f"Pass one .{fmt} file, not a list: it lists its own time steps ({paths!r}).")
         return _meshio.read_vtu_series(paths, progress=progress, allow=allow)
     if fmt == "pvd":
@@ -224,10 +225,10 @@ def _read_raw(paths: list[str], format: str | None, progress: bool, allow: bool,
         from ._xplt import read_xplt
 
         return read_xplt(paths[0], progress=progress)
-    if fmt == "msh":
-        from ._gmsh import read_msh
+    if fmt in ("msh", "pos"):
+        from ._gmsh import read_gmsh
 
-        return read_msh(paths[0], progress=progress)
+        return read_gmsh(paths[0], progress=progress)
     return _meshio.read_mesh_file(paths[0], scope=scope, fmt=fmt)
 
 
@@ -265,7 +266,7 @@ def read_sed(
     path_or_paths : str, path-like or list of them
         One export (``.vtu``, ``.vtk``, ``.pvtu``, ``.vtm``, ``.pvd``, a JSON ``.vtu.series``/``.vtm.series``,
         ``.xdmf``, ``.csv``/``.txt``/``.rpt``, optionally ``.gz``, ANSYS MAPDL listings ``.lis``/``.out``, ``.frd``,
-        Exodus, ``.rst``, MED ``.med``/``.rmed``, FEBio ``.xplt``, Gmsh ``.msh``), or several files of one format, one per time step,
+        Exodus, ``.rst``, MED ``.med``/``.rmed``, FEBio ``.xplt``, Gmsh ``.msh``/``.pos``), or several files of one format, one per time step,
         in time order (MAPDL listings of different items, ``S`` in one and ``EPEL`` in another: side by side).
         ``.pvtu`` and ``.vtm`` files, and ``.vtk``/``.vtu`` files meshio refuses, are read through VTK
         (``pip install 'afferent-skin[vtk]'``); a ``.pvtu``'s pieces are joined into one mesh, the nodes
@@ -340,7 +341,7 @@ def read_sed(
         ``sed_from='stress'``: ``elastic=(E, nu)`` for a homogeneous model, or a CSV table ``materials`` (columns
         ``material``: the integer id in the export's material array ``material_array``, default the one found by
         its name; ``E``; ``nu``). E in ``modulus_unit`` or the unit the table's header states (``E (MPa)``).
-    format : {'csv', 'vtu', 'vtk', 'pvtu', 'vtm', 'pvd', 'xdmf', 'frd', 'exodus', 'rst', 'med', 'xplt', 'msh'}, optional
+    format : {'csv', 'vtu', 'vtk', 'pvtu', 'vtm', 'pvd', 'xdmf', 'frd', 'exodus', 'rst', 'med', 'xplt', 'msh', 'pos'}, optional
         Overrides the format deduced from the file name.
     progress : bool, default=False
         Show a progress bar while reading a series.

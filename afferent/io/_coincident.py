@@ -1,14 +1,24 @@
-"""Coincident points of a mesh export (discontinuous output) merged into nodes.
+"""Coincident points of a mesh export (discontinuous output) merged into nodes: the one element-node rule.
 
 deal.II's ``DataOut`` writes every cell as its own patch, DOLFINx writes DG fields per cell
 and FreeFEM's P1dc does the same: each mesh node is then 4-8 points at one place, one per
 cell around it, with different values. Sampling such a mesh takes one copy (the one of the
 cell the receptor is found in first), so the value at a receptor depends on an arbitrary
 choice. Here the copies are found (a KD-tree, tolerance relative to the mesh's shortest cell
-edge) and merged into one node whose value is the **volume-weighted mean of the copies**:
-each copy weighs the volume of the cells that use it, which is what :func:`afferent.sampling.node_average`
-does for cell data (a cell gives its whole volume to each of its corners). The merge, the
-number of copies and how far they disagree are recorded (:attr:`afferent.field.Provenance.coincident`).
+edge) and merged into one node.
+
+**The element-node rule** (:func:`element_node_mean`, the one function every reader of
+element-node values uses: this merge, MED ``_ELNO``, FEBio's per-element-node variables, Gmsh's
+``$ElementNodeData`` and ``.pos`` views): a node's value is the **mean of the values the elements
+around it give it, each element once** (unweighted). It is what the tools' own post-processors
+show as nodal values: code_aster builds ``_NOEU`` from ``_ELNO`` so (the file's ``ENEL_NOEU``
+equals it, tests/test_io_med.py), FEBio's VTK export averages its element-node values so, Gmsh's
+``Plugin(Smooth)`` takes the plain mean of the values at a vertex, and VTK's
+``vtkCellDataToPointData`` (ParaView's "Cell Data to Point Data") the unweighted mean of the
+cells around a point (docs/fe-export.md, "Discontinuous output and material interfaces"). A
+point several cells use (copies only where materials meet) counts once per cell using it. The
+merge, the number of copies and how far they disagree are recorded
+(:attr:`afferent.field.Provenance.coincident`).
 
 Used by :mod:`afferent.io._assemble` (reading) and :mod:`afferent.io._describe` (``afferent info``).
 """
@@ -19,7 +29,10 @@ import numpy as np
 
 from ..field import Cells, NodeSides
 
-__all__ = ["COINCIDENT_RTOL", "COINCIDENT_WARN_RTOL", "coincident_labels", "merge_coincident"]
+__all__ = ["COINCIDENT_RTOL", "COINCIDENT_WARN_RTOL", "coincident_labels", "element_node_mean", "merge_coincident"]
+
+#: The element-node rule, as the coincident report states it.
+RULE = "mean of the copies, each element's copy once (the element-node rule)"
 
 #: Points closer than this fraction of the mesh's shortest cell edge are copies of one node.
 #: Coordinates written with 6 significant digits are off by up to 5e-6 of their magnitude; a
@@ -170,7 +183,7 @@ def _labels_of(xyz: np.ndarray, cells: Cells, rtol: float, *, same_mesh: bool = 
     next step) skips the comparison. Only weak references are kept, so nothing outlives the
     series. Returns ``(found, mesh)``: ``mesh`` is a dict kept beside the result, where
     :func:`merge_coincident` keeps what it derives from the mesh alone (merged cells, copy
-    weights, material groups) for the next step.
+    operators, material groups) for the next step.
     """
     import weakref
 
@@ -187,29 +200,26 @@ def _labels_of(xyz: np.ndarray, cells: Cells, rtol: float, *, same_mesh: bool = 
     return found, mesh
 
 
-def _point_cells(cells: Cells, xyz: np.ndarray):
-    """(point, cell, cell volume) for each point and each cell using it as a corner (once), sorted by point, then cell.
+def _point_cells(cells: Cells):
+    """(point, cell) for each point and each cell using it as a corner (once), sorted by point, then cell: the
+    element-node copies of the mesh.
 
     The pairs as one int64 key ``point * n_cells + cell``: a 1-D unique, ~20x faster than the
     row-wise ``np.unique(axis=0)`` of the pairs (0.076 -> 0.004 s for 125,000 points), the same order.
     """
-    from .._mesh_geometry import cell_volumes
-
     n = max(int(cells.n_cells), 1)
     key = np.unique(cells.tetra.reshape(-1) * n + np.repeat(cells.parent, 4))
-    point, cell = np.divmod(key, n)
-    return point, cell, cell_volumes(cells, xyz)[cell]
+    return np.divmod(key, n)
 
 
 def _sides_operator(labels: np.ndarray, cells: Cells, pairs, n_points: int):
     """What the material sides need of the mesh alone: (averaging operator of shape (n_node_materials, n_points),
     node of each row, material of each row, rows of nodes where several materials meet), or None when no node
-    has several (or there are no material ids). ``pairs``: :func:`_point_cells`."""
-    import scipy.sparse as sp
-
+    has several (or there are no material ids). ``pairs``: :func:`_point_cells`; the element-node rule within
+    each material."""
     if cells.materials is None:
         return None
-    point, cell, vol = pairs
+    point, cell = pairs
     mats, mat_of = np.unique(cells.materials[cell], return_inverse=True)
     key = labels[point] * mats.size + mat_of.ravel()
     uniq, col = np.unique(key, return_inverse=True)
@@ -217,12 +227,11 @@ def _sides_operator(labels: np.ndarray, cells: Cells, pairs, n_points: int):
     several = np.bincount(node, minlength=int(labels.max()) + 1)[node] > 1
     if not several.any():
         return None
-    m = sp.csr_matrix((np.where(vol > 0, vol, 1.0), (col.ravel(), point)), shape=(uniq.size, n_points))
-    return sp.diags(1.0 / np.asarray(m.sum(axis=1)).ravel()) @ m, node[several], mats[mat[several]], several
+    return element_node_operator(col.ravel(), uniq.size, point, n_points), node[several], mats[mat[several]], several
 
 
 def _node_sides(sed: np.ndarray, operator) -> NodeSides | None:
-    """Per node and material, the volume-weighted mean of the node's copies in cells of that material, kept only
+    """Per node and material, the mean of the node's copies in cells of that material (the element-node rule), kept only
     for nodes where several materials meet; ``sed`` point data (n_times, n_points), any unit; ``operator``:
     :func:`_sides_operator` (None: no sides)."""
     if operator is None:
@@ -231,22 +240,57 @@ def _node_sides(sed: np.ndarray, operator) -> NodeSides | None:
     return NodeSides(nodes, materials, np.asarray((m @ sed.T).T)[:, several])
 
 
-def _mean_operator(group: np.ndarray, n_groups: int, w: np.ndarray):
-    """The weighted mean of the points of each group as a sparse (n_groups, n_points) operator; equal weights in
-    a group weighing 0."""
+def element_node_operator(node: np.ndarray, n_nodes: int, source: np.ndarray | None = None,
+                          n_sources: int | None = None):
+    """The element-node rule as a sparse (n_nodes, n_sources) operator: row ``i`` is the mean of the copies of
+    node ``i``, each copy (one element's value at the node) weighing 1.
+
+    ``node[c]``: the node of copy ``c``; ``source[c]``: the column holding its value (default ``c``;
+    a column listed twice, a point two cells use, counts twice). Rows of nodes without a copy are empty.
+    """
     import scipy.sparse as sp
 
-    alone = np.bincount(group, weights=w, minlength=n_groups) == 0  # copies no cell uses
-    w = np.where(alone[group], 1.0, w)
-    m = sp.csr_matrix((w, (group, np.arange(group.size))), shape=(n_groups, group.size))
-    return sp.diags(1.0 / np.asarray(m.sum(axis=1)).ravel()) @ m
+    node = np.asarray(node, dtype=np.int64).ravel()
+    source = np.arange(node.size) if source is None else np.asarray(source, dtype=np.int64).ravel()
+    count = np.bincount(node, minlength=n_nodes)
+    return sp.csr_matrix((1.0 / count[node], (node, source)),
+                         shape=(n_nodes, node.size if n_sources is None else n_sources))
 
 
-def _copy_weights(pairs, n_points: int) -> np.ndarray:
-    """Weight of each point: the volume of the cells that use it as a corner (each cell once); ``pairs``:
-    :func:`_point_cells`."""
-    point, _, vol = pairs
-    return np.bincount(point, weights=vol, minlength=n_points)
+def element_node_mean(node: np.ndarray, values: np.ndarray, n_nodes: int) -> np.ndarray:
+    """Element-node values (each element's own value at each of its nodes) at the nodes: the element-node rule.
+
+    Parameters
+    ----------
+    node : ndarray of int, shape (n_copies,)
+        The node (0 .. n_nodes - 1) of each copy: an element's connectivity, flattened.
+    values : ndarray of shape (n_copies, ...)
+        Each copy's value (any unit); copies with a non-finite value (an element the field does not
+        cover) are left out.
+    n_nodes : int
+
+    Returns
+    -------
+    ndarray of shape (n_nodes, ...)
+        The mean of each node's copies, each element once; NaN at nodes without a copy.
+    """
+    node = np.asarray(node, dtype=np.int64).ravel()
+    values = np.asarray(values, dtype=float)
+    flat = values.reshape(node.size, -1)
+    ok = np.isfinite(flat).all(axis=1)
+    out = np.asarray(element_node_operator(node[ok], n_nodes) @ flat[ok])
+    out[np.bincount(node[ok], minlength=n_nodes) == 0] = np.nan
+    return out.reshape((n_nodes,) + values.shape[1:])
+
+
+def _copies(labels: np.ndarray, pairs, n_nodes: int):
+    """(node, point) of each copy of the mesh: each (point, cell using it) pair, and each point no cell uses
+    where its node has no other copy (its value then stands alone)."""
+    point = pairs[0]
+    orphan = np.setdiff1d(np.arange(labels.size), point)
+    orphan = orphan[np.bincount(labels[point], minlength=n_nodes)[labels[orphan]] == 0]
+    point = np.concatenate([point, orphan])
+    return labels[point], point
 
 
 def _disagreement(sed: np.ndarray, labels: np.ndarray, mean: np.ndarray, counts: np.ndarray) -> dict:
@@ -289,8 +333,8 @@ def merge_coincident(xyz: np.ndarray, sed: np.ndarray, location: str, cells: Cel
     Returns
     -------
     xyz, sed, cells, report, sides
-        Node coordinates (those of each node's first copy), SED (point data: the volume-weighted
-        mean of the copies, see the module docstring), the renumbered cells, and ``report``
+        Node coordinates (those of each node's first copy), SED (point data: the element-node
+        rule, the mean of the copies each element once, see the module docstring), the renumbered cells, and ``report``
         (dict): ``n_points`` (before), ``n_nodes``, ``n_copies_merged`` (points removed),
         ``max_copies`` (copies of the most copied node), ``tolerance`` (unit of ``xyz``),
         ``rule``, and for point data ``step``, ``nodes_compared``, ``median_relative``,
@@ -317,24 +361,25 @@ def merge_coincident(xyz: np.ndarray, sed: np.ndarray, location: str, cells: Cel
     counts, nodes_xyz, merged = mesh["counts"], mesh["xyz"], mesh["merged"]
     report = {"n_points": int(n), "n_nodes": int(n_nodes), "n_copies_merged": int(n - n_nodes),
               "max_copies": int(counts.max()), "tolerance": tol,
-              "rule": "volume-weighted mean of the copies (each copy weighs the volume of the cells using it)"}
+              "rule": RULE}
     if location == "point":
         if "mean" not in mesh:
-            mesh["pairs"] = _point_cells(cells, xyz)
-            mesh["weights"] = _copy_weights(mesh["pairs"], n)
-            mesh["mean"] = _mean_operator(labels, n_nodes, mesh["weights"])
+            mesh["pairs"] = _point_cells(cells)
+            node, point = _copies(labels, mesh["pairs"], n_nodes)
+            mesh["mean"] = element_node_operator(node, n_nodes, point, n)
             mesh["sides"] = _sides_operator(labels, cells, mesh["pairs"], n)
         mean = np.asarray((mesh["mean"] @ sed.T).T)
         report.update(_disagreement(sed, labels, mean, counts))
         if cells.materials is not None:  # copies of one material: the mesh's own discontinuity, not the interface's
             if "groups" not in mesh:
-                point, cell, _ = mesh["pairs"]
+                point, cell = mesh["pairs"]
                 mat = np.zeros(n, dtype=np.int64)
                 mat[point] = cells.materials[cell]
                 groups, group = np.unique(labels * (int(mat.max()) + 1) + (mat - mat.min()), return_inverse=True)
                 group = group.ravel()
+                node, point = _copies(group, mesh["pairs"], groups.size)
                 mesh["groups"] = (group, np.bincount(group, minlength=groups.size),
-                                  _mean_operator(group, groups.size, mesh["weights"]))
+                                  element_node_operator(node, groups.size, point, n))
             group, group_counts, group_mean = mesh["groups"]
             within = _disagreement(sed, group, np.asarray((group_mean @ sed.T).T), group_counts)
             report["within_material"] = {k: within[k] for k in ("median_relative", "max_relative", "nodes_compared")}

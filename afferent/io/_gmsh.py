@@ -10,7 +10,7 @@ How each view becomes an array, named by the view's first string tag (its name):
   and line elements are left out); ``$ElementNodeData`` (each element's own value at each of its
   nodes): point data on **each volume element's own copies of its nodes**, i.e. the mesh is written
   out as discontinuous output, and the copies are merged as for any discontinuous export
-  (:mod:`afferent.io._coincident`: the volume-weighted mean at each node, how far the copies
+  (:mod:`afferent.io._coincident`: the element-node rule, the mean of the copies at each node, how far the copies
   disagree is reported). Node data then sits on every copy of its node.
 - Several blocks of one name are one series: the integer tag (the step index) orders them, the
   first real tag is the step's time. Blocks of one name and step (the partitions of a partitioned
@@ -35,7 +35,7 @@ from ._files import open_regular
 from ._gmsh_sections import _err, gmsh_types, parse_msh
 from ._raw import RawArray, RawExport, check_export_file, material_array
 
-__all__ = ["read_msh"]
+__all__ = ["read_msh", "read_gmsh"]
 
 
 def _lookup(tags: np.ndarray, path: str, section: str, what: str):
@@ -167,16 +167,17 @@ def _arrays(series: dict, ctx: dict, copies, n_steps: int, notes: list) -> dict:
     return arrays
 
 
-def read_msh(path: str, *, progress: bool = False) -> RawExport:
+def read_msh(path: str, *, progress: bool = False, data: bytes | None = None) -> RawExport:
     """A Gmsh ``.msh`` file (MSH 2.2 or 4.1, ASCII or binary) with its views, as a RawExport (model units).
 
     Points in the file's (undeclared) length unit; one array per view (see the module docstring);
     times from the views' real tags. Raises SEDFormatError naming the file and the section for
     anything malformed, truncated, or a count larger than the file.
     """
-    check_export_file(path)
-    with open_regular(path, "SED file") as fh:
-        data = fh.read()
+    if data is None:
+        check_export_file(path)
+        with open_regular(path, "SED file") as fh:
+            data = fh.read()
     parsed = parse_msh(path, data)
     node_tags, xyz = parsed["nodes"]
     find_node = _lookup(node_tags, path, "Nodes", "node")
@@ -216,4 +217,26 @@ def read_msh(path: str, *, progress: bool = False) -> RawExport:
     else:
         notes.append("No volume elements in the file: the points are treated as scattered samples.")
     return RawExport(files=(path,), format="msh", points=points, arrays=arrays, times=times, cells=cells,
+                     notes=tuple(notes))
+
+
+def read_gmsh(path: str, *, progress: bool = False) -> RawExport:
+    """A Gmsh result file, ``.msh`` or ``.pos``, by its content: MSH sections (``$MeshFormat``, whatever the
+    name) by :func:`read_msh`; parsed views (``View "name" {...};``, or anything else named ``.pos``) and
+    the legacy ``$PostFormat`` (refused) by :mod:`afferent.io._gmsh_pos`."""
+    from ._gmsh_pos import parse_pos, pos_export
+
+    check_export_file(path)
+    with open_regular(path, "SED file") as fh:
+        data = fh.read()
+    head = data.lstrip()[:12]
+    legacy = head.startswith(b"$PostFormat")
+    if not legacy and (head.startswith(b"$") or not (head.startswith(b"View") or path.lower().endswith(".pos"))):
+        return read_msh(path, progress=progress, data=data)
+    points, blocks, arrays, times, notes = pos_export(path, parse_pos(path, data))
+    points.setflags(write=False)
+    cells = cells_from_meshio(volume_type_blocks([_Block(t, c) for t, c in blocks], path), path) if blocks else None
+    if cells is None:
+        notes.append("No volume elements in the views: the points are treated as scattered samples.")
+    return RawExport(files=(path,), format="pos", points=points, arrays=arrays, times=times, cells=cells,
                      notes=tuple(notes))

@@ -21,7 +21,8 @@ an array (see the FE-export page of the documentation, "code_aster"):
 
 - nodes (``_NOEU``): point data;
 - element nodes (``_ELNO``; MED_NODE_ELEMENT, or per cell with MED's ``MED_GAUSS_ELNO``
-  localisation): point data, the **arithmetic mean of the element-node copies at each node** (the
+  localisation): point data, the **mean of the element-node copies at each node**, each element once
+  (afferent's one element-node rule, :func:`afferent.io._coincident.element_node_mean`, and the
   rule by which code_aster builds ``_NOEU`` from ``_ELNO``); nodes no element carries are NaN;
 - Gauss points (``_ELGA``): cell data, the mean over each element's Gauss points weighted by the
   localisation's weights (the element average for elements of constant Jacobian);
@@ -46,6 +47,7 @@ import re
 import numpy as np
 
 from ..exceptions import SEDFormatError
+from ._coincident import element_node_mean
 from ._files import Scope, h5_open, h5_read
 from ._raw import RawArray, RawExport, check_export_file, drop_valueless_nodes, files_read
 
@@ -223,8 +225,8 @@ def _step_values(f: _File, step, kind: str, ncomp: int, mesh: dict, notes: set) 
     n_nodes, blocks, volume = mesh["n_nodes"], mesh["blocks"], mesh["volume"]
     if kind == "node":
         return _support(f, step, "NOE", n_nodes, ncomp)[0][:, 0, :]
-    if kind == "elno":  # the arithmetic mean of the element-node copies at each node
-        total, count = np.zeros((n_nodes, ncomp)), np.zeros(n_nodes)
+    if kind == "elno":  # the element-node rule: the mean of the element-node copies at each node
+        nodes, copies = [np.zeros(0, np.int64)], [np.zeros((0, ncomp))]
         for key in step:
             mtype = key.partition(".")[2]
             if not _is_elno(step, key) or mtype not in blocks:
@@ -234,11 +236,9 @@ def _step_values(f: _File, step, kind: str, ncomp: int, mesh: dict, notes: set) 
             if vals.shape[1] != conn.shape[1]:
                 raise SEDFormatError(f"SED file {f.path!r}: '{step.name}/{key}' must have one value per element node "
                                      f"({conn.shape[1]}); got {vals.shape[1]} instead.")
-            ok = np.isfinite(vals).all(axis=2)
-            np.add.at(total, conn[ok], vals[ok])
-            np.add.at(count, conn[ok], 1)
-        with np.errstate(invalid="ignore"):
-            return np.where(count[:, None] > 0, total / np.maximum(count, 1)[:, None], np.nan)
+            nodes.append(conn.ravel())
+            copies.append(vals.reshape(-1, ncomp))
+        return element_node_mean(np.concatenate(nodes), np.concatenate(copies), n_nodes)
     parts = []  # per volume cell: ELEM values, or the weighted mean of the Gauss-point values
     for mtype, n_cells in volume:
         key = f"MAI.{mtype}"

@@ -22,9 +22,10 @@ How each variable becomes an array (named as FEBio names it: ``strain energy den
   strain``: FEBio's average over the element's Gauss points): cell data over the volume domains,
   NaN in a volume domain that does not carry the variable; per domain (REGION): cell data, the
   domain's value in each of its elements;
-- per element node (MULT): point data, each node the mean of the copies of the elements around it
-  (as FEBio's own VTK export averages them); per domain node (NODE): point data, the mean over the
-  domains sharing a node.
+- per element node (MULT): point data, each node the mean of the copies of the elements around it,
+  each element once (afferent's one element-node rule, :func:`afferent.io._coincident.element_node_mean`,
+  as FEBio's own VTK export averages them); per domain node (NODE): point data, the mean over the
+  domains sharing a node (each domain's copy once).
 
 Only volume domains become cells: hexahedra (8, 20 nodes), wedges (6, 15), tetrahedra (4, 10),
 pyramids (5, 13), in VTK's node order (FEBio's VTK export writes them unchanged); TET5, TET15,
@@ -44,6 +45,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ._coincident import element_node_mean
 from ._raw import RawArray, RawExport, material_array, stack_steps
 from ._xplt_file import _BY_CORNERS, _Model, _Variable, _File, _err, _model, _states
 
@@ -92,8 +94,9 @@ def _domain_cells(var: _Variable, blocks: dict, volume: list, path: str, time: f
 
 
 def _domain_points(var: _Variable, blocks: dict, volume: list, n_nodes: int, path: str, time: float):
-    """One MULT or NODE domain variable as (n_nodes, size): the mean of the copies at each node (NaN: no copy)."""
-    total, count, present = np.zeros((n_nodes, var.size)), np.zeros(n_nodes), False
+    """One MULT or NODE domain variable as (n_nodes, size): the mean of the copies at each node (NaN: no copy), by
+    the element-node rule (:func:`afferent.io._coincident.element_node_mean`)."""
+    at, copies = [np.zeros(0, np.int64)], [np.zeros((0, var.size))]
     for d in volume:
         v = blocks.get(d.number)
         if v is None:
@@ -103,13 +106,11 @@ def _domain_points(var: _Variable, blocks: dict, volume: list, n_nodes: int, pat
             raise _err(path, f"plot variable {var.name!r} ({var.vtype}, {var.fmt}) must have {var.size * nodes.size} "
                              f"values in domain {d.number} at t = {time:g} ({nodes.size} "
                              f"{'element nodes' if var.fmt == 'MULT' else 'nodes'}); got {v.size} instead.")
-        np.add.at(total, nodes, v.reshape(-1, var.size))
-        np.add.at(count, nodes, 1.0)
-        present = True
-    if not present:
+        at.append(nodes)
+        copies.append(v.reshape(-1, var.size).astype(np.float64))
+    if len(at) == 1:
         return None
-    with np.errstate(invalid="ignore", divide="ignore"):
-        return np.where(count[:, None] > 0, total / count[:, None], np.nan)
+    return element_node_mean(np.concatenate(at), np.concatenate(copies), n_nodes)
 
 
 def _partial_note(var: _Variable, blocks: dict, volume: list) -> str | None:

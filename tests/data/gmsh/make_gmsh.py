@@ -123,6 +123,15 @@ def main():
         gmsh.view.write(views[view], name, append=k > 0)
     gmsh.view.write(views["SED"], os.path.join(HERE, "sed_without_mesh.msh"))  # SaveMesh = 0 still: data only
 
+    # the four views in Gmsh's parsed format (.pos: the file name selects it): each element with its own
+    # coordinates and values, the triangles' too (NodeData); no TIME list (Gmsh writes none for model data)
+    name = os.path.join(HERE, "block_views.pos")
+    if os.path.exists(name):
+        os.remove(name)
+    for k, tag in enumerate(views.values()):
+        gmsh.view.write(tag, name, append=k > 0)
+    list_views(grid, hexes, tets, f)
+
     copies_xyz = np.concatenate([grid[c] for c in conns])
     copies_sed = np.stack([np.concatenate([f[c] * scale[e] * t for e, c in enumerate(conns)]) for t in TIMES])
     np.savez_compressed(
@@ -133,6 +142,35 @@ def main():
         copy_elem=np.repeat(np.arange(len(conns)), [len(c) for c in conns]), copy_sed=copies_sed,
         gmsh_version=np.array(gmsh.__version__))
     gmsh.finalize()
+
+
+def list_views(grid, hexes, tets, f):
+    """``lists.pos``: three list-based views (gmsh.view.addListData) on the first 2 hexahedra and the first
+    6 tetrahedra of the block, 2 steps each (Gmsh writes TIME{0,1}), a point and a triangle in the
+    scalar view (left out by afferent); ``reference_pos.npz``: each element's node coordinates and values."""
+    hx, tt = hexes[:2], tets[:6]
+    tri = tets[0][:3]
+
+    def coords(conn):  # addListData wants each element's x of every node, then y, then z
+        return grid[conn].transpose(0, 2, 1)
+
+    def vals(conn, ncomp, scale):  # (elements, steps, nodes, components): pi-scaled, not short decimals
+        base = f[conn][:, None, :, None] * np.pi * scale * (1 + np.arange(ncomp))[None, None, None, :]
+        return np.concatenate([base * t for t in (1.0, 2.0)], axis=1) + np.arange(len(conn))[:, None, None, None] / 7
+
+    ref = {}
+    for view, letter, ncomp in (("sed_list", "S", 1), ("displacement_list", "V", 3), ("stress_list", "T", 9)):
+        tag = gmsh.view.add(view)
+        for shape, conn in (("S", tt), ("H", hx)):
+            v = vals(conn, ncomp, 1 + 0.1 * ncomp)
+            data = np.concatenate([coords(conn).reshape(len(conn), -1), v.reshape(len(conn), -1)], axis=1)
+            gmsh.view.addListData(tag, letter + shape, len(conn), data.ravel().tolist())
+            ref[f"{view}/{shape}/xyz"], ref[f"{view}/{shape}/values"] = grid[conn], v
+        if letter == "S":  # a point and a triangle: not volume elements
+            gmsh.view.addListData(tag, "SP", 1, grid[0].tolist() + [1.0, 2.0])
+            gmsh.view.addListData(tag, "ST", 1, grid[tri].T.ravel().tolist() + [1.0, 2.0, 3.0, 4.0, 5.0, 6.0])
+        gmsh.view.write(tag, os.path.join(HERE, "lists.pos"), append=letter != "S")
+    np.savez_compressed(os.path.join(HERE, "reference_pos.npz"), **ref)
 
 
 if __name__ == "__main__":
