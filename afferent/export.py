@@ -62,6 +62,7 @@ import platform
 from importlib import metadata
 from dataclasses import dataclass
 from types import SimpleNamespace
+from typing import Literal, get_args
 
 import numpy as np
 
@@ -73,7 +74,8 @@ __all__ = ["write_outputs", "write_json", "file_sha256", "versions", "jsonable",
            "load_results", "RunResults", "RESULTS_FORMATS", "write_spikes_nwb"]
 
 #: how the time courses are written: one NetCDF-4 array file, or long CSV tables
-RESULTS_FORMATS = ("netcdf", "csv")
+ResultsFormat = Literal["netcdf", "csv"]
+RESULTS_FORMATS: tuple[str, ...] = get_args(ResultsFormat)
 
 
 def file_sha256(path: str, chunk: int = 1 << 20) -> str:
@@ -189,7 +191,7 @@ def write_json(path: str, data: dict) -> None:
 
 def write_outputs(folder: str, *, want, plots: bool, sed_static, sed, current=None, branching=None, afferent=None,
                   fit=None, waveform=None, spikes=None, drive=None, saturation=None,
-                  profile_index: int = -1, results_format: str = "netcdf", sed_beside=None,
+                  profile_index: int = -1, results_format: ResultsFormat = "netcdf", sed_beside=None,
                   hotspot_threshold: float = 0.6, cycles=None, figures=None, nwb=None) -> list[str]:
     """Write the tables and figures of ``want`` into ``folder``; returns the file names written.
 

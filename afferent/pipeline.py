@@ -19,14 +19,16 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING
 
-if TYPE_CHECKING:  # the stage modules (scipy, pandas) load when a function below runs, not on import
-    from .profiles import ObservedProfile, ProfileFit
-    from .receptors import ReceptorLayout
-    from .sampling import ReceptorSED
-    from .synthesis import AfferentCurrent, Branching
-    from .transduction import ReceptorCurrent, SaturationReport, SigmoidParams
+# the stage modules load numpy only; scipy and pandas load when a function below runs
+from .profiles import Normalise, ObservedProfile, ProfileFit
+from .receptors import ReceptorLayout
+from .sampling import OnOutside, ReceptorSED, SamplingMethod
+from .spiking._drive import DriveMapping, SpikeStage
+from .spiking._params import Engine, LIFParams
+from .stimulus._adaptation import InputKind, Rectify
+from .synthesis import AfferentCurrent, Branching
+from .transduction import ReceptorCurrent, SaturationReport, SigmoidParams
 
 __all__ = ["PipelineResult", "run_pipeline", "run_spikes"]
 
@@ -57,10 +59,10 @@ def run_pipeline(
     params: SigmoidParams,
     *,
     synthesis: str | Branching = "longitudinal",
-    method: str = "linear",
-    on_outside: str = "raise",
+    method: SamplingMethod = "linear",
+    on_outside: OnOutside = "raise",
     observed: ObservedProfile | None = None,
-    normalise: str = "both",
+    normalise: Normalise = "both",
     rng=None,
     waveform=None,
     d_ref: float | None = None,
@@ -147,11 +149,11 @@ def run_pipeline(
                           scaling=scaling if waveform is not None else None, profile_index=profile_index)
 
 
-def run_spikes(result: PipelineResult, lif, *, dt: float, engine: str = "auto", input: str = "static",
+def run_spikes(result: PipelineResult, lif, *, dt: float, engine: Engine = "auto", input: InputKind = "static",
                gain: float | None = None, tau: float | None = None, duration: float | None = None,
-               drive: str = "resistance", rheobase_multiple: float = 2.0,
+               drive: DriveMapping = "resistance", rheobase_multiple: float = 2.0,
                reference_current: float | None = None, static_gain: float | None = None,
-               zones=None, rectify: str | None = None, slow_gain: float | None = None,
+               zones=None, rectify: Rectify | None = None, slow_gain: float | None = None,
                slow_tau: float | None = None) -> PipelineResult:
     """Add spikes to a pipeline result: input current -> leaky integrate-and-fire
     (:func:`afferent.spiking.spike_afferents` on the result's currents and branching).

@@ -25,12 +25,14 @@ from __future__ import annotations
 import os
 import warnings
 from dataclasses import dataclass
+from typing import Literal, get_args
 
 import numpy as np
 
 from ._plausibility import scale_ratio
 from ._validation import check_option, suggest
 from .exceptions import AfferentWarning, SEDFormatError
+from .sampling import OnOutside
 from .units import length_factor
 
 __all__ = [
@@ -63,7 +65,8 @@ TINY_MODULATION_RTOL = 1e-6
 #: range: float round-off between a computed section position and one read from a CSV.
 POSITION_RTOL = 1e-9
 
-_NORMALISE = ("both", "prediction", "observation", "neither")
+Normalise = Literal["both", "prediction", "observation", "neither"]
+_NORMALISE: tuple[str, ...] = get_args(Normalise)
 
 
 def _finite(name: str, a, *, ndim: int | None = None) -> np.ndarray:
@@ -389,7 +392,7 @@ def _source(obs) -> str:
     return f" of {obs.source!r}" if getattr(obs, "source", None) else ""
 
 
-def observed_on(positions, observed, *, on_outside: str = "raise", _remedy: str = "on_outside='nan'") -> np.ndarray:
+def observed_on(positions, observed, *, on_outside: OnOutside = "raise", _remedy: str = "on_outside='nan'") -> np.ndarray:
     """Interpolate an observed profile onto afferent positions.
 
     Linear interpolation between neighbouring observed points (:func:`numpy.interp`); no
@@ -488,7 +491,7 @@ class ProfileFit:
     predicted: np.ndarray
     observed: np.ndarray
     positions: np.ndarray | None
-    normalise: str
+    normalise: Normalise
     time_index: int | None = None
     time: float | None = None
     dropped: int = 0
@@ -518,8 +521,8 @@ def peak_step(afferent) -> int:
     return int(np.argmax(np.nansum(values, axis=1)))
 
 
-def compare_profiles(predicted, observed, *, normalise: str = "both", time_index: int = -1,
-                     positions=None, on_outside: str = "raise") -> ProfileFit:
+def compare_profiles(predicted, observed, *, normalise: Normalise = "both", time_index: int = -1,
+                     positions=None, on_outside: OnOutside = "raise") -> ProfileFit:
     """Compare a predicted afferent profile with a recorded one (:ref:`method-comparison`).
 
     The prediction's profile is taken at one time step: ``time_index`` (default -1, the last

@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import numbers
 from dataclasses import dataclass, field
+from typing import Literal, get_args
 
 import numpy as np
 from scipy import sparse
@@ -36,7 +37,8 @@ __all__ = ["Zones", "split_zones", "zones_from_map", "BRANCHING_MODELS", "DEFAUL
 
 #: How the receptor currents of an afferent drive its spikes: ``'sum'`` (the study: one current,
 #: one LIF) or ``'zones'`` (one LIF per group of receptors, all reset when one fires).
-BRANCHING_MODELS = ("sum", "zones")
+BranchingModel = Literal["sum", "zones"]
+BRANCHING_MODELS: tuple[str, ...] = get_args(BranchingModel)
 
 #: Zones per afferent when none is given: the four heminodes of the SA-I model of Lesniak et al.
 #: (2014, eLife 3:e01488; Merkel-cell groups of 8, 5, 3 and 1 per heminode in the Gerling

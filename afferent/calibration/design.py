@@ -29,6 +29,7 @@ afferent.calibration`` stays fast.
 from __future__ import annotations
 
 import numbers
+from typing import Literal, get_args
 
 import numpy as np
 
@@ -177,7 +178,8 @@ def box_behnken(n_factors: int = 3, *, center: int = 1) -> np.ndarray:
 
 
 #: design name -> function(n_factors, center=1) returning coded runs.
-DESIGNS = {"factorial": factorial_design, "ccd": central_composite, "bbd": box_behnken}
+DesignName = Literal["factorial", "ccd", "bbd"]
+DESIGNS = dict(zip(get_args(DesignName), (factorial_design, central_composite, box_behnken), strict=True))
 
 
 def make_design(name: str, n_factors: int = 3) -> np.ndarray:

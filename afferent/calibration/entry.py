@@ -9,24 +9,26 @@
 from __future__ import annotations
 
 import numbers
+from typing import Literal, get_args
 
 import numpy as np
 
 from .._validation import check_option, check_rng
 from .._validation import plain as _plain
-from ..profiles import _as_observed
+from ..profiles import _NORMALISE, Normalise, _as_observed
+from ..sampling import OnOutside
 from ..synthesis import Branching, make_branching
 from ..transduction import STUDY_PARAMS, SigmoidParams
-from .design import DEFAULT_INCREMENT, vector_to_params
+from .design import DEFAULT_INCREMENT, DesignName, vector_to_params
 from .objective import Objective
-from .reference import DEFAULT_N_STARTS, JACOBIANS, RESTARTS, least_squares_reference
+from .reference import DEFAULT_N_STARTS, JACOBIANS, RESTARTS, Jacobian, Restarts, least_squares_reference
 from .result import CalibrationResult, finish
 from .rsm import DEFAULT_MAX_ITER, DEFAULT_MAX_STEPS, DEFAULT_TOL, rsm
 
 __all__ = ["METHODS", "calibrate"]
 
-METHODS = ("rsm1", "rsm2", "least_squares")
-_NORMALISE = ("both", "prediction", "observation", "neither")
+CalibrationMethod = Literal["rsm1", "rsm2", "least_squares"]
+METHODS: tuple[str, ...] = get_args(CalibrationMethod)
 
 
 def _check_start(start) -> SigmoidParams:
@@ -124,14 +126,14 @@ def calibrate(
     max_iter: int = DEFAULT_MAX_ITER,
     max_steps: int = DEFAULT_MAX_STEPS,
     refine: int = 0,
-    normalise: str = "both",
-    method: str = "rsm1",
-    design: str | None = None,
+    normalise: Normalise = "both",
+    method: CalibrationMethod = "rsm1",
+    design: DesignName | None = None,
     n_starts: int = DEFAULT_N_STARTS,
-    restarts: str = "on_failure",
-    jac: str = "analytic",
+    restarts: Restarts = "on_failure",
+    jac: Jacobian = "analytic",
     time_index: int = -1,
-    on_outside: str = "raise",
+    on_outside: OnOutside = "raise",
     rng=None,
     progress: bool = False,
 ) -> CalibrationResult:

@@ -22,6 +22,7 @@ than :data:`FALLBACK_R2` of the observed profile's variance) are the seeded rand
 from __future__ import annotations
 
 import math
+from typing import Literal, get_args
 
 import numpy as np
 
@@ -46,9 +47,11 @@ LS_TOL = 1e-8
 FALLBACK_R2 = 0.9
 #: How the residuals' Jacobian is obtained: closed form, or scipy's finite differences (the
 #: method before the closed form existed; kept for cross-checks and benchmarks).
-JACOBIANS = ("analytic", "2-point", "3-point")
+Jacobian = Literal["analytic", "2-point", "3-point"]
+JACOBIANS: tuple[str, ...] = get_args(Jacobian)
 #: When the random starts are run: only when the first start fails, or always.
-RESTARTS = ("on_failure", "always")
+Restarts = Literal["on_failure", "always"]
+RESTARTS: tuple[str, ...] = get_args(Restarts)
 
 
 class _Problem:

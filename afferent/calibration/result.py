@@ -15,11 +15,12 @@ from __future__ import annotations
 
 import warnings
 from dataclasses import dataclass
+from typing import Literal, get_args
 
 import numpy as np
 
 from ..exceptions import AfferentWarning
-from ..profiles import ProfileFit
+from ..profiles import Normalise, ProfileFit
 from ..transduction import SaturationReport, SigmoidParams, saturation_report
 from .design import PARAMETERS, UNITS, vector_to_params
 from .conditioning import IDENTIFIABLE_COND, identifiability
@@ -36,7 +37,8 @@ __all__ = ["STATUSES", "CalibrationResult", "finish"]
 #:   the last base point (finite), not a fit.
 #: - ``'max_iter'``: the budget ran out (RSM: ``max_iter`` iterations; least squares: scipy's
 #:   ``max_nfev`` evaluations) while the ssd was still decreasing.
-STATUSES = ("converged", "flat", "max_iter")
+Status = Literal["converged", "flat", "max_iter"]
+STATUSES: tuple[str, ...] = get_args(Status)
 
 
 @dataclass(frozen=True)
@@ -126,12 +128,12 @@ class CalibrationResult:
     no_effect: tuple
     saturation: SaturationReport
     success: bool
-    status: str
+    status: Status
     message: str
     n_evaluations: int
     method: str
     synthesis: str
-    normalise: str
+    normalise: Normalise
     start: SigmoidParams
     fit: ProfileFit
     clipped: tuple = ()

@@ -138,6 +138,8 @@ importable from :mod:`afferent.spiking`.
 
 from __future__ import annotations
 
+from typing import get_args
+
 import numpy as np
 
 from .._validation import check_option
@@ -147,7 +149,7 @@ from ._drive import INPUTS, SpikeStage, spike_afferents
 from ._exact import _pieces, _run_exact_numba, _run_exact_numpy, _used_peak
 from ._grid import _peak_current, _plan, _run_brian2, _run_numba, _run_numpy, _silent
 from ._group import _numba_available
-from ._params import _MAX_DRIVE_V, LIFParams, _refractory_steps, grid_isi_bounds
+from ._params import _MAX_DRIVE_V, Engine, InputHold, LIFParams, _refractory_steps, grid_isi_bounds
 from ._trains import SpikeTrains, spread_counts
 from ._zones import simulate_zones
 
@@ -185,11 +187,11 @@ LIF_PRESETS: dict[str, LIFParams] = _params.LIF_PRESETS
 DRIVE_MAPPINGS = _drive.DRIVE_MAPPINGS
 
 #: Engines accepted by :func:`simulate_lif`.
-ENGINES = ("auto", "exact", "exact-numba", "exact-numpy", "fast", "fast-numba", "fast-numpy", "brian2")
+ENGINES: tuple[str, ...] = get_args(Engine)
 #: How :func:`simulate_lif` reads the current between samples: ``'previous'`` holds each sample
 #: until the next (like brian2's ``TimedArray``; all engines), ``'linear'`` interpolates
 #: linearly between samples (the exact engine only).
-INPUT_HOLDS = ("previous", "linear")
+INPUT_HOLDS: tuple[str, ...] = get_args(InputHold)
 
 
 # --------------------------------------------------------------------------------------------
@@ -316,8 +318,8 @@ def _warn_above_ceiling(times_s: np.ndarray, counts: np.ndarray, params: LIFPara
         warnings.warn(msg, AfferentWarning, stacklevel=3)
 
 
-def simulate_lif(current, params: LIFParams, *, dt: float | None = None, engine: str = "auto", duration=None, times=None,
-                 input_hold: str = "previous", zones=None):
+def simulate_lif(current, params: LIFParams, *, dt: float | None = None, engine: Engine = "auto", duration=None, times=None,
+                 input_hold: InputHold = "previous", zones=None):
     """Simulate one leaky integrate-and-fire neuron per afferent.
 
     Parameters

@@ -7,10 +7,16 @@ from __future__ import annotations
 
 import numbers
 from dataclasses import dataclass
+from typing import Literal
 
 import numpy as np
 
 from .._validation import check_option, check_positive
+
+#: The spiking engines (:data:`afferent.spiking.ENGINES`, documented there).
+Engine = Literal["auto", "exact", "exact-numba", "exact-numpy", "fast", "fast-numba", "fast-numpy", "brian2"]
+#: How the input current holds between its samples (:data:`afferent.spiking.INPUT_HOLDS`).
+InputHold = Literal["previous", "linear"]
 
 # brian2's timestep() shifts by 1e-3 dt before flooring (brian2/core/functions.py).
 _TIMESTEP_SHIFT = 1e-3

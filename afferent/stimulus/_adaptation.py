@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import warnings
 from dataclasses import dataclass
+from typing import Literal, get_args
 
 import numpy as np
 
@@ -15,15 +16,18 @@ from ..exceptions import AfferentWarning
 
 
 # Modes of adapting_input (documented in afferent.stimulus, where the API reference shows it).
-ADAPTATION_MODES = ("rectified-rate", "static-plus-rate")
+AdaptationMode = Literal["rectified-rate", "static-plus-rate"]
+ADAPTATION_MODES: tuple[str, ...] = get_args(AdaptationMode)
 #: Input kinds recorded on an :class:`InputCurrent` (the kind each adaptation mode gives: _KIND_OF_MODE).
-INPUT_KINDS = ("static", "rate-sensitive", "slowly-adapting")
+InputKind = Literal["static", "rate-sensitive", "slowly-adapting"]
+INPUT_KINDS: tuple[str, ...] = get_args(InputKind)
 _KIND_OF_MODE = {"rectified-rate": "rate-sensitive", "static-plus-rate": "slowly-adapting"}
 # Default low-pass time constant of the rate in s (documented in afferent.stimulus).
 DEFAULT_TAU = 5e-3
 # Mode 'static-plus-rate': how the terms are rectified, and the slow component's default time constant in s
 # (tau_2 = 200 ms of fit_model.py in yw5aj/PlosCompBiol; docs/classes.md).
-RECTIFY_CHOICES = ("sum", "components")
+Rectify = Literal["sum", "components"]
+RECTIFY_CHOICES: tuple[str, ...] = get_args(Rectify)
 DEFAULT_SLOW_TAU = 0.2
 
 
@@ -71,10 +75,10 @@ class InputCurrent:
 
     values: np.ndarray
     times: np.ndarray
-    kind: str
+    kind: InputKind
     level: str
     source: object
-    mode: str | None = None
+    mode: AdaptationMode | None = None
     tau: float | None = None
     gain: float | None = None
     off_gain: float | None = None
@@ -251,7 +255,7 @@ def _lowpass_rate(values: np.ndarray, times: np.ndarray, tau: float) -> np.ndarr
 
 
 def adapting_input(current, *, gain: float, tau: float = DEFAULT_TAU, off_gain: float | None = None,
-                   mode: str = "rectified-rate", static_gain: float | None = None, rectify: str | None = None,
+                   mode: AdaptationMode = "rectified-rate", static_gain: float | None = None, rectify: Rectify | None = None,
                    slow_gain: float | None = None, slow_tau: float | None = None) -> InputCurrent:
     """Rate-sensitive input from a static current: RA-I (onset and offset) or SA-I (static plus rate).
 
