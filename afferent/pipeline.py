@@ -17,6 +17,12 @@ here).
 
 from __future__ import annotations
 
+from .field import SEDField
+from .stimulus._waveforms import Waveform
+from .zones import Zones
+
+from ._typing import Accept, ArrayLike, RngLike
+
 import time
 from dataclasses import dataclass, field
 
@@ -24,7 +30,7 @@ from dataclasses import dataclass, field
 from .profiles import Normalise, ObservedProfile, ProfileFit
 from .receptors import ReceptorLayout
 from .sampling import OnOutside, ReceptorSED, SamplingMethod
-from .spiking._drive import DriveMapping, SpikeStage
+from .spiking._drive import DriveMapping
 from .spiking._params import Engine, LIFParams
 from .stimulus._adaptation import InputKind, Rectify
 from .synthesis import AfferentCurrent, Branching
@@ -54,7 +60,7 @@ class PipelineResult:
 
 
 def run_pipeline(
-    field,
+    field: SEDField,
     layout: ReceptorLayout,
     params: SigmoidParams,
     *,
@@ -63,12 +69,12 @@ def run_pipeline(
     on_outside: OnOutside = "raise",
     observed: ObservedProfile | None = None,
     normalise: Normalise = "both",
-    rng=None,
-    waveform=None,
+    rng: RngLike=None,
+    waveform: Waveform | None=None,
     d_ref: float | None = None,
     reference_step: int | None = None,
-    series_depths=None,
-    accept=None,
+    series_depths: ArrayLike | None=None,
+    accept: Accept=None,
 ) -> PipelineResult:
     """SED field -> receptor SED -> receptor current -> afferent current [-> fit].
 
@@ -149,11 +155,11 @@ def run_pipeline(
                           scaling=scaling if waveform is not None else None, profile_index=profile_index)
 
 
-def run_spikes(result: PipelineResult, lif, *, dt: float, engine: Engine = "auto", input: InputKind = "static",
+def run_spikes(result: PipelineResult, lif: LIFParams, *, dt: float, engine: Engine = "auto", input: InputKind = "static",
                gain: float | None = None, tau: float | None = None, duration: float | None = None,
                drive: DriveMapping = "resistance", rheobase_multiple: float = 2.0,
                reference_current: float | None = None, static_gain: float | None = None,
-               zones=None, rectify: Rectify | None = None, slow_gain: float | None = None,
+               zones: Zones | None=None, rectify: Rectify | None = None, slow_gain: float | None = None,
                slow_tau: float | None = None) -> PipelineResult:
     """Add spikes to a pipeline result: input current -> leaky integrate-and-fire
     (:func:`afferent.spiking.spike_afferents` on the result's currents and branching).

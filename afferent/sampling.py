@@ -27,6 +27,13 @@ functions and the material-interface reports are their own modules already.
 
 from __future__ import annotations
 
+from ._typing import PathLike
+from collections.abc import Iterable
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:  # annotations only: these load on first use
+    from pandas import DataFrame
+
 import os
 import warnings
 from dataclasses import dataclass
@@ -137,7 +144,7 @@ class ReceptorSED:
         cols["sed_pa"] = self.values.reshape(-1)
         return cols
 
-    def to_dataframe(self, *, sections: bool = False):
+    def to_dataframe(self, *, sections: bool = False) -> DataFrame:
         """Long table, one row per receptor and step (a pandas DataFrame of :meth:`columns`).
 
         Columns ``receptor, x_m, y_m, z_m, time_s, sed_pa`` (positions in m, time in s, SED in
@@ -511,7 +518,7 @@ def _sample_field(field: SEDField, layout: ReceptorLayout, *, method: str, on_ou
                        sampler.placement, time_unit="step" if field.provenance.units.get("time") == "step" else "s")
 
 
-def sample_steps(fields, layout: ReceptorLayout, *, method: SamplingMethod = "linear", on_outside: OnOutside = "raise",
+def sample_steps(fields: Iterable[SEDField], layout: ReceptorLayout, *, method: SamplingMethod = "linear", on_outside: OnOutside = "raise",
                  sampler: Sampler | None = None, side: str | int = "average") -> ReceptorSED:
     """SED at each receptor site, from fields that arrive one time step at a time.
 
@@ -610,7 +617,7 @@ def _check_same_mesh(first: SEDField, field: SEDField) -> None:
 SED_TABLE_COLUMNS = ("receptor", "x_m", "y_m", "z_m", "time_s", "sed_pa")
 
 
-def read_receptor_sed(path):
+def read_receptor_sed(path: PathLike) -> ReceptorSED:
     """Read the long-form SED table written by ``afferent sample`` into a :class:`~afferent.sampling.ReceptorSED`.
 
     Parameters

@@ -6,8 +6,8 @@ The public API: the names in ``__all__`` of ``afferent`` and of every public mod
 ``_``-prefixed part in its dotted name; a public module without ``__all__``: the public names it
 defines), and, of the classes among them, every public method and property plus ``__init__``.
 
-``typing.get_type_hints`` is resolved with the names of :data:`LAZY_NAMES` added: pandas,
-matplotlib, scipy.sparse and xarray load on first use, not on import (tests check that), so a
+``typing.get_type_hints`` is resolved with the names of :func:`_lazy_names` added: pandas,
+matplotlib, scipy, scikit-learn and xarray load on first use, not on import (tests check that), so a
 module names their types under ``if TYPE_CHECKING:`` only. Every other name must resolve from the
 module itself.
 """
@@ -27,12 +27,16 @@ import afferent
 def _lazy_names() -> dict[str, object]:
     import matplotlib.axes
     import matplotlib.figure
+    import matplotlib.legend
     import pandas as pd
+    import scipy.optimize
     import scipy.sparse as sp
+    import sklearn.pipeline
     import xarray as xr
 
-    return {"pd": pd, "DataFrame": pd.DataFrame, "Series": pd.Series, "Axes": matplotlib.axes.Axes,
-            "Figure": matplotlib.figure.Figure, "sp": sp, "xr": xr}
+    return {"DataFrame": pd.DataFrame, "Axes": matplotlib.axes.Axes, "Figure": matplotlib.figure.Figure,
+            "Legend": matplotlib.legend.Legend, "sp": sp, "xr": xr, "Pipeline": sklearn.pipeline.Pipeline,
+            "OptimizeResult": scipy.optimize.OptimizeResult}
 
 
 def public_modules() -> list[str]:

@@ -28,6 +28,8 @@ afferent.calibration`` stays fast.
 
 from __future__ import annotations
 
+from .._typing import ArrayLike
+
 import numbers
 from typing import Literal, get_args
 
@@ -212,7 +214,7 @@ def _vector(name: str, v, n: int | None = None) -> np.ndarray:
     return arr
 
 
-def increments(base, increment=DEFAULT_INCREMENT, *, floor=None) -> np.ndarray:
+def increments(base: ArrayLike | SigmoidParams, increment: ArrayLike=DEFAULT_INCREMENT, *, floor: ArrayLike | None=None) -> np.ndarray:
     """Coding steps ``dxi_k = increment_k * max(|xi_k,base|, floor_k)``, in each parameter's unit.
 
     Parameters
@@ -256,7 +258,7 @@ def increments(base, increment=DEFAULT_INCREMENT, *, floor=None) -> np.ndarray:
     return step
 
 
-def encode(values, base, step) -> np.ndarray:
+def encode(values: ArrayLike, base: ArrayLike, step: ArrayLike) -> np.ndarray:
     """Physical -> coded: ``chi = (xi - base) / step``.
 
     Parameters
@@ -279,7 +281,7 @@ def encode(values, base, step) -> np.ndarray:
     return (np.asarray(values, dtype=float) - np.asarray(base, dtype=float)) / np.asarray(step, dtype=float)
 
 
-def decode(coded, base, step) -> np.ndarray:
+def decode(coded: ArrayLike, base: ArrayLike, step: ArrayLike) -> np.ndarray:
     """Coded -> physical: ``xi = base + chi * step`` (the inverse of :func:`encode`).
 
     Parameters
@@ -309,7 +311,7 @@ def params_to_vector(params: SigmoidParams) -> np.ndarray:
     return np.array([params.alpha, params.gamma, params.lambda_], dtype=float)
 
 
-def vector_to_params(vec) -> SigmoidParams:
+def vector_to_params(vec: ArrayLike) -> SigmoidParams:
     """:class:`SigmoidParams` from ``[alpha (A), gamma (1/Pa), lambda (Pa)]``."""
     a, g, lam = (float(v) for v in np.asarray(vec, dtype=float).reshape(3))
     return SigmoidParams(alpha=a, gamma=g, lambda_=lam)

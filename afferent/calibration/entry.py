@@ -8,8 +8,14 @@
 
 from __future__ import annotations
 
+from ..profiles import ObservedProfile
+from ..receptors._layout import ReceptorLayout
+from ..sampling import ReceptorSED
+
+from .._typing import ArrayLike, RngLike
+
 import numbers
-from typing import Literal, get_args
+from typing import get_args
 
 import numpy as np
 
@@ -22,12 +28,11 @@ from ..transduction import STUDY_PARAMS, SigmoidParams
 from .design import DEFAULT_INCREMENT, DesignName, vector_to_params
 from .objective import Objective
 from .reference import DEFAULT_N_STARTS, JACOBIANS, RESTARTS, Jacobian, Restarts, least_squares_reference
-from .result import CalibrationResult, finish
+from .result import CalibrationMethod, CalibrationResult, finish
 from .rsm import DEFAULT_MAX_ITER, DEFAULT_MAX_STEPS, DEFAULT_TOL, rsm
 
 __all__ = ["METHODS", "calibrate"]
 
-CalibrationMethod = Literal["rsm1", "rsm2", "least_squares"]
 METHODS: tuple[str, ...] = get_args(CalibrationMethod)
 
 
@@ -115,12 +120,12 @@ def _synthesis_label(spec) -> str:
 
 
 def calibrate(
-    sed,
-    observed,
+    sed: ReceptorSED | ArrayLike,
+    observed: ObservedProfile | tuple,
     *,
-    layout=None,
-    synthesis="longitudinal",
-    start=STUDY_PARAMS["start"],
+    layout: ReceptorLayout | None=None,
+    synthesis: str | Branching="longitudinal",
+    start: SigmoidParams | tuple=STUDY_PARAMS["start"],
     increment: float = DEFAULT_INCREMENT,
     tol: float = DEFAULT_TOL,
     max_iter: int = DEFAULT_MAX_ITER,
@@ -134,7 +139,7 @@ def calibrate(
     jac: Jacobian = "analytic",
     time_index: int = -1,
     on_outside: OnOutside = "raise",
-    rng=None,
+    rng: RngLike=None,
     progress: bool = False,
 ) -> CalibrationResult:
     """Calibrate the sigmoid (alpha, gamma, lambda) against a recorded afferent profile.

@@ -13,6 +13,10 @@ parameters outside their physical range.
 
 from __future__ import annotations
 
+from .objective import Objective
+
+
+
 import warnings
 from dataclasses import dataclass
 from typing import Literal, get_args
@@ -37,6 +41,8 @@ __all__ = ["STATUSES", "CalibrationResult", "finish"]
 #:   the last base point (finite), not a fit.
 #: - ``'max_iter'``: the budget ran out (RSM: ``max_iter`` iterations; least squares: scipy's
 #:   ``max_nfev`` evaluations) while the ssd was still decreasing.
+#: The calibration methods (:data:`afferent.calibration.METHODS`, documented there).
+CalibrationMethod = Literal["rsm1", "rsm2", "least_squares"]
 Status = Literal["converged", "flat", "max_iter"]
 STATUSES: tuple[str, ...] = get_args(Status)
 
@@ -131,7 +137,7 @@ class CalibrationResult:
     status: Status
     message: str
     n_evaluations: int
-    method: str
+    method: CalibrationMethod
     synthesis: str
     normalise: Normalise
     start: SigmoidParams
@@ -194,7 +200,7 @@ def _params_dict(p: SigmoidParams) -> dict:
     return {"alpha_a": p.alpha, "gamma_per_pa": p.gamma, "lambda_pa": p.lambda_}
 
 
-def finish(out, obj, method, synthesis, normalise, start) -> CalibrationResult:
+def finish(out: dict, obj: Objective, method: CalibrationMethod, synthesis: str, normalise: Normalise, start: SigmoidParams) -> CalibrationResult:
     """Build the :class:`CalibrationResult` of a method's outcome, with every caveat in its message.
 
     Parameters

@@ -138,6 +138,11 @@ importable from :mod:`afferent.spiking`.
 
 from __future__ import annotations
 
+from ..synthesis import AfferentCurrent
+from ..zones import Zones
+
+from .._typing import ArrayLike
+
 from typing import get_args
 
 import numpy as np
@@ -318,8 +323,8 @@ def _warn_above_ceiling(times_s: np.ndarray, counts: np.ndarray, params: LIFPara
         warnings.warn(msg, AfferentWarning, stacklevel=3)
 
 
-def simulate_lif(current, params: LIFParams, *, dt: float | None = None, engine: Engine = "auto", duration=None, times=None,
-                 input_hold: InputHold = "previous", zones=None):
+def simulate_lif(current: AfferentCurrent | ArrayLike, params: LIFParams, *, dt: float | None = None, engine: Engine = "auto", duration: float | None=None, times: ArrayLike | None=None,
+                 input_hold: InputHold = "previous", zones: Zones | ArrayLike | None=None) -> SpikeTrains:
     """Simulate one leaky integrate-and-fire neuron per afferent.
 
     Parameters

@@ -5,6 +5,12 @@ The model is given in :mod:`afferent.stimulus` and on the Method page (:ref:`met
 
 from __future__ import annotations
 
+from ..receptors._layout import ReceptorLayout
+from ..synthesis import AfferentCurrent, Branching
+from ..transduction import ReceptorCurrent
+
+
+
 import warnings
 from dataclasses import dataclass
 from typing import Literal, get_args
@@ -103,26 +109,26 @@ class InputCurrent:
         return self.values.shape[0]
 
     @property
-    def afferent_ids(self):
+    def afferent_ids(self) -> np.ndarray | None:
         """Afferent names (afferent level), else None."""
         return getattr(self.source, "afferent_ids", None) if self.level == "afferent" else None
 
     @property
-    def positions(self):
+    def positions(self) -> np.ndarray | None:
         """Afferent positions in m along ``axis`` (afferent level), else None."""
         return getattr(self.source, "positions", None) if self.level == "afferent" else None
 
     @property
-    def axis(self):
+    def axis(self) -> str | None:
         """The coordinate ``positions`` is measured along (afferent level), else None."""
         return getattr(self.source, "axis", None) if self.level == "afferent" else None
 
     @property
-    def layout(self):
+    def layout(self) -> ReceptorLayout | None:
         """Receptor layout (receptor level), else None."""
         return getattr(self.source, "layout", None) if self.level == "receptor" else None
 
-    def synthesize(self, branching) -> InputCurrent:
+    def synthesize(self, branching: Branching) -> InputCurrent:
         """Sum receptor-level input into afferents, keeping the tag and parameters.
 
         ``I_A = sum_i w_i I_in,i`` with :func:`afferent.synthesis.synthesize`. Adapting at the
@@ -196,7 +202,7 @@ def _unwrap_current(current):
     return current.values, current.times, level, current
 
 
-def static_input(current) -> InputCurrent:
+def static_input(current: ReceptorCurrent | AfferentCurrent) -> InputCurrent:
     """Tag a static current as the LIF input (``kind='static'``), the study's choice.
 
     Parameters
@@ -254,7 +260,7 @@ def _lowpass_rate(values: np.ndarray, times: np.ndarray, tau: float) -> np.ndarr
     return slope_all + (r - slope_all) * c[:, None]
 
 
-def adapting_input(current, *, gain: float, tau: float = DEFAULT_TAU, off_gain: float | None = None,
+def adapting_input(current: ReceptorCurrent | AfferentCurrent | InputCurrent, *, gain: float, tau: float = DEFAULT_TAU, off_gain: float | None = None,
                    mode: AdaptationMode = "rectified-rate", static_gain: float | None = None, rectify: Rectify | None = None,
                    slow_gain: float | None = None, slow_tau: float | None = None) -> InputCurrent:
     """Rate-sensitive input from a static current: RA-I (onset and offset) or SA-I (static plus rate).

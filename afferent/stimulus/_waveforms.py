@@ -5,6 +5,12 @@ Documented with the rest of :mod:`afferent.stimulus`, which re-exports every pub
 
 from __future__ import annotations
 
+from .._typing import ArrayLike
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:  # annotations only: these load on first use
+    from pandas import DataFrame
+
 from dataclasses import dataclass, field
 from types import MappingProxyType
 from typing import Literal, get_args
@@ -128,7 +134,7 @@ class Waveform:
         """Largest depth in m."""
         return float(self.depth.max())
 
-    def depth_at(self, t):
+    def depth_at(self, t: ArrayLike) -> np.ndarray:
         """Depth in m at time(s) ``t`` in s, linear between samples, held before/after the ends.
 
         Parameters
@@ -181,7 +187,7 @@ class Waveform:
         """Columns ``time_s`` (s) and ``depth_m`` (m), no pandas: what ``waveform.csv`` lists."""
         return {"time_s": self.times, "depth_m": self.depth}
 
-    def to_dataframe(self):
+    def to_dataframe(self) -> DataFrame:
         """Table with columns ``time_s`` and ``depth_m``."""
         import pandas as pd
 
