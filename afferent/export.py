@@ -55,7 +55,6 @@ MATLAB and R do not ship.
 
 from __future__ import annotations
 
-from .pipeline import PipelineResult
 from .profiles import ProfileFit
 from .sampling import ReceptorSED
 from .spiking._trains import SpikeTrains
@@ -65,8 +64,7 @@ from .transduction import ReceptorCurrent, SaturationReport
 
 from ._typing import ArrayLike, PathLike
 from collections.abc import Collection
-from typing import Any
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any, Protocol
 
 if TYPE_CHECKING:  # annotations only: these load on first use
     from pandas import DataFrame
@@ -149,7 +147,12 @@ def jsonable(obj: object) -> object:
 _jsonable = jsonable  # the name afferent.cli._calibrate imports
 
 
-def receptors_table(result: PipelineResult) -> DataFrame:
+class _SedAndCurrent(Protocol):  # a PipelineResult or SceneResult (this stage does not import the pipeline)
+    sed: ReceptorSED
+    current: ReceptorCurrent
+
+
+def receptors_table(result: _SedAndCurrent) -> DataFrame:
     """receptor, x_m, y_m, z_m, longitudinal, cross, time_s, sed_pa, current_a."""
     df = result.sed.to_dataframe(sections=True)
     df["current_a"] = result.current.values.reshape(-1)

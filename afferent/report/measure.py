@@ -2,6 +2,19 @@
 
 from __future__ import annotations
 
+import os
+import platform
+import time
+import tracemalloc
+import warnings
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .._typing import PathLike, RngLike
 from ..field import SEDField
 from ..profiles import Normalise
 from ..receptors._layout import ReceptorLayout
@@ -9,20 +22,6 @@ from ..sampling import ReceptorSED, SamplingMethod
 from ..spiking._params import LIFParams
 from ..spiking._trains import SpikeTrains
 from ..transduction import SigmoidParams
-
-from .._typing import PathLike, RngLike
-from collections.abc import Callable, Sequence
-from typing import Any
-
-import os
-import platform
-import time
-import tracemalloc
-import warnings
-from dataclasses import dataclass
-from pathlib import Path
-
-import numpy as np
 
 __all__ = ["SIZES", "ReportSize", "machine_info", "best_time", "hex_block", "manufactured_sed", "papilla_sites",
            "measure_sampling", "synthetic_afferent_current", "spike_errors", "measure_spiking",
@@ -349,7 +348,6 @@ def measure_spiking(current: np.ndarray, times: np.ndarray, duration: float, par
 def per_papilla_layout(tips: ReceptorLayout, k: int) -> ReceptorLayout:
     """``k`` receptor sites per papilla tip, spread along the ridges (z) over +-0.04 mm of the tip
     (one site: the tip itself); each keeps its tip's section labels. Positions in m."""
-    from ..receptors import ReceptorLayout
 
     dz = np.linspace(-PATCH_HALF_WIDTH, PATCH_HALF_WIDTH, k) if k > 1 else np.zeros(1)
     pos = np.repeat(tips.positions, k, axis=0)
@@ -450,7 +448,7 @@ def measure_calibration(sed: ReceptorSED, truths: Sequence[tuple[float, float, f
     from ..calibration import calibrate
     from ..profiles import ObservedProfile
     from ..synthesis import Branching, synthesize
-    from ..transduction import SigmoidParams, transduce
+    from ..transduction import transduce
 
     methods = CALIBRATION_METHODS if methods is None else methods
     rows = []
