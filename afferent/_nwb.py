@@ -21,13 +21,17 @@ What the file holds, and why (issue 37, checked with nwbinspector 0.7.2, pynappl
 
 from __future__ import annotations
 
-from .spiking._trains import SpikeTrains
 from .stimulus._waveforms import Waveform
 from .synthesis import AfferentCurrent
 
 
 
 import json
+
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:  # afferent.spiking loads on first use (a SED-only run never imports it)
+    from .spiking._trains import SpikeTrains
 
 import numpy as np
 

@@ -6,7 +6,6 @@ imported inside the functions only. Times in s, positions in m (shown in mm), ra
 
 from __future__ import annotations
 
-from .spiking._trains import SpikeTrains
 from .stimulus._waveforms import Waveform
 from .synthesis import AfferentCurrent
 
@@ -16,6 +15,9 @@ from typing import TYPE_CHECKING
 if TYPE_CHECKING:  # annotations only: these load on first use
     from matplotlib.axes import Axes
     from pandas import DataFrame
+
+if TYPE_CHECKING:  # afferent.spiking loads on first use (a SED-only run never imports it)
+    from .spiking._trains import SpikeTrains
 
 import numpy as np
 

@@ -24,7 +24,6 @@ tabulates the ``cycles.csv`` of several runs against frequency for ``afferent cy
 from __future__ import annotations
 
 from .sampling import ReceptorSED
-from .spiking._trains import SpikeTrains
 
 from ._typing import ArrayLike
 from collections.abc import Sequence
@@ -32,6 +31,9 @@ from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:  # annotations only: these load on first use
     from pandas import DataFrame
+
+if TYPE_CHECKING:  # afferent.spiking loads on first use (a SED-only run never imports it)
+    from .spiking._trains import SpikeTrains
 
 import numpy as np
 

@@ -57,7 +57,6 @@ from __future__ import annotations
 
 from .profiles import ProfileFit
 from .sampling import ReceptorSED
-from .spiking._trains import SpikeTrains
 from .stimulus._waveforms import Waveform
 from .synthesis import AfferentCurrent, Branching
 from .transduction import ReceptorCurrent, SaturationReport
@@ -78,6 +77,9 @@ from importlib import metadata
 from dataclasses import dataclass
 from types import SimpleNamespace
 from typing import Literal, get_args
+
+if TYPE_CHECKING:  # afferent.spiking loads on first use (a SED-only run never imports it)
+    from .spiking._trains import SpikeTrains
 
 import numpy as np
 

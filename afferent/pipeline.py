@@ -30,11 +30,15 @@ from dataclasses import dataclass, field
 from .profiles import Normalise, ObservedProfile, ProfileFit
 from .receptors import ReceptorLayout
 from .sampling import OnOutside, ReceptorSED, SamplingMethod
-from .spiking._drive import DriveMapping
-from .spiking._params import Engine, LIFParams
 from .stimulus._adaptation import InputKind, Rectify
 from .synthesis import AfferentCurrent, Branching
 from .transduction import ReceptorCurrent, SaturationReport, SigmoidParams
+
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:  # afferent.spiking loads on first use (a SED-only run never imports it)
+    from .spiking._drive import DriveMapping
+    from .spiking._params import Engine, LIFParams
 
 __all__ = ["PipelineResult", "run_pipeline", "run_spikes"]
 

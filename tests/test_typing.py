@@ -8,8 +8,10 @@ defines), and, of the classes among them, every public method and property plus 
 
 ``typing.get_type_hints`` is resolved with the names of :func:`_lazy_names` added: pandas,
 matplotlib, scipy, scikit-learn and xarray load on first use, not on import (tests check that), so a
-module names their types under ``if TYPE_CHECKING:`` only. Every other name must resolve from the
-module itself.
+module names their types under ``if TYPE_CHECKING:`` only. So does a module outside
+``afferent.spiking`` for that package's types (``SpikeTrains``, ``LIFParams``, ``Engine``,
+``DriveMapping``): a SED-only run never imports it (tests/test_scene.py checks). Every other name
+must resolve from the module itself.
 """
 
 from __future__ import annotations
@@ -34,9 +36,12 @@ def _lazy_names() -> dict[str, object]:
     import sklearn.pipeline
     import xarray as xr
 
+    from afferent import spiking
+
     return {"DataFrame": pd.DataFrame, "Axes": matplotlib.axes.Axes, "Figure": matplotlib.figure.Figure,
             "Legend": matplotlib.legend.Legend, "sp": sp, "xr": xr, "Pipeline": sklearn.pipeline.Pipeline,
-            "OptimizeResult": scipy.optimize.OptimizeResult}
+            "OptimizeResult": scipy.optimize.OptimizeResult, "SpikeTrains": spiking.SpikeTrains,
+            "LIFParams": spiking.LIFParams, "Engine": spiking.Engine, "DriveMapping": spiking.DriveMapping}
 
 
 def public_modules() -> list[str]:

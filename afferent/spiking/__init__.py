@@ -150,7 +150,7 @@ import numpy as np
 from .._validation import check_option
 from . import _drive, _params
 from ._drive import CEILING_FRACTION, drive_report, rheobase_scale  # noqa: F401 (CEILING_FRACTION: importable here)
-from ._drive import INPUTS, SpikeStage, spike_afferents
+from ._drive import INPUTS, DriveMapping, SpikeStage, spike_afferents  # noqa: F401 (DriveMapping: importable here)
 from ._exact import _pieces, _run_exact_numba, _run_exact_numpy, _used_peak
 from ._grid import _peak_current, _plan, _run_brian2, _run_numba, _run_numpy, _silent
 from ._group import _numba_available
