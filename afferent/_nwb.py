@@ -21,7 +21,17 @@ What the file holds, and why (issue 37, checked with nwbinspector 0.7.2, pynappl
 
 from __future__ import annotations
 
+from .stimulus._waveforms import Waveform
+from .synthesis import AfferentCurrent
+
+
+
 import json
+
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:  # afferent.spiking loads on first use (a SED-only run never imports it)
+    from .spiking._trains import SpikeTrains
 
 import numpy as np
 
@@ -51,7 +61,7 @@ def _describe(aclass: str, spikes, record: dict) -> str:
             f"engine; input {kind!r}, drive {drive!r})")
 
 
-def write_spikes_nwb(path: str, spikes, afferent, *, waveform=None, context=None) -> None:
+def write_spikes_nwb(path: str, spikes: SpikeTrains, afferent: AfferentCurrent, *, waveform: Waveform | None=None, context: dict | None=None) -> None:
     """Spike trains as an NWB file (pynwb): one row of the Units table per afferent.
 
     Columns beside ``spike_times`` (s) and ``obs_intervals`` (the simulated span, s):

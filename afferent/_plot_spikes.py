@@ -6,6 +6,19 @@ imported inside the functions only. Times in s, positions in m (shown in mm), ra
 
 from __future__ import annotations
 
+from .stimulus._waveforms import Waveform
+from .synthesis import AfferentCurrent
+
+from ._typing import ArrayLike
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:  # annotations only: these load on first use
+    from matplotlib.axes import Axes
+    from pandas import DataFrame
+
+if TYPE_CHECKING:  # afferent.spiking loads on first use (a SED-only run never imports it)
+    from .spiking._trains import SpikeTrains
+
 import numpy as np
 
 from .plotting import _axes, legend_beside
@@ -14,7 +27,7 @@ from .plotting import _axes, legend_beside
 MAX_RASTER_LABELS = 30
 
 
-def plot_raster(spikes, ax=None, *, color: str = "k", title: str | None = None):
+def plot_raster(spikes: SpikeTrains, ax: Axes | None=None, *, color: str = "k", title: str | None = None) -> Axes:
     """Spike raster: one row per afferent, one tick per spike.
 
     Parameters
@@ -53,7 +66,7 @@ def plot_raster(spikes, ax=None, *, color: str = "k", title: str | None = None):
     return ax
 
 
-def rate_table(spikes, waveform=None, positions=None):
+def rate_table(spikes: SpikeTrains, waveform: Waveform | None=None, positions: ArrayLike | AfferentCurrent | None=None) -> DataFrame:
     """The numbers ``rates.png`` shows, one row per afferent: the rate in each stimulus phase
     (when a waveform is given: loading, hold, unloading, off; :meth:`Waveform.phases`), the mean
     over the whole window and the peak instantaneous rate, all in Hz.
@@ -107,7 +120,7 @@ PHASE_COLOURS = ("tab:blue", "tab:orange", "tab:green", "tab:purple")
 PEAK_STYLE = {"marker": "*", "color": "crimson"}
 
 
-def plot_rates(spikes, positions=None, ax=None, *, waveform=None, label: str | None = None, title: str | None = None):
+def plot_rates(spikes: SpikeTrains, positions: ArrayLike | AfferentCurrent | None=None, ax: Axes | None=None, *, waveform: Waveform | None=None, label: str | None = None, title: str | None = None) -> Axes:
     """Firing rate of each afferent: per stimulus phase, the window mean, and the peak
     instantaneous rate (1 / shortest ISI), against position when given.
 
@@ -173,7 +186,7 @@ def plot_rates(spikes, positions=None, ax=None, *, waveform=None, label: str | N
     return ax
 
 
-def plot_psth(spikes, bin_width: float, ax=None, *, label: str | None = None, title: str | None = None):
+def plot_psth(spikes: SpikeTrains, bin_width: float, ax: Axes | None=None, *, label: str | None = None, title: str | None = None) -> Axes:
     """Population peri-stimulus time histogram (mean rate per afferent in each bin).
 
     Parameters
@@ -207,7 +220,7 @@ def plot_psth(spikes, bin_width: float, ax=None, *, label: str | None = None, ti
     return ax
 
 
-def plot_waveform(waveform, ax=None, *, title: str | None = None):
+def plot_waveform(waveform: Waveform, ax: Axes | None=None, *, title: str | None = None) -> Axes:
     """Indentation depth over time.
 
     Parameters

@@ -45,6 +45,12 @@ Location: ``$AFFERENT_CACHE_DIR`` if set, else ``~/.cache/afferent``; entries li
 
 from __future__ import annotations
 
+from .receptors._layout import ReceptorLayout
+from .sampling import ReceptorSED
+
+from ._typing import ArrayLike, PathLike
+from collections.abc import Sequence
+
 import hashlib
 import json
 import os
@@ -87,7 +93,7 @@ def default_cache_dir() -> Path:
     return Path(env).expanduser() if env else Path.home() / ".cache" / "afferent"
 
 
-def file_records(paths, hashes: dict | None = None) -> list[dict]:
+def file_records(paths: Sequence[PathLike], hashes: dict | None = None) -> list[dict]:
     """``{'path', 'size', 'mtime_ns', 'sha256'}`` of each file (absolute path), for an entry's ``files``.
 
     Parameters
@@ -137,7 +143,7 @@ def _changed_file(records, base_then: str | None, base_now: str | None, hashes: 
     return None
 
 
-def positions_digest(positions) -> str:
+def positions_digest(positions: ArrayLike) -> str:
     """SHA-256 of receptor positions (m) as C-ordered little-endian float64 bytes."""
     pos = np.ascontiguousarray(np.asarray(positions, dtype="<f8"))
     h = hashlib.sha256(str(pos.shape).encode())
@@ -149,7 +155,7 @@ def _canonical(obj) -> str:
     return json.dumps(obj, sort_keys=True, separators=(",", ":"), default=str)
 
 
-def sampling_key(*, exports, read_options: dict, receptors: dict, method: str, side="average") -> str:
+def sampling_key(*, exports: Sequence[tuple[str, str]], read_options: dict, receptors: dict, method: str, side: str | int="average") -> str:
     """The cache key of one sampling: SHA-256 (hex) of a canonical JSON of everything it depends on.
 
     Parameters
@@ -226,13 +232,13 @@ class CachedSED:
     path: str
     files: dict = field(default_factory=dict)
 
-    def layout(self):
+    def layout(self) -> ReceptorLayout:
         """The receptor sites as a :class:`~afferent.receptors.ReceptorLayout` (with the site kind they were stored with)."""
         from .receptors import ReceptorLayout
 
         return ReceptorLayout(self.positions, self.ids, self.longitudinal, self.cross, site=self.meta.get("site", "file"))
 
-    def to_receptor_sed(self, layout=None):
+    def to_receptor_sed(self, layout: ReceptorLayout | None=None) -> ReceptorSED:
         """The entry as a :class:`~afferent.sampling.ReceptorSED` (on ``layout`` if given: same positions)."""
         from .sampling import ReceptorSED
 
@@ -258,7 +264,7 @@ class SEDCache:
     >>> cache.get(key).to_receptor_sed()  # doctest: +SKIP
     """
 
-    def __init__(self, directory=None):
+    def __init__(self, directory: PathLike | None=None) -> None:
         self.directory = Path(directory).expanduser() if directory is not None else default_cache_dir()
         #: Why the last :meth:`get` missed: 'no entry', 'corrupt entry ...', 'positions differ', or None after a hit.
         self.last_miss: str | None = None
@@ -276,7 +282,7 @@ class SEDCache:
         except OSError:
             pass
 
-    def get(self, key: str, *, positions=None, base: str | None = None, hashes: dict | None = None
+    def get(self, key: str, *, positions: ArrayLike | None=None, base: str | None = None, hashes: dict | None = None
             ) -> CachedSED | None:
         """The entry for ``key``, or None (no entry, or one that is corrupt, stale or does not match).
 
@@ -336,7 +342,7 @@ class SEDCache:
         self.last_miss = None
         return replace(entry, files={p: checked[p] for p in checked if p in _where(meta, base)})
 
-    def put(self, key: str, sed, *, meta: dict | None = None, files=(), base: str | None = None) -> Path:
+    def put(self, key: str, sed: ReceptorSED, *, meta: dict | None = None, files: Sequence[PathLike]=(), base: str | None = None) -> Path:
         """Store a :class:`~afferent.sampling.ReceptorSED` under ``key`` (atomically); returns the file.
 
         ``meta`` (JSON-able) is stored beside the arrays, with the key, the method, the
@@ -385,7 +391,7 @@ def _where(meta: dict, base: str | None) -> set:
     return {_now(rec["path"], meta.get("base"), base) for rec in meta.get("files", ())}
 
 
-def clear_cache(directory=None) -> int:
+def clear_cache(directory: PathLike | None=None) -> int:
     """Delete every cached entry; returns how many were removed.
 
     Parameters

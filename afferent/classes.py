@@ -16,6 +16,8 @@ documentation (docs/classes.md).
 
 from __future__ import annotations
 
+from collections.abc import Iterable
+
 from dataclasses import dataclass
 
 from ._validation import check_option
@@ -71,7 +73,7 @@ class AfferentClass:
         keys = ("input", "gain_s", "tau_s", "static_gain", "lif_preset", "drive", "rheobase_multiple", "branching")
         return {k: getattr(self, k) for k in keys if getattr(self, k) is not None}
 
-    def record(self, overridden=()) -> dict:
+    def record(self, overridden: Iterable[str]=()) -> dict:
         """The class as run.json records it; ``overridden``: the [spikes] keys whose value in the run is not the class's."""
         return {"name": self.name, "sites": self.sites, "transduction": self.transduction,
                 "spikes": self.spikes_defaults(), "sources": list(self.sources), "overridden": sorted(overridden)}

@@ -23,6 +23,18 @@ tabulates the ``cycles.csv`` of several runs against frequency for ``afferent cy
 
 from __future__ import annotations
 
+from .sampling import ReceptorSED
+
+from ._typing import ArrayLike
+from collections.abc import Sequence
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:  # annotations only: these load on first use
+    from pandas import DataFrame
+
+if TYPE_CHECKING:  # afferent.spiking loads on first use (a SED-only run never imports it)
+    from .spiking._trains import SpikeTrains
+
 import numpy as np
 
 __all__ = ["cycle_bounds", "edge_sites", "cycle_table", "receptor_cycles", "frequency_summary", "CYCLE_COLUMNS",
@@ -39,7 +51,7 @@ CYCLE_CHECKS = {"finite": ("cycle", "frequency_hz", "t_start_s", "t_end_s", "dee
                 "numbers": ("site_x_m", "site_z_m", "max_sed_pa", "spikes", "rate_hz"), "columns": ("site",)}
 
 
-def cycle_bounds(times_s, frequency_hz: float) -> np.ndarray:
+def cycle_bounds(times_s: ArrayLike, frequency_hz: float) -> np.ndarray:
     """Start times (s) of the whole cycles within ``times_s``, and the end of the last: shape (n_cycles + 1,).
 
     Raises ``ValueError`` for a frequency that is not > 0 or a series shorter than one cycle.
@@ -57,7 +69,7 @@ def cycle_bounds(times_s, frequency_hz: float) -> np.ndarray:
     return t[0] + period * np.arange(n + 1)
 
 
-def edge_sites(positions_m, x_range_m, z_range_m, band_m: float) -> np.ndarray:
+def edge_sites(positions_m: ArrayLike, x_range_m: tuple[float, float], z_range_m: tuple[float, float], band_m: float) -> np.ndarray:
     """Mask of the sites within ``band_m`` (m) of a rectangle's outline (x_range_m x z_range_m, m) in the x-z plane.
 
     A site is near the edge when ``|dx| <= w`` and ``dz <= w``, or ``|dz| <= w`` and ``dx <= w``, with
@@ -71,8 +83,8 @@ def edge_sites(positions_m, x_range_m, z_range_m, band_m: float) -> np.ndarray:
     return ((np.abs(dx) <= w + tol) & (dz <= w + tol)) | ((np.abs(dz) <= w + tol) & (dx <= w + tol))
 
 
-def cycle_table(times_s, sed_pa, frequency_hz: float, *, positions_m=None, ids=None, candidates=None,
-                spike_times=None, n_afferents: int = 0):
+def cycle_table(times_s: ArrayLike, sed_pa: ArrayLike, frequency_hz: float, *, positions_m: ArrayLike | None=None, ids: Sequence[str] | None=None, candidates: ArrayLike | None=None,
+                spike_times: ArrayLike | None=None, n_afferents: int = 0) -> DataFrame:
     """One row per whole cycle (:data:`CYCLE_COLUMNS`, a pandas DataFrame) and the chosen site's index.
 
     Parameters
@@ -131,7 +143,7 @@ def cycle_table(times_s, sed_pa, frequency_hz: float, *, positions_m=None, ids=N
         "spikes": counts, "n_afferents": int(n_afferents), "rate_hz": rate}, columns=list(CYCLE_COLUMNS)), site
 
 
-def receptor_cycles(sed, frequency_hz: float, *, x_range_m=None, z_range_m=None, edge_m=None, spikes=None):
+def receptor_cycles(sed: ReceptorSED, frequency_hz: float, *, x_range_m: tuple[float, float] | None=None, z_range_m: tuple[float, float] | None=None, edge_m: float | None=None, spikes: SpikeTrains | None=None) -> tuple[DataFrame, dict]:
     """The ``cycles`` output of a run: (:func:`cycle_table` of a ReceptorSED (J/m^3) and SpikeTrains, its record).
 
     ``x_range_m``, ``z_range_m`` (m): the indenter's outline; ``edge_m`` (m): the band half-width. All three or
@@ -159,7 +171,7 @@ def receptor_cycles(sed, frequency_hz: float, *, x_range_m=None, z_range_m=None,
     return table, record
 
 
-def frequency_summary(runs: dict, groups: dict):
+def frequency_summary(runs: dict, groups: dict) -> DataFrame:
     """SED at the deepest points and mean rate vs frequency: one row per group and run, by frequency.
 
     ``runs``: {label: cycles.csv table}; ``groups``: {group: [labels]} (:func:`afferent.hotspots.group_runs`).

@@ -19,6 +19,8 @@ input, exit code 2, from a bug, 1); the library never exits or prints.
 
 from __future__ import annotations
 
+
+
 import dis
 import os
 
@@ -61,7 +63,7 @@ class OutputWriteError(AfferentError, OSError):
     """An output could not be written for a reason of the environment: a full or read-only disk, a
     quota, permissions. The message names the output and the reason; ``errno`` is the system's code."""
 
-    def __init__(self, code: int, message: str, filename: str | None = None):
+    def __init__(self, code: int, message: str, filename: str | None = None) -> None:
         super().__init__(message)
         self.errno, self.filename = code, filename
 

@@ -55,6 +55,20 @@ MATLAB and R do not ship.
 
 from __future__ import annotations
 
+from .profiles import ProfileFit
+from .sampling import ReceptorSED
+from .stimulus._waveforms import Waveform
+from .synthesis import AfferentCurrent, Branching
+from .transduction import ReceptorCurrent, SaturationReport
+
+from ._typing import ArrayLike, PathLike
+from collections.abc import Collection
+from typing import TYPE_CHECKING, Any, Protocol
+
+if TYPE_CHECKING:  # annotations only: these load on first use
+    from pandas import DataFrame
+    import xarray as xr
+
 import hashlib
 import json
 import os
@@ -62,6 +76,10 @@ import platform
 from importlib import metadata
 from dataclasses import dataclass
 from types import SimpleNamespace
+from typing import Literal, get_args
+
+if TYPE_CHECKING:  # afferent.spiking loads on first use (a SED-only run never imports it)
+    from .spiking._trains import SpikeTrains
 
 import numpy as np
 
@@ -73,7 +91,8 @@ __all__ = ["write_outputs", "write_json", "file_sha256", "versions", "jsonable",
            "load_results", "RunResults", "RESULTS_FORMATS", "write_spikes_nwb"]
 
 #: how the time courses are written: one NetCDF-4 array file, or long CSV tables
-RESULTS_FORMATS = ("netcdf", "csv")
+ResultsFormat = Literal["netcdf", "csv"]
+RESULTS_FORMATS: tuple[str, ...] = get_args(ResultsFormat)
 
 
 def file_sha256(path: str, chunk: int = 1 << 20) -> str:
@@ -100,7 +119,7 @@ def versions() -> dict:
     return out
 
 
-def jsonable(obj):
+def jsonable(obj: object) -> object:
     """``obj`` made plain for :func:`json.dump`: numpy scalars and arrays to Python numbers and lists,
     tuples to lists, dict keys to str, non-finite floats to None (JSON has no NaN).
 
@@ -130,14 +149,19 @@ def jsonable(obj):
 _jsonable = jsonable  # the name afferent.cli._calibrate imports
 
 
-def receptors_table(result):
+class _SedAndCurrent(Protocol):  # a PipelineResult or SceneResult (this stage does not import the pipeline)
+    sed: ReceptorSED
+    current: ReceptorCurrent
+
+
+def receptors_table(result: _SedAndCurrent) -> DataFrame:
     """receptor, x_m, y_m, z_m, longitudinal, cross, time_s, sed_pa, current_a."""
     df = result.sed.to_dataframe(sections=True)
     df["current_a"] = result.current.values.reshape(-1)
     return df
 
 
-def write_receptor_vtu(path: str, sed, *, current=None, time_index: int = -1) -> None:
+def write_receptor_vtu(path: str, sed: ReceptorSED, *, current: ReceptorCurrent | None=None, time_index: int = -1) -> None:
     """Receptor sites as VTK vertices for ParaView: SED (Pa) [and current (A)] at ``time_index``,
     and the section labels.
 
@@ -161,7 +185,7 @@ def write_receptor_vtu(path: str, sed, *, current=None, time_index: int = -1) ->
                  file_format="vtu")
 
 
-def profile_step_record(afferent, index: int) -> dict:
+def profile_step_record(afferent: AfferentCurrent, index: int) -> dict:
     """What the run record says about the step the static outputs show (figures, VTU, fit)."""
     times = getattr(afferent, "times", None)
     n = int(np.asarray(afferent.values).shape[0])
@@ -169,7 +193,7 @@ def profile_step_record(afferent, index: int) -> dict:
             "chosen_as": "the step of the largest total afferent current (afferent.profiles.peak_step)"}
 
 
-def step_title(what: str, times, index: int, n_steps: int, *, clock: str = "t", also: str = "") -> str:
+def step_title(what: str, times: ArrayLike | None, index: int, n_steps: int, *, clock: str = "t", also: str = "") -> str:
     """A figure title that says which step it shows: 'SED ...' over 'step 51 of 2301, t = 0.1 s (peak)'.
 
     Steps are counted from 1 (the last of 5 is 'step 5 of 5'); ``index`` is 0-based (negative counts from the end).
@@ -187,10 +211,10 @@ def write_json(path: str, data: dict) -> None:
         json.dump(jsonable(data), f, indent=2)
 
 
-def write_outputs(folder: str, *, want, plots: bool, sed_static, sed, current=None, branching=None, afferent=None,
-                  fit=None, waveform=None, spikes=None, drive=None, saturation=None,
-                  profile_index: int = -1, results_format: str = "netcdf", sed_beside=None,
-                  hotspot_threshold: float = 0.6, cycles=None, figures=None, nwb=None) -> list[str]:
+def write_outputs(folder: str, *, want: Collection[str], plots: bool, sed_static: ReceptorSED, sed: ReceptorSED, current: ReceptorCurrent | None=None, branching: Branching | None=None, afferent: AfferentCurrent | None=None,
+                  fit: ProfileFit | None=None, waveform: Waveform | None=None, spikes: SpikeTrains | None=None, drive: dict | None=None, saturation: SaturationReport | None=None,
+                  profile_index: int = -1, results_format: ResultsFormat = "netcdf", sed_beside: ReceptorSED | None=None,
+                  hotspot_threshold: float = 0.6, cycles: DataFrame | None=None, figures: Any=None, nwb: dict | None=None) -> list[str]:
     """Write the tables and figures of ``want`` into ``folder``; returns the file names written.
 
     Parameters
@@ -306,7 +330,7 @@ def _write_currents(path, sed, current, afferent, results_format: str) -> None:
     write_xdmf_index(path(RESULTS_XDMF), variables, RESULTS_NC)
 
 
-def results_dataset(sed, current=None, afferent=None):
+def results_dataset(sed: ReceptorSED, current: ReceptorCurrent | None=None, afferent: AfferentCurrent | None=None) -> xr.Dataset:
     """The time courses of a run as an :class:`xarray.Dataset` (what ``currents.nc`` holds).
 
     Dimensions ``time``, ``receptor`` and ``afferent``; CF attributes ``units`` and
@@ -363,7 +387,7 @@ class RunResults:
         return f"<RunResults {self.folder!r}: {sizes}; tables {', '.join(self.tables) or 'none'}>"
 
 
-def load_results(folder):
+def load_results(folder: PathLike) -> RunResults:
     """A run's output folder read back: the time courses as an :class:`xarray.Dataset`, the tables as pandas.
 
     Parameters

@@ -24,6 +24,8 @@ verdict. ``afferent demo`` writes both chapters' rows into ``findings.csv``.
 
 from __future__ import annotations
 
+from ._typing import PathLike
+
 from pathlib import Path
 
 import numpy as np
@@ -87,7 +89,7 @@ def _series_file(folder: Path) -> Path:
                             "'python sample_sed/make_vibration.py'.")
 
 
-def measure_chapter4(sample) -> dict | None:
+def measure_chapter4(sample: PathLike) -> dict | None:
     """The chapter-4 measurements of a sample folder laid out as ``sample_sed/``; None without ``chapter4/``.
 
     Returns

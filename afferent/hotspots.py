@@ -22,6 +22,15 @@ and ``hotspots.png`` from it and ``afferent hotspots`` tabulates runs.
 
 from __future__ import annotations
 
+from .sampling import ReceptorSED
+
+from ._typing import ArrayLike, PathLike
+from collections.abc import Callable, Iterable, Sequence
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:  # annotations only: these load on first use
+    from pandas import DataFrame
+
 import os
 
 import numpy as np
@@ -34,7 +43,7 @@ __all__ = ["DEFAULT_THRESHOLD", "normalise_map", "hotspot_table", "map_distance"
 DEFAULT_THRESHOLD = 0.6
 
 
-def normalise_map(values, *, name: str = "map") -> np.ndarray:
+def normalise_map(values: ArrayLike, *, name: str = "map") -> np.ndarray:
     """Min-max normalised copy of ``values`` (any unit): 0 at the smallest, 1 at the largest.
 
     Raises ``ValueError`` (naming ``name``) for an empty map, a non-finite value, or a constant
@@ -52,8 +61,8 @@ def normalise_map(values, *, name: str = "map") -> np.ndarray:
     return (v - lo) / (hi - lo)
 
 
-def hotspot_table(ids, positions_m, sed_pa, *, threshold: float = DEFAULT_THRESHOLD, site: str = "file",
-                  name: str = "map"):
+def hotspot_table(ids: Sequence[str], positions_m: ArrayLike, sed_pa: ArrayLike, *, threshold: float = DEFAULT_THRESHOLD, site: str = "file",
+                  name: str = "map") -> DataFrame:
     """One row per site: ``site_kind, site, x_m, z_m, sed_pa, normalised, hot`` (a pandas DataFrame).
 
     Parameters
@@ -82,7 +91,7 @@ def hotspot_table(ids, positions_m, sed_pa, *, threshold: float = DEFAULT_THRESH
                          "hot": norm >= float(threshold)})
 
 
-def map_distance(a, b) -> float:
+def map_distance(a: ArrayLike, b: ArrayLike) -> float:
     """1 - Pearson correlation of two maps over the same sites (0 same pattern, 1 unrelated, 2 opposite).
 
     Min-max normalisation does not change r (it is a positive affine map), so raw or
@@ -98,7 +107,7 @@ def map_distance(a, b) -> float:
     return 1.0 - max(-1.0, min(1.0, r))
 
 
-def distance_table(maps: dict):
+def distance_table(maps: dict) -> DataFrame:
     """``map_distance`` of every pair of ``maps`` ({label: values}): a square pandas DataFrame (labels x labels)."""
     import pandas as pd
 
@@ -132,7 +141,7 @@ def nearest_centroid_accuracy(maps: dict, *, noise: float, trials: int = 2000, s
     return correct / (len(templates) * int(trials))
 
 
-def receptor_hotspots(sed, *, threshold: float = DEFAULT_THRESHOLD, time_index: int | None = None):
+def receptor_hotspots(sed: ReceptorSED, *, threshold: float = DEFAULT_THRESHOLD, time_index: int | None = None) -> tuple[DataFrame, int]:
     """:func:`hotspot_table` of a ReceptorSED (J/m^3) at one step, with ``time_s`` (``step`` for step numbers)
     and ``map`` columns.
 
@@ -151,7 +160,7 @@ def receptor_hotspots(sed, *, threshold: float = DEFAULT_THRESHOLD, time_index: 
     return table, k
 
 
-def hotspot_maps(sed_static, sed_beside=None, *, threshold: float = DEFAULT_THRESHOLD):
+def hotspot_maps(sed_static: ReceptorSED, sed_beside: ReceptorSED | None=None, *, threshold: float = DEFAULT_THRESHOLD) -> list[DataFrame]:
     """The tables of the ``hotspots`` output: the scene's sites, then (if given) the second site set.
 
     Both at the step of the largest total SED of ``sed_static``. Returns a list of DataFrames
@@ -163,7 +172,7 @@ def hotspot_maps(sed_static, sed_beside=None, *, threshold: float = DEFAULT_THRE
     return [first, receptor_hotspots(sed_beside, threshold=threshold, time_index=k)[0]]
 
 
-def write_hotspots(path, sed_static, sed_beside=None, *, threshold: float = DEFAULT_THRESHOLD, plots: bool = True):
+def write_hotspots(path: Callable[[str], str], sed_static: ReceptorSED, sed_beside: ReceptorSED | None=None, *, threshold: float = DEFAULT_THRESHOLD, plots: bool = True) -> None:
     """The ``hotspots`` output of :func:`afferent.export.write_outputs`: ``hotspots.csv`` (the tables of
     :func:`hotspot_maps`, one row per site) and, with ``plots``, ``hotspots.png``.
 
@@ -210,12 +219,12 @@ def write_hotspot_vtu(path: str, tables, layouts) -> None:
 HOTSPOT_COLUMNS = {"finite": ("x_m", "z_m", "sed_pa"), "columns": ("map",)}
 
 
-def read_hotspot_runs(folders) -> dict:
+def read_hotspot_runs(folders: Sequence[PathLike]) -> dict:
     """{run label: hotspots.csv table} of ``afferent run`` output folders (:func:`read_run_tables`)."""
     return read_run_tables(folders, "hotspots.csv", "hotspots", HOTSPOT_COLUMNS)
 
 
-def read_run_tables(folders, filename: str, want: str, checks: dict) -> dict:
+def read_run_tables(folders: Sequence[PathLike], filename: str, want: str, checks: dict) -> dict:
     """{run label: the table ``filename``} of ``afferent run`` output folders whose scenes want ``want`` (the label:
     run.json's scene name, else the folder's name); ``afferent hotspots`` and ``afferent cycles`` read runs so.
     Each table is read by ``afferent._run_folder.read_run_table`` with ``checks`` (its ``finite``, ``numbers``,
@@ -236,7 +245,7 @@ def read_run_tables(folders, filename: str, want: str, checks: dict) -> dict:
     return runs
 
 
-def group_runs(labels, groups: dict | None) -> dict:
+def group_runs(labels: Iterable[str], groups: dict | None) -> dict:
     """{group: [labels]} from ``groups`` ({name: fnmatch pattern on the label}); None: one group 'all'.
 
     A pattern matching no run is an error naming it.
@@ -253,7 +262,7 @@ def group_runs(labels, groups: dict | None) -> dict:
     return out
 
 
-def compare_runs(runs: dict, groups: dict | None = None, *, noise: float = 0.1, trials: int = 2000, seed: int = 0):
+def compare_runs(runs: dict, groups: dict | None = None, *, noise: float = 0.1, trials: int = 2000, seed: int = 0) -> tuple[DataFrame, DataFrame]:
     """Map distances and classifier accuracy of the runs of each group, per site set (``map`` column).
 
     Returns (distances, accuracy) DataFrames: ``group, map, a, b, distance`` for every pair of runs

@@ -17,16 +17,28 @@ here).
 
 from __future__ import annotations
 
+from .field import SEDField
+from .stimulus._waveforms import Waveform
+from .zones import Zones
+
+from ._typing import Accept, ArrayLike, RngLike
+
 import time
 from dataclasses import dataclass, field
+
+# the stage modules load numpy only; scipy and pandas load when a function below runs
+from .profiles import Normalise, ObservedProfile, ProfileFit
+from .receptors import ReceptorLayout
+from .sampling import OnOutside, ReceptorSED, SamplingMethod
+from .stimulus._adaptation import InputKind, Rectify
+from .synthesis import AfferentCurrent, Branching
+from .transduction import ReceptorCurrent, SaturationReport, SigmoidParams
+
 from typing import TYPE_CHECKING
 
-if TYPE_CHECKING:  # the stage modules (scipy, pandas) load when a function below runs, not on import
-    from .profiles import ObservedProfile, ProfileFit
-    from .receptors import ReceptorLayout
-    from .sampling import ReceptorSED
-    from .synthesis import AfferentCurrent, Branching
-    from .transduction import ReceptorCurrent, SaturationReport, SigmoidParams
+if TYPE_CHECKING:  # afferent.spiking loads on first use (a SED-only run never imports it)
+    from .spiking._drive import DriveMapping
+    from .spiking._params import Engine, LIFParams
 
 __all__ = ["PipelineResult", "run_pipeline", "run_spikes"]
 
@@ -52,21 +64,21 @@ class PipelineResult:
 
 
 def run_pipeline(
-    field,
+    field: SEDField,
     layout: ReceptorLayout,
     params: SigmoidParams,
     *,
     synthesis: str | Branching = "longitudinal",
-    method: str = "linear",
-    on_outside: str = "raise",
+    method: SamplingMethod = "linear",
+    on_outside: OnOutside = "raise",
     observed: ObservedProfile | None = None,
-    normalise: str = "both",
-    rng=None,
-    waveform=None,
+    normalise: Normalise = "both",
+    rng: RngLike=None,
+    waveform: Waveform | None=None,
     d_ref: float | None = None,
     reference_step: int | None = None,
-    series_depths=None,
-    accept=None,
+    series_depths: ArrayLike | None=None,
+    accept: Accept=None,
 ) -> PipelineResult:
     """SED field -> receptor SED -> receptor current -> afferent current [-> fit].
 
@@ -147,11 +159,11 @@ def run_pipeline(
                           scaling=scaling if waveform is not None else None, profile_index=profile_index)
 
 
-def run_spikes(result: PipelineResult, lif, *, dt: float, engine: str = "auto", input: str = "static",
+def run_spikes(result: PipelineResult, lif: LIFParams, *, dt: float, engine: Engine = "auto", input: InputKind = "static",
                gain: float | None = None, tau: float | None = None, duration: float | None = None,
-               drive: str = "resistance", rheobase_multiple: float = 2.0,
+               drive: DriveMapping = "resistance", rheobase_multiple: float = 2.0,
                reference_current: float | None = None, static_gain: float | None = None,
-               zones=None, rectify: str | None = None, slow_gain: float | None = None,
+               zones: Zones | None=None, rectify: Rectify | None = None, slow_gain: float | None = None,
                slow_tau: float | None = None) -> PipelineResult:
     """Add spikes to a pipeline result: input current -> leaky integrate-and-fire
     (:func:`afferent.spiking.spike_afferents` on the result's currents and branching).

@@ -6,6 +6,20 @@ shown in mm and SED in Pa (= J/m^3) on the axes; the data stay SI.
 
 from __future__ import annotations
 
+from .profiles import ProfileFit
+from .sampling import ReceptorSED
+from .synthesis import AfferentCurrent
+from .transduction import ReceptorCurrent
+
+from collections.abc import Sequence
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:  # annotations only: these load on first use
+    from matplotlib.axes import Axes
+    from pandas import DataFrame
+    from matplotlib.figure import Figure
+    from matplotlib.legend import Legend
+
 import numpy as np
 
 __all__ = [
@@ -24,8 +38,8 @@ def _axes(ax, figsize=(5.0, 4.2)):
     return ax
 
 
-def plot_sed_map(sed, *, time_index: int = -1, ax=None, normalise: bool = False, threshold: float | None = None,
-                 title: str | None = None):
+def plot_sed_map(sed: ReceptorSED, *, time_index: int = -1, ax: Axes | None=None, normalise: bool = False, threshold: float | None = None,
+                 title: str | None = None) -> Axes:
     """SED over the receptor sites, seen from above (x across the ridges, z along them).
 
     The study's figure 5-5 (normalised hot-spot map, threshold 0.6) with ``normalise=True,
@@ -72,7 +86,7 @@ def plot_sed_map(sed, *, time_index: int = -1, ax=None, normalise: bool = False,
     return ax
 
 
-def plot_hotspots(table, *, threshold: float, ax=None, title: str | None = None):
+def plot_hotspots(table: DataFrame, *, threshold: float, ax: Axes | None=None, title: str | None = None) -> Axes:
     """A hot-spot map (the study's fig. 4-9): every site a grey dot, the hot ones coloured by normalised SED.
 
     ``table``: :func:`afferent.hotspots.hotspot_table` (x_m, z_m, normalised); ``threshold``: the
@@ -93,7 +107,7 @@ def plot_hotspots(table, *, threshold: float, ax=None, title: str | None = None)
     return ax
 
 
-def plot_hotspot_maps(tables, *, threshold: float, title: str = ""):
+def plot_hotspot_maps(tables: Sequence[DataFrame], *, threshold: float, title: str = "") -> Figure:
     """The ``hotspots.png`` figure: one hot-spot map per table, side by side (e.g. RA-I beside SA-I)."""
     import matplotlib.pyplot as plt
 
@@ -107,7 +121,7 @@ def plot_hotspot_maps(tables, *, threshold: float, title: str = ""):
     return fig
 
 
-def plot_frequency(summary, *, title: str | None = None):
+def plot_frequency(summary: DataFrame, *, title: str | None = None) -> Figure:
     """The study's fig. 4-11 beside fig. 4-12: SED at the site at the deepest points, and mean rate, vs frequency.
 
     ``summary``: :func:`afferent.cycles.frequency_summary` (SED in Pa, frequency and rate in Hz); a line per
@@ -150,7 +164,7 @@ def _last_cycles(frequency_hz, n_cycles) -> str:
     return "cycle " + ", ".join(f"{n} at {', '.join(f'{f:g}' for f in fs)} Hz" for n, fs in by_n.items())
 
 
-def plot_hotspot_summary(runs: dict, groups: dict, *, threshold: float):
+def plot_hotspot_summary(runs: dict, groups: dict, *, threshold: float) -> Figure:
     """Every run's hot-spot maps on one page: a row per group and site set (``map``), a column per run of the group.
 
     ``runs``: {label: hotspots.csv table}; ``groups``: {group: [labels]} (:func:`afferent.hotspots.group_runs`).
@@ -183,7 +197,7 @@ def plot_hotspot_summary(runs: dict, groups: dict, *, threshold: float):
     return fig
 
 
-def plot_distance_table(table, *, ax=None, title: str | None = None):
+def plot_distance_table(table: DataFrame, *, ax: Axes | None=None, title: str | None = None) -> Axes:
     """A square table of map distances (1 - r, 0..2) as a labelled colour matrix with the values written in."""
     ax = _axes(ax, figsize=(4.6, 4.0))
     d = table.to_numpy(dtype=float)
@@ -200,7 +214,7 @@ def plot_distance_table(table, *, ax=None, title: str | None = None):
     return ax
 
 
-def plot_sed_profile(sed, *, axis: str = "x", time_index: int = -1, ax=None, label: str | None = None, normalise: bool = False):
+def plot_sed_profile(sed: ReceptorSED, *, axis: str = "x", time_index: int = -1, ax: Axes | None=None, label: str | None = None, normalise: bool = False) -> Axes:
     """SED along one axis through the receptor grid: the mean over each section line.
 
     ``axis='x'`` averages each longitudinal section (same x) and plots it against x;
@@ -227,7 +241,7 @@ def plot_sed_profile(sed, *, axis: str = "x", time_index: int = -1, ax=None, lab
     return ax
 
 
-def legend_beside(ax, *, title: str | None = None):
+def legend_beside(ax: Axes, *, title: str | None = None) -> Legend | None:
     """The legend of ``ax`` (and of its twin Axes) to the right of it, never over its data.
 
     When the figure lays itself out (``layout='constrained'``, as every figure made here) and
@@ -258,7 +272,7 @@ def legend_beside(ax, *, title: str | None = None):
 PNG_COMPRESS_LEVEL = 1  #: zlib level of the PNGs :func:`save_figure` writes (0-9)
 
 
-def save_figure(ax_or_fig, path: str, *, overwrite: bool = False, dpi: int = 150) -> str:
+def save_figure(ax_or_fig: Axes | Figure, path: str, *, overwrite: bool = False, dpi: int = 150) -> str:
     """Save a figure as PNG atomically (temporary name, then renamed) and close it.
 
     The figure is laid out once, at ``dpi`` (dots per inch), and drawn once: matplotlib's
@@ -322,8 +336,8 @@ def _norm(v):
 FEW_POINTS = 3
 
 
-def plot_section_profiles(sed, current, afferent=None, *, axis: str = "x", time_index: int = -1, ax=None, title=None,
-                          scale: str = "normalised"):
+def plot_section_profiles(sed: ReceptorSED, current: ReceptorCurrent, afferent: AfferentCurrent | None=None, *, axis: str = "x", time_index: int = -1, ax: Axes | None=None, title: str | None=None,
+                          scale: str = "normalised") -> Axes:
     """SED, receptor current and afferent current along one axis, on one axes: min-max normalised, or magnitudes.
 
     The study's figures 5-6 (``axis='x'``, across the ridges, with longitudinal-section
@@ -398,7 +412,7 @@ def plot_section_profiles(sed, current, afferent=None, *, axis: str = "x", time_
     return ax
 
 
-def plot_fit(fit, *, ax=None, title=None):
+def plot_fit(fit: ProfileFit, *, ax: Axes | None=None, title: str | None=None) -> Axes:
     """Predicted against observed profile (as compared: normalised per ``fit.normalise``).
 
     When a min-max normalised profile varies by less than ``afferent.profiles.SMALL_VARIATION`` (10 %) before

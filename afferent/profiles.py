@@ -22,15 +22,21 @@ profile and the comparison are used together by calibration and the pipeline, an
 
 from __future__ import annotations
 
+from .synthesis import AfferentCurrent
+
+from ._typing import ArrayLike, PathLike
+
 import os
 import warnings
 from dataclasses import dataclass
+from typing import Literal, get_args
 
 import numpy as np
 
 from ._plausibility import scale_ratio
 from ._validation import check_option, suggest
 from .exceptions import AfferentWarning, SEDFormatError
+from .sampling import OnOutside
 from .units import length_factor
 
 __all__ = [
@@ -63,7 +69,8 @@ TINY_MODULATION_RTOL = 1e-6
 #: range: float round-off between a computed section position and one read from a CSV.
 POSITION_RTOL = 1e-9
 
-_NORMALISE = ("both", "prediction", "observation", "neither")
+Normalise = Literal["both", "prediction", "observation", "neither"]
+_NORMALISE: tuple[str, ...] = get_args(Normalise)
 
 
 def _finite(name: str, a, *, ndim: int | None = None) -> np.ndarray:
@@ -82,7 +89,7 @@ def _finite(name: str, a, *, ndim: int | None = None) -> np.ndarray:
     return arr
 
 
-def minmax_normalise(a, *, axis: int | None = -1) -> np.ndarray:
+def minmax_normalise(a: ArrayLike, *, axis: int | None = -1) -> np.ndarray:
     """Min-max normalise ``a`` to [0, 1]: ``(a - min a) / (max a - min a)`` along ``axis``.
 
     Parameters
@@ -176,7 +183,7 @@ def _pair(d, e) -> tuple[np.ndarray, np.ndarray]:
     return d.ravel(), e.ravel()
 
 
-def r2_study(d, e) -> float:
+def r2_study(d: ArrayLike, e: ArrayLike) -> float:
     """The study's goodness of fit, ``1 - sum (d - e)^2 / sum d^2`` (:ref:`method-comparison`).
 
     Unlike the usual coefficient of determination (:func:`r2`), no mean is subtracted from
@@ -211,7 +218,7 @@ def r2_study(d, e) -> float:
     return 1.0 - float(np.sum((d - e) ** 2)) / denom
 
 
-def r2(d, e) -> float:
+def r2(d: ArrayLike, e: ArrayLike) -> float:
     """The usual coefficient of determination ``1 - SS_res / SS_tot`` (:func:`sklearn.metrics.r2_score`).
 
     Parameters
@@ -252,7 +259,7 @@ def r2(d, e) -> float:
     return float(np.average(score))
 
 
-def ssd(d, e) -> float:
+def ssd(d: ArrayLike, e: ArrayLike) -> float:
     """Sum of squared differences ``sum (d - e)^2``, the calibration objective.
 
     Parameters
@@ -315,7 +322,7 @@ class ObservedProfile:
         object.__setattr__(self, "response", resp)
 
 
-def read_observed(path, *, length_unit: str, position_column: str = "position",
+def read_observed(path: PathLike, *, length_unit: str, position_column: str = "position",
                   response_column: str = "response") -> ObservedProfile:
     """Read a recorded profile from a CSV with a position column and a response column.
 
@@ -389,7 +396,7 @@ def _source(obs) -> str:
     return f" of {obs.source!r}" if getattr(obs, "source", None) else ""
 
 
-def observed_on(positions, observed, *, on_outside: str = "raise", _remedy: str = "on_outside='nan'") -> np.ndarray:
+def observed_on(positions: ArrayLike, observed: ObservedProfile | tuple, *, on_outside: OnOutside = "raise", _remedy: str = "on_outside='nan'") -> np.ndarray:
     """Interpolate an observed profile onto afferent positions.
 
     Linear interpolation between neighbouring observed points (:func:`numpy.interp`); no
@@ -488,14 +495,14 @@ class ProfileFit:
     predicted: np.ndarray
     observed: np.ndarray
     positions: np.ndarray | None
-    normalise: str
+    normalise: Normalise
     time_index: int | None = None
     time: float | None = None
     dropped: int = 0
     variation: tuple[float, float] | None = None
 
 
-def peak_step(afferent) -> int:
+def peak_step(afferent: AfferentCurrent) -> int:
     """The time step whose profile the static outputs show: the largest total afferent current.
 
     A stimulus that indents and releases ends at zero: its last step is an empty profile, so
@@ -518,8 +525,8 @@ def peak_step(afferent) -> int:
     return int(np.argmax(np.nansum(values, axis=1)))
 
 
-def compare_profiles(predicted, observed, *, normalise: str = "both", time_index: int = -1,
-                     positions=None, on_outside: str = "raise") -> ProfileFit:
+def compare_profiles(predicted: AfferentCurrent | ArrayLike, observed: ObservedProfile | tuple | ArrayLike, *, normalise: Normalise = "both", time_index: int = -1,
+                     positions: ArrayLike | None=None, on_outside: OnOutside = "raise") -> ProfileFit:
     """Compare a predicted afferent profile with a recorded one (:ref:`method-comparison`).
 
     The prediction's profile is taken at one time step: ``time_index`` (default -1, the last

@@ -27,10 +27,17 @@ functions and the material-interface reports are their own modules already.
 
 from __future__ import annotations
 
+from ._typing import PathLike
+from collections.abc import Iterable
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:  # annotations only: these load on first use
+    from pandas import DataFrame
+
 import os
 import warnings
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Literal, get_args
 
 import numpy as np
 
@@ -58,8 +65,12 @@ if TYPE_CHECKING:  # scipy loads when a sampler is built, not for a cached Recep
 __all__ = ["ReceptorSED", "Sampler", "build_sampler", "sample_sed", "sample_steps", "read_receptor_sed", "node_average", "cell_volumes",
            "METHODS", "PLACEMENTS"]
 
-METHODS = ("linear", "nearest")
-ON_OUTSIDE = ("raise", "warn", "nan")
+#: How a receptor takes the field's value: interpolated in its mesh cell, or from the nearest node.
+SamplingMethod = Literal["linear", "nearest"]
+METHODS: tuple[str, ...] = get_args(SamplingMethod)
+#: What a receptor outside the mesh does: refuse the run, warn, or take NaN.
+OnOutside = Literal["raise", "warn", "nan"]
+ON_OUTSIDE: tuple[str, ...] = get_args(OnOutside)
 
 
 #: Neighbours gathered around each receptor when a scattered-point export is triangulated.
@@ -133,7 +144,7 @@ class ReceptorSED:
         cols["sed_pa"] = self.values.reshape(-1)
         return cols
 
-    def to_dataframe(self, *, sections: bool = False):
+    def to_dataframe(self, *, sections: bool = False) -> DataFrame:
         """Long table, one row per receptor and step (a pandas DataFrame of :meth:`columns`).
 
         Columns ``receptor, x_m, y_m, z_m, time_s, sed_pa`` (positions in m, time in s, SED in
@@ -207,7 +218,7 @@ PLACEMENTS = {
 }
 
 
-def build_sampler(field: SEDField, layout: ReceptorLayout, *, method: str = "linear") -> Sampler:
+def build_sampler(field: SEDField, layout: ReceptorLayout, *, method: SamplingMethod = "linear") -> Sampler:
     """Compute the interpolation weights from ``field`` to the receptor sites (once).
 
     Parameters
@@ -425,8 +436,8 @@ def sample_sed(
     field: SEDField,
     layout: ReceptorLayout,
     *,
-    method: str = "linear",
-    on_outside: str = "raise",
+    method: SamplingMethod = "linear",
+    on_outside: OnOutside = "raise",
     sampler: Sampler | None = None,
     side: str | int = "average",
 ) -> ReceptorSED:
@@ -507,7 +518,7 @@ def _sample_field(field: SEDField, layout: ReceptorLayout, *, method: str, on_ou
                        sampler.placement, time_unit="step" if field.provenance.units.get("time") == "step" else "s")
 
 
-def sample_steps(fields, layout: ReceptorLayout, *, method: str = "linear", on_outside: str = "raise",
+def sample_steps(fields: Iterable[SEDField], layout: ReceptorLayout, *, method: SamplingMethod = "linear", on_outside: OnOutside = "raise",
                  sampler: Sampler | None = None, side: str | int = "average") -> ReceptorSED:
     """SED at each receptor site, from fields that arrive one time step at a time.
 
@@ -606,7 +617,7 @@ def _check_same_mesh(first: SEDField, field: SEDField) -> None:
 SED_TABLE_COLUMNS = ("receptor", "x_m", "y_m", "z_m", "time_s", "sed_pa")
 
 
-def read_receptor_sed(path):
+def read_receptor_sed(path: PathLike) -> ReceptorSED:
     """Read the long-form SED table written by ``afferent sample`` into a :class:`~afferent.sampling.ReceptorSED`.
 
     Parameters

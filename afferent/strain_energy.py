@@ -25,6 +25,8 @@ isotropic material.
 
 from __future__ import annotations
 
+from ._typing import ArrayLike
+
 from dataclasses import dataclass
 
 import numpy as np
@@ -92,7 +94,7 @@ PRESETS: dict[str, Convention] = {
 }
 
 
-def to_canonical(values, convention: Convention, *, is_strain: bool) -> np.ndarray:
+def to_canonical(values: ArrayLike, convention: Convention, *, is_strain: bool) -> np.ndarray:
     """Reorder a (..., 6) array to ``xx yy zz xy yz xz`` and halve engineering shear strain.
 
     Parameters
@@ -120,7 +122,7 @@ def to_canonical(values, convention: Convention, *, is_strain: bool) -> np.ndarr
     return out
 
 
-def full_tensor(v6) -> np.ndarray:
+def full_tensor(v6: ArrayLike) -> np.ndarray:
     """(..., 6) canonical components -> (..., 3, 3) symmetric tensors."""
     v6 = np.asarray(v6, dtype=float)
     xx, yy, zz, xy, yz, xz = np.moveaxis(v6, -1, 0)
@@ -129,7 +131,7 @@ def full_tensor(v6) -> np.ndarray:
     )
 
 
-def sed_exact(stress, strain) -> np.ndarray:
+def sed_exact(stress: ArrayLike, strain: ArrayLike) -> np.ndarray:
     """Linear-elastic strain energy density U = 1/2 sigma_ij eps_ij.
 
     Parameters
@@ -163,7 +165,7 @@ def _equivalent(principal: np.ndarray) -> np.ndarray:
     return np.sqrt(0.5 * ((p1 - p2) ** 2 + (p2 - p3) ** 2 + (p3 - p1) ** 2))
 
 
-def sed_equivalent(stress, strain, poisson) -> np.ndarray:
+def sed_equivalent(stress: ArrayLike, strain: ArrayLike, poisson: ArrayLike) -> np.ndarray:
     """The study's equivalent SED, U ~ 1/2 sigma_e eps_e (:ref:`method-sed`, after Glinka).
 
     Parameters
@@ -191,7 +193,7 @@ def sed_equivalent(stress, strain, poisson) -> np.ndarray:
     return 0.5 * sigma_e * eps_e
 
 
-def sed_from_stress(stress, young, poisson) -> np.ndarray:
+def sed_from_stress(stress: ArrayLike, young: ArrayLike, poisson: ArrayLike) -> np.ndarray:
     """Linear-elastic SED of an isotropic material from its stress alone (small strain).
 
     U = (1 + nu)/(2E) sigma:sigma - nu/(2E) tr(sigma)^2, which is 1/2 sigma:eps with

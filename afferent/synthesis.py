@@ -23,6 +23,15 @@ spelling) and the :class:`AfferentCurrent` that :func:`synthesize` builds from i
 
 from __future__ import annotations
 
+from .receptors._layout import ReceptorLayout
+from .transduction import ReceptorCurrent
+
+from ._typing import ArrayLike, PathLike, RngLike
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:  # annotations only: these load on first use
+    from pandas import DataFrame
+
 import numbers
 import os
 import warnings
@@ -146,7 +155,7 @@ class Branching:
         return cls(w, centres[order], axis, kind, ids, layout.ids)
 
     @classmethod
-    def longitudinal(cls, layout) -> "Branching":
+    def longitudinal(cls, layout: ReceptorLayout) -> "Branching":
         """One afferent per longitudinal section: receptors on a line parallel to the ridges.
 
         Each receptor belongs to exactly one afferent (a partition; weight 1), so the summed
@@ -175,7 +184,7 @@ class Branching:
         return cls._from_labels(layout, layout.longitudinal, kind="longitudinal", axis="x", prefix="L")
 
     @classmethod
-    def cross(cls, layout) -> "Branching":
+    def cross(cls, layout: ReceptorLayout) -> "Branching":
         """One afferent per cross-section: receptors on a line across the ridges (same z).
 
         A partition with weight 1, like :meth:`longitudinal`.
@@ -195,7 +204,7 @@ class Branching:
         return cls._from_labels(layout, layout.cross, kind="cross", axis="z", prefix="C")
 
     @classmethod
-    def from_map(cls, source, layout, *, axis: str = "x") -> "Branching":
+    def from_map(cls, source: PathLike | DataFrame, layout: ReceptorLayout, *, axis: str = "x") -> "Branching":
         """Branching from an explicit receptor -> afferent table.
 
         Parameters
@@ -304,7 +313,7 @@ class Branching:
         return out
 
     @classmethod
-    def random(cls, layout, receptors_per_afferent: int, rng=None, *, n_afferents: int | None = None,
+    def random(cls, layout: ReceptorLayout, receptors_per_afferent: int, rng: RngLike=None, *, n_afferents: int | None = None,
                axis: str = "x") -> "Branching":
         """Random compact receptive fields: each afferent takes the receptors nearest a random seed.
 
@@ -406,7 +415,7 @@ class Branching:
         """True if every receptor feeds exactly one afferent with weight 1 (the summed current is conserved)."""
         return bool(np.all(self.afferent_counts == 1) and np.all(self.weights.data == 1.0))
 
-    def to_dataframe(self):
+    def to_dataframe(self) -> DataFrame:
         """Long table of connections with columns ``afferent``, ``receptor``, ``weight``.
 
         ``receptor`` holds the receptor ids (or column indices as strings when the
@@ -461,7 +470,7 @@ def parse_synthesis(spec: str) -> tuple[str, int | None]:
         raise ValueError(f"'synthesis' random:N needs a whole number of receptors per afferent; got {arg!r} instead.") from err
 
 
-def make_branching(spec: str | Branching, layout, *, rng=None) -> Branching:
+def make_branching(spec: str | Branching, layout: ReceptorLayout, *, rng: RngLike=None) -> Branching:
     """A :class:`Branching` from its spelling in a scene or on the command line.
 
     Parameters
@@ -571,7 +580,7 @@ class AfferentCurrent:
             return np.array(self.values, dtype=dtype, copy=True)
         return np.asarray(self.values, dtype=dtype)
 
-    def to_dataframe(self):
+    def to_dataframe(self) -> DataFrame:
         """Long table with columns ``afferent``, ``position_m``, ``step``, ``time_s``, ``current_a``.
 
         One row per (time step, afferent), time-major. ``step`` is the row index of
@@ -610,7 +619,7 @@ def _check_time_index(time_index, n_times: int) -> int:
     return int(time_index)
 
 
-def synthesize(current, branching: Branching) -> AfferentCurrent:
+def synthesize(current: ReceptorCurrent | ArrayLike, branching: Branching) -> AfferentCurrent:
     """Sum receptor currents into afferent currents: ``I_A = sum_i w_i I_i``.
 
     Parameters

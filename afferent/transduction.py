@@ -30,6 +30,10 @@ Size: just over 600 lines (269 of them docstrings), kept whole: the sigmoid, the
 
 from __future__ import annotations
 
+from .sampling import ReceptorSED
+
+from ._typing import ArrayLike
+
 import numbers
 import warnings
 from dataclasses import dataclass
@@ -210,7 +214,7 @@ def _relative(sed: np.ndarray, params: SigmoidParams) -> np.ndarray:
     return _expit(x)
 
 
-def sigmoid(sed, params: SigmoidParams) -> np.ndarray:
+def sigmoid(sed: ArrayLike, params: SigmoidParams) -> np.ndarray:
     """Receptor current of the study's sigmoid, ``alpha / (1 + exp(gamma * (lambda - SED)))``.
 
     Evaluated as ``alpha * expit(gamma * (SED - lambda))``: finite, monotone non-decreasing
@@ -376,7 +380,7 @@ def _nan_message(arr: np.ndarray, layout) -> str | None:
     )
 
 
-def transduce(sed, params: SigmoidParams, *, times=None) -> ReceptorCurrent:
+def transduce(sed: ReceptorSED | ArrayLike, params: SigmoidParams, *, times: ArrayLike | None=None) -> ReceptorCurrent:
     """Turn receptor SED into receptor current with the sigmoid of :func:`sigmoid`.
 
     Parameters
@@ -570,7 +574,7 @@ def _report_from_relative(rel: np.ndarray, params: SigmoidParams, *, low: float,
     return SaturationReport(f_sens, f_high, f_low, rmin, rmax, n, low, high, msg, mod, gs)
 
 
-def saturation_report(sed, params: SigmoidParams, *, low: float = 0.05, high: float = 0.95) -> SaturationReport:
+def saturation_report(sed: ReceptorSED | ArrayLike, params: SigmoidParams, *, low: float = 0.05, high: float = 0.95) -> SaturationReport:
     """Fraction of receptor samples in the sigmoid's sensitive range ``low < I/alpha < high``.
 
     :ref:`method-saturation`: with SED >= 0 Pa, the study's longitudinal-section parameters

@@ -24,11 +24,20 @@ to its ``sum`` current. Or the user names each receptor's zone (:func:`zones_fro
 
 from __future__ import annotations
 
+from .receptors._layout import ReceptorLayout
+from .synthesis import Branching
+
+from ._typing import PathLike
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:  # annotations only: these load on first use
+    from pandas import DataFrame
+
 import numbers
 from dataclasses import dataclass, field
+from typing import Literal, get_args
 
 import numpy as np
-from scipy import sparse
 
 from ._validation import plain as _plain
 
@@ -36,7 +45,8 @@ __all__ = ["Zones", "split_zones", "zones_from_map", "BRANCHING_MODELS", "DEFAUL
 
 #: How the receptor currents of an afferent drive its spikes: ``'sum'`` (the study: one current,
 #: one LIF) or ``'zones'`` (one LIF per group of receptors, all reset when one fires).
-BRANCHING_MODELS = ("sum", "zones")
+BranchingModel = Literal["sum", "zones"]
+BRANCHING_MODELS: tuple[str, ...] = get_args(BranchingModel)
 
 #: Zones per afferent when none is given: the four heminodes of the SA-I model of Lesniak et al.
 #: (2014, eLife 3:e01488; Merkel-cell groups of 8, 5, 3 and 1 per heminode in the Gerling
@@ -123,7 +133,7 @@ def _check_k(k) -> int:
     return int(k)
 
 
-def split_zones(branching, layout, zones_per_afferent: int = DEFAULT_ZONES_PER_AFFERENT) -> Zones:
+def split_zones(branching: Branching, layout: ReceptorLayout, zones_per_afferent: int = DEFAULT_ZONES_PER_AFFERENT) -> Zones:
     """Split each afferent's receptors into ``zones_per_afferent`` contiguous groups along the afferent.
 
     Parameters
@@ -186,6 +196,8 @@ def split_zones(branching, layout, zones_per_afferent: int = DEFAULT_ZONES_PER_A
             centres.append(float(pos[c[part], 0 if branching.axis == "x" else 2].mean()))
     n_z = len(zone_ids)
     cat = (lambda parts, dt: np.concatenate(parts) if parts else np.zeros(0, dt))
+    from scipy import sparse
+
     zw = sparse.csr_array((cat(data, float), (cat(rows, np.int64), cat(cols, np.int64))),
                           shape=(n_z, branching.n_receptors))
     zb = Branching(zw, np.array(centres), branching.axis, branching.kind, np.array(zone_ids, dtype=str),
@@ -228,7 +240,7 @@ def _zone_table(source):
     return rec, zone, where
 
 
-def zones_from_map(branching, source) -> Zones:
+def zones_from_map(branching: Branching, source: PathLike | DataFrame) -> Zones:
     """Zones named by the user: each receptor's zone label, from a table ``receptor, zone``.
 
     Parameters
@@ -290,6 +302,8 @@ def zones_from_map(branching, source) -> Zones:
             zone_ids.append(f"{branching.afferent_ids[a]}/{order[r]}")
     aff = np.array(zone_aff, dtype=np.int64)
     cat = (lambda parts, dt: np.concatenate(parts) if parts else np.zeros(0, dt))
+    from scipy import sparse
+
     zb = sparse.csr_array((cat(data, float), (cat(rows, np.int64), cat(cols, np.int64))),
                           shape=(len(zone_ids), branching.n_receptors))
     known = set(ids)
@@ -303,4 +317,6 @@ def zone_indicator(zones: Zones):
     """Zone -> afferent sums as a sparse (n_zones, n_afferents) matrix of ones: ``zone_values @ M``
     gives each afferent's summed current (A) from its zones'."""
     n = zones.n_zones
+    from scipy import sparse
+
     return sparse.csr_array((np.ones(n), (np.arange(n), zones.afferent)), shape=(n, zones.parent.n_afferents))

@@ -57,6 +57,10 @@ interrupted ``overwrite`` keeps the previous sweep whole).
 
 from __future__ import annotations
 
+from .._typing import PathLike
+from collections.abc import Sequence
+from typing import Any
+
 import itertools
 import json
 import os
@@ -389,7 +393,7 @@ def _cluster_window(client, groups, sink, sampled, *, shared, slots, cache_dir, 
 
 
 # ------------------------------------------------------------------------------- API
-def sweep(sources, output, *, scheduler=None, overwrite: bool = False, cache_dir=None, use_cache: bool = True,
+def sweep(sources: PathLike | Sequence[PathLike], output: PathLike, *, scheduler: str | Any | None=None, overwrite: bool = False, cache_dir: PathLike | None=None, use_cache: bool = True,
           batch_size: int | None = None, shared_disk: bool | None = None, progress: bool = False,
           record_extra: dict | None = None, max_tasks: int | None = None, table_format: str = "csv") -> SweepResult:
     """Run a sweep: every scene x parameter set, each export read and sampled once; one tidy table.

@@ -7,6 +7,13 @@ returns the Axes; positions are shown in mm, the data stay SI. Legends sit besid
 
 from __future__ import annotations
 
+from .result import CalibrationResult
+
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:  # annotations only: these load on first use
+    from matplotlib.axes import Axes
+
 import numpy as np
 
 __all__ = ["plot_calibrated_profile", "plot_calibrated_profiles", "plot_ssd_history"]
@@ -20,7 +27,7 @@ def _axes(ax, figsize):
     return ax
 
 
-def plot_calibrated_profile(result, *, ax=None, title=None):
+def plot_calibrated_profile(result: CalibrationResult, *, ax: Axes | None=None, title: str | None=None) -> Axes:
     """Predicted (calibrated) against observed profile, as compared.
 
     Parameters
@@ -63,7 +70,7 @@ _OTHER_STYLES = (dict(ls="--", marker="s", ms=4, mfc="none"), dict(ls=":", marke
                  dict(ls="-.", marker="v", ms=4, mfc="none"))
 
 
-def plot_calibrated_profiles(results: dict, *, ax=None, title=None):
+def plot_calibrated_profiles(results: dict, *, ax: Axes | None=None, title: str | None=None) -> Axes:
     """Every method's calibrated profile against the observed one, the best by the ssd drawn first and named.
 
     Parameters
@@ -115,7 +122,7 @@ def _profile_axes(ax, result) -> None:
     ax.set_ylabel("response (normalised)" if norm else "response")
 
 
-def plot_ssd_history(result, *, ax=None, title=None):
+def plot_ssd_history(result: CalibrationResult, *, ax: Axes | None=None, title: str | None=None) -> Axes:
     """ssd of every evaluated point (grey) and of each iteration's best point (line), by evaluation.
 
     Parameters

@@ -8,6 +8,18 @@
 
 from __future__ import annotations
 
+from .entry import CalibrationMethod
+from ..profiles import ObservedProfile
+from ..sampling import ReceptorSED
+
+from .._typing import ArrayLike
+from collections.abc import Sequence
+from typing import Any
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:  # annotations only: these load on first use
+    from pandas import DataFrame
+
 from dataclasses import dataclass
 
 import numpy as np
@@ -19,7 +31,7 @@ from .entry import METHODS, calibrate
 __all__ = ["compare_methods", "methods_table", "best_method", "SynthesisComparison", "compare_syntheses"]
 
 
-def compare_methods(sed, observed, *, methods=("rsm1", "least_squares", "rsm2"), **kwargs):
+def compare_methods(sed: ReceptorSED | ArrayLike, observed: ObservedProfile | tuple, *, methods: Sequence[CalibrationMethod]=("rsm1", "least_squares", "rsm2"), **kwargs: Any) -> DataFrame:
     """Run several calibration methods on the same data and tabulate them.
 
     Parameters
@@ -66,7 +78,7 @@ def best_method(results: dict) -> str:
     return min(finite, key=lambda m: results[m].ssd) if finite else next(iter(results))
 
 
-def methods_table(results: dict):
+def methods_table(results: dict) -> DataFrame:
     """Tabulate calibration results of several methods on the same data, one row per method.
 
     Parameters
@@ -124,7 +136,7 @@ class SynthesisComparison:
         return f"<SynthesisComparison {rows}; best {self.best!r}>"
 
 
-def compare_syntheses(sed, observed, *, synthesis=("longitudinal", "cross"), **kwargs) -> SynthesisComparison:
+def compare_syntheses(sed: ReceptorSED | ArrayLike, observed: ObservedProfile | tuple | dict[str, ObservedProfile], *, synthesis: Sequence[str | Branching]=("longitudinal", "cross"), **kwargs: Any) -> SynthesisComparison:
     """Calibrate once per receptor -> afferent grouping and compare the fits.
 
     The study calibrated longitudinal sections (profile vs x) and cross-sections (profile

@@ -11,6 +11,11 @@ measures that, so a result can say so instead of presenting one point of the rid
 
 from __future__ import annotations
 
+from .objective import Objective
+
+from .._typing import ArrayLike
+from collections.abc import Sequence
+
 import numpy as np
 
 from .design import PARAMETERS
@@ -25,7 +30,7 @@ IDENTIFIABLE_COND = 100.0
 RIDGE_STEPS = (-1.0, -0.5, -0.25, 0.0, 0.25, 0.5, 1.0)
 
 
-def identifiability(obj, vec, no_effect=()) -> dict:
+def identifiability(obj: Objective, vec: ArrayLike, no_effect: Sequence[str]=()) -> dict:
     """Which parameter combinations the compared profiles determine at ``vec``.
 
     The residuals r = predicted - observed (as compared) are differentiated in closed form

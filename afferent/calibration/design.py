@@ -28,7 +28,10 @@ afferent.calibration`` stays fast.
 
 from __future__ import annotations
 
+from .._typing import ArrayLike
+
 import numbers
+from typing import Literal, get_args
 
 import numpy as np
 
@@ -177,7 +180,8 @@ def box_behnken(n_factors: int = 3, *, center: int = 1) -> np.ndarray:
 
 
 #: design name -> function(n_factors, center=1) returning coded runs.
-DESIGNS = {"factorial": factorial_design, "ccd": central_composite, "bbd": box_behnken}
+DesignName = Literal["factorial", "ccd", "bbd"]
+DESIGNS = dict(zip(get_args(DesignName), (factorial_design, central_composite, box_behnken), strict=True))
 
 
 def make_design(name: str, n_factors: int = 3) -> np.ndarray:
@@ -210,7 +214,7 @@ def _vector(name: str, v, n: int | None = None) -> np.ndarray:
     return arr
 
 
-def increments(base, increment=DEFAULT_INCREMENT, *, floor=None) -> np.ndarray:
+def increments(base: ArrayLike | SigmoidParams, increment: ArrayLike=DEFAULT_INCREMENT, *, floor: ArrayLike | None=None) -> np.ndarray:
     """Coding steps ``dxi_k = increment_k * max(|xi_k,base|, floor_k)``, in each parameter's unit.
 
     Parameters
@@ -254,7 +258,7 @@ def increments(base, increment=DEFAULT_INCREMENT, *, floor=None) -> np.ndarray:
     return step
 
 
-def encode(values, base, step) -> np.ndarray:
+def encode(values: ArrayLike, base: ArrayLike, step: ArrayLike) -> np.ndarray:
     """Physical -> coded: ``chi = (xi - base) / step``.
 
     Parameters
@@ -277,7 +281,7 @@ def encode(values, base, step) -> np.ndarray:
     return (np.asarray(values, dtype=float) - np.asarray(base, dtype=float)) / np.asarray(step, dtype=float)
 
 
-def decode(coded, base, step) -> np.ndarray:
+def decode(coded: ArrayLike, base: ArrayLike, step: ArrayLike) -> np.ndarray:
     """Coded -> physical: ``xi = base + chi * step`` (the inverse of :func:`encode`).
 
     Parameters
@@ -307,7 +311,7 @@ def params_to_vector(params: SigmoidParams) -> np.ndarray:
     return np.array([params.alpha, params.gamma, params.lambda_], dtype=float)
 
 
-def vector_to_params(vec) -> SigmoidParams:
+def vector_to_params(vec: ArrayLike) -> SigmoidParams:
     """:class:`SigmoidParams` from ``[alpha (A), gamma (1/Pa), lambda (Pa)]``."""
     a, g, lam = (float(v) for v in np.asarray(vec, dtype=float).reshape(3))
     return SigmoidParams(alpha=a, gamma=g, lambda_=lam)

@@ -8,25 +8,32 @@
 
 from __future__ import annotations
 
+from ..profiles import ObservedProfile
+from ..receptors._layout import ReceptorLayout
+from ..sampling import ReceptorSED
+
+from .._typing import ArrayLike, RngLike
+
 import numbers
+from typing import get_args
 
 import numpy as np
 
 from .._validation import check_option, check_rng
 from .._validation import plain as _plain
-from ..profiles import _as_observed
+from ..profiles import _NORMALISE, Normalise, _as_observed
+from ..sampling import OnOutside
 from ..synthesis import Branching, make_branching
 from ..transduction import STUDY_PARAMS, SigmoidParams
-from .design import DEFAULT_INCREMENT, vector_to_params
+from .design import DEFAULT_INCREMENT, DesignName, vector_to_params
 from .objective import Objective
-from .reference import DEFAULT_N_STARTS, JACOBIANS, RESTARTS, least_squares_reference
-from .result import CalibrationResult, finish
+from .reference import DEFAULT_N_STARTS, JACOBIANS, RESTARTS, Jacobian, Restarts, least_squares_reference
+from .result import CalibrationMethod, CalibrationResult, finish
 from .rsm import DEFAULT_MAX_ITER, DEFAULT_MAX_STEPS, DEFAULT_TOL, rsm
 
 __all__ = ["METHODS", "calibrate"]
 
-METHODS = ("rsm1", "rsm2", "least_squares")
-_NORMALISE = ("both", "prediction", "observation", "neither")
+METHODS: tuple[str, ...] = get_args(CalibrationMethod)
 
 
 def _check_start(start) -> SigmoidParams:
@@ -113,26 +120,26 @@ def _synthesis_label(spec) -> str:
 
 
 def calibrate(
-    sed,
-    observed,
+    sed: ReceptorSED | ArrayLike,
+    observed: ObservedProfile | tuple,
     *,
-    layout=None,
-    synthesis="longitudinal",
-    start=STUDY_PARAMS["start"],
+    layout: ReceptorLayout | None=None,
+    synthesis: str | Branching="longitudinal",
+    start: SigmoidParams | tuple=STUDY_PARAMS["start"],
     increment: float = DEFAULT_INCREMENT,
     tol: float = DEFAULT_TOL,
     max_iter: int = DEFAULT_MAX_ITER,
     max_steps: int = DEFAULT_MAX_STEPS,
     refine: int = 0,
-    normalise: str = "both",
-    method: str = "rsm1",
-    design: str | None = None,
+    normalise: Normalise = "both",
+    method: CalibrationMethod = "rsm1",
+    design: DesignName | None = None,
     n_starts: int = DEFAULT_N_STARTS,
-    restarts: str = "on_failure",
-    jac: str = "analytic",
+    restarts: Restarts = "on_failure",
+    jac: Jacobian = "analytic",
     time_index: int = -1,
-    on_outside: str = "raise",
-    rng=None,
+    on_outside: OnOutside = "raise",
+    rng: RngLike=None,
     progress: bool = False,
 ) -> CalibrationResult:
     """Calibrate the sigmoid (alpha, gamma, lambda) against a recorded afferent profile.

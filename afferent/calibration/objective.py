@@ -18,6 +18,13 @@ evaluation counts a result reports are the model evaluations actually spent.
 
 from __future__ import annotations
 
+from ..profiles import Normalise, ObservedProfile
+from ..sampling import OnOutside
+from ..synthesis import Branching
+
+from .._typing import ArrayLike
+from typing import Any
+
 import math
 import warnings
 
@@ -63,7 +70,7 @@ class Objective:
         evaluation: one sigmoid and one synthesis of three columns).
     """
 
-    def __init__(self, sed_row, times_row, branching, observed, normalise="both", on_outside="raise", bar=None):
+    def __init__(self, sed_row: np.ndarray, times_row: np.ndarray | None, branching: Branching, observed: ObservedProfile, normalise: Normalise="both", on_outside: OnOutside="raise", bar: Any=None) -> None:
         self.sed_row = sed_row  # (1, n_receptors) Pa
         self.times_row = times_row
         self.branching = branching
@@ -112,7 +119,7 @@ class Objective:
                 self.bar.set_postfix(ssd=f"{self.best:.4g}", refresh=False)
         return out
 
-    def jacobian(self, vec) -> np.ndarray:
+    def jacobian(self, vec: ArrayLike) -> np.ndarray:
         """Closed-form derivative of the compared prediction with respect to (alpha, gamma, lambda).
 
         With ``u_i = gamma (s_i - lambda)``, ``p_i = expit(u_i)`` and ``p_i (1 - p_i)`` taken

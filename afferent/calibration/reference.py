@@ -21,7 +21,17 @@ than :data:`FALLBACK_R2` of the observed profile's variance) are the seeded rand
 
 from __future__ import annotations
 
+from .objective import Objective
+from ..profiles import ProfileFit
+from ..transduction import SigmoidParams
+
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:  # annotations only: these load on first use
+    from scipy.optimize import OptimizeResult
+
 import math
+from typing import Literal, get_args
 
 import numpy as np
 
@@ -46,9 +56,11 @@ LS_TOL = 1e-8
 FALLBACK_R2 = 0.9
 #: How the residuals' Jacobian is obtained: closed form, or scipy's finite differences (the
 #: method before the closed form existed; kept for cross-checks and benchmarks).
-JACOBIANS = ("analytic", "2-point", "3-point")
+Jacobian = Literal["analytic", "2-point", "3-point"]
+JACOBIANS: tuple[str, ...] = get_args(Jacobian)
 #: When the random starts are run: only when the first start fails, or always.
-RESTARTS = ("on_failure", "always")
+Restarts = Literal["on_failure", "always"]
+RESTARTS: tuple[str, ...] = get_args(Restarts)
 
 
 class _Problem:
@@ -110,7 +122,7 @@ class _Problem:
         return res, vec, self.obj(vec)
 
 
-def start_failed(res, fit, degenerate) -> str:
+def start_failed(res: OptimizeResult, fit: ProfileFit, degenerate: bool) -> str:
     """Why a least-squares start counts as failed, or '' when it did not fail.
 
     Parameters
@@ -138,8 +150,8 @@ def start_failed(res, fit, degenerate) -> str:
     return ""
 
 
-def least_squares_reference(obj, start, inc, max_iter, n_starts, gen, *, jac="analytic",
-                            restarts="on_failure") -> dict:
+def least_squares_reference(obj: Objective, start: SigmoidParams, inc: float, max_iter: int, n_starts: int, gen: np.random.Generator, *, jac: Jacobian="analytic",
+                            restarts: Restarts="on_failure") -> dict:
     """The least-squares reference from ``start`` (and seeded random starts when it fails).
 
     Parameters

@@ -13,13 +13,18 @@ parameters outside their physical range.
 
 from __future__ import annotations
 
+from .objective import Objective
+
+
+
 import warnings
 from dataclasses import dataclass
+from typing import Literal, get_args
 
 import numpy as np
 
 from ..exceptions import AfferentWarning
-from ..profiles import ProfileFit
+from ..profiles import Normalise, ProfileFit
 from ..transduction import SaturationReport, SigmoidParams, saturation_report
 from .design import PARAMETERS, UNITS, vector_to_params
 from .conditioning import IDENTIFIABLE_COND, identifiability
@@ -36,7 +41,10 @@ __all__ = ["STATUSES", "CalibrationResult", "finish"]
 #:   the last base point (finite), not a fit.
 #: - ``'max_iter'``: the budget ran out (RSM: ``max_iter`` iterations; least squares: scipy's
 #:   ``max_nfev`` evaluations) while the ssd was still decreasing.
-STATUSES = ("converged", "flat", "max_iter")
+#: The calibration methods (:data:`afferent.calibration.METHODS`, documented there).
+CalibrationMethod = Literal["rsm1", "rsm2", "least_squares"]
+Status = Literal["converged", "flat", "max_iter"]
+STATUSES: tuple[str, ...] = get_args(Status)
 
 
 @dataclass(frozen=True)
@@ -126,12 +134,12 @@ class CalibrationResult:
     no_effect: tuple
     saturation: SaturationReport
     success: bool
-    status: str
+    status: Status
     message: str
     n_evaluations: int
-    method: str
+    method: CalibrationMethod
     synthesis: str
-    normalise: str
+    normalise: Normalise
     start: SigmoidParams
     fit: ProfileFit
     clipped: tuple = ()
@@ -192,7 +200,7 @@ def _params_dict(p: SigmoidParams) -> dict:
     return {"alpha_a": p.alpha, "gamma_per_pa": p.gamma, "lambda_pa": p.lambda_}
 
 
-def finish(out, obj, method, synthesis, normalise, start) -> CalibrationResult:
+def finish(out: dict, obj: Objective, method: CalibrationMethod, synthesis: str, normalise: Normalise, start: SigmoidParams) -> CalibrationResult:
     """Build the :class:`CalibrationResult` of a method's outcome, with every caveat in its message.
 
     Parameters

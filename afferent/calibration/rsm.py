@@ -14,6 +14,12 @@ region. Both can stall in a curved valley of the ssd before its optimum; the mes
 
 from __future__ import annotations
 
+from .design import DesignName
+from .objective import Objective
+from ..transduction import SigmoidParams
+
+from typing import Literal
+
 import math
 
 import numpy as np
@@ -87,7 +93,7 @@ class _Loop:
                     success=status == "converged", status=status, note=note, canonical=self.canonical)
 
 
-def rsm(obj, start, inc, tol, max_iter, max_steps, method, design_name, refine) -> dict:
+def rsm(obj: Objective, start: SigmoidParams, inc: float, tol: float, max_iter: int, max_steps: int, method: Literal['rsm1', 'rsm2'], design_name: DesignName, refine: int) -> dict:
     """Run the RSM loop (``method`` 'rsm1' or 'rsm2') from ``start``; the outcome for :func:`.result.finish`.
 
     Parameters

@@ -20,6 +20,12 @@ objective (ssd: dimensionless for normalised profiles).
 
 from __future__ import annotations
 
+from .._typing import ArrayLike
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:  # annotations only: these load on first use
+    from sklearn.pipeline import Pipeline
+
 from dataclasses import dataclass
 
 import numpy as np
@@ -84,7 +90,7 @@ class FirstOrderFit:
     model: object
 
 
-def fit_first_order(coded, response, *, rtol: float = NO_EFFECT_RTOL) -> FirstOrderFit:
+def fit_first_order(coded: ArrayLike, response: ArrayLike, *, rtol: float = NO_EFFECT_RTOL) -> FirstOrderFit:
     """Fit ``response ~ b0 + sum_k b_k chi_k`` by least squares (``LinearRegression``).
 
     Parameters
@@ -132,7 +138,7 @@ def fit_first_order(coded, response, *, rtol: float = NO_EFFECT_RTOL) -> FirstOr
     return FirstOrderFit(float(model.intercept_), coef, r2, no_effect, model)
 
 
-def steepest_descent(coef, *, no_effect=None) -> np.ndarray:
+def steepest_descent(coef: ArrayLike, *, no_effect: ArrayLike | None=None) -> np.ndarray:
     """The study's step direction in coded units: ``dchi_k = -b_k / |b_max|`` (steepest descent on the plane).
 
     Parameters
@@ -161,7 +167,7 @@ def steepest_descent(coef, *, no_effect=None) -> np.ndarray:
     return np.zeros_like(b) if bmax == 0.0 else -b / bmax
 
 
-def make_response_surface(degree: int = 2):
+def make_response_surface(degree: int = 2) -> Pipeline:
     """The second-order response surface: ``Pipeline(PolynomialFeatures(degree), LinearRegression())``.
 
     ``PolynomialFeatures(include_bias=False)``: the intercept is ``LinearRegression``'s.
@@ -183,7 +189,7 @@ def make_response_surface(degree: int = 2):
     return Pipeline([("poly", PolynomialFeatures(degree=degree, include_bias=False)), ("ols", LinearRegression())])
 
 
-def quadratic_coefficients(surface) -> tuple[float, np.ndarray, np.ndarray]:
+def quadratic_coefficients(surface: Pipeline) -> tuple[float, np.ndarray, np.ndarray]:
     """``(b0, b, B)`` of a fitted degree-2 surface, ``y = b0 + chi^T b + chi^T B chi``.
 
     Parameters
@@ -253,7 +259,7 @@ class CanonicalAnalysis:
     B: np.ndarray
 
 
-def canonical_analysis(surface, *, rtol: float = 1e-9) -> CanonicalAnalysis:
+def canonical_analysis(surface: Pipeline, *, rtol: float = 1e-9) -> CanonicalAnalysis:
     """Stationary point and curvature of a fitted second-order surface.
 
     Parameters
@@ -289,7 +295,7 @@ def canonical_analysis(surface, *, rtol: float = 1e-9) -> CanonicalAnalysis:
     return CanonicalAnalysis(xs, value, eigval, eigvec, kind, b0, b, B)
 
 
-def surface_minimum(surface, *, radius: float) -> np.ndarray:
+def surface_minimum(surface: Pipeline, *, radius: float) -> np.ndarray:
     """Coded point minimising the fitted surface inside the box ``|chi_k| <= radius``.
 
     The stationary point when it is a minimum inside the box; otherwise the box-constrained

@@ -26,8 +26,11 @@ declarations (read_sed, iter_sed, sed_from_raw); each reader lives in its own mo
 
 from __future__ import annotations
 
+from .._typing import Accept, PathLike
+from typing import Any
+
 import os
-from collections.abc import Sequence
+from collections.abc import Callable, Iterator, Sequence
 
 import numpy as np
 
@@ -167,8 +170,8 @@ def data_files(path_or_paths, *, format: str | None = None) -> tuple[str, ...]:
     return files_read(out)
 
 
-def read_raw(path_or_paths, *, format: str | None = None, progress: bool = False, allow_outside_files: bool = False,
-             **csv_kwargs) -> RawExport:
+def read_raw(path_or_paths: PathLike | Sequence[PathLike], *, format: str | None = None, progress: bool = False, allow_outside_files: bool = False,
+             **csv_kwargs: Any) -> RawExport:
     """Read an export into its raw, uninterpreted form (the file's names and units).
 
     Used by ``afferent info``; most users want :func:`read_sed`. Several paths are one time
@@ -233,7 +236,7 @@ def _read_raw(paths: list[str], format: str | None, progress: bool, allow: bool,
 
 
 def read_sed(
-    path_or_paths,
+    path_or_paths: PathLike | Sequence[PathLike],
     *,
     length_unit: str | None = None,
     sed_unit: str | None = None,
@@ -253,7 +256,7 @@ def read_sed(
     on_nan: str = "raise",
     negative_tolerance: float = NEGATIVE_SED_RTOL,
     allow_outside_files: bool = False,
-    accept=None,
+    accept: Accept=None,
     elastic: Sequence[float] | None = None, modulus_unit: str | None = None,
     materials: str | os.PathLike | None = None, material_array: str | None = None,
     format: str | None = None,
@@ -465,7 +468,7 @@ def _step_reader(paths: list[str], fmt: str | None, progress: bool, scope: Scope
     return None
 
 
-def iter_sed(path_or_paths, *, format: str | None = None, progress: bool = False, on_first_raw=None, **declarations):
+def iter_sed(path_or_paths: PathLike | Sequence[PathLike], *, format: str | None = None, progress: bool = False, on_first_raw: Callable[[RawExport], None] | None=None, **declarations: Any) -> Iterator[SEDField]:
     """Read the SED of an export one time step at a time, in SI units (memory: one step).
 
     Takes the same arguments as :func:`read_sed` and yields :class:`SEDField` objects in time
@@ -580,7 +583,7 @@ def _series_negative_message(path_or_paths, negatives: list, n_steps: int) -> st
             "0. SED near those nodes is unreliable (a finer mesh or integration-point output tells how much).")
 
 
-def series_provenance(provenances) -> Provenance:
+def series_provenance(provenances: Sequence[Provenance]) -> Provenance:
     """One :class:`~afferent.field.Provenance` for the steps :func:`iter_sed` yielded.
 
     Files in order without repeats, the first step's columns, units and factors (every step is

@@ -2,6 +2,10 @@
 
 from __future__ import annotations
 
+from ..io._raw import RawExport
+
+
+
 from dataclasses import replace
 
 import numpy as np
@@ -28,7 +32,7 @@ def _unit_hint(value: float, table: dict, plausible: tuple[float, float], units:
     return ", ".join(fits) if fits else "none of " + ", ".join(units)
 
 
-def describe_raw(raw) -> list[str]:
+def describe_raw(raw: RawExport) -> list[str]:
     """What an FE export holds, and how :func:`afferent.read_sed` would read it, as lines of text.
 
     Points, cells, arrays with their components (and their names, when the file gives them) and ranges, time steps, bounds (file units),

@@ -4,6 +4,8 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numbers
 
 import numpy as np
@@ -79,12 +81,12 @@ def _axis_lines(axis: str, lo: float, hi: float, pitch: float, start: float | No
 
 def grid_layout(
     *,
-    x_range,
-    z_range,
-    y,
+    x_range: tuple[float, float],
+    z_range: tuple[float, float],
+    y: float | Callable[[np.ndarray, np.ndarray], np.ndarray],
     pitch_x: float = RIDGE_PITCH_M,
     pitch_z: float = PAPILLA_PITCH_M,
-    origin=None,
+    origin: tuple[float, float] | None=None,
     kind: str = "tips",
 ) -> ReceptorLayout:
     """Receptors on the study's regular ridge/papilla grid (:ref:`method-receptor-sites`).

@@ -5,6 +5,8 @@ Documented with the rest of :mod:`afferent.receptors`, which re-exports every pu
 
 from __future__ import annotations
 
+from .._typing import ArrayLike, NDArray, PathLike
+
 import os
 import warnings
 from dataclasses import dataclass
@@ -46,7 +48,7 @@ def describe_sites(layout: "ReceptorLayout") -> str:
 MAX_SECTION_LABEL = 999_999
 
 
-def group_coordinates(values, tol: float = SECTION_TOLERANCE_M) -> tuple[np.ndarray, np.ndarray]:
+def group_coordinates(values: ArrayLike, tol: float = SECTION_TOLERANCE_M) -> tuple[np.ndarray, np.ndarray]:
     """Group 1-D coordinates that lie within ``tol`` of their neighbours (single linkage).
 
     Parameters
@@ -180,7 +182,7 @@ class ReceptorLayout:
         n = int(labels.max()) + 1 if labels.size else 0
         return label_means(labels, self.positions[:, axis], n)
 
-    def subset(self, mask) -> "ReceptorLayout":
+    def subset(self, mask: ArrayLike) -> "ReceptorLayout":
         """The layout restricted to ``mask`` (bool array or indices); section labels are kept."""
         idx = np.arange(self.n_receptors)[mask]
         return ReceptorLayout(
@@ -205,7 +207,7 @@ _ID_COLUMNS = ("id", "receptor", "receptorid", "receptorname", "receptorlabel", 
 _SECTION_COLUMNS = {"longitudinal": ("longitudinal", "longitudinal_section"), "cross": ("cross", "cross_section")}
 
 
-def read_receptors(path, *, length_unit: str, tol: float = SECTION_TOLERANCE_M) -> ReceptorLayout:
+def read_receptors(path: PathLike, *, length_unit: str, tol: float = SECTION_TOLERANCE_M) -> ReceptorLayout:
     """Read receptor sites from a CSV with columns x, y, z (optional id and section labels).
 
     Parameters
@@ -283,7 +285,7 @@ def read_receptors(path, *, length_unit: str, tol: float = SECTION_TOLERANCE_M) 
         raise SEDFormatError(f"Receptor file {path!r}: {err}") from err
 
 
-def central_line(layout: ReceptorLayout, axis: str):
+def central_line(layout: ReceptorLayout, axis: str) -> NDArray[np.intp]:
     """The receptors on the section line through the middle of the layout, along ``axis``.
 
     Along x: the cross section (constant z) whose centre is nearest the middle of the z extent;

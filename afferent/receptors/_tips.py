@@ -12,6 +12,12 @@ together.
 
 from __future__ import annotations
 
+from ..field import Cells
+
+from .._typing import ArrayLike, PathLike
+from collections.abc import Sequence
+from typing import Any
+
 import numbers
 import os
 
@@ -67,7 +73,7 @@ def _cell_nodes(cells, n_points: int):
     return conn, np.arange(conn.shape[0]), conn.shape[0]
 
 
-def interface_nodes(points, cells, cell_material, *, upper, lower, noise: float = COORDINATE_NOISE_M) -> np.ndarray:
+def interface_nodes(points: np.ndarray, cells: Cells | np.ndarray, cell_material: ArrayLike, *, upper: int | Sequence[int], lower: int | Sequence[int], noise: float = COORDINATE_NOISE_M) -> np.ndarray:
     """Indices of the nodes on the interface between two materials of an FE mesh.
 
     A node is on the interface when it belongs to a cell of material ``upper`` and to a cell
@@ -335,17 +341,17 @@ def _no_sites_error(kind, upper, lower, min_prominence, pitch_x, pitch_z, ranges
 
 
 def interface_sites(
-    points,
-    cells,
-    cell_material,
+    points: np.ndarray,
+    cells: Cells | np.ndarray,
+    cell_material: ArrayLike,
     *,
-    upper,
-    lower,
+    upper: int | Sequence[int],
+    lower: int | Sequence[int],
     kind: str = "tips",
     pitch_x: float = RIDGE_PITCH_M,
     pitch_z: float = PAPILLA_PITCH_M,
-    x_range=None,
-    z_range=None,
+    x_range: tuple[float, float] | None=None,
+    z_range: tuple[float, float] | None=None,
     noise: float = COORDINATE_NOISE_M,
     min_prominence: float = MIN_PROMINENCE_M,
     max_flat: float | None = None,
@@ -531,7 +537,7 @@ def interface_sites(
     return ReceptorLayout(site_pts, _grid_ids(lon, crs), longitudinal=lon, cross=crs, tol=tol, site=SITE_OF_KIND[kind])
 
 
-def interface_tips(points, cells, cell_material, *, upper, lower, **kwargs) -> ReceptorLayout:
+def interface_tips(points: np.ndarray, cells: Cells | np.ndarray, cell_material: ArrayLike, *, upper: int | Sequence[int], lower: int | Sequence[int], **kwargs: Any) -> ReceptorLayout:
     """The dermal-papilla tips (RA-I sites) of an FE mesh: :func:`interface_sites` with ``kind='tips'``.
 
     Parameters and result as :func:`interface_sites` (positions in m; ``site`` is 'RA-I').
@@ -544,15 +550,15 @@ def interface_tips(points, cells, cell_material, *, upper, lower, **kwargs) -> R
 
 
 def sites_from_export(
-    path,
+    path: PathLike,
     *,
     length_unit: str,
     material_array: str = "layer",
-    upper,
-    lower,
+    upper: int | Sequence[int],
+    lower: int | Sequence[int],
     kind: str = "tips",
     allow_outside_files: bool = False,
-    **kwargs,
+    **kwargs: Any,
 ) -> ReceptorLayout:
     """Papilla tips (RA-I) or intermediate-ridge bases (SA-I) of an FE export whose cells carry material ids.
 
@@ -661,7 +667,7 @@ def missing_material_array(path, material_array: str, cell_arrays) -> str:
             f"instead.{suggest(material_array, list(cell_arrays))}")
 
 
-def tips_from_export(path, *, length_unit: str, material_array: str = "layer", upper, lower, **kwargs) -> ReceptorLayout:
+def tips_from_export(path: PathLike, *, length_unit: str, material_array: str = "layer", upper: int | Sequence[int], lower: int | Sequence[int], **kwargs: Any) -> ReceptorLayout:
     """Papilla tips (RA-I sites) of an FE export: :func:`sites_from_export` with ``kind='tips'``.
 
     Parameters and result as :func:`sites_from_export` (positions in m).

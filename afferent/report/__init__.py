@@ -24,6 +24,9 @@ sample installed with the package (``afferent/data/sample/``), so the report wor
 
 from __future__ import annotations
 
+from .._typing import PathLike
+from collections.abc import Callable
+
 import dataclasses
 import os
 import tempfile
@@ -53,8 +56,8 @@ CALIBRATION_METHODS: dict = _measure.CALIBRATION_METHODS
 CALIBRATION_TRUTHS: tuple = _measure.CALIBRATION_TRUTHS
 
 
-def run_report(output, *, size: str | ReportSize = "quick", overwrite: bool = False, command: str | None = None,
-               progress=None) -> dict:
+def run_report(output: PathLike, *, size: str | ReportSize = "quick", overwrite: bool = False, command: str | None = None,
+               progress: Callable[[str], None] | None=None) -> dict:
     """Measure every knob at ``size`` and write ``output/report.md``, its PNG plots and ``results.json``.
 
     Parameters

@@ -7,10 +7,21 @@ import platform
 import time
 import tracemalloc
 import warnings
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
+
+from .._typing import PathLike, RngLike
+from ..field import SEDField
+from ..profiles import Normalise
+from ..receptors._layout import ReceptorLayout
+from ..sampling import ReceptorSED, SamplingMethod
+from ..spiking._params import LIFParams
+from ..spiking._trains import SpikeTrains
+from ..transduction import SigmoidParams
 
 __all__ = ["SIZES", "ReportSize", "machine_info", "best_time", "hex_block", "manufactured_sed", "papilla_sites",
            "measure_sampling", "synthetic_afferent_current", "spike_errors", "measure_spiking",
@@ -122,7 +133,7 @@ def machine_info() -> dict:
             "platform": platform.platform(), "versions": versions}
 
 
-def best_time(fn, repeat: int = 3):
+def best_time(fn: Callable[[], Any], repeat: int = 3) -> tuple[float, Any]:
     """Run ``fn()`` ``repeat`` times; returns (fastest wall time in s, the last result)."""
     best, out = np.inf, None
     for _ in range(max(1, int(repeat))):
@@ -149,7 +160,7 @@ def _read_sample(name: str):
 
 # ---- sampling --------------------------------------------------------------------------------
 
-def manufactured_sed(points) -> np.ndarray:
+def manufactured_sed(points: np.ndarray) -> np.ndarray:
     """A smooth manufactured SED in Pa at ``points`` (m): a 4 kPa bump, 0.5 mm standard width,
     centred at x = z = 2 mm and decaying with depth below y = 2.45 mm over 0.5 mm (the size and
     scale of the sample's field at the receptors, but known everywhere)."""
@@ -157,7 +168,7 @@ def manufactured_sed(points) -> np.ndarray:
     return 4000.0 * np.exp(-((x - 2) ** 2 + (z - 2) ** 2) / (2 * 0.5**2)) * np.exp((y - 2.45) / 0.5)
 
 
-def papilla_sites(layout, n: int, *, rng=0) -> np.ndarray:
+def papilla_sites(layout: ReceptorLayout, n: int, *, rng: RngLike=0) -> np.ndarray:
     """``n`` random sites (m) inside the sample's mesh: each within +-0.04 mm in x and z of a
     random papilla tip of ``layout`` and 0.02-0.05 mm below it (the packaged sample keeps the
     elements around each tip; these offsets stay inside them at every tip, measured)."""
@@ -168,7 +179,7 @@ def papilla_sites(layout, n: int, *, rng=0) -> np.ndarray:
     return tips + rng.uniform(lo, hi, (n, 3))
 
 
-def measure_sampling(field, layout, exact, *, methods=("linear", "nearest"), repeat: int = 3) -> list[dict]:
+def measure_sampling(field: SEDField, layout: ReceptorLayout, exact: np.ndarray, *, methods: Sequence[SamplingMethod]=("linear", "nearest"), repeat: int = 3) -> list[dict]:
     """Time and error of each sampling method against known values.
 
     Parameters
@@ -211,7 +222,7 @@ def measure_sampling(field, layout, exact, *, methods=("linear", "nearest"), rep
 
 # ---- spiking ---------------------------------------------------------------------------------
 
-def synthetic_afferent_current(n_afferents: int, *, duration: float = 1.0, sample_dt: float = 1e-3, rng=0):
+def synthetic_afferent_current(n_afferents: int, *, duration: float = 1.0, sample_dt: float = 1e-3, rng: RngLike=0) -> tuple[np.ndarray, np.ndarray]:
     """A ramp-and-hold afferent current per afferent: ramp (100 ms), hold (500 ms), release
     (100 ms), rest; plateau amplitudes log-uniform over 30 nA - 16 uA (the study's afferent-current
     range), onsets jittered over 0-20 ms.
@@ -239,7 +250,7 @@ def synthetic_afferent_current(n_afferents: int, *, duration: float = 1.0, sampl
     return times, current
 
 
-def spike_errors(trains, ref) -> dict:
+def spike_errors(trains: SpikeTrains, ref: SpikeTrains) -> dict:
     """Errors of spike trains against reference trains of the same afferents.
 
     Returns
@@ -278,7 +289,7 @@ def _has_brian2() -> bool:
     return True
 
 
-def measure_spiking(current, times, duration: float, params, *, fast_dts=(1e-3, 1e-4, 1e-5), brian2_dts=(1e-3,),
+def measure_spiking(current: np.ndarray, times: np.ndarray, duration: float, params: LIFParams, *, fast_dts: Sequence[float]=(1e-3, 1e-4, 1e-5), brian2_dts: Sequence[float]=(1e-3,),
                     repeat: int = 3) -> list[dict]:
     """Time and spike errors of each engine and time step against the exact engine.
 
@@ -334,10 +345,9 @@ def measure_spiking(current, times, duration: float, params, *, fast_dts=(1e-3, 
 
 # ---- receptor count --------------------------------------------------------------------------
 
-def per_papilla_layout(tips, k: int):
+def per_papilla_layout(tips: ReceptorLayout, k: int) -> ReceptorLayout:
     """``k`` receptor sites per papilla tip, spread along the ridges (z) over +-0.04 mm of the tip
     (one site: the tip itself); each keeps its tip's section labels. Positions in m."""
-    from ..receptors import ReceptorLayout
 
     dz = np.linspace(-PATCH_HALF_WIDTH, PATCH_HALF_WIDTH, k) if k > 1 else np.zeros(1)
     pos = np.repeat(tips.positions, k, axis=0)
@@ -345,7 +355,7 @@ def per_papilla_layout(tips, k: int):
     return ReceptorLayout(pos, longitudinal=np.repeat(tips.longitudinal, k), cross=np.repeat(tips.cross, k))
 
 
-def measure_receptor_count(field, tips, per_papilla=(1, 2, 4, 8, 16), *, params=None, repeat: int = 3) -> list[dict]:
+def measure_receptor_count(field: SEDField, tips: ReceptorLayout, per_papilla: Sequence[int]=(1, 2, 4, 8, 16), *, params: SigmoidParams | None=None, repeat: int = 3) -> list[dict]:
     """Time and afferent-profile error against the receptor count.
 
     Parameters
@@ -405,7 +415,7 @@ CALIBRATION_METHODS = {
 CALIBRATION_TRUTHS = ((3e-8, 2e-3, 900.0), (3e-8, 5e-3, 600.0))
 
 
-def measure_calibration(sed, truths=CALIBRATION_TRUTHS, *, methods=None, normalise=("both", "neither"),
+def measure_calibration(sed: ReceptorSED, truths: Sequence[tuple[float, float, float]]=CALIBRATION_TRUTHS, *, methods: dict | None=None, normalise: Sequence[Normalise]=("both", "neither"),
                         repeat: int = 3) -> list[dict]:
     """Evaluations, time and parameter errors of each calibration method on noise-free profiles.
 
@@ -438,7 +448,7 @@ def measure_calibration(sed, truths=CALIBRATION_TRUTHS, *, methods=None, normali
     from ..calibration import calibrate
     from ..profiles import ObservedProfile
     from ..synthesis import Branching, synthesize
-    from ..transduction import SigmoidParams, transduce
+    from ..transduction import transduce
 
     methods = CALIBRATION_METHODS if methods is None else methods
     rows = []
@@ -465,7 +475,7 @@ def measure_calibration(sed, truths=CALIBRATION_TRUTHS, *, methods=None, normali
 
 # ---- series reading --------------------------------------------------------------------------
 
-def hex_block(nx: int, ny: int, nz: int, size=(4.0, 3.1, 4.0)):
+def hex_block(nx: int, ny: int, nz: int, size: tuple[float, float, float]=(4.0, 3.1, 4.0)) -> tuple[np.ndarray, np.ndarray]:
     """A structured hexahedral block from the origin to ``size`` (VTK node order).
 
     Returns
@@ -488,13 +498,13 @@ def hex_block(nx: int, ny: int, nz: int, size=(4.0, 3.1, 4.0)):
     return points, hexes
 
 
-def block_dims(n_points: int, size=(4.0, 3.1, 4.0)) -> tuple[int, int, int]:
+def block_dims(n_points: int, size: tuple[float, float, float]=(4.0, 3.1, 4.0)) -> tuple[int, int, int]:
     """Cells per side (nx, ny, nz) of a block of ``size`` with about ``n_points`` nodes, cubic cells."""
     n = (n_points / float(np.prod(size))) ** (1 / 3)
     return tuple(max(2, round(n * s)) - 1 for s in size)
 
 
-def write_series(folder, n_points: int, n_steps: int) -> list[str]:
+def write_series(folder: PathLike, n_points: int, n_steps: int) -> list[str]:
     """Write a loading series of binary, zlib-compressed VTUs of a 4 x 3.1 x 4 mm hexahedral
     block of about ``n_points`` nodes (coordinates mm, SED MPa): step k carries
     (k + 1) / n_steps x the manufactured field of :func:`manufactured_sed` (centred on the block).
@@ -542,7 +552,7 @@ def _zlib_text(data: np.ndarray) -> str:
     return base64.b64encode(header.tobytes()).decode() + base64.b64encode(b"".join(blocks)).decode()
 
 
-def measure_series(paths, layout, *, repeat: int = 1) -> list[dict]:
+def measure_series(paths: Sequence[str], layout: ReceptorLayout, *, repeat: int = 1) -> list[dict]:
     """Time and peak memory of sampling a VTU series read whole against streamed.
 
     Parameters

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+
+
 import os
 import re
 from dataclasses import fields, replace
@@ -361,7 +363,7 @@ def class_overrides(scene: Scene) -> list:
     return sorted(k for k, v in preset.items() if getattr(scene.spikes, k) != v)
 
 
-def class_record(scene: Scene, site) -> dict:
+def class_record(scene: Scene, site: str) -> dict:
     """The afferent class as run.json records it; warns when the receptors' ``site`` is another class's."""
     import warnings
 

@@ -5,6 +5,8 @@ Every error names the table, the key as written and its line (:class:`SceneError
 
 from __future__ import annotations
 
+from .._typing import PathLike
+
 import math
 import os
 import tomllib
@@ -37,7 +39,7 @@ def _keys_of(cls) -> dict[str, tuple]:
 _CONVERTIBLE = {"length": "LENGTH_UNITS", "time": "TIME_UNITS"}  # quantities afferent.units can convert
 
 
-def key_hint(key: str, value, keys: dict) -> str:
+def key_hint(key: str, value: object, keys: dict) -> str:
     """``" Did you mean ...?"`` for an unknown ``key`` among ``keys`` (:func:`_keys_of`) that keeps its meaning.
 
     A suggestion is never a key of another unit than the one written: a key ending in a unit suffix of its
@@ -238,7 +240,7 @@ def _parse_table(cls, data: dict, *, origin: _Origin, table: str):
     return cls(**values), given_as
 
 
-def scene_from_dict(data: dict, *, base_dir=None, source=None, _lines=None) -> Scene:
+def scene_from_dict(data: dict, *, base_dir: PathLike | None=None, source: PathLike | None=None, _lines: dict | None=None) -> Scene:
     """Build a :class:`Scene` from tables (as :func:`tomllib.loads` or :meth:`Scene.to_dict` give them).
 
     Parameters
@@ -299,7 +301,7 @@ def read_toml_text(path: str, what: str) -> str:
         raise SceneError(f"{what} {path!r} must be UTF-8 text (TOML); it is not: {err}.", path=path) from err
 
 
-def loads_toml(text: str, where: str, path=None) -> dict:
+def loads_toml(text: str, where: str, path: PathLike | None=None) -> dict:
     """The tables of TOML text (scene or sweep), or a :class:`SceneError` starting with ``where``.
 
     A leading byte-order mark is dropped; nesting too deep for the parser (arrays or inline
@@ -315,14 +317,14 @@ def loads_toml(text: str, where: str, path=None) -> dict:
                          "a list of lists.", path=path) from None
 
 
-def parse_scene(text: str, *, base_dir=None, source=None) -> Scene:
+def parse_scene(text: str, *, base_dir: PathLike | None=None, source: PathLike | None=None) -> Scene:
     """Parse a scene from TOML text (relative paths against ``base_dir``); see :func:`load_scene`."""
     where = f"Scene file {os.fspath(source)!r}" if source else "Scene"
     data = loads_toml(text, where, source)
     return scene_from_dict(data, base_dir=base_dir, source=source, _lines=key_lines(text))
 
 
-def load_scene(path, *, resolve_defaults: bool = True) -> Scene:
+def load_scene(path: PathLike, *, resolve_defaults: bool = True) -> Scene:
     """Read a scene file (TOML, read with :mod:`tomllib`).
 
     Parameters

@@ -2,13 +2,72 @@
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
+from .schema import Scene
+
+from collections.abc import Iterable
+
 import time
 import warnings
 
 _QUIET_CATEGORIES = (DeprecationWarning, PendingDeprecationWarning, ImportWarning, ResourceWarning)
 
 
-def reemit(caught) -> list[str]:
+
+@dataclass(frozen=True)
+class SceneResult:
+    """What :func:`run_scene` computed and wrote.
+
+    Attributes
+    ----------
+    scene : Scene
+        The resolved scene.
+    output : str
+        The output folder.
+    files : tuple of str
+        Files written into it (``run.json`` included).
+    record : dict
+        The content of ``run.json``.
+    stages : dict
+        Executed step -> wall time in s (the computing stages of :data:`STAGES` plus
+        'hashing', 'receptors', 'cache' and 'writing').
+    skipped : dict
+        Stage of :data:`STAGES` not executed -> why.
+    cache_hit : bool or None
+        Whether the sampled SED came from the cache (None: the cache was not used).
+    sed : ReceptorSED or None
+        SED at the receptors as sampled from the export (J/m^3).
+    current, afferent, fit, spikes, waveform
+        Receptor currents, afferent currents, profile fit, spike trains and the waveform,
+        or None when not computed.
+    warnings : tuple of str
+        Warnings raised during the run (also re-emitted).
+    """
+
+    scene: Scene
+    output: str
+    files: tuple
+    record: dict
+    stages: dict
+    skipped: dict
+    cache_hit: bool | None
+    sed: object = None
+    current: object = None
+    afferent: object = None
+    fit: object = None
+    spikes: object = None
+    waveform: object = None
+    warnings: tuple = ()
+
+    def __repr__(self) -> str:
+        ran = ", ".join(f"{k} {v:.3g} s" for k, v in self.stages.items())
+        skipped = ", ".join(self.skipped) or "nothing"
+        return (f"<SceneResult {self.scene.info.name!r} -> {self.output}: ran {ran}; skipped {skipped}"
+                f"; cache {'hit' if self.cache_hit else 'miss' if self.cache_hit is False else 'off'}>")
+
+
+def reemit(caught: Iterable[warnings.WarningMessage]) -> list[str]:
     """Warn again, in the caller's context, what a run caught; returns the messages that count (not deprecations)."""
     messages = []
     for w in caught:
@@ -18,7 +77,7 @@ def reemit(caught) -> list[str]:
     return messages
 
 
-def build_record(scene, planned, skipped, seconds: dict, record, inputs, caught, files, started, t_run, extra) -> dict:
+def build_record(scene: Scene, planned: list[str], skipped: dict, seconds: dict, record: dict, inputs: dict, caught: list[warnings.WarningMessage], files: list[str], started: str, t_run: float, extra: dict | None) -> dict:
     """The content of ``run.json``.
 
     Parameters
@@ -79,7 +138,7 @@ def _merge_reasons(skipped: dict):
     return [(", ".join(stages), why) for why, stages in groups.items()]
 
 
-def summary_lines(result) -> list[str]:
+def summary_lines(result: SceneResult) -> list[str]:
     """What ``afferent run`` prints after a run: files written, stages and times, skips, region, spikes,
     transduction range and fit (one line each)."""
     out = [f"afferent run: wrote {result.output}: {', '.join(sorted(result.files))}",

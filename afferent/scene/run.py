@@ -10,6 +10,9 @@ classes are all in: one executor, one function per stage; the route branch moves
 
 from __future__ import annotations
 
+from .._typing import PathLike
+from collections.abc import Callable
+
 import os
 import sys
 import time
@@ -19,64 +22,12 @@ from dataclasses import dataclass, field, replace
 
 from ..export import profile_step_record
 from .planning import plan, skip_reasons
-from .record import _QUIET_CATEGORIES, build_record, reemit, summary_lines
+from .record import _QUIET_CATEGORIES, SceneResult, build_record, reemit, summary_lines  # noqa: F401 (SceneResult: importable here)
 from .defaults import class_record, resolve
 from .schema import _LIF_FIELDS, Scene, SceneError, _plain_json
 from .stages import (_beside_scene, _branching, _check_before_reading, _crop, _named_inputs, _hash_all, _inside_field, _judge_placement, _layout_before_reading,
                      _layout_from_field, _params, _refuse_rate_keys_without_rate, _refuse_step_numbers, _restrict, _trim,
                      _waveform)
-
-@dataclass(frozen=True)
-class SceneResult:
-    """What :func:`run_scene` computed and wrote.
-
-    Attributes
-    ----------
-    scene : Scene
-        The resolved scene.
-    output : str
-        The output folder.
-    files : tuple of str
-        Files written into it (``run.json`` included).
-    record : dict
-        The content of ``run.json``.
-    stages : dict
-        Executed step -> wall time in s (the computing stages of :data:`STAGES` plus
-        'hashing', 'receptors', 'cache' and 'writing').
-    skipped : dict
-        Stage of :data:`STAGES` not executed -> why.
-    cache_hit : bool or None
-        Whether the sampled SED came from the cache (None: the cache was not used).
-    sed : ReceptorSED or None
-        SED at the receptors as sampled from the export (J/m^3).
-    current, afferent, fit, spikes, waveform
-        Receptor currents, afferent currents, profile fit, spike trains and the waveform,
-        or None when not computed.
-    warnings : tuple of str
-        Warnings raised during the run (also re-emitted).
-    """
-
-    scene: Scene
-    output: str
-    files: tuple
-    record: dict
-    stages: dict
-    skipped: dict
-    cache_hit: bool | None
-    sed: object = None
-    current: object = None
-    afferent: object = None
-    fit: object = None
-    spikes: object = None
-    waveform: object = None
-    warnings: tuple = ()
-
-    def __repr__(self) -> str:
-        ran = ", ".join(f"{k} {v:.3g} s" for k, v in self.stages.items())
-        skipped = ", ".join(self.skipped) or "nothing"
-        return (f"<SceneResult {self.scene.info.name!r} -> {self.output}: ran {ran}; skipped {skipped}"
-                f"; cache {'hit' if self.cache_hit else 'miss' if self.cache_hit is False else 'off'}>")
-
 
 class _Steps:
     """Wall time of each executed step, in order."""
@@ -93,7 +44,7 @@ class _Steps:
 
 
 # ------------------------------------------------------------------------------- run
-def run_scene(scene: Scene, *, overwrite: bool = False, cache_dir=None, progress: bool = False,
+def run_scene(scene: Scene, *, overwrite: bool = False, cache_dir: PathLike | None=None, progress: bool = False,
               use_cache: bool = True, record_extra: dict | None = None, figure_process: bool = False) -> SceneResult:
     """Run a scene: only the stages its outputs need, on the receptors of its region; write outputs and run.json.
 
@@ -676,8 +627,8 @@ def _spike(run: _Run) -> None:
 
 
 # --------------------------------------------------------------------------------- CLI
-def run_scene_cli(path, *, output=None, overwrite: bool = False, quiet: bool = False, cache_dir=None,
-                  use_cache: bool = True, command: str | None = None, speak=None, figure_process: bool = True) -> int:
+def run_scene_cli(path: PathLike | Scene, *, output: PathLike | None=None, overwrite: bool = False, quiet: bool = False, cache_dir: PathLike | None=None,
+                  use_cache: bool = True, command: str | None = None, speak: Callable[[str], None] | None=None, figure_process: bool = True) -> int:
     """``afferent run``: load (or take) a scene, run it, summarise on stderr; returns the exit code (0).
 
     Parameters

@@ -8,6 +8,8 @@ of every table and key by scanning the text, for errors that name the line.
 
 from __future__ import annotations
 
+from .._typing import PathLike
+
 import os
 import re
 from dataclasses import dataclass, field, fields, replace
@@ -46,7 +48,7 @@ class SceneError(AfferentError, ValueError):
     (1-based line in the file, or None) say where.
     """
 
-    def __init__(self, message: str, *, path=None, key=None, line=None):
+    def __init__(self, message: str, *, path: PathLike | None=None, key: str | None=None, line: int | None=None) -> None:
         super().__init__(message)
         self.path, self.key, self.line = path, key, line
 
@@ -489,7 +491,7 @@ class Scene:
                  self.spikes.zone_map)
         return tuple(p for p in paths if p)
 
-    def with_output(self, path) -> "Scene":
+    def with_output(self, path: PathLike) -> "Scene":
         """The same scene writing into ``path`` (relative to the current folder)."""
         return replace(self, outputs=replace(self.outputs, dir=os.path.abspath(os.fspath(path))))
 

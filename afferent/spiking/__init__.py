@@ -138,16 +138,23 @@ importable from :mod:`afferent.spiking`.
 
 from __future__ import annotations
 
+from ..synthesis import AfferentCurrent
+from ..zones import Zones
+
+from .._typing import ArrayLike
+
+from typing import get_args
+
 import numpy as np
 
 from .._validation import check_option
 from . import _drive, _params
 from ._drive import CEILING_FRACTION, drive_report, rheobase_scale  # noqa: F401 (CEILING_FRACTION: importable here)
-from ._drive import INPUTS, SpikeStage, spike_afferents
+from ._drive import INPUTS, DriveMapping, SpikeStage, spike_afferents  # noqa: F401 (DriveMapping: importable here)
 from ._exact import _pieces, _run_exact_numba, _run_exact_numpy, _used_peak
 from ._grid import _peak_current, _plan, _run_brian2, _run_numba, _run_numpy, _silent
 from ._group import _numba_available
-from ._params import _MAX_DRIVE_V, LIFParams, _refractory_steps, grid_isi_bounds
+from ._params import _MAX_DRIVE_V, Engine, InputHold, LIFParams, _refractory_steps, grid_isi_bounds
 from ._trains import SpikeTrains, spread_counts
 from ._zones import simulate_zones
 
@@ -185,11 +192,11 @@ LIF_PRESETS: dict[str, LIFParams] = _params.LIF_PRESETS
 DRIVE_MAPPINGS = _drive.DRIVE_MAPPINGS
 
 #: Engines accepted by :func:`simulate_lif`.
-ENGINES = ("auto", "exact", "exact-numba", "exact-numpy", "fast", "fast-numba", "fast-numpy", "brian2")
+ENGINES: tuple[str, ...] = get_args(Engine)
 #: How :func:`simulate_lif` reads the current between samples: ``'previous'`` holds each sample
 #: until the next (like brian2's ``TimedArray``; all engines), ``'linear'`` interpolates
 #: linearly between samples (the exact engine only).
-INPUT_HOLDS = ("previous", "linear")
+INPUT_HOLDS: tuple[str, ...] = get_args(InputHold)
 
 
 # --------------------------------------------------------------------------------------------
@@ -316,8 +323,8 @@ def _warn_above_ceiling(times_s: np.ndarray, counts: np.ndarray, params: LIFPara
         warnings.warn(msg, AfferentWarning, stacklevel=3)
 
 
-def simulate_lif(current, params: LIFParams, *, dt: float | None = None, engine: str = "auto", duration=None, times=None,
-                 input_hold: str = "previous", zones=None):
+def simulate_lif(current: AfferentCurrent | ArrayLike, params: LIFParams, *, dt: float | None = None, engine: Engine = "auto", duration: float | None=None, times: ArrayLike | None=None,
+                 input_hold: InputHold = "previous", zones: Zones | ArrayLike | None=None) -> SpikeTrains:
     """Simulate one leaky integrate-and-fire neuron per afferent.
 
     Parameters

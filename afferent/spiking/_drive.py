@@ -3,23 +3,32 @@
 
 from __future__ import annotations
 
+from ..synthesis import AfferentCurrent, Branching
+from ..transduction import ReceptorCurrent
+from ..zones import Zones
+
+from .._typing import ArrayLike
+
 import time
 import warnings
 from dataclasses import dataclass
+from typing import Literal, get_args
 
 import numpy as np
 
 from .._validation import check_option, check_positive
 from ..exceptions import AfferentWarning
-from ._params import LIFParams
+from ..stimulus._adaptation import InputKind, Rectify
+from ._params import Engine, LIFParams
 from ._trains import SpikeTrains
 
 # How an input current becomes the drive: see DRIVE_MAPPINGS in afferent.spiking (documented there).
-DRIVE_MAPPINGS = ("resistance", "rheobase")
+DriveMapping = Literal["resistance", "rheobase"]
+DRIVE_MAPPINGS: tuple[str, ...] = get_args(DriveMapping)
 #: Fraction of the 1 / t_ref ceiling at which a rate counts as saturated by the LIF.
 CEILING_FRACTION = 0.9
 
-def rheobase_scale(values, lif: LIFParams, *, multiple: float, reference: float | None = None) -> tuple[float, float]:
+def rheobase_scale(values: ArrayLike, lif: LIFParams, *, multiple: float, reference: float | None = None) -> tuple[float, float]:
     """Factor that maps a reference current to ``multiple`` x the LIF's rheobase.
 
     Parameters
@@ -46,7 +55,7 @@ def rheobase_scale(values, lif: LIFParams, *, multiple: float, reference: float 
     return multiple * lif.rheobase / ref, ref
 
 
-def drive_report(input_values, lif: LIFParams, spikes: SpikeTrains) -> dict:
+def drive_report(input_values: ArrayLike, lif: LIFParams, spikes: SpikeTrains) -> dict:
     """What the LIF made of its drive, per afferent, and whether the rates carry information.
 
     Parameters
@@ -92,7 +101,7 @@ def drive_report(input_values, lif: LIFParams, spikes: SpikeTrains) -> dict:
 
 #: What the LIF is given (:func:`spike_afferents`): the afferent current itself, the rate-sensitive input
 #: (RA-I), or the slowly adapting static-plus-rate input (SA-I; docs/classes.md).
-INPUTS = ("static", "rate-sensitive", "slowly-adapting")
+INPUTS: tuple[str, ...] = get_args(InputKind)
 #: input -> mode of :func:`afferent.stimulus.adapting_input`
 _ADAPTATION_OF_INPUT = {"rate-sensitive": "rectified-rate", "slowly-adapting": "static-plus-rate"}
 
@@ -122,11 +131,11 @@ class SpikeStage:
     zones: object = None
 
 
-def spike_afferents(afferent, lif: LIFParams, *, dt: float, engine: str = "auto", input: str = "static",
-                    current=None, branching=None, gain: float | None = None, tau: float | None = None,
-                    duration: float | None = None, drive: str = "resistance", rheobase_multiple: float = 2.0,
+def spike_afferents(afferent: AfferentCurrent, lif: LIFParams, *, dt: float, engine: Engine = "auto", input: InputKind = "static",
+                    current: ReceptorCurrent | None=None, branching: Branching | None=None, gain: float | None = None, tau: float | None = None,
+                    duration: float | None = None, drive: DriveMapping = "resistance", rheobase_multiple: float = 2.0,
                     reference_current: float | None = None, static_gain: float | None = None,
-                    zones=None, rectify: str | None = None, slow_gain: float | None = None,
+                    zones: Zones | None=None, rectify: Rectify | None = None, slow_gain: float | None = None,
                     slow_tau: float | None = None) -> SpikeStage:
     """The stages 'input' and 'spiking': the input current -> its drive mapping -> leaky integrate-and-fire.
 

@@ -5,12 +5,20 @@ The presets' sources are given in the docstring of :mod:`afferent.spiking`.
 
 from __future__ import annotations
 
+from .._typing import ArrayLike
+
 import numbers
 from dataclasses import dataclass
+from typing import Literal
 
 import numpy as np
 
 from .._validation import check_option, check_positive
+
+#: The spiking engines (:data:`afferent.spiking.ENGINES`, documented there).
+Engine = Literal["auto", "exact", "exact-numba", "exact-numpy", "fast", "fast-numba", "fast-numpy", "brian2"]
+#: How the input current holds between its samples (:data:`afferent.spiking.INPUT_HOLDS`).
+InputHold = Literal["previous", "linear"]
 
 # brian2's timestep() shifts by 1e-3 dt before flooring (brian2/core/functions.py).
 _TIMESTEP_SHIFT = 1e-3
@@ -119,14 +127,14 @@ class LIFParams:
         out[ok] = self.tau_m * np.log1p((self.theta - (v0 - self.v_rest)) / (drive[ok] - self.theta))
         return out
 
-    def first_spike_latency(self, current) -> np.ndarray:
+    def first_spike_latency(self, current: ArrayLike) -> np.ndarray:
         """Exact time from rest to the first spike for a constant ``current`` (A), in s.
 
         ``tau_m ln(r_m I / (r_m I - theta))``; ``inf`` at or below the rheobase.
         """
         return self._time_to_threshold(current, self.v_rest)
 
-    def steady_isi(self, current) -> np.ndarray:
+    def steady_isi(self, current: ArrayLike) -> np.ndarray:
         """Exact inter-spike interval for a constant ``current`` (A), in s.
 
         ``t_ref + tau_m ln((r_m I - (v_reset - v_rest)) / (r_m I - theta))`` (see the Spikes page of
@@ -134,7 +142,7 @@ class LIFParams:
         """
         return self.t_ref + self._time_to_threshold(current, self.v_reset)
 
-    def steady_rate(self, current) -> np.ndarray:
+    def steady_rate(self, current: ArrayLike) -> np.ndarray:
         """Exact firing rate ``1 / steady_isi(current)`` in Hz; 0 at or below the rheobase."""
         isi = self.steady_isi(current)
         with np.errstate(divide="ignore"):
@@ -161,7 +169,7 @@ def _n_steps(duration: float, dt: float) -> int:
     return int(np.ceil(duration / dt))
 
 
-def grid_isi_bounds(params: LIFParams, current, *, dt: float) -> tuple[np.ndarray, np.ndarray]:
+def grid_isi_bounds(params: LIFParams, current: ArrayLike, *, dt: float) -> tuple[np.ndarray, np.ndarray]:
     """Bounds on the inter-spike interval the grid engines produce for a constant current.
 
     ``ISI_grid = (n_eff - 1 + ceil(T_r / dt)) dt`` with ``n_eff = max(n_ref, 1)``,

@@ -2,6 +2,14 @@
 
 from __future__ import annotations
 
+from .._typing import ArrayLike
+from collections.abc import Iterable
+from typing import Any
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:  # annotations only: these load on first use
+    from pandas import DataFrame
+
 from dataclasses import dataclass, field
 from functools import cached_property
 
@@ -107,7 +115,7 @@ class SpikeTrains:
             )
 
     @classmethod
-    def from_trains(cls, spike_times, **fields) -> "SpikeTrains":
+    def from_trains(cls, spike_times: Iterable[ArrayLike], **fields: Any) -> "SpikeTrains":
         """From one sorted array of spike times in s per afferent; ``fields`` as the constructor's."""
         trains = [np.asarray(x, dtype=np.float64).ravel() for x in spike_times]
         t = np.concatenate(trains) if trains else np.empty(0)
@@ -208,7 +216,7 @@ class SpikeTrains:
         by afferent; what :meth:`to_dataframe` holds and ``spikes.csv`` lists."""
         return {"afferent": np.repeat(self.afferent_ids, self.n_spikes), "spike_time_s": self.t}
 
-    def to_dataframe(self):
+    def to_dataframe(self) -> DataFrame:
         """Tidy table of every spike: columns ``afferent`` and ``spike_time_s``, sorted by afferent."""
         import pandas as pd
 
@@ -230,7 +238,7 @@ class SpikeTrains:
             "simulated": self.simulated,
         }
 
-    def summary(self):
+    def summary(self) -> DataFrame:
         """One row per afferent, as a DataFrame indexed by ``afferent``.
 
         Columns: ``n_spikes``; ``rate_hz``; ``first_spike_latency_s`` (NaN if it never fired);

@@ -5,8 +5,15 @@ The model is given in :mod:`afferent.stimulus` and on the Method page (:ref:`met
 
 from __future__ import annotations
 
+from ..receptors._layout import ReceptorLayout
+from ..synthesis import AfferentCurrent, Branching
+from ..transduction import ReceptorCurrent
+
+
+
 import warnings
 from dataclasses import dataclass
+from typing import Literal, get_args
 
 import numpy as np
 
@@ -15,15 +22,18 @@ from ..exceptions import AfferentWarning
 
 
 # Modes of adapting_input (documented in afferent.stimulus, where the API reference shows it).
-ADAPTATION_MODES = ("rectified-rate", "static-plus-rate")
+AdaptationMode = Literal["rectified-rate", "static-plus-rate"]
+ADAPTATION_MODES: tuple[str, ...] = get_args(AdaptationMode)
 #: Input kinds recorded on an :class:`InputCurrent` (the kind each adaptation mode gives: _KIND_OF_MODE).
-INPUT_KINDS = ("static", "rate-sensitive", "slowly-adapting")
+InputKind = Literal["static", "rate-sensitive", "slowly-adapting"]
+INPUT_KINDS: tuple[str, ...] = get_args(InputKind)
 _KIND_OF_MODE = {"rectified-rate": "rate-sensitive", "static-plus-rate": "slowly-adapting"}
 # Default low-pass time constant of the rate in s (documented in afferent.stimulus).
 DEFAULT_TAU = 5e-3
 # Mode 'static-plus-rate': how the terms are rectified, and the slow component's default time constant in s
 # (tau_2 = 200 ms of fit_model.py in yw5aj/PlosCompBiol; docs/classes.md).
-RECTIFY_CHOICES = ("sum", "components")
+Rectify = Literal["sum", "components"]
+RECTIFY_CHOICES: tuple[str, ...] = get_args(Rectify)
 DEFAULT_SLOW_TAU = 0.2
 
 
@@ -71,10 +81,10 @@ class InputCurrent:
 
     values: np.ndarray
     times: np.ndarray
-    kind: str
+    kind: InputKind
     level: str
     source: object
-    mode: str | None = None
+    mode: AdaptationMode | None = None
     tau: float | None = None
     gain: float | None = None
     off_gain: float | None = None
@@ -99,26 +109,26 @@ class InputCurrent:
         return self.values.shape[0]
 
     @property
-    def afferent_ids(self):
+    def afferent_ids(self) -> np.ndarray | None:
         """Afferent names (afferent level), else None."""
         return getattr(self.source, "afferent_ids", None) if self.level == "afferent" else None
 
     @property
-    def positions(self):
+    def positions(self) -> np.ndarray | None:
         """Afferent positions in m along ``axis`` (afferent level), else None."""
         return getattr(self.source, "positions", None) if self.level == "afferent" else None
 
     @property
-    def axis(self):
+    def axis(self) -> str | None:
         """The coordinate ``positions`` is measured along (afferent level), else None."""
         return getattr(self.source, "axis", None) if self.level == "afferent" else None
 
     @property
-    def layout(self):
+    def layout(self) -> ReceptorLayout | None:
         """Receptor layout (receptor level), else None."""
         return getattr(self.source, "layout", None) if self.level == "receptor" else None
 
-    def synthesize(self, branching) -> InputCurrent:
+    def synthesize(self, branching: Branching) -> InputCurrent:
         """Sum receptor-level input into afferents, keeping the tag and parameters.
 
         ``I_A = sum_i w_i I_in,i`` with :func:`afferent.synthesis.synthesize`. Adapting at the
@@ -192,7 +202,7 @@ def _unwrap_current(current):
     return current.values, current.times, level, current
 
 
-def static_input(current) -> InputCurrent:
+def static_input(current: ReceptorCurrent | AfferentCurrent) -> InputCurrent:
     """Tag a static current as the LIF input (``kind='static'``), the study's choice.
 
     Parameters
@@ -250,8 +260,8 @@ def _lowpass_rate(values: np.ndarray, times: np.ndarray, tau: float) -> np.ndarr
     return slope_all + (r - slope_all) * c[:, None]
 
 
-def adapting_input(current, *, gain: float, tau: float = DEFAULT_TAU, off_gain: float | None = None,
-                   mode: str = "rectified-rate", static_gain: float | None = None, rectify: str | None = None,
+def adapting_input(current: ReceptorCurrent | AfferentCurrent | InputCurrent, *, gain: float, tau: float = DEFAULT_TAU, off_gain: float | None = None,
+                   mode: AdaptationMode = "rectified-rate", static_gain: float | None = None, rectify: Rectify | None = None,
                    slow_gain: float | None = None, slow_tau: float | None = None) -> InputCurrent:
     """Rate-sensitive input from a static current: RA-I (onset and offset) or SA-I (static plus rate).
 

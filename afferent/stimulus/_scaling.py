@@ -7,6 +7,14 @@ one of the two for a run.
 
 from __future__ import annotations
 
+from ..sampling import ReceptorSED
+
+from .._typing import Accept, ArrayLike
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:  # annotations only: these load on first use
+    from pandas import DataFrame
+
 import numbers
 import warnings
 from dataclasses import dataclass
@@ -44,7 +52,7 @@ def _static_row(sed, time_index):
     return values[int(time_index)]
 
 
-def scale_static(sed, waveform: Waveform, *, d_ref: float, time_index: int | None = None):
+def scale_static(sed: ReceptorSED, waveform: Waveform, *, d_ref: float, time_index: int | None = None) -> ReceptorSED:
     """SED over time from one static FE solution: ``SED(t) = SED_static (d(t) / d_ref)^2``.
 
     Parameters
@@ -178,7 +186,7 @@ def no_reference_step_message(n_steps: int, times) -> str:
     )
 
 
-def interpolate_series(sed, waveform: Waveform, *, series_depths):
+def interpolate_series(sed: ReceptorSED, waveform: Waveform, *, series_depths: ArrayLike) -> ReceptorSED:
     """SED over time from a loading series: per receptor, linear in depth between the series' steps.
 
     Where the user has solved several depths, this follows the FE model itself instead of the
@@ -228,7 +236,7 @@ def interpolate_series(sed, waveform: Waveform, *, series_depths):
     return ReceptorSED(out, waveform.times.copy(), sed.layout, getattr(sed, "method", "linear"), outside)
 
 
-def scaling_record(sed, waveform: Waveform, *, d_ref: float, reference_step: int = 0, series_depths=None) -> dict:
+def scaling_record(sed: ReceptorSED, waveform: Waveform, *, d_ref: float, reference_step: int = 0, series_depths: ArrayLike | None=None) -> dict:
     """What a run driven by :func:`scale_static` assumed, and its error where the export allows measuring it.
 
     Parameters
@@ -330,7 +338,7 @@ class ScalingCheck:
     exponent: np.ndarray
     n_receptors: int
 
-    def to_dataframe(self):
+    def to_dataframe(self) -> DataFrame:
         """One row per step: ``depth_m``, ``rel_error_l2``, ``rel_error_max``, ``exponent``."""
         import pandas as pd
 
@@ -346,7 +354,7 @@ class ScalingCheck:
         )
 
 
-def depth_scaling_error(sed, depths, *, ref_index: int = -1) -> ScalingCheck:
+def depth_scaling_error(sed: ReceptorSED, depths: ArrayLike, *, ref_index: int = -1) -> ScalingCheck:
     """Check the d^2 scaling of :func:`scale_static` on an FE loading series.
 
     Each step k is predicted from the reference step as ``SED_ref (d_k / d_ref)^2`` and
@@ -475,8 +483,8 @@ def check_d_ref(waveform: Waveform, d_ref: float, accept=None) -> None:
         f"in mm under a key in m){fits}; give the depth at which the export was solved"), stacklevel=3)
 
 
-def apply_waveform(sed, waveform: Waveform, *, d_ref: float, reference_step: int | None = None,
-                   series_depths=None, accept=None) -> tuple:
+def apply_waveform(sed: ReceptorSED, waveform: Waveform, *, d_ref: float, reference_step: int | None = None,
+                   series_depths: ArrayLike | None=None, accept: Accept=None) -> tuple:
     """The stimulus stage: SED sampled from the export -> SED over the waveform's times.
 
     Parameters

@@ -3,6 +3,8 @@
 
 from __future__ import annotations
 
+from .._typing import PathLike
+
 import os
 import re
 
@@ -11,7 +13,7 @@ import numpy as np
 from .._validation import check_option
 from .._validation import plain as _plain
 from ..exceptions import SEDFormatError, UnitError
-from ._waveforms import ON_NEGATIVE, Waveform
+from ._waveforms import ON_NEGATIVE, OnNegative, Waveform
 
 _UNIT_IN_HEADER = re.compile(r"^\s*(?P<name>[^(\[]*?)\s*[(\[]\s*(?P<unit>[^)\]]*?)\s*[)\]]\s*$")
 
@@ -25,7 +27,7 @@ def _split_header(col) -> tuple[str, str | None]:
     return text.lower(), None
 
 
-def read_waveform(path, *, length_unit: str, time_unit: str = "s", on_negative: str = "raise",
+def read_waveform(path: PathLike, *, length_unit: str, time_unit: str = "s", on_negative: OnNegative = "raise",
                   time_column: str = "time", depth_column: str = "depth") -> Waveform:
     """Read an indentation waveform from a CSV table with columns ``time`` and ``depth``.
 

@@ -5,8 +5,15 @@ Documented with the rest of :mod:`afferent.stimulus`, which re-exports every pub
 
 from __future__ import annotations
 
+from .._typing import ArrayLike
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:  # annotations only: these load on first use
+    from pandas import DataFrame
+
 from dataclasses import dataclass, field
 from types import MappingProxyType
+from typing import Literal, get_args
 
 import numpy as np
 
@@ -15,9 +22,11 @@ from .._validation import plain as _plain
 
 
 #: Kinds of :class:`Waveform`.
-WAVEFORM_KINDS = ("ramp-and-hold", "sinusoid", "file", "custom")
+WaveformKind = Literal["ramp-and-hold", "sinusoid", "file", "custom"]
+WAVEFORM_KINDS: tuple[str, ...] = get_args(WaveformKind)
 #: Policies for negative depths in the generators and :func:`read_waveform`.
-ON_NEGATIVE = ("raise", "clip")
+OnNegative = Literal["raise", "clip"]
+ON_NEGATIVE: tuple[str, ...] = get_args(OnNegative)
 # Negative depths within this fraction of the waveform's scale are float rounding, set to 0 m.
 _ROUNDING = 1e-12
 
@@ -73,7 +82,7 @@ class Waveform:
 
     times: np.ndarray
     depth: np.ndarray
-    kind: str = "custom"
+    kind: WaveformKind = "custom"
     parameters: object = field(default_factory=dict)
     notes: tuple = ()
 
@@ -125,7 +134,7 @@ class Waveform:
         """Largest depth in m."""
         return float(self.depth.max())
 
-    def depth_at(self, t):
+    def depth_at(self, t: ArrayLike) -> np.ndarray:
         """Depth in m at time(s) ``t`` in s, linear between samples, held before/after the ends.
 
         Parameters
@@ -178,7 +187,7 @@ class Waveform:
         """Columns ``time_s`` (s) and ``depth_m`` (m), no pandas: what ``waveform.csv`` lists."""
         return {"time_s": self.times, "depth_m": self.depth}
 
-    def to_dataframe(self):
+    def to_dataframe(self) -> DataFrame:
         """Table with columns ``time_s`` and ``depth_m``."""
         import pandas as pd
 
@@ -330,7 +339,7 @@ def ramp_and_hold(depth: float, ramp_speed: float, hold: float, *, release: bool
 
 
 def sinusoid(frequency: float, amplitude: float, *, offset: float | None = None, duration: float, dt: float,
-             on_negative: str = "raise") -> Waveform:
+             on_negative: OnNegative = "raise") -> Waveform:
     """Sinusoidal vibration ``d(t) = offset + amplitude sin(2 pi f t)``, from t = 0.
 
     The study's vibration (:ref:`method-fe-model`) is 20, 30, 50 and 80 Hz at 0.5 mm amplitude:
