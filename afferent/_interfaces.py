@@ -285,6 +285,19 @@ def _check_material(field, side: int) -> None:
                          f"{field.provenance.columns.get('material', '')!r}: {', '.join(map(str, present))}) or 'average'.")
 
 
+def _refuse_inseparable(field, side: int, n_on: int) -> None:
+    """A material's side asked of point data with one value per node: the tool averaged the sides before export."""
+    files = field.provenance.files
+    of = f" of SED file {files[0]!r}" if files else ""
+    array = field.provenance.columns.get("sed", "")
+    raise ValueError(
+        f"side={side!r} asks for material {side}'s SED at the {n_on} receptors on an interface between materials, but "
+        f"the SED{of}{f' (array {array!r})' if array else ''} is point data with one value per node, shared by the "
+        "materials that meet there (the FE tool averaged them before export): the sides cannot be told apart. Read "
+        "cell data (location='cell', --location cell, [export] location = \"cell\") or per-element node output, or use "
+        "side='average'.")
+
+
 def apply_side(values: np.ndarray, isamp: InterfaceSampler | None, side_values: np.ndarray, side,
                average: np.ndarray | None = None) -> np.ndarray:
     """``values`` (n_times, n_receptors) with the side's SED at the receptors on an interface.
@@ -392,6 +405,8 @@ def sided(sed, first, isamp, steps: list, side, *, stacklevel: int = 3):
         _check_material(first, side)
     if isamp is None:
         return sed
+    if side != SIDE_AVERAGE and isamp.receptor.size and first.location != "cell" and first.sides is None:
+        _refuse_inseparable(first, side, np.unique(isamp.receptor).size)
     side_values = np.concatenate([v for v, _ in steps])
     average = None if steps[0][1] is None else np.concatenate([a for _, a in steps])
     values = apply_side(sed.values, isamp, side_values, SIDE_AVERAGE, average)

@@ -26,9 +26,12 @@ from __future__ import annotations
 
 from ._typing import PathLike
 
+import warnings
 from pathlib import Path
 
 import numpy as np
+
+from .exceptions import AfferentWarning
 
 __all__ = ["INDENTERS", "MODELS", "FREQUENCIES_HZ", "measure_chapter4", "chapter4_findings", "CHAPTER4_CLAIMS"]
 
@@ -73,12 +76,16 @@ def _sites(path: Path):
 
 
 def _sample(export: Path, layout, side="average"):
-    """SED (Pa) at ``layout``'s sites, every step: array (n_t, n_sites); ``side`` as :func:`afferent.sample_sed`."""
+    """SED (Pa) at ``layout``'s sites, every step: array (n_t, n_sites); ``side`` as :func:`afferent.sample_sed` (a
+    material's side reads the export's cell data)."""
     from .io import read_sed
     from .sampling import sample_sed
 
-    field = read_sed(str(export), length_unit="mm", sed_unit="MPa")
-    return np.asarray(sample_sed(field, layout, side=side).values, dtype=float)
+    location = None if side == "average" else "cell"  # a material's side needs the cells' own values
+    field = read_sed(str(export), length_unit="mm", sed_unit="MPa", location=location)
+    with warnings.catch_warnings():  # the side is chosen (STUDY_SIDE): the sides' spread is no news here
+        warnings.filterwarnings("ignore", message=".*lie on an interface between materials", category=AfferentWarning)
+        return np.asarray(sample_sed(field, layout, side=side).values, dtype=float)
 
 
 def _series_file(folder: Path) -> Path:

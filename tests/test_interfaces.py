@@ -124,10 +124,15 @@ def test_nearest_on_cell_data_averages_the_cells_around_an_interface_receptor():
 
 
 def test_point_data_of_a_tool_cannot_tell_the_sides_apart():
+    """Averaged nodal values hold no side: asking for one is refused (it used to give the average, silently)."""
     lay = read_receptors(PACKAGED / "receptors.csv", length_unit="mm")
     nodal = read_sed(PACKAGED / "indent_0p88mm.vtu", length_unit="mm", sed_unit="MPa")
-    rep = _quiet(sample_sed, nodal, lay, side=2).interface
+    rep = _quiet(sample_sed, nodal, lay).interface
     assert rep["separable"] is False and rep["max_spread"] < 1e-12
+    with pytest.raises(ValueError, match=r"side=2 asks for material 2's SED at the 119 receptors on an interface between "
+                       r"materials, but the SED of SED file '.*indent_0p88mm.vtu' \(array 'SED'\) is point data with one "
+                       r"value per node.*Read cell data \(location='cell', --location cell"):
+        _quiet(sample_sed, nodal, lay, side=2)
 
 
 def test_streamed_steps_take_the_side_like_the_whole_series():
