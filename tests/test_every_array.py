@@ -19,7 +19,8 @@ The arrays each file declares are counted from the file itself, not by afferent'
   its 8-character result name (``RESU____DEPL`` -> ``DEPL``);
 - FEBio ``.xplt``: the ``<var type=...>`` list of the ``<plotfile>`` of the ``.feb`` input beside it
   (the binary plot file is FEBio's own format: its dictionary is what afferent parses; the input
-  says independently what FEBio was asked to write).
+  says independently what FEBio was asked to write);
+- VTKHDF: the dataset names under ``/VTKHDF/PointData`` and ``/VTKHDF/CellData`` (h5py).
 
 Tables (CSV and the text listings of CalculiX, Abaqus, COMSOL, MAPDL) are left out here: their
 "arrays" are header columns grouped into tensors by afferent's own name rules, which their own
@@ -49,7 +50,7 @@ _REFUSED = {"ngsolve/block_order3.vtu": "Lagrange cells of degree 3", "vtk/lagra
             "febio/block_hex8_shell.xplt": "shell elements",
             "exodus/plate_ioss.e": "a 2-D section: its element arrays are on the QUAD4 blocks afferent ignores"}
 _ENDINGS = (".vtk", ".vtu", ".pvtu", ".vtm", ".pvd", ".series", ".xdmf", ".frd", ".frd.gz", ".e", ".rmed", ".med",
-            ".xplt")
+            ".xplt", ".vtkhdf")
 
 
 def _files() -> list[str]:
@@ -226,6 +227,14 @@ def _med(path: str) -> set[tuple[str, str]]:
         return {(name, "any") for name in h.get("CHA", {})}
 
 
+def _vtkhdf(path: str) -> set[tuple[str, str]]:
+    import h5py
+
+    with h5py.File(path) as h:
+        return {(n, where) for group, where in (("PointData", "point"), ("CellData", "cell"))
+                for n in h["VTKHDF"].get(group, {})}
+
+
 def _xplt(path: str) -> set[tuple[str, str]]:
     feb = ET.parse(os.path.splitext(path)[0] + ".feb")
     return {(v.get("type"), "any") for p in feb.iter("plotfile") for v in p.iter("var")}
@@ -237,7 +246,7 @@ def declared(path: str) -> set[tuple[str, str]]:
         return declared(_series_first(path))
     ext = ".frd" if path.endswith(".frd.gz") else os.path.splitext(path)[1]
     return {".vtk": _legacy_vtk, ".vtu": _vtk_xml, ".pvtu": _vtk_xml, ".vtm": _vtm, ".xdmf": _xdmf, ".frd": _frd,
-            ".e": _exodus, ".rmed": _med, ".med": _med, ".xplt": _xplt}[ext](path)
+            ".e": _exodus, ".rmed": _med, ".med": _med, ".xplt": _xplt, ".vtkhdf": _vtkhdf}[ext](path)
 
 
 # -- what afferent info lists ---------------------------------------------------------------------------------------
@@ -255,7 +264,7 @@ FILES = _files()
 def test_the_mesh_test_files_cover_every_reader():
     kinds = {".frd" if f.endswith(".frd.gz") else os.path.splitext(f)[1] for f in FILES}
     assert kinds >= {".vtk", ".vtu", ".pvtu", ".vtm", ".pvd", ".series", ".xdmf", ".frd", ".e", ".rmed", ".med",
-                     ".xplt"}
+                     ".xplt", ".vtkhdf"}
     assert len(FILES) > 40
 
 

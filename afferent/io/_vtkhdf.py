@@ -58,9 +58,10 @@ class _File:
                                  f"{err}") from err
         self.root = self.h5.get("VTKHDF")
         if self.root is None:
+            names = sorted(self.h5)[:8]
             self.h5.close()
             raise SEDFormatError(f"SED file {path!r} is HDF5 without a '/VTKHDF' group: not a VTKHDF file "
-                                 f"(its top-level names: {sorted(self.h5)[:8]}).")
+                                 f"(its top-level names: {names}).")
 
     def has(self, name: str) -> bool:
         return name in self.root

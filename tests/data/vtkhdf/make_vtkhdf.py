@@ -9,10 +9,13 @@ and the step time t, so that a test can compare what afferent reads with the val
 - cell ``E`` = 10 + cell index, ``material`` (int32) = 1 for the hexahedra, 2 for the others.
 
 Files: ``block.vtkhdf`` (one step, no ``Steps`` group), ``block_steps.vtkhdf`` (three steps t = 0, 0.5,
-1 s from a temporal source, written with ``WriteAllTimeSteps``; the mesh is written once, the
-arrays per step), ``block_steps.vtkhdf.series`` is not written (the series tests build their own).
+1 s from a temporal source, written with ``WriteAllTimeSteps``: VTK writes the mesh again at each step),
+``block_external_steps.vtkhdf`` (the same with ``UseExternalTimeSteps``: each step in its own file
+``block_external_steps_<k>.vtkhdf``, the index's datasets HDF5 virtual datasets over them) and
+``steps.vtkhdf.series`` (a ParaView JSON file series over those step files, written by this script).
 """
 
+import json
 import os
 
 import numpy as np
@@ -99,6 +102,11 @@ def main() -> None:
         w.SetWriteAllTimeSteps(True)
         w.SetUseExternalTimeSteps(external)
         w.Write()
+    # the step files vtkHDFWriter wrote beside block_external_steps.vtkhdf, as a ParaView JSON file series
+    series = {"file-series-version": "1.0",
+              "files": [{"name": f"block_external_steps_{k}.vtkhdf", "time": t} for k, t in enumerate(TIMES)]}
+    with open(os.path.join(HERE, "steps.vtkhdf.series"), "w") as fh:
+        json.dump(series, fh, indent=1)
     print("VTK", vtkVersion.GetVTKVersion())
 
 
