@@ -20,7 +20,8 @@ The arrays each file declares are counted from the file itself, not by afferent'
 - FEBio ``.xplt``: the ``<var type=...>`` list of the ``<plotfile>`` of the ``.feb`` input beside it
   (the binary plot file is FEBio's own format: its dictionary is what afferent parses; the input
   says independently what FEBio was asked to write);
-- VTKHDF: the dataset names under ``/VTKHDF/PointData`` and ``/VTKHDF/CellData`` (h5py).
+- VTKHDF: the dataset names under ``/VTKHDF/PointData`` and ``/VTKHDF/CellData`` (h5py);
+- EnSight ``.case``: the description of each ``... per node:`` / ``... per element:`` variable line.
 
 Tables (CSV and the text listings of CalculiX, Abaqus, COMSOL, MAPDL) are left out here: their
 "arrays" are header columns grouped into tensors by afferent's own name rules, which their own
@@ -50,7 +51,7 @@ _REFUSED = {"ngsolve/block_order3.vtu": "Lagrange cells of degree 3", "vtk/lagra
             "febio/block_hex8_shell.xplt": "shell elements",
             "exodus/plate_ioss.e": "a 2-D section: its element arrays are on the QUAD4 blocks afferent ignores"}
 _ENDINGS = (".vtk", ".vtu", ".pvtu", ".vtm", ".pvd", ".series", ".xdmf", ".frd", ".frd.gz", ".e", ".rmed", ".med",
-            ".xplt", ".vtkhdf")
+            ".xplt", ".vtkhdf", ".case")
 
 
 def _files() -> list[str]:
@@ -235,6 +236,16 @@ def _vtkhdf(path: str) -> set[tuple[str, str]]:
                 for n in h["VTKHDF"].get(group, {})}
 
 
+def _case(path: str) -> set[tuple[str, str]]:
+    out = set()
+    with open(path) as fh:
+        for line in fh:
+            kind, _, rest = line.partition(":")
+            if " per node" in kind or " per element" in kind:
+                out.add((rest.split()[-2], "point" if " per node" in kind else "cell"))  # description, then file
+    return out
+
+
 def _xplt(path: str) -> set[tuple[str, str]]:
     feb = ET.parse(os.path.splitext(path)[0] + ".feb")
     return {(v.get("type"), "any") for p in feb.iter("plotfile") for v in p.iter("var")}
@@ -246,7 +257,7 @@ def declared(path: str) -> set[tuple[str, str]]:
         return declared(_series_first(path))
     ext = ".frd" if path.endswith(".frd.gz") else os.path.splitext(path)[1]
     return {".vtk": _legacy_vtk, ".vtu": _vtk_xml, ".pvtu": _vtk_xml, ".vtm": _vtm, ".xdmf": _xdmf, ".frd": _frd,
-            ".e": _exodus, ".rmed": _med, ".med": _med, ".xplt": _xplt, ".vtkhdf": _vtkhdf}[ext](path)
+            ".e": _exodus, ".rmed": _med, ".med": _med, ".xplt": _xplt, ".vtkhdf": _vtkhdf, ".case": _case}[ext](path)
 
 
 # -- what afferent info lists ---------------------------------------------------------------------------------------
@@ -264,7 +275,7 @@ FILES = _files()
 def test_the_mesh_test_files_cover_every_reader():
     kinds = {".frd" if f.endswith(".frd.gz") else os.path.splitext(f)[1] for f in FILES}
     assert kinds >= {".vtk", ".vtu", ".pvtu", ".vtm", ".pvd", ".series", ".xdmf", ".frd", ".e", ".rmed", ".med",
-                     ".xplt", ".vtkhdf"}
+                     ".xplt", ".vtkhdf", ".case"}
     assert len(FILES) > 40
 
 

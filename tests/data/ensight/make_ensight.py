@@ -52,6 +52,8 @@ def openfoam(case: str) -> None:
         subprocess.run(["foamToEnsight", "-case", case, *args], check=True, capture_output=True)
         shutil.rmtree(os.path.join(HERE, out), ignore_errors=True)
         shutil.move(os.path.join(case, "EnSight"), os.path.join(HERE, out))
+        named = [f for f in os.listdir(os.path.join(HERE, out)) if f.endswith(".case")]  # named after the case folder
+        os.rename(os.path.join(HERE, out, named[0]), os.path.join(HERE, out, "foam.case"))
 
 
 def vtk_case() -> None:
