@@ -23,6 +23,8 @@ The arrays each file declares are counted from the file itself, not by afferent'
 - Gmsh ``.msh``: the first string tag (the view's name) of each ``$NodeData``/``$ElementNodeData``
   (point) and ``$ElementData`` (cell) block, text in binary files too; ``.pos``: each ``View "name"``
   (point data, and ``name@cell``).
+- VTKHDF: the dataset names under ``/VTKHDF/PointData`` and ``/VTKHDF/CellData`` (h5py);
+- EnSight ``.case``: the description of each ``... per node:`` / ``... per element:`` variable line.
 
 Tables (CSV and the text listings of CalculiX, Abaqus, COMSOL, MAPDL) are left out here: their
 "arrays" are header columns grouped into tensors by afferent's own name rules, which their own
@@ -53,7 +55,7 @@ _REFUSED = {"ngsolve/block_order3.vtu": "Lagrange cells of degree 3", "vtk/lagra
             "exodus/plate_ioss.e": "a 2-D section: its element arrays are on the QUAD4 blocks afferent ignores",
             "gmsh/sed_without_mesh.msh": "a view without its mesh"}
 _ENDINGS = (".vtk", ".vtu", ".pvtu", ".vtm", ".pvd", ".series", ".xdmf", ".frd", ".frd.gz", ".e", ".rmed", ".med",
-            ".xplt", ".msh", ".pos")
+            ".xplt", ".msh", ".pos", ".vtkhdf", ".case")
 
 
 def _files() -> list[str]:
@@ -230,6 +232,24 @@ def _med(path: str) -> set[tuple[str, str]]:
         return {(name, "any") for name in h.get("CHA", {})}
 
 
+def _vtkhdf(path: str) -> set[tuple[str, str]]:
+    import h5py
+
+    with h5py.File(path) as h:
+        return {(n, where) for group, where in (("PointData", "point"), ("CellData", "cell"))
+                for n in h["VTKHDF"].get(group, {})}
+
+
+def _case(path: str) -> set[tuple[str, str]]:
+    out = set()
+    with open(path) as fh:
+        for line in fh:
+            kind, _, rest = line.partition(":")
+            if " per node" in kind or " per element" in kind:
+                out.add((rest.split()[-2], "point" if " per node" in kind else "cell"))  # description, then file
+    return out
+
+
 def _xplt(path: str) -> set[tuple[str, str]]:
     feb = ET.parse(os.path.splitext(path)[0] + ".feb")
     return {(v.get("type"), "any") for p in feb.iter("plotfile") for v in p.iter("var")}
@@ -255,7 +275,7 @@ def declared(path: str) -> set[tuple[str, str]]:
         return declared(_series_first(path))
     ext = ".frd" if path.endswith(".frd.gz") else os.path.splitext(path)[1]
     return {".vtk": _legacy_vtk, ".vtu": _vtk_xml, ".pvtu": _vtk_xml, ".vtm": _vtm, ".xdmf": _xdmf, ".frd": _frd,
-            ".e": _exodus, ".rmed": _med, ".med": _med, ".xplt": _xplt, ".msh": _msh, ".pos": _pos}[ext](path)
+            ".e": _exodus, ".rmed": _med, ".med": _med, ".xplt": _xplt, ".msh": _msh, ".pos": _pos, ".vtkhdf": _vtkhdf, ".case": _case}[ext](path)
 
 
 # -- what afferent info lists ---------------------------------------------------------------------------------------
@@ -273,7 +293,7 @@ FILES = _files()
 def test_the_mesh_test_files_cover_every_reader():
     kinds = {".frd" if f.endswith(".frd.gz") else os.path.splitext(f)[1] for f in FILES}
     assert kinds >= {".vtk", ".vtu", ".pvtu", ".vtm", ".pvd", ".series", ".xdmf", ".frd", ".e", ".rmed", ".med",
-                     ".xplt", ".msh", ".pos"}
+                     ".xplt", ".msh", ".pos", ".vtkhdf", ".case"}
     assert len(FILES) > 40
 
 

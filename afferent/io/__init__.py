@@ -55,7 +55,9 @@ FORMATS: dict[str, tuple[str, ...]] = {
     "vtk": (".vtk",),
     "pvtu": (".pvtu",),
     "vtm": (".vtm",),
-    "pvd": (".pvd", ".vtu.series", ".vtk.series", ".pvtu.series", ".vtm.series"),
+    "vtkhdf": (".vtkhdf",),
+    "ensight": (".case",),
+    "pvd": (".pvd", ".vtu.series", ".vtk.series", ".pvtu.series", ".vtm.series", ".vtkhdf.series"),
     "xdmf": (".xdmf", ".xmf"),
     "frd": (".frd", ".frd.gz"),
     "exodus": (".e", ".exo", ".ex2", ".g"),
@@ -201,7 +203,7 @@ def _read_raw(paths: list[str], format: str | None, progress: bool, allow: bool,
 
         return read_csv(paths if len(paths) > 1 else paths[0], progress=progress, **csv_kwargs)
     if len(paths) > 1:
-        if fmt in ("pvd", "xdmf", "frd", "exodus", "rst", "med", "xplt", "msh", "pos"):
+        if fmt in ("pvd", "xdmf", "frd", "exodus", "rst", "med", "xplt", "msh", "pos", "vtkhdf", "ensight"):
             raise SEDFormatError(f"Pass one .{fmt} file, not a list: it lists its own time steps ({paths!r}).")
         return _meshio.read_vtu_series(paths, progress=progress, allow=allow)
     if fmt == "pvd":
@@ -212,6 +214,14 @@ def _read_raw(paths: list[str], format: str | None, progress: bool, allow: bool,
         from ._ansys import read_rst
 
         return read_rst(paths[0], progress=progress)
+    if fmt == "ensight":
+        from ._ensight import read_ensight
+
+        return read_ensight(paths[0], progress=progress, scope=scope)
+    if fmt == "vtkhdf":
+        from ._vtkhdf import read_vtkhdf
+
+        return read_vtkhdf(paths[0], progress=progress, scope=scope)
     if fmt == "exodus":
         from ._exodus import read_exodus
 

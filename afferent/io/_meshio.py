@@ -52,7 +52,7 @@ def _read_meshio(path: str, opened: list | None = None, scope: Scope | None = No
         return _guarded(path, meshio.vtk.read), {}
     if kind == "xdmf":
         return _guarded(path, lambda p: read_single_grid(p, [] if opened is None else opened, scope)), {}
-    raise SEDFormatError(f"SED file {path!r} is not a .vtu, .vtk, .pvtu, .vtm or .xdmf file, the files afferent reads "
+    raise SEDFormatError(f"SED file {path!r} is not a .vtu, .vtk, .pvtu, .vtm, .vtkhdf or .xdmf file, the files afferent reads "
                          "as the steps of a series; name each step by its format.")
 
 
@@ -229,6 +229,14 @@ def read_mesh_file(path: str, *, scope: Scope | None = None, fmt: str | None = N
         from ._vtk import read_vtk_file
 
         return read_vtk_file(path, scope=scope)
+    if ext == ".vtkhdf":  # a step of a series: one time step
+        from ._vtkhdf import read_vtkhdf
+
+        raw = read_vtkhdf(path, scope=scope)
+        if raw.n_times > 1:
+            raise SEDFormatError(f"SED file {path!r} holds {raw.n_times} time steps; as a step of a series it must hold "
+                                 "one (name the file itself to read its steps).")
+        return replace(raw, times=None)
     side: list[str] = []  # the files meshio opened besides path (an XDMF's HDF5 and .bin files)
     try:
         mesh, names = _read_meshio(path, side, scope, fmt)  # names: the arrays' ComponentName attributes (a .vtu's)
@@ -396,12 +404,27 @@ def _series_entries(path: str) -> list[tuple[float | None, int, str]]:
     try:
         with open(path, encoding="utf-8") as fh:
             files = json.load(fh)["files"]
-        entries = [(None if f.get("time") is None else float(f["time"]), 0, str(f["name"])) for f in files]
-    except (ValueError, KeyError, TypeError, AttributeError) as err:
+        if not isinstance(files, list) or not all(isinstance(f, dict) for f in files):
+            raise TypeError("'files' must be a list of {name, time} objects")
+    except (ValueError, KeyError, TypeError) as err:
         raise SEDFormatError(f"SED file {path!r} is not a ParaView file series (JSON with files: [{{name, time}}]): "
                              f"{type(err).__name__}: {err}") from err
-    if not entries:
+    if not files:
         raise SEDFormatError(f"SED file {path!r} lists no files; expected a ParaView file series.")
+    entries = []
+    for k, f in enumerate(files):
+        name, t = f.get("name"), f.get("time")
+        if not isinstance(name, str):
+            raise SEDFormatError(f"SED file {path!r}: entry {k} must have a file name (\"name\": a string); got "
+                                 f"{name!r} instead.")
+        try:  # a number, or a number written as a string (as some writers do); not true/false
+            time = None if t is None else float(t) if not isinstance(t, bool) else math.nan
+        except (TypeError, ValueError):
+            time = math.nan
+        if time is not None and not math.isfinite(time):
+            raise SEDFormatError(f"SED file {path!r}: entry {k} ({name!r}) must have a finite number as its time; "
+                                 f"got {t!r} instead.")
+        entries.append((time, 0, name))
     return entries
 
 
@@ -445,6 +468,9 @@ def pvd_entries(path: str, scope: Scope | None = None) -> tuple[list[str], list[
     scope = scope or Scope.of(path)
     entries = [(t, part, resolve_member(path, f, what=f"the step file (entry {k})", scope=scope, must_exist=False))
                for k, (t, part, f) in enumerate(raw)]
+    from ._vtk import missing_members
+
+    missing_members(path, [e[2] for e in entries], "step")  # every entry checked before any is read
     if len({e[1] for e in entries}) > 1:
         raise SEDFormatError(f"SED file {path!r} has several parts per time step; afferent reads single-part series.")
     stated = [e[0] is not None for e in entries]
@@ -460,7 +486,7 @@ def pvd_entries(path: str, scope: Scope | None = None) -> tuple[list[str], list[
         k = next(i for i, (a, b) in enumerate(zip(times, times[1:])) if b <= a)
         raise SEDFormatError(
             f"SED file {path!r}: timesteps must be strictly increasing; got {times[k]!r} followed by "
-            f"{times[k + 1]!r} (DataSets {k} and {k + 1}) instead."
+            f"{times[k + 1]!r} ({'entries' if path.lower().endswith('.series') else 'DataSets'} {k} and {k + 1}) instead."
         )
     return [e[2] for e in entries], times
 

@@ -475,11 +475,29 @@ def read_vtk_file(path: str, *, meshio_error: Exception | None = None, plan: Mer
                          files=_member_files(path, scope))
 
 
+def missing_members(index: str, members: list[str], what: str) -> None:
+    """Refuse an index file (a ``.vtm``, a ``.pvd``, a JSON ``.series``) that lists files that do not exist,
+    naming each (up to 10) and how many there are, before anything is read.
+
+    Raises
+    ------
+    FileNotFoundError
+        ``"SED file '<index>' lists 2 of its 5 <what> files that do not exist: 'a' (entry 1), 'b' (entry 3)."``
+    """
+    gone = [(k, m) for k, m in enumerate(members) if not os.path.lexists(m)]
+    if not gone:
+        return
+    named = ", ".join(f"{m!r} (entry {k})" for k, m in gone[:10]) + (f" and {len(gone) - 10} more" if len(gone) > 10 else "")
+    raise FileNotFoundError(f"SED file {index!r} lists {len(gone)} of its {len(members)} {what} files that do not "
+                            f"exist: {named}.")
+
+
 def _member_files(path: str, scope: Scope | None = None, _within: tuple = ()) -> tuple[str, ...]:
     """Every file VTK opens for ``path``: the file, a .pvtu's pieces, a .vtm's block files (recursively), each
     resolved in ``scope`` (:func:`afferent.io._files.resolve_member`: inside the folder of the file named, a
-    regular file); a block file missing is left to VTK (it reads the others), a piece missing is refused; a
-    file that lists itself, directly or through others, is refused."""
+    regular file); a piece or block file missing is refused, the error naming every missing one before VTK opens
+    any (VTK's own error names the first and reads as a corrupt file); a file that lists itself, directly or
+    through others, is refused."""
     scope = scope or Scope.of(path)
     within = _within + (os.path.realpath(path),)
     if len(within) > MAX_DEPTH:
@@ -490,6 +508,7 @@ def _member_files(path: str, scope: Scope | None = None, _within: tuple = ()) ->
     elif ext == ".vtm":  # VTK's multiblock reader opens each <DataSet file=...>, relative to the .vtm
         entries = [e.get("file") for e in parse_xml(path, ".vtm").iter("DataSet") if e.get("file")]
         members = [resolve_member(path, f, what="the block", scope=scope, must_exist=False) for f in entries]
+        missing_members(path, members, "block")
     else:
         members = []
     for m in members:
