@@ -72,21 +72,33 @@ def test_read_sed_gives_si_values_and_lists_the_external_step_files():
     assert {f"block_external_steps_{k}.vtkhdf" for k in range(3)} <= set(names)
 
 
-def test_virtual_dataset_files_outside_the_folder_are_refused(tmp_path):
-    """vtkHDFWriter's UseExternalTimeSteps stores the values in other files through HDF5 virtual datasets:
-    moved into a sub-folder, the index points up to files outside its folder."""
-    for k in range(3):
-        shutil.copy(os.path.join(DATA, f"block_external_steps_{k}.vtkhdf"), tmp_path)
-    (tmp_path / "sub").mkdir()
-    index = tmp_path / "sub" / "index.vtkhdf"
+def test_virtual_dataset_files_outside_the_folder_are_refused(tmp_path, monkeypatch):
+    """vtkHDFWriter's UseExternalTimeSteps stores the values in other files through HDF5 virtual datasets, their
+    sources named as the writer was given the file: given an absolute name it writes absolute sources, and the
+    index moved to another folder then reads values from files outside its own."""
+    pytest.importorskip("vtkmodules")
+    import importlib.util
+
     import h5py
 
-    with h5py.File(os.path.join(DATA, "block_external_steps.vtkhdf")) as src, h5py.File(index, "w") as dst:
-        src.copy("VTKHDF", dst)  # h5py copies the virtual layout, source names as written ("block_external_steps_0...")
+    spec = importlib.util.spec_from_file_location("make_vtkhdf", os.path.join(DATA, "make_vtkhdf.py"))
+    make = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(make)
+    (tmp_path / "written").mkdir()
+    (tmp_path / "moved").mkdir()
+    source = make.Temporal()
+    w = make.writer(str(tmp_path / "written" / "index.vtkhdf"))  # an absolute name, as a script or ParaView gives it
+    w.SetInputConnection(source.GetOutputPort())
+    w.SetWriteAllTimeSteps(True)
+    w.SetUseExternalTimeSteps(True)
+    w.Write()
+    index = tmp_path / "moved" / "index.vtkhdf"
+    shutil.move(tmp_path / "written" / "index.vtkhdf", index)
     with h5py.File(index, "r") as h:
         assert h["VTKHDF/Points"].is_virtual
-    with pytest.raises(SEDFormatError, match=r"points to the source of HDF5 virtual dataset .*outside the folder of "
-                                             r"the export .*allow_outside_files=True"):
+        assert os.path.isabs(h["VTKHDF/Points"].virtual_sources()[0].file_name)
+    with pytest.raises(SEDFormatError, match=r"points to the source of HDF5 virtual dataset .*written.*outside the folder "
+                                             r"of the export .*allow_outside_files=True"):
         read_raw(str(index))
 
 

@@ -87,11 +87,12 @@ class Temporal(VTKPythonAlgorithmBase):
 def writer(name: str) -> vtkHDFWriter:
     w = vtkHDFWriter()
     w.SetChunkSize(64)  # the default (25,000 rows a chunk) makes a 3 MB file of this small mesh
-    w.SetFileName(os.path.join(HERE, name))
+    w.SetFileName(name)  # relative (run in HERE): the index's virtual datasets then name their step files relatively
     return w
 
 
 def main() -> None:
+    os.chdir(HERE)
     w = writer("block.vtkhdf")
     w.SetInputData(grid(0.25))
     w.Write()
