@@ -318,7 +318,8 @@ def apply_side(values: np.ndarray, isamp: InterfaceSampler | None, side_values: 
 
 def interface_report(field, layout, isamp: InterfaceSampler | None, values: np.ndarray, side_values: np.ndarray,
                      side, *, warn: bool = True) -> dict | None:
-    """What the interface does to the receptors' SED, for the run record; warns when the sides differ a lot.
+    """What the interface does to the receptors' SED, for the run record; warns when the sides differ a lot and no
+    side was chosen (``side='average'``).
 
     Parameters
     ----------
@@ -369,16 +370,15 @@ def interface_report(field, layout, isamp: InterfaceSampler | None, values: np.n
         "median_spread": float(np.median(spreads)) if per else 0.0, "max_spread": float(spreads.max()) if per else 0.0,
         "warn_above": INTERFACE_SPREAD_WARN, "receptors": per,
     }
-    if warn and per and report["max_spread"] > INTERFACE_SPREAD_WARN:
+    if warn and per and report["max_spread"] > INTERFACE_SPREAD_WARN and side == SIDE_AVERAGE:  # a chosen side: no news
         worst = per[int(np.argmax(spreads))]
         warnings.warn(
             f"{len(per)} of {layout.n_receptors} receptors lie on an interface between materials "
             f"({', '.join(f'{k}: {v}' for k, v in interfaces.items())}; array {report['material_array']!r}), where the SED of "
             f"the sides differs by a median {report['median_spread']:.2g} and up to {report['max_spread']:.2g} x their mean "
             f"(receptor {worst['receptor']!r}: {', '.join(f'material {m} {v:.4g}' for m, v in worst['sed_pa'].items())} J/m^3; "
-            f"warned above {INTERFACE_SPREAD_WARN:g}). Using side={side!r}"
-            + (" (the average across the materials)" if side == SIDE_AVERAGE else "")
-            + "; choose a material with side=ID where the ending sits on one side (Meissner corpuscles: the dermis).",
+            f"warned above {INTERFACE_SPREAD_WARN:g}). Using side={side!r} (the average across the materials); choose a "
+            "material with side=ID where the ending sits on one side (Meissner corpuscles: the dermis).",
             AfferentWarning, stacklevel=3)
     return report
 

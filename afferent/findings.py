@@ -26,12 +26,9 @@ from __future__ import annotations
 
 from ._typing import PathLike
 
-import warnings
 from pathlib import Path
 
 import numpy as np
-
-from .exceptions import AfferentWarning
 
 __all__ = ["INDENTERS", "MODELS", "FREQUENCIES_HZ", "measure_chapter4", "chapter4_findings", "CHAPTER4_CLAIMS"]
 
@@ -83,9 +80,7 @@ def _sample(export: Path, layout, side="average"):
 
     location = None if side == "average" else "cell"  # a material's side needs the cells' own values
     field = read_sed(str(export), length_unit="mm", sed_unit="MPa", location=location)
-    with warnings.catch_warnings():  # the side is chosen (STUDY_SIDE): the sides' spread is no news here
-        warnings.filterwarnings("ignore", message=".*lie on an interface between materials", category=AfferentWarning)
-        return np.asarray(sample_sed(field, layout, side=side).values, dtype=float)
+    return np.asarray(sample_sed(field, layout, side=side).values, dtype=float)
 
 
 def _series_file(folder: Path) -> Path:
