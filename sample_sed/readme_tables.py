@@ -98,6 +98,22 @@ def mesh_check_table(edges, face) -> list[str]:
     return rows
 
 
+def chapter4_solves_table(info) -> list[str]:
+    """Per model and indenter (``chapter4/build_info.json``): force, CG iterations, solve time, the SED at both tables."""
+    rows = ["| model | indenter | force (N) | CG its | solve (s) | RA-I table SED min / median / max (Pa), max at (dx, dz) mm "
+            "| SA-I table SED min / median / max (Pa), max at (dx, dz) mm |", "|---|---|---|---|---|---|---|"]
+    for model, m in info["models"].items():
+        for name, c in m["cases"].items():
+            cells = []
+            for key in ("ra_table", "sa_table"):
+                t = c[key]
+                dx, dz = t["max_at_dx_dz_mm"]
+                cells.append(f"{t['min_Pa']:.1f} / {t['median_Pa']:.1f} / {t['max_Pa']:.1f} at ({dx:+.2f}, {dz:+.2f})")
+            rows.append(f"| {model.upper()[0]}-D | {name} | {c['punch_force_N']:.4f} | {c['cg_iterations']} | "
+                        f"{c['solve_s']:.0f} | {cells[0]} | {cells[1]} |")
+    return rows
+
+
 def chapter4_findings_table(sample: Path = HERE) -> list[str]:
     """Every chapter-4 headline claim on ``chapter4/`` and ``vibration/``, as ``afferent demo`` writes it into
     findings.csv (``afferent.findings``: the package's readers and the one rule per claim)."""
@@ -115,7 +131,9 @@ def all_tables(edges=None, face=None) -> dict[str, list[str]]:
     face = face or json.loads((HERE / "build_info_bottom_face.json").read_text())
     return {"receptor SED": receptor_table(edges), "interchange zone": interchange_table(edges),
             "loading ramp": ramp_table(edges), "bottom face -> bottom edges": comparison_table(edges, face),
-            "mesh check": mesh_check_table(edges, face), "chapter 4 findings": chapter4_findings_table(),
+            "mesh check": mesh_check_table(edges, face),
+            "chapter 4 solves": chapter4_solves_table(json.loads((HERE / "chapter4" / "build_info.json").read_text())),
+            "chapter 4 findings": chapter4_findings_table(),
             "chapter 4 reasons": chapter4_reasons.ratio_rows(json.loads(chapter4_reasons.RESULT.read_text()))}
 
 

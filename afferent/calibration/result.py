@@ -31,6 +31,11 @@ from .conditioning import IDENTIFIABLE_COND, identifiability
 
 __all__ = ["STATUSES", "CalibrationResult", "finish"]
 
+#: The calibration methods (:data:`afferent.calibration.METHODS`, documented there).
+CalibrationMethod = Literal["rsm1", "rsm2", "least_squares"]
+#: How a calibration can end (:data:`STATUSES`).
+Status = Literal["converged", "flat", "max_iter"]
+
 #: How a calibration can end (``CalibrationResult.status``), and what each means:
 #:
 #: - ``'converged'``: RSM - an iteration lowered the ssd by at most ``tol`` (relative); least
@@ -41,9 +46,6 @@ __all__ = ["STATUSES", "CalibrationResult", "finish"]
 #:   the last base point (finite), not a fit.
 #: - ``'max_iter'``: the budget ran out (RSM: ``max_iter`` iterations; least squares: scipy's
 #:   ``max_nfev`` evaluations) while the ssd was still decreasing.
-#: The calibration methods (:data:`afferent.calibration.METHODS`, documented there).
-CalibrationMethod = Literal["rsm1", "rsm2", "least_squares"]
-Status = Literal["converged", "flat", "max_iter"]
 STATUSES: tuple[str, ...] = get_args(Status)
 
 
