@@ -294,7 +294,7 @@ def _refuse_inseparable(field, side: int, n_on: int) -> None:
         f"side={side!r} asks for material {side}'s SED at the {n_on} receptors on an interface between materials, but "
         f"the SED{of}{f' (array {array!r})' if array else ''} is point data with one value per node, shared by the "
         "materials that meet there (the FE tool averaged them before export): the sides cannot be told apart. Read "
-        "cell data (location='cell', --location cell, [export] location = \"cell\") or per-element node output, or use "
+        "cell data (location='cell'; a scene: [export] location = \"cell\") or per-element node output, or use "
         "side='average'.")
 
 
@@ -439,10 +439,11 @@ def interface_lines(field, layout, *, method: str = "linear") -> list[str]:
             return lines
         lines.append(f"  {'sides':<12} the sides' SED differs by a median {100 * rep['median_spread']:.3g} %, up to "
                      f"{100 * rep['max_spread']:.3g} % of their mean (warned above {100 * INTERFACE_SPREAD_WARN:g} %)")
-        if not rep["separable"]:
-            lines.append(f"  {'':<12} point data: the materials share the tool's nodal values (averaged across them), so a "
-                         "side changes little; read cell data (--location cell) to tell the sides apart")
         lines.append(f"  {'side':<12} 'average' (default): {method} sampling, averaged across the materials at the interface")
+        if not rep["separable"]:
+            return lines + [f"  {'':<12} point data: the materials share the tool's nodal values (averaged across them), so "
+                            "a material's side cannot be told (--side ID is refused); read cell data (--location cell) "
+                            "to tell the sides apart"]
         on = np.flatnonzero([len(m) > 1 for m in _materials_at(rep, layout)])
         steps = np.array([p["step"] for p in rep["receptors"]])
         for m in rep["materials"]:

@@ -134,7 +134,7 @@ def test_point_data_of_a_tool_cannot_tell_the_sides_apart():
     assert rep["separable"] is False and rep["max_spread"] < 1e-12
     with pytest.raises(ValueError, match=r"side=2 asks for material 2's SED at the 119 receptors on an interface between "
                        r"materials, but the SED of SED file '.*indent_0p88mm.vtu' \(array 'SED'\) is point data with one "
-                       r"value per node.*Read cell data \(location='cell', --location cell"):
+                       r"value per node.*Read cell data \(location='cell'; a scene: \[export\] location = \"cell\"\)"):
         _quiet(sample_sed, nodal, lay, side=2)
 
 

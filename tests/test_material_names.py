@@ -31,7 +31,7 @@ def _renamed(tmp_path: Path, name: str) -> Path:
 
 def _sample(export: Path, out: Path, *extra) -> int:
     return main(["sample", str(export), "--receptors", str(SITES), "--length-unit", "mm", "--sed-unit", "MPa",
-                 "--side", "2", "-q", "-o", str(out), *extra])
+                 "--side", "2", "--location", "cell", "-q", "-o", str(out), *extra])
 
 
 @pytest.fixture(scope="module")
