@@ -234,10 +234,10 @@ def report(rows: list[dict], markdown: bool, command: str) -> str:
     from afferent import __version__
 
     vtk = importlib.util.find_spec("vtkmodules") is not None
-    lines = [f"$ {command}",
-             f"afferent {__version__}, Python {platform.python_version()}, {platform.machine()}, "
-             f"{os.cpu_count()} CPUs{', VTK installed' if vtk else ', no VTK'}; times: wall ms, first read in a "
-             "fresh process (reader imports included) / median of the next reads", ""]
+    said = (f"afferent {__version__}, Python {platform.python_version()}, {platform.machine()}, {os.cpu_count()} CPUs"
+            f" (load average {os.getloadavg()[0]:.1f} at the end){', VTK installed' if vtk else ', no VTK'}; times: wall ms, first read in a fresh process (reader imports "
+            "included) / median of the next reads")
+    lines = [f"Measured with `{command}` ({said}):" if markdown else f"$ {command}\n{said}", ""]
     head = ("folder", "file", "tool", "format", "first ms", "median ms", "default install")
     body = []
     for r in rows:
@@ -266,6 +266,9 @@ def report(rows: list[dict], markdown: bool, command: str) -> str:
         lines.append(f"Needs [{extra}]: {len(names)} file(s): {', '.join(names)}.")
     failures = [r["file"] for r in rows if _verdict(r).startswith("FAILS")]
     lines.append(f"Failures: {', '.join(failures) if failures else 'none'}.")
+    if markdown:  # the summary as a list
+        at = len(lines) - lines[::-1].index("")
+        lines[at:] = ["- " + line for line in lines[at:]]
     return "\n".join(lines)
 
 

@@ -137,6 +137,19 @@ def test_the_benchmark_names_the_tools_the_data_readmes_name():
             assert said in readme.read_text(encoding="utf-8"), f"{readme} does not say {said!r} ({tool})"
 
 
+def test_the_docs_table_of_test_files_lists_every_file_the_benchmark_reads():
+    """docs/fe-export.md's "Which install reads which test file" is the benchmark's output: a test file added,
+    renamed or removed without regenerating it shows here."""
+    doc = (ROOT / "docs" / "fe-export.md").read_text(encoding="utf-8")
+    section = doc.split("## Which install reads which test file", 1)[1].split("\n## ", 1)[0]
+    listed = {f"{m.group(1)}/{m.group(2).removesuffix(' (imitation)')}"
+              for m in re.finditer(r"^\| ([^|]+?) \| ([^|]+?) \|", section, re.M) if m.group(1) not in ("folder", "---")}
+    bench = _bench()
+    files = {bench._rel(path) for path, _, _ in bench.test_files()}
+    shipped = {f for f in listed | files if f.startswith("ansys-mapdl-reader/")}  # there when ansys-mapdl-reader is
+    assert listed - shipped == files - shipped and len(files) > 100
+
+
 def _read_by_default(paths: list[str]) -> list[str | None]:
     """For each file, None if the default install reads it, else the extra its error names."""
     import json
