@@ -13,6 +13,7 @@ section or link that does not exist (a README section that moved, a renamed head
 
 from __future__ import annotations
 
+import importlib.util
 import re
 import shlex
 import warnings
@@ -93,6 +94,108 @@ def test_each_tool_row_reads_its_test_file_with_its_flags(tool, export, flags, e
         warnings.simplefilter("ignore")  # negative nodal SED, coincident copies, ...: the rows' files show them
         field = afferent.read_sed(first, **input_kwargs(args))
     assert field.sed.size > 0 and np.all(np.isfinite(field.sed))
+
+
+# ------------------------------------------------------------------ each format and the extra it needs
+#: One real-tool test file (under tests/data) per format of afferent.io.FORMATS, read in a child process that can
+#: import only the default install (benchmarks/read_test_files.py's); "rst": ansys-mapdl-reader's example file.
+FORMAT_FILES = {"csv": "calculix/block_c3d8.dat", "vtu": "ngsolve/block.vtu", "vtk": "sfepy/block.vtk",
+                "pvtu": "dealii/block_00.pvtu", "vtm": "kratos/vtu/Structure_1.vtm", "vtkhdf": "vtkhdf/block.vtkhdf",
+                "ensight": "ensight/openfoam_binary/foam.case", "pvd": "ngsolve/block.pvd", "xdmf": "dolfinx/block.xdmf",
+                "frd": "calculix/block_c3d8.frd", "exodus": "exodus/layers_ioss.e", "rst": None,
+                "med": "med/block_hexa.rmed", "xplt": "febio/block_hex8.xplt", "msh": "gmsh/block_v41_ascii.msh",
+                "pos": "gmsh/block_views.pos"}
+#: A format the default install reads only in part: a second file, which needs an extra.
+PARTLY = {"vtk": "freefem/block_point.vtk"}
+#: Names of a format besides its file-name endings (afferent.io.FORMATS).
+ALIASES = {"csv": "CSV", "vtu": "VTU", "pvd": "PVD", "xdmf": "XDMF", "exodus": "Exodus", "ensight": "EnSight",
+           "vtkhdf": "VTKHDF", "med": "MED"}
+
+
+def _names(text: str, fmt: str) -> bool:
+    """Whether ``text`` names the format ``fmt``: one of its endings, or its name."""
+    from afferent.io import FORMATS
+
+    endings = "|".join(re.escape(e) for e in FORMATS[fmt])
+    alias = rf"|\b{ALIASES[fmt]}\b" if fmt in ALIASES else ""
+    return re.search(rf"(?<![\w.])(?:{endings})(?!\w|\.\w){alias}", text) is not None
+
+
+def _bench():
+    """benchmarks/read_test_files.py as a module."""
+    spec = importlib.util.spec_from_file_location("_read_test_files", ROOT / "benchmarks" / "read_test_files.py")
+    bench = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(bench)
+    return bench
+
+
+def test_the_benchmark_names_the_tools_the_data_readmes_name():
+    """Each tool and version benchmarks/read_test_files.py prints is one the folder's README.md states."""
+    for key, (tool, said) in _bench().TOOLS.items():
+        readme = ROOT / "tests" / "data" / key.split("/")[0] / "README.md"
+        if said:
+            assert said in readme.read_text(encoding="utf-8"), f"{readme} does not say {said!r} ({tool})"
+
+
+def test_the_docs_table_of_test_files_lists_every_file_the_benchmark_reads():
+    """docs/fe-export.md's "Which install reads which test file" is the benchmark's output: a test file added,
+    renamed or removed without regenerating it shows here."""
+    doc = (ROOT / "docs" / "fe-export.md").read_text(encoding="utf-8")
+    section = doc.split("## Which install reads which test file", 1)[1].split("\n## ", 1)[0]
+    listed = {f"{m.group(1)}/{m.group(2).removesuffix(' (imitation)')}"
+              for m in re.finditer(r"^\| ([^|]+?) \| ([^|]+?) \|", section, re.M) if m.group(1) not in ("folder", "---")}
+    bench = _bench()
+    files = {bench._rel(path) for path, _, _ in bench.test_files()}
+    shipped = {f for f in listed | files if f.startswith("ansys-mapdl-reader/")}  # there when ansys-mapdl-reader is
+    assert listed - shipped == files - shipped and len(files) > 100
+
+
+def _read_by_default(paths: list[str]) -> list[str | None]:
+    """For each file, None if the default install reads it, else the extra its error names."""
+    import json
+
+    bench = _bench()
+    job = json.dumps({"paths": paths, "allowed": sorted(bench.default_modules())})
+    got = [json.loads(line) for line in bench._child(["--child-default"], job).splitlines()]
+    assert all(g["ok"] or g["extra"] for g in got), [g for g in got if not g["ok"] and not g["extra"]]
+    return [None if g["ok"] else g["extra"] for g in got]
+
+
+def test_the_readme_names_each_format_with_the_extra_the_default_install_lacks():
+    """Measured, not declared: each format's test file is read where only the default install can be imported;
+    the README's install lines, its sentence on the default install and its per-tool table must agree."""
+    from afferent.io import FORMATS
+
+    ansys = importlib.util.find_spec("ansys.mapdl.reader")
+    if ansys is None:
+        pytest.skip("the ANSYS .rst example comes with ansys-mapdl-reader (the test extra)")
+    rst = str(Path(ansys.origin).parent / "examples" / "file.rst")
+    assert set(FORMAT_FILES) == set(FORMATS), "a new format needs a test file here"
+    paths = [str(ROOT / "tests" / "data" / f) if f else rst for f in [*FORMAT_FILES.values(), *PARTLY.values()]]
+    extras = _read_by_default(paths)
+    always = dict(zip(FORMAT_FILES, extras))
+    partly = dict(zip(PARTLY, extras[len(FORMAT_FILES):]))
+    assert set(always.values()) - {None} and None in always.values()  # both kinds, or the child measured nothing
+    install = _section(TEXT, "Quick start").split("### Install", 1)[1]
+    lines = {m.group(1): m.group(2) for m in re.finditer(r"^pip install 'afferent-skin\[(\w+)\]'\s+# (.*)$", install, re.M)}
+    default = re.search(r"The default install reads every other format \((.*?)\)", " ".join(install.split())).group(1)
+    for fmt in FORMATS:
+        for extra in {always[fmt], partly.get(fmt)} - {None}:
+            assert _names(lines[extra], fmt), f"the README's `[{extra}]` install line does not name {fmt}"
+        if always[fmt] is None:
+            assert _names(default, fmt), f"the README's sentence on the default install does not name {fmt}"
+        else:
+            assert not _names(default, fmt), f"the README says the default install reads {fmt}; it needs [{always[fmt]}]"
+        rows = [export for _, export, _, _ in TOOL_ROWS if _names(export, fmt)]
+        assert rows, f"no row of the README's per-tool table names {fmt}"
+        for export in rows if always[fmt] else ():
+            assert f"extra `{always[fmt]}`" in export, f"the row '{export}' names {fmt} but not its extra [{always[fmt]}]"
+
+
+def test_format_names_are_found_where_they_are_and_only_there():
+    assert _names("`.vtk` cell data", "vtk") and _names("the legacy .vtk files, and", "vtk")
+    assert not _names("`.vtkhdf`", "vtk") and not _names("a `.vtk.series`", "vtk") and not _names("i.e. e.g.", "exodus")
+    assert _names("`.rmed`/`.med`", "med") and _names("VTU/`.vtm` output", "vtu") and not _names("VTUS", "vtu")
 
 
 # ------------------------------------------------------------------ the Python example

@@ -15,7 +15,8 @@ that parts share (OpenFOAM writes each boundary patch as its own part, on copies
 where their values agree (:func:`afferent.io._vtk._merged_mesh`, as a ``.pvtu``'s pieces). Arrays keep the
 case file's variable names; a ``tensor symm`` arrives in VTK's order XX YY ZZ XY YZ XZ (VTK maps EnSight's
 11 22 33 12 13 23). The ``time values`` are the file's times, in the model's unit. A pure-Python reader
-for the default install is not written yet: the ``vtk`` extra is needed (``pip install 'afferent-skin[vtk]'``).
+for the default install is not written: the ``vtk`` extra is needed (``pip install 'afferent-skin[vtk]'``); why
+(the pure-Python ``ensight-reader`` reads C Binary cases only): docs/fe-export.md, "Which install reads which test file".
 """
 
 from __future__ import annotations
