@@ -68,6 +68,9 @@ bench: $(VENV)/.installed-test
 samples: $(VENV)/.installed
 	$(BIN)/python -m pip install --quiet -e ".[samples]"
 	$(BIN)/python sample_sed/make_samples.py
+	$(BIN)/python sample_sed/make_chapter4.py
+	$(BIN)/python sample_sed/make_vibration.py
+	$(BIN)/python sample_sed/make_samples.py --packaged
 
 clean:
 	rm -rf $(VENV) $(NEWEST_VENV) results .pytest_cache
