@@ -73,14 +73,17 @@ def _sites(path: Path):
 
 
 def _sample(export: Path, layout, side="average"):
-    """SED (Pa) at ``layout``'s sites, every step: array (n_t, n_sites); ``side`` as :func:`afferent.sample_sed` (a
-    material's side reads the export's cell data)."""
+    """:func:`afferent.sample_sed` at ``layout``'s sites (``.times`` s, ``.values`` SED in Pa, (n_t, n_sites));
+    ``side`` as there.
+
+    A material ``side`` reads the export's **cell** SED (``location='cell'``): the samples carry a nodal SED too,
+    averaged across the materials, on which a material's side cannot be told (refused)."""
     from .io import read_sed
     from .sampling import sample_sed
 
-    location = None if side == "average" else "cell"  # a material's side needs the cells' own values
-    field = read_sed(str(export), length_unit="mm", sed_unit="MPa", location=location)
-    return np.asarray(sample_sed(field, layout, side=side).values, dtype=float)
+    cell = side != "average"
+    field = read_sed(str(export), length_unit="mm", sed_unit="MPa", location="cell" if cell else None)
+    return sample_sed(field, layout, side=side)
 
 
 def _series_file(folder: Path) -> Path:
@@ -101,7 +104,7 @@ def measure_chapter4(sample: PathLike) -> dict | None:
         dermis side (``STUDY_SIDE``)};
         ``pos``: {(model, kind): site (x, z) in mm from the indenter centre (the RA-I table's centre)};
         ``vibration`` (absent without ``vibration/``): {model: {frequency Hz: (SED Pa at the site at the first
-        deepest point, at the last deepest point)}}, the site chosen as ``afferent cycles`` does
+        deepest point, at the last deepest point)}}, the dermis side (``STUDY_SIDE``), the site chosen as ``afferent cycles`` does
         (:func:`afferent.cycles.cycle_table`: largest SED at the last deepest point within
         ``VIBRATION_EDGE_MM`` (0.22 mm) of the plane's outline).
     """
@@ -120,7 +123,8 @@ def measure_chapter4(sample: PathLike) -> dict | None:
                 centre = xz.mean(axis=0)
             pos[(model, kind)] = xz - centre
             for ind in INDENTERS:
-                maps[(model, kind, ind)] = _sample(sample / "chapter4" / folder / f"{ind}.vtu", layout, STUDY_SIDE)[-1]
+                maps[(model, kind, ind)] = np.asarray(_sample(sample / "chapter4" / folder / f"{ind}.vtu", layout,
+                                                           STUDY_SIDE).values, dtype=float)[-1]
     out = {"maps": maps, "pos": pos, "centre_mm": [float(c) for c in centre]}
     vib = sample / "vibration"
     if vib.is_dir():
@@ -132,12 +136,10 @@ def measure_chapter4(sample: PathLike) -> dict | None:
         for model in MODELS:
             per = {}
             for f in FREQUENCIES_HZ:
-                from .io import read_sed
-                from .sampling import sample_sed
-
-                sed = sample_sed(read_sed(str(_series_file(vib / f"{model}_{f}Hz")), length_unit="mm", sed_unit="MPa"),
-                                 layout)
-                table, _ = cycle_table(sed.times, sed.values, f, positions_m=p, candidates=cand)
+                series = _series_file(vib / f"{model}_{f}Hz")
+                sed = _sample(series, layout, STUDY_SIDE)
+                table, _ = cycle_table(sed.times, np.asarray(sed.values, dtype=float), f, positions_m=p,
+                                       candidates=cand)
                 per[f] = (float(table["sed_pa"].iloc[0]), float(table["sed_pa"].iloc[-1]))
             out["vibration"][model] = per
     return out

@@ -962,10 +962,11 @@ def write_packaged_chapter4(src: Path, dst: Path) -> dict:
       RA-I and SA-I sites of its tables (``ra_sites.csv``, ``sa_sites.csv``, copied);
     * ``vibration/``: ``receptors.csv`` copied; each series ``{3d,2d}_{f}Hz/vib.pvd`` (one VTU per step)
       becomes one XDMF time series ``vib.xdmf`` + ``vib.h5`` (meshio's TimeSeriesWriter) holding, for every
-      step, the point ``SED`` of **one hexahedron per tip** (the first in the mesh's order with that tip among
-      its corners) and of its nodes: the SED at a tip node is copied, so sampling at the tips ('linear' or
-      'nearest', point values) sees what it sees in the full series; 8 hexahedra per tip would not fit the
-      wheel's size. The PVD's step times are kept.
+      step, the cell ``SED`` and cell ``layer`` of the **8 hexahedra around each tip** (every hexahedron of the
+      cropped series) and no point SED: sampling at a tip, on the dermis side (``side=2``, what
+      afferent.findings reads) or averaged across the layers (cell SED averaged to the nodes by volume), sees
+      the cells it sees in the full series; the point SED on these hexahedra' nodes would more than double
+      the size. The PVD's step times are kept.
 
     Returns {folder: (hexahedra kept, of, nodes kept, of)} of the first file of each folder.
     """
@@ -1001,22 +1002,22 @@ def write_packaged_chapter4(src: Path, dst: Path) -> dict:
         first = meshio.read(series / steps[0][1])
         tips = receptor_nodes(first.points, vib / "receptors.csv")
         hexes = first.cells[0].data
-        one = np.array([int(np.flatnonzero((hexes == t).any(axis=1))[0]) for t in tips])
-        used = np.unique(hexes[one])
-        index = np.full(len(first.points), -1, dtype=np.int64)
-        index[used] = np.arange(used.size)
+        if not {"SED", "layer"} <= set(first.cell_data):
+            raise ValueError(f"{series / steps[0][1]}: expected cell data 'SED' and 'layer' (make_vibration.py "
+                             f"writes them); got {sorted(first.cell_data)}")
+        around = np.flatnonzero(np.isin(hexes, tips).any(axis=1))
         out = dst / "vibration" / series.name
         out.mkdir()
         os.chdir(out)  # meshio names the .h5 relative to the working folder
         try:
             with meshio.xdmf.TimeSeriesWriter("vib.xdmf") as w:
-                w.write_points_cells(first.points[used], [("hexahedron", index[hexes[one]].astype(np.int32))])
+                w.write_points_cells(first.points, [("hexahedron", hexes[around].astype(np.int32))])
                 for t, name in steps:
                     m = meshio.read(series / name)
-                    w.write_data(t, point_data={"SED": m.point_data["SED"][used]})
+                    w.write_data(t, cell_data={k: [m.cell_data[k][0][around]] for k in ("SED", "layer")})
         finally:
             os.chdir(here)
-        kept.setdefault("vibration", (len(one), len(hexes), len(used), len(first.points)))
+        kept.setdefault("vibration", (len(around), len(hexes), len(first.points), len(first.points)))
     return kept
 
 
@@ -1069,8 +1070,8 @@ python sample_sed/make_samples.py --packaged
     indenters' VTUs cropped to the RA-I and SA-I sites of `ra_sites.csv` and `sa_sites.csv`,
     both copied) and `vibration/` (`receptors.csv` copied; each series `{{3d,2d}}_{{f}}Hz/` as one
     XDMF time series `vib.xdmf` + `vib.h5` holding every step of the series' PVD, at its times,
-    with the point `SED` of one hexahedron per tip: the tip's value is copied, so sampling at
-    the tips sees the full series' values; `write_packaged_chapter4`). For these two files the
+    with the cell `SED` and `layer` of the 8 hexahedra around each tip and no point SED: sampling
+    at the tips, on the dermis side or averaged, sees the full series' cells; `write_packaged_chapter4`). For these two files the
     "source sha256" is that of the series' `vib.pvd` and its step VTUs, their bytes in a row
     (`source_sha256`).
 * Each VTU keeps only the hexahedra that have a receptor (papilla-tip) node among their 8

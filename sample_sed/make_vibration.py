@@ -1,10 +1,13 @@
 #!/usr/bin/env python
 """Regenerate the viscoelastic vibration series in ``sample_sed/vibration/`` (the study's figs. 4-10/4-11).
 
-The chapter-4 ridged blocks of ``make_chapter4.py`` (3-D and 2-D ridged; its geometry imported) with
-the layers, moduli, bottom-edge restraint, stiffness assembly and solver of ``make_samples.py``
-(imported, not copied), pressed by the 2 x 2 mm plane, with the dermis and the subcutis made
-**linear viscoelastic**: a Prony series on the shear modulus,
+The chapter-4 ridged blocks of ``make_chapter4.py`` (3-D and 2-D ridged; its geometry imported: twelve
+intermediate ridges, 144 papilla tips, pitch 0.22 mm) with the layers, moduli, bottom-edge restraint,
+stiffness assembly and solver of ``make_samples.py`` (imported, not copied), pressed by the 2 x 2 mm
+plane, solved on the symmetric quarter x >= c, z >= c (block, restraint and plane are mirror-symmetric;
+the symmetry planes held normal to themselves, make_chapter4.symmetry_planes), with the receptors the
+quarter's 5 x 5 tips of the RA-I table (x, z = c + 0.11 ... 0.99 mm), and with the dermis and the
+subcutis made **linear viscoelastic**: a Prony series on the shear modulus,
 
     G(t) = G0 (1 - sum_i g_i (1 - exp(-t / tau_i))),
 
@@ -29,7 +32,8 @@ inertia), small strain, the plane's contact area prescribed as in make_samples.p
 Units: mm, MPa, N, s (SED in MPa). Usage::
 
     python sample_sed/make_vibration.py            # the 8 series into sample_sed/vibration/
-    python sample_sed/make_vibration.py --quick    # 2 cycles, one frequency pair, into a temp dir
+    python sample_sed/make_vibration.py --quick    # 2 cycles, one frequency pair, into a temp dir, and
+                                                   # the quarter against the whole block (7 steps)
 
 Requirements: ``pip install -e .[samples]`` (scikit-fem, pyamg). README: sample_sed/README.md,
 section "Vibration series".
@@ -166,7 +170,9 @@ class ViscoPunch:
     viscoelastic layers with G0) are assembled once; :meth:`start` combines them for a step ``dt``.
     """
 
-    def __init__(self, sm, prony: Prony, integration: str = "sri"):
+    def __init__(self, sm, prony: Prony, integration: str = "sri", fixed=None, solver: str = "lu"):
+        """``fixed``, ``solver``: as make_samples.Problem (``fixed``: the symmetry planes of a quarter,
+        make_chapter4.symmetry_planes)."""
         self.sm = sm
         self.prony = prony
         lam, mu = ms.lame(sm.layer)
@@ -174,7 +180,7 @@ class ViscoPunch:
         self.visco = sm.layer != ms.LAYER_EPIDERMIS
         self.mu0, self.kappa = mu, kappa
         self.prob = ms.Problem(sm, integration=integration, moduli=(np.where(self.visco, 0.0, mu), kappa),
-                               log=lambda *a: None, solver="lu")
+                               log=lambda *a: None, solver=solver, fixed=fixed)
         self.K_rest = self.prob.K
         self.Kv = ms.stiffness(sm.mesh, self.prob.element, np.where(self.visco, mu, 0.0),
                                np.zeros_like(kappa), integration)
@@ -264,34 +270,58 @@ def depth(t, f: float, kind: str | None = None) -> np.ndarray:
     return AMPLITUDE * 0.5 * (1.0 - np.cos(phase))
 
 
-def build_model(model: str, quick: bool):
-    """The chapter-4 ridged block "3d" or "2d" of make_chapter4.py (its geometry, imported), on its
-    coarse grid (``make_chapter4.build_ch4_mesh(model, quick=True)``: the many time steps of four
-    frequencies and two models had to fit a shared 2-core machine). ``quick`` changes nothing
-    here: the quick run takes fewer cycles and frequencies instead."""
-    return mc.build_ch4_mesh(model, quick=True)
+#: The grid: make_chapter4's coarse grid (``build_ch4_mesh(model, quick=True)``: 30,240 hexahedra on the whole
+#: block, 7,560 on the quarter, 27,600 dofs; one sparse LU of the step's matrix ~8 s, a step ~0.2 s). Its
+#: production grid (quick=False: 120,384 / 30,096 hexahedra, 102,312 dofs on the quarter) was measured and not
+#: taken: one LU 525 s and 7.6 GB (two per series), AMG-CG ~20 s a step (sample_sed/README.md, "Vibration series").
+QUICK_GRID = True
 
 
-def quadrant(sm):
-    """``sm`` with only the receptors of the quadrant x <= xc, z <= zc (centre lines included): the
-    block, its restraint and the plane are mirror-symmetric about x = xc and z = zc."""
-    q = (sm.tips[:, 0] <= sm.xc + ms.TOL) & (sm.tips[:, 2] <= sm.zc + ms.TOL)
-    return replace(sm, tips=sm.tips[q], tip_nodes=sm.tip_nodes[q])
+def build_model(model: str, quick: bool = False):
+    """The symmetric quarter (x >= c, z >= c) of the chapter-4 ridged block "3d" or "2d" of make_chapter4.py
+    (its geometry, imported) on the grid :data:`QUICK_GRID`, with the quarter's share of the RA-I table as
+    receptors (:func:`quarter_tips`). The block, its bottom-edge restraint and the 2 x 2 mm plane are
+    mirror-symmetric about x = c and z = c, so the quarter with its symmetry planes held
+    (make_chapter4.symmetry_planes) is exact. ``quick`` changes nothing here: the quick run takes fewer cycles
+    and frequencies instead."""
+    return quarter_tips(mc.build_ch4_mesh(model, quick=QUICK_GRID, quarter=True))
 
 
-def write_cropped(path: Path, sm, node_sed: np.ndarray) -> None:
-    """One step: point SED (MPa, float32) on the hexahedra around the receptors of ``sm``
-    (crop_to_receptors), written to a temporary name and renamed."""
+def quarter_tips(sm):
+    """``sm`` (a quarter x >= c, z >= c) with the papilla tips of make_chapter4's RA-I table that lie on it as
+    receptors: x, z = c + 0.11, 0.33, ..., 0.99 mm (make_chapter4.tip_coords: pitch 0.22 mm), 5 x 5, ordered by
+    x then z; each a node of the epidermis/dermis interface at the tip height."""
+    t = mc.tip_coords(sm.xc, mc.TABLE_N // 2)
+    t = t[t >= sm.xc - ms.TOL]
+    X, Z = np.meshgrid(t, t, indexing="ij")
+    nodes = ms.interface_nodes(sm, X.ravel(), Z.ravel())
+    tips = sm.mesh.p[:, nodes].T.copy()
+    assert np.allclose(tips[:, 1], mc.Y_TIP), "a table tip is not at the papilla tip height"
+    return replace(sm, tips=tips, tip_nodes=nodes)
+
+
+def dermis_side(sm, cell_sed: np.ndarray, vol: np.ndarray) -> np.ndarray:
+    """SED (MPa) at the receptor nodes of ``sm``: the volume-weighted mean over their adjacent **dermis**
+    elements (what afferent.sample_sed(..., side=2) reads from the cell SED of the export)."""
+    return mc.nodal_average(sm, cell_sed, vol, cells=sm.layer == ms.LAYER_DERMIS)[sm.tip_nodes]
+
+
+def write_cropped(path: Path, sm, node_sed: np.ndarray, cell_sed: np.ndarray) -> None:
+    """One step on the hexahedra around the receptors of ``sm`` (crop_to_receptors): point SED (the
+    volume-weighted average of the adjacent elements), cell SED (MPa, float32) and cell ``layer`` (int32,
+    1 epidermis, 2 dermis, 3 subcutis), written to a temporary name and renamed."""
     full = meshio.Mesh(np.ascontiguousarray(sm.mesh.p.T), [("hexahedron", ms._cells(sm))],
-                       point_data={"SED": node_sed.astype(np.float32)})
+                       point_data={"SED": node_sed.astype(np.float32)},
+                       cell_data={"SED": [cell_sed.astype(np.float32)], "layer": [sm.layer.astype(np.int32)]})
     small = ms.crop_to_receptors(full, sm.tip_nodes)
     tmp = path.with_name(path.stem + ".part.vtu")
     meshio.write(str(tmp), small, file_format="vtu", binary=True, compression="zlib")
     os.replace(tmp, path)
 
 
-def run_series(vp: ViscoPunch, f: float, out: Path, cycles: int) -> dict:
-    """One frequency: solve every step, write the PVD series, return the run record of the series."""
+def run_series(vp: ViscoPunch, f: float, out: Path, cycles: int, force_factor: float = 4.0) -> dict:
+    """One frequency: solve every step, write the PVD series, return the run record of the series.
+    ``force_factor``: the whole block's punch force over the solved part's (4 on the quarter)."""
     dt = 1.0 / (f * STEPS_PER_PERIOD)
     t0 = time.perf_counter()
     vp.start(dt)
@@ -303,12 +333,13 @@ def run_series(vp: ViscoPunch, f: float, out: Path, cycles: int) -> dict:
     for k, t in enumerate(times):
         d = float(depth(t, f))
         u, info = vp.step(WIDTH, d)
-        nsed = vp.post.nodal_sed(vp.cell_sed())
+        csed = vp.cell_sed()
+        nsed = vp.post.nodal_sed(csed)
         name = f"vib_{k:03d}.vtu"
-        write_cropped(out / name, sm, nsed)
+        write_cropped(out / name, sm, nsed, csed)
         files.append(name)
-        tips = nsed[sm.tip_nodes] * 1e6
-        steps.append({"t_s": float(t), "depth_mm": d, "punch_force_N": info["punch_force_N"],
+        tips = dermis_side(sm, csed, vp.post.vol) * 1e6
+        steps.append({"t_s": float(t), "depth_mm": d, "punch_force_N": force_factor * info["punch_force_N"],
                       "factor_s": info["amg_setup_s"], "solve_s": info["solve_s"],
                       "tip_SED_Pa": [round(float(v), 6) for v in tips]})
     ms.write_pvd(out / "vib.pvd", files, times)
@@ -319,7 +350,8 @@ def run_series(vp: ViscoPunch, f: float, out: Path, cycles: int) -> dict:
 
 
 def deepest_summary(sm, series: dict) -> dict:
-    """SED (Pa) at the edge tip with the largest SED at the last deepest point, per cycle's deepest point."""
+    """SED (Pa, the dermis side) at the edge tip with the largest SED at the last deepest point, per cycle's
+    deepest point."""
     steps = series["steps"]
     at = STEPS_PER_PERIOD // 4 if WAVEFORM_KIND == "sine" else STEPS_PER_PERIOD // 2   # the waveform's deepest step
     deep = [k for k in range(len(steps)) if k % STEPS_PER_PERIOD == at]
@@ -335,13 +367,45 @@ def deepest_summary(sm, series: dict) -> dict:
             "min_force_N": min(s["punch_force_N"] for s in steps)}
 
 
+#: The band around the plane's outline the site is chosen from (mm): one tip pitch (make_chapter4.RIDGE_PITCH,
+#: 0.22), as the package chooses it (afferent.findings.VIBRATION_EDGE_MM, the vibration scenes' cycles_edge_mm).
+EDGE_BAND = mc.RIDGE_PITCH
+
+
 def edge_tips(tips: np.ndarray, xc: float, zc: float) -> np.ndarray:
-    """Tips within half a papilla pitch in x (0.22 mm) of the plane's edge line (the square's outline)."""
-    h = 0.5 * WIDTH
+    """Tips within EDGE_BAND (mm) of the plane's outline (the rule of afferent.cycles.edge_sites)."""
+    h, w = 0.5 * WIDTH, EDGE_BAND + ms.TOL
     dx, dz = np.abs(tips[:, 0] - xc) - h, np.abs(tips[:, 2] - zc) - h
-    near_x = (np.abs(dx) <= 0.5 * ms.PAP_PITCH_X + ms.TOL) & (dz <= 0.5 * ms.PAP_PITCH_X + ms.TOL)
-    near_z = (np.abs(dz) <= 0.5 * ms.PAP_PITCH_X + ms.TOL) & (dx <= 0.5 * ms.PAP_PITCH_X + ms.TOL)
-    return near_x | near_z
+    return ((np.abs(dx) <= w) & (dz <= w)) | ((np.abs(dz) <= w) & (dx <= w))
+
+
+def quarter_check(model: str, f: float, n_steps: int, log=print) -> dict:
+    """The quarter against the whole block: the first ``n_steps`` steps at ``f`` (Hz) solved on both (the whole
+    block by AMG-CG: its sparse LU would take ~10 min and ~8 GB), the dermis-side SED at the quarter's tips and
+    the whole block's punch force compared. Returns the largest differences, relative to the largest tip SED
+    and to the force, of every step."""
+    q = build_model(model)
+    whole = mc.build_ch4_mesh(model, quick=QUICK_GRID)
+    key = {(round(x, 7), round(z, 7)): n for n, (x, z) in zip(whole.tip_nodes, whole.tips[:, [0, 2]])}
+    whole = replace(whole, tips=q.tips, tip_nodes=np.array([key[(round(x, 7), round(z, 7))] for x, z in q.tips[:, [0, 2]]]))
+    dt = 1.0 / (f * STEPS_PER_PERIOD)
+    runs = {}
+    for name, sm, fixed, solver, factor in (("quarter", q, mc.symmetry_planes(q.xc), "lu", 4.0),
+                                            ("whole", whole, None, "amg", 1.0)):
+        t0 = time.perf_counter()
+        vp = ViscoPunch(sm, SKIN, fixed=fixed, solver=solver).start(dt)
+        sed, force = [], []
+        for k in range(n_steps):
+            _, info = vp.step(WIDTH, float(depth(k * dt, f)))
+            sed.append(dermis_side(sm, vp.cell_sed(), vp.post.vol) * 1e6)
+            force.append(factor * info["punch_force_N"])
+        runs[name] = (np.array(sed), np.array(force), round(time.perf_counter() - t0, 1))
+        log(f"  [{model} {f:g} Hz, {n_steps} steps] {name}: {runs[name][2]} s")
+    (sq, fq, tq), (sw, fw, tw) = runs["quarter"], runs["whole"]
+    return {"model": model, "frequency_Hz": f, "n_steps": n_steps, "quarter_s": tq, "whole_s": tw,
+            "max_tip_SED_Pa": float(sw.max()),
+            "tip_SED_max_abs_diff_over_max": float(np.abs(sq - sw).max() / sw.max()),
+            "force_max_abs_diff_over_max": float(np.abs(fq - fw).max() / np.abs(fw).max())}
 
 
 def main(argv=None):
@@ -351,6 +415,9 @@ def main(argv=None):
     ap.add_argument("--out", type=Path, default=None, help="output folder (default sample_sed/vibration)")
     ap.add_argument("--models", nargs="+", choices=mc.MODELS, default=list(mc.MODELS))
     ap.add_argument("--frequencies", nargs="+", type=float, default=None, help="Hz")
+    ap.add_argument("--check-quarter", type=int, default=None, metavar="N",
+                    help="also solve the first N steps at the first frequency on the whole block and compare with the "
+                         "quarter (written to quarter_check.json; default with --quick: 7 steps)")
     ap.add_argument("--waveform", choices=list(WAVEFORMS), default=WAVEFORM_KIND,
                     help="sine: the thesis's example (deepest at T/4, default); haversine: the earlier reading")
     args = ap.parse_args(argv)
@@ -361,14 +428,24 @@ def main(argv=None):
     cycles = 2 if args.quick else CYCLES
     out.mkdir(parents=True, exist_ok=True)
     info = run_info(args.quick, freqs, cycles)
+    n_check = args.check_quarter if args.check_quarter is not None else (7 if args.quick else 0)
+    if n_check > 0:
+        chk = quarter_check(args.models[0], freqs[0], n_check)
+        print(f"quarter vs whole block ({chk['model']}, {chk['frequency_Hz']:g} Hz, {n_check} steps): tip SED "
+              f"{chk['tip_SED_max_abs_diff_over_max']:.2g}, force {chk['force_max_abs_diff_over_max']:.2g} "
+              "(largest difference over the largest value)", flush=True)
+        (out / "quarter_check.json").write_text(json.dumps(chk, indent=1) + "\n")
     for model in args.models:
         t0 = time.perf_counter()
-        sm = quadrant(build_model(model, args.quick))
+        sm = build_model(model)
         if model == args.models[0]:
             ms.write_receptors(out / "receptors.csv", sm)
-        vp = ViscoPunch(sm, SKIN)
-        binfo = {"mesh": ms.mesh_stats(sm), "mesh_and_assembly_s": round(time.perf_counter() - t0, 2),
-                 "series": {}}
+        vp = ViscoPunch(sm, SKIN, fixed=mc.symmetry_planes(sm.xc))
+        whole = mc.build_ch4_mesh(model, quick=QUICK_GRID)
+        binfo = {"mesh": ms.mesh_stats(sm) | {"solved": "quarter x >= c, z >= c (symmetry planes held)",
+                                              "whole_block_elements": int(whole.mesh.t.shape[1]),
+                                              "whole_block_nodes": int(whole.mesh.p.shape[1])},
+                 "mesh_and_assembly_s": round(time.perf_counter() - t0, 2), "series": {}}
         for f in freqs:
             tag = f"{model}_{f:g}Hz"
             rec = run_series(vp, f, out / tag, cycles)
@@ -415,10 +492,17 @@ def run_info(quick: bool, freqs, cycles: int) -> dict:
                      "loss_angle_deg": {f"{f:g}Hz": float(np.degrees(np.angle(g))) for f, g in zip(freqs, gs)}},
         "waveform": WAVEFORM, "width_mm": WIDTH, "steps_per_period": STEPS_PER_PERIOD, "cycles": cycles,
         "sed": "stored (recoverable) strain energy density at the element centroid (stored_sed: springs of "
-               "the generalized Maxwell model; 1/2 sigma:eps in the elastic epidermis), averaged to the nodes "
-               "(volume-weighted, as make_samples.py); point data SED float32 in MPa",
+               "the generalized Maxwell model; 1/2 sigma:eps in the elastic epidermis): cell data SED float32 in "
+               "MPa with cell data layer (int32, 1 epidermis, 2 dermis, 3 subcutis); averaged to the nodes "
+               "(volume-weighted, as make_samples.py): point data SED float32 in MPa",
+        "tip_SED_Pa": "at each receptor, the dermis side: volume-weighted mean of the cell SED of its adjacent "
+                      "dermis elements (afferent.sample_sed(..., side=2) on the cell data)",
+        "punch_force_N": "the whole block's (4 x the quarter's)",
+        "geometry": "make_chapter4.py (build_ch4_mesh, quick grid), solved on the quarter x >= c, z >= c; "
+                    "receptors: the quarter's 5 x 5 tips of the RA-I table, x, z = c + 0.11 ... 0.99 mm",
         "crop": "hexahedra with a receptor (papilla-tip) node among their corners (make_samples.crop_to_receptors)",
-        "site": "the edge tip (within 0.22 mm of the plane's outline) with the largest SED at the last deepest point",
+        "site": "the edge tip (within 0.22 mm of the plane's outline) with the largest dermis-side SED at the "
+                "last deepest point",
         "models": {},
     }
 

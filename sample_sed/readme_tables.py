@@ -3,6 +3,7 @@
 
 ``build_info.json`` is the run of ``make_samples.py`` (the study's bottom-edges restraint);
 the chapter-4 findings table is measured on ``chapter4/`` and ``vibration/`` by ``afferent.findings``;
+``vibration/build_info.json`` is the run of ``make_vibration.py`` (the vibration tables);
 ``build_info_bottom_face.json`` is the record of the earlier run with the whole bottom face fixed
 (``make_samples.py --bottom face``), kept for the comparison table. ``tests/test_samples.py``
 checks that every line printed here is in the README. Units: SED in Pa, force in N, widths mm.
@@ -126,15 +127,57 @@ def chapter4_findings_table(sample: Path = HERE) -> list[str]:
     return rows
 
 
+def vibration_table(vib) -> list[str]:
+    """SED (Pa, the dermis side) at the vibration site at each deepest point, the largest tip and the plane's force,
+    per model and frequency (``vibration/build_info.json``)."""
+    freqs = [20, 30, 50, 80]
+    rows = ["| model | site (x, z) mm | deepest point | " + " | ".join(f"{f} Hz" for f in freqs) + " | 80 / 20 Hz |",
+            "|---" * (len(freqs) + 4) + "|"]
+    ser = {m: [vib["models"][m]["series"][f"{m}_{f}Hz"]["deepest"] for f in freqs] for m in ("3d", "2d")}
+
+    def row(m, site, label, vals, fmt):
+        ratio = f"{vals[-1] / vals[0]:.3f}" if vals[0] > 0 else ""
+        return f"| {m.upper()} | {site} | {label} | " + " | ".join(fmt.format(v) for v in vals) + f" | {ratio} |"
+
+    names = ("1st (t = T/4)", "2nd (5T/4)", "3rd (9T/4)")
+    for m, ds in ser.items():
+        site = ds[0]["site"]
+        assert all(d["site"] == site for d in ds), "the site differs between frequencies"
+        for i, name in enumerate(names):
+            rows.append(row(m, f"({site['x']:.2f}, {site['z']:.2f})", name, [d["site_SED_Pa"][i] for d in ds], "{:.1f}"))
+    for m, ds in ser.items():
+        rows.append(row(m, "largest tip", "3rd", [d["max_tip_SED_Pa"][-1] for d in ds], "{:.1f}"))
+    for m, ds in ser.items():
+        rows.append(row(m, "plane force (N)", "3rd", [d["force_N"][-1] for d in ds], "{:.4f}"))
+        rows.append(f"| {m.upper()} | least plane force (N), any step | | "
+                    + " | ".join(f"{d['min_force_N']:.4f}" for d in ds) + " | |")
+    return rows
+
+
+def vibration_files_table(vib) -> list[str]:
+    """Size of each series (PVD + its VTUs, bytes) and the data total (``vibration/build_info.json``)."""
+    rows = ["| file(s) | size (bytes) |", "|---|---|", f"| `receptors.csv` | {vib['files']['receptors.csv']:,} |"]
+    for m in ("3d", "2d"):
+        for f in (20, 30, 50, 80):
+            tag = f"{m}_{f}Hz"
+            vtu = [v for k, v in vib["files"].items() if k.startswith(tag + "/") and k.endswith(".vtu")]
+            total = vib["files"][f"{tag}/vib.pvd"] + sum(vtu)
+            rows.append(f"| `{tag}/vib.pvd` + {len(vtu)} VTUs | {total:,} (VTU {min(vtu):,} - {max(vtu):,}) |")
+    rows.append(f"| data total: {len(vib['files'])} files (build_info.json aside) | {vib['total_size_MB']} MB |")
+    return [r.replace(",", " ") for r in rows]
+
+
 def all_tables(edges=None, face=None) -> dict[str, list[str]]:
     edges = edges or json.loads((HERE / "build_info.json").read_text())
     face = face or json.loads((HERE / "build_info_bottom_face.json").read_text())
+    vib = json.loads((HERE / "vibration" / "build_info.json").read_text())
     return {"receptor SED": receptor_table(edges), "interchange zone": interchange_table(edges),
             "loading ramp": ramp_table(edges), "bottom face -> bottom edges": comparison_table(edges, face),
             "mesh check": mesh_check_table(edges, face),
             "chapter 4 solves": chapter4_solves_table(json.loads((HERE / "chapter4" / "build_info.json").read_text())),
             "chapter 4 findings": chapter4_findings_table(),
-            "chapter 4 reasons": chapter4_reasons.ratio_rows(json.loads(chapter4_reasons.RESULT.read_text()))}
+            "chapter 4 reasons": chapter4_reasons.ratio_rows(json.loads(chapter4_reasons.RESULT.read_text())),
+            "vibration SED": vibration_table(vib), "vibration files": vibration_files_table(vib)}
 
 
 if __name__ == "__main__":

@@ -85,7 +85,8 @@ def test_command_on_the_vibration_runs_gives_build_info_numbers(tmp_path, capsys
     for s in sorted(VIB.glob("*.toml")):
         res = run_scene(load_scene(s).with_output(tmp_path / s.stem), cache_dir=tmp_path / "c")
         runs.append(str(tmp_path / s.stem))
-        assert res.record["cycles"]["site"] == "18" and res.record["cycles"]["candidates"] == ["13", "14", "15", "18", "23"]
+        assert res.record["cycles"]["site"] == "25"
+        assert res.record["cycles"]["candidates"] == ["5", "10", "15", "20", "21", "22", "23", "24", "25"]
         spikes = np.loadtxt(tmp_path / s.stem / "spikes.csv", delimiter=",", skiprows=1, usecols=1, ndmin=1)
         cyc = np.genfromtxt(tmp_path / s.stem / "cycles.csv", delimiter=",", names=True)
         assert cyc["spikes"].sum() == np.sum(spikes <= 3 / cyc["frequency_hz"][0] + 1e-12)
@@ -98,12 +99,12 @@ def test_command_on_the_vibration_runs_gives_build_info_numbers(tmp_path, capsys
     info = _build_info()["models"]
     for row in summ.itertuples():
         deep = info[row.group]["series"][f"{row.group}_{int(row.frequency_hz)}Hz"]["deepest"]
-        assert deep["site"]["index"] == 17
-        assert row.sed_first_pa == pytest.approx(deep["site_SED_Pa"][0], rel=1e-6)
-        assert row.sed_last_pa == pytest.approx(deep["site_SED_Pa"][-1], rel=1e-6)
-    # sample_sed/README.md's table, 80 / 20 Hz at the third deepest point: 1.159 (3-D), 1.162 (2-D)
+        assert deep["site"]["index"] == 24   # the corner tip (3.41, 3.41) mm; the package's cell volumes: 2e-4
+        assert row.sed_first_pa == pytest.approx(deep["site_SED_Pa"][0], rel=5e-4)
+        assert row.sed_last_pa == pytest.approx(deep["site_SED_Pa"][-1], rel=5e-4)
+    # sample_sed/README.md's table, 80 / 20 Hz at the third deepest point: 1.163 (3-D), 1.164 (2-D)
     last = summ[summ.frequency_hz == 80].set_index("group")["last_vs_lowest"]
-    assert round(last["3d"], 3) == 1.159 and round(last["2d"], 3) == 1.162
+    assert round(last["3d"], 3) == 1.163 and round(last["2d"], 3) == 1.164
     assert main(["cycles", runs[0], str(tmp_path / "freq"), "-o", str(tmp_path / "x")]) == 2
     assert "no cycles.csv; expected the output folder of a run whose scene wants 'cycles'" in capsys.readouterr().err
 
@@ -164,11 +165,11 @@ def test_command_reads_the_vibration_sweep_as_its_runs(tmp_path):
     assert main(["cycles", str(tmp_path / "sw"), "-o", str(tmp_path / "freq"), "--group", "3d=ridged3d_*",
                  "--group", "2d=ridged2d_*"]) == 0
     summ = pd.read_csv(tmp_path / "freq" / "frequency.csv")
-    assert len(summ) == 8 and set(summ["site"].astype(str)) == {"18"}
+    assert len(summ) == 8 and set(summ["site"].astype(str)) == {"25"}
     info = _build_info()["models"]
     for row in summ.itertuples():
         deep = info[row.group]["series"][f"{row.group}_{int(row.frequency_hz)}Hz"]["deepest"]
-        assert [row.sed_first_pa, row.sed_last_pa] == pytest.approx(deep["site_SED_Pa"][::2], rel=1e-6)
+        assert [row.sed_first_pa, row.sed_last_pa] == pytest.approx(deep["site_SED_Pa"][::2], rel=5e-4)
     assert summ.groupby("group")["rate_hz"].apply(lambda r: r.is_monotonic_increasing).all()
 
 

@@ -139,3 +139,22 @@ def test_the_demo_lists_every_claim_of_both_chapters(tmp_path):
             "ch5_peaks_cross_0.88mm", "ch5_peaks_cross_4mm", "ch5_branching_fills_zone", *CHAPTER4_CLAIMS}
     assert set(f["claim"]) == want and f["holds"].isin([True, False]).all()
     assert not f.loc[f["claim"] == "ch5_interchange_width", "holds"].item()  # the sample's 1.32 mm, listed as failing
+
+
+def test_the_maps_read_the_dermis_side_of_the_cell_sed(measured):
+    """STUDY_SIDE reads the dermis cells at a site node. The samples also carry a nodal SED averaged across the
+    materials, which the reader prefers and on which a side changes nothing: the maps must not be that average."""
+    import warnings
+
+    import afferent
+    from afferent.findings import STUDY_SIDE
+
+    vtu = SAMPLE_DIR / "chapter4" / "ridged3d" / "bar.vtu"
+    layout = afferent.read_receptors(str(SAMPLE_DIR / "chapter4" / "ridged3d" / "ra_sites.csv"), length_unit="mm")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        dermis = afferent.sample_sed(afferent.read_sed(str(vtu), length_unit="mm", sed_unit="MPa", location="cell"),
+                                     layout, side=STUDY_SIDE).values[-1]
+    average = afferent.sample_sed(afferent.read_sed(str(vtu), length_unit="mm", sed_unit="MPa"), layout).values[-1]
+    assert STUDY_SIDE == 2 and np.median(np.abs(dermis / average - 1.0)) > 0.05
+    np.testing.assert_allclose(measured["maps"][("3d", "ra", "bar")], dermis, rtol=1e-9)

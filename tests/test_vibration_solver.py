@@ -149,3 +149,20 @@ def test_the_waveform_follows_the_thesis_example():
     assert mv.depth(np.array([0.005]), 50.0)[0] == pytest.approx(mv.AMPLITUDE)
     assert mv.depth(np.array([0.015]), 50.0)[0] < 0  # plane above the skin: make_samples.Problem touches nothing
     assert t[np.argmax(mv.depth(t, 50.0, "haversine"))] == pytest.approx(0.01, abs=1e-9)
+
+
+def test_the_series_receptors_are_the_quarters_table_tips_and_the_edge_band_one_pitch():
+    """The new chapter-4 block (tips every 0.22 mm) solved on its quarter x, z >= c: the receptors are the RA-I table's
+    tips there (c + 0.11 ... 0.99 mm, 5 x 5, by x then z) and the edge tips those within one pitch (0.22 mm) of the
+    plane's outline: the rows at c + 0.99 (0.01 mm inside it), not those at c + 0.77 (0.23 mm inside)."""
+    import make_chapter4 as mc
+
+    sm = mv.build_model("3d")
+    c = sm.xc
+    t = c + np.array([0.11, 0.33, 0.55, 0.77, 0.99])
+    np.testing.assert_allclose(sm.tips[:, 0], np.repeat(t, 5), atol=1e-9)
+    np.testing.assert_allclose(sm.tips[:, 2], np.tile(t, 5), atol=1e-9)
+    np.testing.assert_allclose(sm.tips[:, 1], mc.Y_TIP)
+    assert sm.mesh.p[0].min() == pytest.approx(c) and sm.mesh.t.shape[1] == 7560
+    edge = mv.edge_tips(sm.tips, c, c)
+    assert np.flatnonzero(edge).tolist() == [4, 9, 14, 19, 20, 21, 22, 23, 24]
