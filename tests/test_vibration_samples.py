@@ -13,7 +13,6 @@ import numpy as np
 import pytest
 
 import afferent
-from afferent.exceptions import AfferentWarning
 from afferent.scene import load_scene, run_scene
 
 from conftest import SAMPLE_DIR
@@ -61,8 +60,9 @@ def test_the_package_reads_the_recorded_sed_at_the_deepest_points(info, tag):
     field = afferent.read_sed(str(VIB / tag / "vib.pvd"), length_unit="mm", sed_unit="MPa", location="cell")
     assert field.sed.shape[0] == 61 and field.sed.min() >= 0
     layout = afferent.read_receptors(str(VIB / "receptors.csv"), length_unit="mm")
-    with pytest.warns(AfferentWarning, match=r"25 of 25 receptors lie on an interface .* Using side=2"):
-        s = afferent.sample_sed(field, layout, side=2).values        # (61, 25) Pa
+    s = afferent.sample_sed(field, layout, side=2)                   # (61, 25) Pa
+    assert s.interface["n_changed"] == 25 and s.interface["separable"]
+    s = s.values
     d = rec["deepest"]
     k = [round(t / rec["dt_s"]) for t in d["deepest_t_s"]]
     assert k == [5, 25, 45]
@@ -72,9 +72,11 @@ def test_the_package_reads_the_recorded_sed_at_the_deepest_points(info, tag):
     depths = [rec["steps"][i]["depth_mm"] for i in k]
     np.testing.assert_allclose(depths, 0.5)
     # the point SED at the tips (what the reader takes without location='cell') is the average across epidermis and
-    # dermis, 1-5 % off the dermis side at this site: side=2 on it would change nothing
-    avg = afferent.sample_sed(afferent.read_sed(str(VIB / tag / "vib.pvd"), length_unit="mm", sed_unit="MPa"),
-                              layout).values
+    # dermis, 1-5 % off the dermis side at this site: side=2 on it is refused
+    point = afferent.read_sed(str(VIB / tag / "vib.pvd"), length_unit="mm", sed_unit="MPa")
+    with pytest.raises(ValueError, match=r"side=2 asks for material 2's SED at the 25 receptors"):
+        afferent.sample_sed(point, layout, side=2)
+    avg = afferent.sample_sed(point, layout).values
     assert np.max(np.abs(avg[k, d["site"]["index"]] / np.asarray(d["site_SED_Pa"]) - 1.0)) > 0.03
 
 
