@@ -151,10 +151,13 @@ def _may_have_copies(xyz: np.ndarray, cells: Cells, rtol: float) -> bool:
     :func:`coincident_labels`, which measures every cell and decides. Most exports hold none
     and skip that measure: 3.5 of the 10 ms of sample_sed/block4's assembly (41,595 nodes).
     """
-    if xyz.shape[0] < 2 or not cells.tetra.size:
+    if xyz.shape[0] < 2 or not cells.n_tetra:
         return False
-    parent = cells.parent
     step = max(1, cells.n_cells // _SAMPLE_CELLS)
+    if not cells.split_done:  # Cells.split: the sampled cells' first tetrahedra alone, the others not split
+        cube = rtol * shortest_edge(xyz, cells.rows(cells.tetra_rows(np.arange(0, cells.n_cells, step), first=True))[0])
+        return bool(np.isfinite(cube)) and _any_in_one_bin(xyz, cube)
+    parent = cells.parent
     if parent[0] == 0 and np.all(parent[1:] >= parent[:-1]):  # the readers' order: first tetrahedra found by bisection
         first = np.searchsorted(parent, np.arange(0, int(parent[-1]) + 1, step))
     else:
