@@ -15,6 +15,10 @@ interpreter start and imports included, as a user runs it:
 * ``afferent``: ``python -m afferent sample FILE --receptors R.csv --length-unit mm --sed-unit MPa
   --method linear -o OUT.csv`` (reading, checks, locating the receptors, weights, the CSV).
 
+With ``--after-imports`` both are run once more with the modules they import (numpy, scipy.sparse
+and scipy.spatial, meshio, afferent's CLI) imported before a clock in the process starts: the
+time after that clock is the work alone (printed as ``after its imports``).
+
 Each process reports its own peak resident memory (``VmHWM`` of ``/proc/self/status``, Linux, at
 exit: a new process image starts its own count); the wall time is the parent's around the
 process. The runs are interleaved ``--repeat`` times and the minimum of each is printed (the
@@ -51,15 +55,19 @@ meshio.write(path, meshio.Mesh(np.column_stack([x, y, z]), [("hexahedron", hexes
 np.savetxt(receptors, rng.uniform(0.5, 9.5, size=(count, 3)), delimiter=",", header="x,y,z", comments="")
 """
 
-#: Runs ``sys.argv[1:]`` (``meshio FILE`` or ``afferent ARGS...``) and prints its own peak memory at exit.
+#: Runs ``sys.argv[1:]`` (``meshio FILE`` or ``afferent ARGS...``, ``+``: the modules it imports imported before
+#: the clock starts) and prints its own peak memory and the time after its imports at exit.
 _CHILD = """
-import atexit, runpy, sys
+import atexit, runpy, sys, time
 def _peak():
     with open("/proc/self/status") as status:
         peak = next(int(line.split()[1]) for line in status if line.startswith("VmHWM:")) / 1024
-    sys.stderr.write(f"\\nPEAK_MB {peak:.1f}\\n")
+    sys.stderr.write(f"\\nPEAK_MB {peak:.1f}\\nWORK_S {time.perf_counter() - start:.3f}\\n")
 atexit.register(_peak)
-if sys.argv[1] == "meshio":
+if sys.argv[1].endswith("+"):  # what the run imports, before the clock (the time then is the work alone)
+    import meshio, scipy.sparse, scipy.spatial, afferent.cli._main, afferent.cli._sample, afferent.io._meshio
+start = time.perf_counter()
+if sys.argv[1].startswith("meshio"):
     import meshio
     meshio.vtu.read(sys.argv[2])
 else:
@@ -68,16 +76,18 @@ else:
 """
 
 
-def run(what: str, args: list, tree: str) -> tuple[float, float]:
-    """(wall time s, peak MB) of one fresh process running ``what`` (``meshio`` or ``afferent``) from ``tree``."""
+def run(what: str, args: list, tree: str) -> tuple[float, float, float]:
+    """(wall time s, peak MB, time after the imports s) of one fresh process running ``what`` (``meshio`` or
+    ``afferent``; ``+``: its imports before the clock) from ``tree``."""
     env = dict(os.environ, PYTHONPATH=tree, MPLBACKEND="Agg")
     t = time.perf_counter()
     done = subprocess.run([sys.executable, "-c", _CHILD, what, *args], capture_output=True, text=True, env=env, cwd=tree)
     wall = time.perf_counter() - t
     if done.returncode:
         raise SystemExit(f"{what} failed ({done.returncode}): {done.stderr.strip()[-2000:]}")
-    peak = next(float(line.split()[1]) for line in done.stderr.splitlines() if line.startswith("PEAK_MB"))
-    return wall, peak
+    got = {line.split()[0]: float(line.split()[1]) for line in done.stderr.splitlines()
+           if line.startswith(("PEAK_MB", "WORK_S"))}
+    return wall, got["PEAK_MB"], got["WORK_S"]
 
 
 def main() -> None:
@@ -86,6 +96,8 @@ def main() -> None:
     parser.add_argument("--receptors", type=int, default=500)
     parser.add_argument("--repeat", type=int, default=3)
     parser.add_argument("--tree", action="append", default=[], help="another checkout to measure (repeatable)")
+    parser.add_argument("--after-imports", action="store_true",
+                        help="also time both after their imports (the run's modules imported before the clock)")
     parser.add_argument("--folder", help="where to write the files (kept, reused); default: a temporary folder, deleted")
     args = parser.parse_args()
     print("command:", shlex.join([os.path.basename(sys.executable)] + sys.argv))
@@ -109,12 +121,16 @@ def main() -> None:
                 cli = ["sample", vtu, "--receptors", receptors, "--length-unit", "mm", "--sed-unit", "MPa",
                        "--method", "linear", "-o", out, "--overwrite", "-q"]
                 runs.setdefault(f"afferent sample ({tree})", []).append(run("afferent", cli, tree))
+            if args.after_imports:
+                runs.setdefault("meshio.vtu.read, after its imports", []).append(run("meshio+", [vtu], trees[0]))
+                runs.setdefault("afferent sample, after its imports", []).append(run("afferent+", cli, trees[0]))
         print(f"load average (1 min) at each repeat: {', '.join(f'{v:.1f}' for v in loads)}")
-        base = min(w for w, _ in runs["meshio.vtu.read"]), min(p for _, p in runs["meshio.vtu.read"])
+        base = min(r[0] for r in runs["meshio.vtu.read"]), min(r[1] for r in runs["meshio.vtu.read"])
         for name, got in runs.items():
-            wall, peak = min(w for w, _ in got), min(p for _, p in got)
+            wall, peak, work = (min(r[i] for r in got) for i in range(3))
+            work = f"; after its imports {work:5.2f} s" if "after its imports" in name else ""
             print(f"{name:<60} wall {wall:6.2f} s (min of {len(got)}; {wall / base[0]:.2f} x meshio), "
-                  f"peak {peak:6.0f} MB ({peak / base[1]:.2f} x meshio)")
+                  f"peak {peak:6.0f} MB ({peak / base[1]:.2f} x meshio){work}")
 
 
 if __name__ == "__main__":
