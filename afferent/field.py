@@ -182,7 +182,8 @@ class Cells:
     tetra : ndarray of shape (n_tetra, 4), int
         Point indices of the linear tetrahedra that tile the mesh (hexahedra, wedges and
         pyramids are split; quadratic cells are split by their corner nodes): used to locate
-        points, and to interpolate in linear cells.
+        points, and to interpolate in linear cells. Cells made by :meth:`split` make them on first
+        access (:meth:`rows` and :meth:`tetra_rows` serve a part of them without that).
     parent : ndarray of shape (n_tetra,), int
         Index of the original FE cell each tetrahedron came from (into the cell-data arrays).
     n_cells : int
