@@ -16,6 +16,7 @@ from typing import Literal
 
 import numpy as np
 
+from .exceptions import SEDFormatError
 from ._validation import check_finite_array
 
 __all__ = ["SEDField", "Provenance", "Cells", "NodeSides"]
@@ -104,6 +105,74 @@ class Provenance:
         }
 
 
+class Deferred:
+    """Array values decoded on first use, their shape known before (from the file's header).
+
+    A reader that can tell an array's shape without decoding it (a VTU's binary DataArray: its
+    header gives the byte count) hands :class:`RawArray` a ``Deferred`` instead of the values;
+    ``afferent.read_sed`` then decodes only the arrays it uses (the SED, the material ids), not
+    the displacements and the other arrays an export carries besides. The values come back once,
+    checked against ``shape``.
+
+    Parameters
+    ----------
+    shape : tuple of int
+        The values' shape once decoded, in the layout of :attr:`RawArray.values`.
+    decode : callable
+        ``decode()`` returns the values (an ndarray of ``shape``); its errors are the reader's
+        (an :class:`afferent.exceptions.SEDFormatError` naming the file and the array).
+    label : str
+        What the values are, for the message should they not have ``shape`` (e.g. ``"SED file
+        'a.vtu': point array 'U'"``).
+    """
+
+    __slots__ = ("shape", "_decode", "label", "_values")
+
+    def __init__(self, shape: tuple, decode, label: str = "an array"):
+        self.shape, self._decode, self.label = tuple(int(n) for n in shape), decode, label
+        self._values = None
+
+    @property
+    def ndim(self) -> int:
+        return len(self.shape)
+
+    def then(self, function, shape: tuple | None = None) -> Deferred:
+        """The values ``function(values)`` will have, still not decoded (shape: the result's, default unchanged)."""
+        return Deferred(self.shape if shape is None else shape, lambda: function(self.decode()), self.label)
+
+    def decode(self) -> np.ndarray:
+        """The values, checked against :attr:`shape` (decoded once: a second call returns the same array)."""
+        if self._values is None:
+            values = self._decode()
+            if values.shape != self.shape:
+                raise SEDFormatError(f"{self.label} decoded to shape {values.shape}, where the file's header announced "
+                                     f"{self.shape}: the file is corrupt.")
+            self._values, self._decode = values, None
+        return self._values
+
+    def __reduce__(self):  # pickled as its values: the decoder's closure does not travel
+        return np.asarray, (self.decode(),)
+
+
+class _DecodedOnUse:
+    """An array field of a frozen dataclass (``RawArray.values``, ``Cells.tetra``): an ndarray, or a ``Deferred``
+    decoded (once) on first access."""
+
+    def __set_name__(self, owner, name):
+        self.key = "_" + name
+
+    def __get__(self, obj, owner=None):
+        if obj is None:
+            raise AttributeError("no default")  # a dataclass field without a default
+        values = obj.__dict__[self.key]
+        if isinstance(values, Deferred):
+            values = obj.__dict__[self.key] = values.decode()
+        return values
+
+    def __set__(self, obj, values):
+        obj.__dict__[self.key] = values
+
+
 @dataclass(frozen=True)
 class Cells:
     """Volume cells of the FE mesh, as linear tetrahedra used for point location.
@@ -113,7 +182,8 @@ class Cells:
     tetra : ndarray of shape (n_tetra, 4), int
         Point indices of the linear tetrahedra that tile the mesh (hexahedra, wedges and
         pyramids are split; quadratic cells are split by their corner nodes): used to locate
-        points, and to interpolate in linear cells.
+        points, and to interpolate in linear cells. Cells made by :meth:`split` make them on first
+        access (:meth:`rows` and :meth:`tetra_rows` serve a part of them without that).
     parent : ndarray of shape (n_tetra,), int
         Index of the original FE cell each tetrahedron came from (into the cell-data arrays).
     n_cells : int
@@ -132,25 +202,28 @@ class Cells:
         values: that cell is then interpolated from its corners.
     """
 
-    tetra: np.ndarray
-    parent: np.ndarray
+    tetra: np.ndarray = _DecodedOnUse()
+    parent: np.ndarray = _DecodedOnUse()
     n_cells: int
     cell_types: tuple[str, ...] = ()
     materials: np.ndarray | None = None
     nodes: tuple[np.ndarray, ...] = ()
 
     def __post_init__(self):
-        object.__setattr__(self, "tetra", np.ascontiguousarray(self.tetra, dtype=np.int64))
-        object.__setattr__(self, "parent", np.ascontiguousarray(self.parent, dtype=np.int64))
-        if self.tetra.ndim != 2 or self.tetra.shape[1] != 4:
-            raise ValueError(f"'tetra' must be an array of shape (n_tetra, 4); got shape {self.tetra.shape} instead.")
-        if self.parent.shape != (self.tetra.shape[0],):
+        tetra, parent = self.__dict__["_tetra"], self.__dict__["_parent"]
+        for name, values in (("tetra", tetra), ("parent", parent)):
+            if isinstance(values, Deferred):  # split on first use (Cells.split): made contiguous, read-only then
+                object.__setattr__(self, name, values.then(_frozen_int64))
+            else:
+                object.__setattr__(self, name, _frozen_int64(np.asarray(values)))
+        tetra, parent = self.__dict__["_tetra"], self.__dict__["_parent"]
+        if len(tetra.shape) != 2 or tetra.shape[1] != 4:
+            raise ValueError(f"'tetra' must be an array of shape (n_tetra, 4); got shape {tetra.shape} instead.")
+        if parent.shape != (tetra.shape[0],):
             raise ValueError(
-                f"'parent' must be an array of shape (n_tetra,) = ({self.tetra.shape[0]},); "
-                f"got shape {self.parent.shape} instead."
+                f"'parent' must be an array of shape (n_tetra,) = ({tetra.shape[0]},); "
+                f"got shape {parent.shape} instead."
             )
-        self.tetra.setflags(write=False)
-        self.parent.setflags(write=False)
         nodes = tuple(np.ascontiguousarray(n, dtype=np.int64) for n in self.nodes)
         if nodes and (len(nodes) != len(self.cell_types) or sum(n.shape[0] for n in nodes) != self.n_cells):
             raise ValueError(f"'nodes' must hold one connectivity array per cell type ({len(self.cell_types)}) and "
@@ -170,15 +243,126 @@ class Cells:
     @cached_property
     def index_range(self) -> tuple[int, int]:
         """(lowest, highest) point index the tetrahedra use; (0, -1) without tetrahedra. Computed once
-        per Cells (the arrays are read-only): a series' fields share their mesh's Cells."""
-        if not self.tetra.size:
+        per Cells (the arrays are read-only): a series' fields share their mesh's Cells. Cells still to be
+        split (:meth:`split`): from the corner nodes of their blocks, which are the tetrahedra's."""
+        if not self.n_tetra:
             return 0, -1
+        if self._blocks is not None and not self.split_done:
+            ends = []
+            for pattern, conn, _, _ in self._blocks:
+                used = np.unique(pattern)
+                corners = conn if used.size == conn.shape[1] else conn[:, used]  # every node a corner: no copy
+                if corners.size:
+                    ends.append((int(corners.min()), int(corners.max())))
+            return min(e[0] for e in ends), max(e[1] for e in ends)
         return int(self.tetra.min()), int(self.tetra.max())
+
+    #: (pattern (k, 4), connectivity (n, m), first cell, first tetrahedron) of each block of Cells made by
+    #: :meth:`split`; None for Cells given their tetrahedra.
+    _blocks = None
+
+    @classmethod
+    def split(cls, blocks: list, *, n_cells: int, cell_types: tuple = (), nodes: bool = False) -> Cells:
+        """Cells whose tetrahedra are split from their blocks on first use of :attr:`tetra` / :attr:`parent`.
+
+        ``blocks``: ``(pattern, connectivity)`` per block in cell order: each cell (a row of the
+        connectivity) is split into the tetrahedra ``connectivity[cell, pattern[j]]``, cell after cell.
+        :meth:`rows` and :meth:`tetra_rows` serve a part of them without splitting the rest: a
+        2,000,376-node hexahedral mesh's 11.7 million tetrahedra (0.47 GB with their parents) are
+        not made when the receptors need a few thousand of them. ``nodes``: keep the connectivities
+        as :attr:`nodes`.
+        """
+        done: list = []
+        first_cell = first_tet = 0
+        for pattern, conn in blocks:
+            pattern = np.asarray(pattern, dtype=np.intp).reshape(-1, 4)
+            conn = np.ascontiguousarray(conn, dtype=np.int64)  # the array :attr:`nodes` holds, when it is given
+            done.append((pattern, conn, first_cell, first_tet))
+            first_cell += conn.shape[0]
+            first_tet += conn.shape[0] * pattern.shape[0]
+        tetra = Deferred((first_tet, 4), lambda: _split_rows(done, None, "tetra"), "the tetrahedra of the cells")
+        parent = Deferred((first_tet,), lambda: _split_rows(done, None, "parent"), "the cells of the tetrahedra")
+        cells = cls(tetra, parent, n_cells, cell_types, nodes=tuple(b[1] for b in done) if nodes else ())
+        object.__setattr__(cells, "_blocks", tuple(done))
+        return cells
+
+    @property
+    def n_tetra(self) -> int:
+        """Number of tetrahedra (without splitting the cells)."""
+        return self.__dict__["_tetra"].shape[0]
+
+    @property
+    def split_done(self) -> bool:
+        """Whether :attr:`tetra` is in memory."""
+        return not isinstance(self.__dict__["_tetra"], Deferred)
+
+    def rows(self, t) -> tuple[np.ndarray, np.ndarray]:
+        """(tetra[t], parent[t]) for tetrahedron indices ``t``, without splitting the other cells."""
+        t = np.asarray(t, dtype=np.int64)
+        if self._blocks is None or self.split_done:
+            return self.tetra[t], self.parent[t]
+        return _split_rows(self._blocks, t)
+
+    def tetra_rows(self, cells, first: bool = False) -> np.ndarray:
+        """Indices of the tetrahedra of ``cells`` (sorted cell indices), in increasing order; ``first``:
+        each cell's first tetrahedron only."""
+        cells = np.asarray(cells, dtype=np.int64)
+        if self._blocks is not None:
+            out = []
+            for pattern, conn, c0, t0 in self._blocks:
+                mine = cells[(cells >= c0) & (cells < c0 + conn.shape[0])] - c0
+                k = 1 if first else pattern.shape[0]
+                out.append((t0 + mine[:, None] * pattern.shape[0] + np.arange(k)).ravel())
+            return np.concatenate(out) if out else np.zeros(0, np.int64)
+        parent = self.parent
+        if first:
+            if parent.size and np.all(parent[1:] >= parent[:-1]):
+                return np.searchsorted(parent, cells)
+            order = np.argsort(parent, kind="stable")
+            return order[np.searchsorted(parent[order], cells)]
+        return np.flatnonzero(np.isin(parent, cells))
+
+    def with_materials(self, materials) -> Cells:
+        """These cells with ``materials`` (their tetrahedra split or not, as these are)."""
+        cells = Cells(self.__dict__["_tetra"], self.__dict__["_parent"], self.n_cells, self.cell_types, materials,
+                      self.nodes)
+        object.__setattr__(cells, "_blocks", self._blocks)
+        return cells
 
     def renumbered_nodes(self, new_index: np.ndarray) -> tuple[np.ndarray, ...]:
         """:attr:`nodes` with each point index ``i`` replaced by ``new_index[i]`` (points merged or left out);
         -1 (a node left out) stays -1."""
         return tuple(np.where(n >= 0, new_index[np.maximum(n, 0)], -1) for n in self.nodes)
+
+
+def _frozen_int64(values: np.ndarray) -> np.ndarray:
+    values = np.ascontiguousarray(values, dtype=np.int64)
+    values.setflags(write=False)
+    return values
+
+
+def _split_rows(blocks: tuple, t, part: str = ""):
+    """The tetrahedra of :meth:`Cells.split`'s blocks: every row (``t`` None) as ``part`` ("tetra": the
+    tetrahedra, "parent": their cells), or (tetra, parent) of the rows ``t``."""
+    if t is None:
+        out = []
+        for pattern, conn, c0, _ in blocks:
+            if part == "tetra":
+                # take along axis 1 of the flat pattern: C-ordered, so the reshape is a view (conn[:, pattern]
+                # is laid out otherwise and the reshape copied it: 23 -> 8 ms for 108k hexahedra); int64 (what
+                # Cells holds) before the take, on the connectivity, not after it on the larger tetrahedra
+                out.append(np.take(conn.astype(np.int64, copy=False), pattern.ravel(), axis=1).reshape(-1, 4))
+            else:
+                out.append(np.repeat(np.arange(c0, c0 + conn.shape[0]), pattern.shape[0]))
+        return out[0] if len(out) == 1 else np.concatenate(out)
+    tetra, parent = np.zeros((t.size, 4), np.int64), np.zeros(t.size, np.int64)
+    for pattern, conn, c0, t0 in blocks:
+        k = pattern.shape[0]
+        mine = np.flatnonzero((t >= t0) & (t < t0 + conn.shape[0] * k))
+        cell, j = np.divmod(t[mine] - t0, k)
+        tetra[mine] = conn[cell[:, None], pattern[j]]
+        parent[mine] = c0 + cell
+    return tetra, parent
 
 
 @dataclass(frozen=True)

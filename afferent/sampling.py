@@ -249,24 +249,24 @@ def build_sampler(field: SEDField, layout: ReceptorLayout, *, method: SamplingMe
     n_r = layout.n_receptors
     if field.cells is not None:
         placement = PLACEMENTS[(field.location, method)]
-        tet, bary = locate_in_tets(pos, xyz, field.cells.tetra)
+        tet, bary = locate_in_tets(pos, xyz, field.cells)
         outside = tet < 0
         inside = np.flatnonzero(~outside)
         if field.location == "cell" and method == "nearest":
-            cols = field.cells.parent[tet[inside]]
+            cols = field.cells.rows(tet[inside])[1]
             w = sp.csr_matrix((np.ones(inside.size), (inside, cols)), shape=(n_r, field.cells.n_cells))
         elif method == "nearest":
             _, idx = cKDTree(xyz).query(pos)
             w = sp.csr_matrix((np.ones(inside.size), (inside, idx[inside])), shape=(n_r, field.n_points))
         else:
-            nodes = field.cells.tetra[tet[inside]]
+            nodes, parents = field.cells.rows(tet[inside])
             w = sp.csr_matrix(
                 (bary[inside].ravel(), (np.repeat(inside, 4), nodes.ravel())), shape=(n_r, field.n_points)
             )
             types = shaped_types(field.cells, field.location)
             if types and inside.size:  # the cells' own shape functions where they have them (not their tetrahedra's)
                 guess = np.full(n_r, -1, dtype=np.int64)
-                guess[inside] = field.cells.parent[tet[inside]]
+                guess[inside] = parents
                 w, outside, placement = with_shape_functions(w, outside, pos, xyz, field.cells, guess,
                                                              PLACEMENTS[(field.location, "shape")], types)
             if field.location == "cell":

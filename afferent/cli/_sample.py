@@ -15,6 +15,7 @@ import argparse
 import sys
 
 from .._output import check_writable, write_csv
+from .._tables import write_table
 from itertools import chain
 
 from .._interfaces import check_side
@@ -47,7 +48,8 @@ def run(args: argparse.Namespace) -> int:
     layout = layout_from_args(args, first, raws.pop())
     sed = sample_steps(chain([first], steps), layout, method=args.method, on_outside=args.on_outside,
                        side=check_side(args.side))
-    write_csv(sed.to_dataframe(), args.output, overwrite=args.overwrite, inputs=inputs)
+    # the table's columns written as pandas writes them (afferent._tables), without pandas' import (0.45 s)
+    write_csv(sed.columns(), args.output, overwrite=args.overwrite, inputs=inputs, writer=lambda cols, p: write_table(p, cols))
     if not args.quiet:
         inside = sed.values[:, ~sed.outside]
         span = f"SED {inside.min():.4g} .. {inside.max():.4g} J/m^3" if inside.size else "no receptor inside the field"

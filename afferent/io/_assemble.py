@@ -448,7 +448,7 @@ def _mesh(raw: RawExport, xyz: np.ndarray, sed: np.ndarray, location: str, rec: 
     if material is not None:
         same = memo.get("same") and memo.get("materials") is not None and np.array_equal(memo["materials"].materials,
                                                                                            material[2])
-        cells = memo["materials"] if same else replace(cells, materials=material[2])
+        cells = memo["materials"] if same else cells.with_materials(material[2])
         memo["materials"] = cells
         rec.columns["material"] = material[0]
         rec.columns["material_location"] = material[1]

@@ -144,23 +144,16 @@ def cells_from_meshio(cells, path: str) -> Cells | None:
         if conn.ndim != 2 or conn.shape[1] != num_nodes_per_cell[ctype]:
             raise SEDFormatError(f"SED file {path!r}: a block of {ctype!r} cells must hold {num_nodes_per_cell[ctype]} "
                                  f"node numbers per cell; got an array of shape {conn.shape} instead.")
-    tets, parents, offset = [], [], 0
-    for _, ctype, conn in blocks:
-        pattern = np.asarray(_TETS[_HIGHER.get(ctype, ctype)])
-        n = conn.shape[0]
-        # take along axis 1 of the flat pattern: C-ordered, so the reshape is a view (conn[:, pattern]
-        # is laid out otherwise and the reshape copied it: 23 -> 8 ms for 108k hexahedra); int64 (what
-        # Cells holds) before the take, on the connectivity, not after it on the larger tetrahedra
-        tets.append(np.take(conn.astype(np.int64, copy=False), pattern.ravel(), axis=1).reshape(-1, 4))
-        parents.append(np.repeat(np.arange(offset, offset + n), len(pattern)))
-        offset += n
     # every cell but the tetrahedron has shape functions of its own (afferent/_shape_functions.py): its full
-    # connectivity is kept; a mesh of tetrahedra alone needs no more than its tetrahedra
-    shaped = any(ctype != "tetra" for _, ctype, _ in blocks)
-    nodes = tuple(b[2] for b in blocks) if shaped else ()
-    if len(tets) == 1:  # one block: no copy
-        return Cells(tets[0], parents[0], offset, (blocks[0][1],), nodes=nodes)
-    return Cells(np.concatenate(tets), np.concatenate(parents), offset, tuple(b[1] for b in blocks), nodes=nodes)
+    # connectivity is kept, and its tetrahedra are split from it when used (Cells.split: sampling a few
+    # receptors splits the cells near them only); a mesh of tetrahedra alone needs no more than its tetrahedra
+    patterns = [np.asarray(_TETS[_HIGHER.get(ctype, ctype)]) for _, ctype, _ in blocks]
+    n_cells, types = sum(b[2].shape[0] for b in blocks), tuple(b[1] for b in blocks)
+    if any(ctype != "tetra" for _, ctype, _ in blocks):
+        return Cells.split([(p, b[2]) for p, b in zip(patterns, blocks)], n_cells=n_cells, cell_types=types, nodes=True)
+    tets = [np.take(conn.astype(np.int64, copy=False), p.ravel(), axis=1).reshape(-1, 4) for p, (_, _, conn) in zip(patterns, blocks)]
+    parent = np.arange(n_cells)  # one tetrahedron a cell
+    return Cells(tets[0] if len(tets) == 1 else np.concatenate(tets), parent, n_cells, types)
 
 
 def _vtu_version(path: str) -> tuple[int, int] | None:

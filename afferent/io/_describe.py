@@ -4,10 +4,6 @@ from __future__ import annotations
 
 from ..io._raw import RawExport
 
-
-
-from dataclasses import replace
-
 import numpy as np
 
 from .._plausibility import robust_level
@@ -70,7 +66,7 @@ def describe_raw(raw: RawExport) -> list[str]:
 
         types = ", ".join(dict.fromkeys(raw.cells.cell_types))  # each once: NGSolve's subdivision alternates blocks
         add("cells", f"{raw.cells.n_cells:,} volume cells ({types}), "
-                     f"{raw.cells.tetra.shape[0]:,} tetrahedra for sampling"
+                     f"{raw.cells.n_tetra:,} tetrahedra for sampling"
                      + ("; 'linear' sampling interpolates with each cell's own shape functions"
                         if shaped_types(raw.cells, "point") else ""))
     else:
@@ -178,7 +174,7 @@ def _mesh_lines(raw, opts, add) -> None:
     if raw.cells is None or raw.points is None:
         return
     material = find_material_array(raw)
-    cells = raw.cells if material is None else replace(raw.cells, materials=material[2])
+    cells = raw.cells if material is None else raw.cells.with_materials(material[2])
     try:
         arr = find_sed_array(raw, opts)[0]
         sed = arr.values.reshape(arr.values.shape[0], -1)

@@ -32,76 +32,9 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..exceptions import SEDFormatError
-from ..field import Cells
+from ..field import Cells, Deferred, _DecodedOnUse
 
 __all__ = ["RawExport", "RawArray", "Deferred", "check_export_file", "material_array", "drop_valueless_nodes", "split_steps", "stack_steps", "files_read", "h5_files", "h5_values"]
-
-
-class Deferred:
-    """Array values decoded on first use, their shape known before (from the file's header).
-
-    A reader that can tell an array's shape without decoding it (a VTU's binary DataArray: its
-    header gives the byte count) hands :class:`RawArray` a ``Deferred`` instead of the values;
-    ``afferent.read_sed`` then decodes only the arrays it uses (the SED, the material ids), not
-    the displacements and the other arrays an export carries besides. The values come back once,
-    checked against ``shape``.
-
-    Parameters
-    ----------
-    shape : tuple of int
-        The values' shape once decoded, in the layout of :attr:`RawArray.values`.
-    decode : callable
-        ``decode()`` returns the values (an ndarray of ``shape``); its errors are the reader's
-        (an :class:`afferent.exceptions.SEDFormatError` naming the file and the array).
-    label : str
-        What the values are, for the message should they not have ``shape`` (e.g. ``"SED file
-        'a.vtu': point array 'U'"``).
-    """
-
-    __slots__ = ("shape", "_decode", "label", "_values")
-
-    def __init__(self, shape: tuple, decode, label: str = "an array"):
-        self.shape, self._decode, self.label = tuple(int(n) for n in shape), decode, label
-        self._values = None
-
-    @property
-    def ndim(self) -> int:
-        return len(self.shape)
-
-    def then(self, function, shape: tuple | None = None) -> Deferred:
-        """The values ``function(values)`` will have, still not decoded (shape: the result's, default unchanged)."""
-        return Deferred(self.shape if shape is None else shape, lambda: function(self.decode()), self.label)
-
-    def decode(self) -> np.ndarray:
-        """The values, checked against :attr:`shape` (decoded once: a second call returns the same array)."""
-        if self._values is None:
-            values = self._decode()
-            if values.shape != self.shape:
-                raise SEDFormatError(f"{self.label} decoded to shape {values.shape}, where the file's header announced "
-                                     f"{self.shape}: the file is corrupt.")
-            self._values, self._decode = values, None
-        return self._values
-
-    def __reduce__(self):  # pickled as its values: the decoder's closure does not travel
-        return np.asarray, (self.decode(),)
-
-
-class _DecodedOnUse:
-    """The ``values`` field of :class:`RawArray`: an ndarray, or a :class:`Deferred` decoded (once) on first access."""
-
-    def __set_name__(self, owner, name):
-        self.key = "_" + name
-
-    def __get__(self, obj, owner=None):
-        if obj is None:
-            raise AttributeError("no default")  # a dataclass field without a default
-        values = obj.__dict__[self.key]
-        if isinstance(values, Deferred):
-            values = obj.__dict__[self.key] = values.decode()
-        return values
-
-    def __set__(self, obj, values):
-        obj.__dict__[self.key] = values
 
 
 @dataclass(frozen=True)

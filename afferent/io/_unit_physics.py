@@ -183,13 +183,14 @@ def implied_modulus(raw: RawExport, opts, sed_pa: np.ndarray, location: str) -> 
         cells = raw.cells
         if s.size != (cells.n_cells if location == "cell" else raw.points.shape[0]):
             return {"checkable": False, "note": f"the SED's {location} values do not match the export's {location}s"}
-        cand = _spread(cells.tetra.shape[0])
-        per_tet = s[cells.parent[cand]] if location == "cell" else s[cells.tetra[cand]].mean(axis=1)
+        cand = _spread(cells.n_tetra)
+        tetra, parent = cells.rows(cand)
+        per_tet = s[parent] if location == "cell" else s[tetra].mean(axis=1)
         top = _most_loaded(per_tet)
         idx = cand[top]
         per_tet = per_tet[top]
         u = np.asarray(disp[1][min(k, disp[1].shape[0] - 1)], dtype=float)
-        eps2 = _gradient_strain(np.asarray(raw.points, dtype=float), u, cells.tetra[idx])
+        eps2 = _gradient_strain(np.asarray(raw.points, dtype=float), u, tetra[top])
         source = f"displacement gradient of {disp[0]!r} in the cells"
         vals = per_tet
     ok = np.isfinite(eps2) & (eps2 > 0)

@@ -351,12 +351,35 @@ def _cells(pieces: list) -> list:
         if "faces" in raw or np.any(raw["types"] == 42):  # polyhedra: meshio's own path (refused later, by type)
             got, _ = _vtu._organize_cells([offset], [raw], [{}])
         else:
-            got, _ = vtk_cells_from_data(raw["connectivity"].ravel(), raw["offsets"].ravel(), raw["types"].ravel(), {})
+            got = _one_type(raw) or vtk_cells_from_data(raw["connectivity"].ravel(), raw["offsets"].ravel(),
+                                                        raw["types"].ravel(), {})[0]
             if offset:
                 got = [CellBlock(b.type, b.data + offset) for b in got]
         blocks.extend(got)
         offset += piece.n_points
     return _runs_joined(blocks) if len(pieces) > 1 else blocks
+
+
+def _one_type(raw: dict) -> list | None:
+    """A piece's cells as one meshio block that is a view of its connectivity, when every cell is of one
+    fixed-size type written end to end (offsets ``k, 2k, 3k, ...``; no reordering of its nodes): what
+    meshio's ``vtk_cells_from_data`` gives then, without its index array and copy (2M hexahedra: 1.3 s
+    and 0.25 GB at peak). None otherwise (meshio's own split)."""
+    from meshio._common import num_nodes_per_cell
+    from meshio._mesh import CellBlock
+    from meshio._vtk_common import vtk_to_meshio_order, vtk_to_meshio_type
+
+    types, offsets, conn = raw["types"].ravel(), raw["offsets"].ravel(), raw["connectivity"].ravel()
+    if not len(types) or len(offsets) != len(types) or types.min() != types.max():
+        return None
+    kind = vtk_to_meshio_type.get(int(types[0]))
+    k = num_nodes_per_cell.get(kind)
+    if k is None or kind == "polygon" or kind.startswith("VTK_LAGRANGE") or vtk_to_meshio_order(int(types[0])) is not None:
+        return None
+    n = len(types)
+    if len(conn) < n * k or offsets[0] != k or not np.array_equal(np.diff(offsets), np.broadcast_to(np.asarray(k, offsets.dtype), (n - 1,))):
+        return None
+    return [CellBlock(kind, conn[:n * k].reshape(n, k))]
 
 
 def _runs_joined(blocks: list) -> list:
