@@ -16,6 +16,7 @@ from typing import Literal
 
 import numpy as np
 
+from ._typing import ArrayLike
 from .exceptions import SEDFormatError
 from ._validation import check_finite_array
 
@@ -296,14 +297,14 @@ class Cells:
         """Whether :attr:`tetra` is in memory."""
         return not isinstance(self.__dict__["_tetra"], Deferred)
 
-    def rows(self, t) -> tuple[np.ndarray, np.ndarray]:
+    def rows(self, t: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
         """(tetra[t], parent[t]) for tetrahedron indices ``t``, without splitting the other cells."""
         t = np.asarray(t, dtype=np.int64)
         if self._blocks is None or self.split_done:
             return self.tetra[t], self.parent[t]
         return _split_rows(self._blocks, t)
 
-    def tetra_rows(self, cells, first: bool = False) -> np.ndarray:
+    def tetra_rows(self, cells: ArrayLike, first: bool = False) -> np.ndarray:
         """Indices of the tetrahedra of ``cells`` (sorted cell indices), in increasing order; ``first``:
         each cell's first tetrahedron only."""
         cells = np.asarray(cells, dtype=np.int64)
@@ -322,7 +323,7 @@ class Cells:
             return order[np.searchsorted(parent[order], cells)]
         return np.flatnonzero(np.isin(parent, cells))
 
-    def with_materials(self, materials) -> Cells:
+    def with_materials(self, materials: ArrayLike | None) -> Cells:
         """These cells with ``materials`` (their tetrahedra split or not, as these are)."""
         cells = Cells(self.__dict__["_tetra"], self.__dict__["_parent"], self.n_cells, self.cell_types, materials,
                       self.nodes)
