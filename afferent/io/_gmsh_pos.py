@@ -40,6 +40,7 @@ import warnings
 import numpy as np
 
 from ..exceptions import SEDFormatError
+from ._gmsh_sections import _is_number
 
 __all__ = ["parse_pos", "pos_export"]
 
@@ -77,14 +78,6 @@ def _numbers(path: str, where: str, text: bytes) -> np.ndarray:
         raise _err(path, f"{where}: expected numbers; got {bad[:40].decode('latin-1')!r} instead (afferent reads "
                          "the numbers Gmsh writes, not expressions).")
     return out
-
-
-def _is_number(token: bytes) -> bool:
-    try:
-        float(token)
-    except ValueError:
-        return False
-    return True
 
 
 def _at(data: bytes, pos: int) -> str:
