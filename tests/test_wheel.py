@@ -70,7 +70,9 @@ def test_packaged_sample_is_the_files_its_readme_lists():
         assert (PACKAGED / name).stat().st_size == size, name
         assert sha256(PACKAGED / name) == sha, name
     total = sum(size for size, _, _ in table.values())
-    assert total < 2_500_000  # a crop, not the 35 MB sample (2.1 MB with the chapter-4 findings' files, issue 35)
+    # a crop, not the 37 MB sample: 2.9 MB with the chapter-4 findings' files, whose vibration series carry the cells'
+    # SED and layer around each tip so that the dermis side can be read (issue 35)
+    assert total < 3_300_000
 
 
 @full_sample
