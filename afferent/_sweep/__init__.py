@@ -71,7 +71,7 @@ from dataclasses import dataclass, field
 
 from ._local import run_local
 from . import records as _records
-from .records import _gather, _Ids, _iter_records
+from .records import _gather, _Ids
 from .spec import SweepSpec, Task, load_sweep
 from .table import COLUMNS, read_table
 
@@ -194,8 +194,7 @@ def _prepare(output: str, spec: SweepSpec, overwrite: bool, inputs: tuple) -> _I
         raise OutputExistsError(f"Output folder {output!r} already exists and is not a sweep's (no sweep.json); "
                                 "pass overwrite=True to replace it, or choose another folder.")
     hashes: dict = {}
-    return _Ids(r["task"] for r in _iter_records(output)
-                if r.get("status") == "ok" and _inputs_unchanged(r.get("inputs"), hashes))
+    return _Ids(task for task, inputs in _records._done_records(output) if _inputs_unchanged(inputs, hashes))
 
 
 def _inputs_unchanged(inputs, hashes: dict) -> bool:
@@ -254,9 +253,13 @@ class _Sink:
             name = hashlib.sha256(",".join(i[0] for i in items).encode()).hexdigest()[:16]
             if not items or name in self.batches:
                 return
-            with atomic_file(os.path.join(self.output, "tasks", f"batch-{name}.jsonl"), overwrite=True) as tmp:
+            batch = os.path.join(self.output, "tasks", f"batch-{name}.jsonl")
+            with atomic_file(batch, overwrite=True) as tmp:
                 with open(tmp, "w") as f:
                     f.write("".join(i[3] + "\n" for i in items))
+            with atomic_file(os.path.join(self.output, "tasks", f"index-{name}.json"), overwrite=True) as tmp:
+                with open(tmp, "w") as f:  # what resume reads of the batch (records.index_of), written after it
+                    json.dump(_records.index_of(batch, items), f, separators=(",", ":"))
             self.batches.add(name)
             self.n += len(items)
             self.seconds += sum(i[2] for i in items)
