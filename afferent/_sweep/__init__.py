@@ -23,7 +23,8 @@ are sweeps too (one task per scene).
         -> group tasks by what sampling depends on (export content, receptors, region, method)
         -> sample: one task per group, read + sample once (through the SED cache)
         -> batches of tasks on the sampled SED (stimulus, transduction, synthesis, fit, spikes)
-        -> OUT/tasks/batch-*.jsonl (one JSON line per task), OUT/table.csv (or .parquet), OUT/sweep.json
+        -> OUT/tasks/batch-*.jsonl (one JSON line per task) and index-*.json (its done tasks, for resume),
+           OUT/table.csv (or .parquet), OUT/sweep.json
 
 **Engines.** ``scheduler=None`` runs on Dask's local multiprocessing scheduler, one process
 per core. Chosen by measurement (benchmarks/bench_sweep.py, 600 tasks, 3 interleaved rounds on
@@ -50,7 +51,7 @@ sampled SEDs are scattered to the workers: no worker reads an export or assumes 
 done. One file per batch, not per task: writing a file costs this machine ~0.5 ms, a record
 serialised by its worker costs the writer almost nothing, and the writer (this process) must
 keep up with every worker of a cluster. A re-run into the same folder skips the tasks whose records say 'ok' (resume) and retries
-failed ones; a folder holding another sweep is refused unless ``overwrite``, and then the new sweep
+failed ones, reading each batch's index (records.index_of), or the batch where the index is not current; a folder holding another sweep is refused unless ``overwrite``, and then the new sweep
 is written beside it and replaces it only when complete (``afferent._output.atomic_dir``: an
 interrupted ``overwrite`` keeps the previous sweep whole).
 """
