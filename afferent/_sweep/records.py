@@ -109,11 +109,11 @@ def index_of(batch: str, items) -> dict:
     ok = {}
     for i in items:
         if i[1] == "ok":
-            key = json.dumps(i[4], sort_keys=True)
+            key = tuple(sorted(i[4].items())) if isinstance(i[4], dict) else None
             ok[i[0]] = sets.setdefault(key, len(sets))
     return {"afferent_sweep_index": INDEX_FORMAT, "batch": os.path.basename(batch), "size": st.st_size,
             "mtime_ns": st.st_mtime_ns, "tasks": [i[0] for i in items], "ok": ok,
-            "inputs": [json.loads(k) for k in sets]}
+            "inputs": [None if k is None else dict(k) for k in sets]}
 
 
 def _indexed(folder: str, name: str) -> list | None:
