@@ -149,3 +149,28 @@ def test_overwrite_deletes_the_indexes_afferent_wrote_and_refuses_a_forged_one(d
     (out / "tasks" / f"index-{'0' * 16}.json").unlink()
     res = sweep(src, out, scheduler="serial", batch_size=2, overwrite=True)
     assert res.n_ran == 6 and len(list((out / "tasks").glob("index-*.json"))) == 3
+    assert _done(out) == _scanned(out) and len(_done(out)) == 6  # written in the new folder, current after its move
+    assert all(records._indexed(str(out / "tasks"), b.name) is not None for b in _batches(out))
+
+
+def test_a_batch_written_again_drops_its_old_index_first(done_sweep, tmp_path, monkeypatch):
+    """A re-run writing a batch of the same tasks again, killed before its new index: the old index is gone, not
+    beside a batch it no longer describes (whatever the file system's time resolution)."""
+    import afferent._sweep as S
+    from afferent._output import atomic_file
+
+    src, _, _ = done_sweep
+    out = _copy(done_sweep, tmp_path)
+    a = _batches(out)[0]
+    items = [(r["task"], "failed", 0.0, json.dumps(dict(r, status="failed")), None)
+             for r in records._file_records(str(a))]
+
+    def killed(path, **kw):
+        if "index-" in os.path.basename(path):
+            raise KeyboardInterrupt
+        return atomic_file(path, **kw)
+
+    monkeypatch.setattr("afferent._output.atomic_file", killed)
+    with pytest.raises(KeyboardInterrupt):
+        S._Sink(str(out), 2, False)(items)
+    assert not _index(a).exists() and _done(out) == _scanned(out) and len(_done(out)) == 4

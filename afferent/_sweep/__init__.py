@@ -254,11 +254,14 @@ class _Sink:
             name = hashlib.sha256(",".join(i[0] for i in items).encode()).hexdigest()[:16]
             if not items or name in self.batches:
                 return
-            batch = os.path.join(self.output, "tasks", f"batch-{name}.jsonl")
+            batch, index = (os.path.join(self.output, "tasks", f"{k}-{name}.{x}") for k, x in (("batch", "jsonl"),
+                                                                                              ("index", "json")))
+            if os.path.lexists(index):  # a batch rewritten (a re-run of the same tasks): never beside its old index
+                os.remove(index)
             with atomic_file(batch, overwrite=True) as tmp:
                 with open(tmp, "w") as f:
                     f.write("".join(i[3] + "\n" for i in items))
-            with atomic_file(os.path.join(self.output, "tasks", f"index-{name}.json"), overwrite=True) as tmp:
+            with atomic_file(index, overwrite=True) as tmp:
                 with open(tmp, "w") as f:  # what resume reads of the batch (records.index_of), written after it
                     json.dump(_records.index_of(batch, items), f, separators=(",", ":"))
             self.batches.add(name)
