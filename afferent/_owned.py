@@ -10,7 +10,8 @@ afferent's:
 - a subfolder named in the record; the record itself;
 - in a sweep's folder (``task_records``), a task-record file ``tasks/batch-<16 hex>.jsonl`` whose
   every line is a task record (``{"task":"<id>",...``) and whose 16 hex digits are the start of the
-  SHA-256 of its task ids joined by commas, the name afferent gives it (:mod:`afferent._sweep`);
+  SHA-256 of its task ids joined by commas, the name afferent gives it (:mod:`afferent._sweep`); and its
+  index ``tasks/index-<16 hex>.json``, a JSON object whose ``tasks`` (the ids) give the same digits;
 - a temporary that afferent's writers name ``.<name>.<8 characters>.part``, left by a killed
   process, for a ``<name>`` proven above in the same folder.
 
@@ -39,7 +40,7 @@ FORMAT = 2
 #: a sweep's folder of task records
 TASKS = "tasks"
 _SWEEP_FILES = ("sweep.json", "table.parquet", "table.csv")  # a sweep's files, written in place, then recorded
-_BATCH = re.compile(r"batch-([0-9a-f]{16})\.jsonl")
+_BATCH = re.compile(r"batch-([0-9a-f]{16})\.jsonl|index-([0-9a-f]{16})\.json")  # a batch, its index
 _TASK_LINE = re.compile(rb'\{"task":"([^"\\]+)"')
 _TEMPORARY = re.compile(r"\.(.+)\.[a-z0-9_]{8}\.part")  # tempfile's names: prefix '.NAME.', 8 characters, '.part'
 
@@ -172,6 +173,25 @@ def _task_file(path: str, digits: str) -> bool:
     return bool(ids) and hashlib.sha256(b",".join(ids)).hexdigest()[:16] == digits
 
 
+def _index_file(path: str, digits: str) -> bool:
+    """A batch's index as afferent writes it (afferent._sweep.records.index_of): its task ids give its name."""
+    try:
+        fd = os.open(path, os.O_RDONLY | getattr(os, "O_NOFOLLOW", 0) | getattr(os, "O_NONBLOCK", 0))
+    except OSError:
+        return False
+    with os.fdopen(fd, "rb") as f:
+        if not stat.S_ISREG(os.fstat(fd).st_mode):
+            return False
+        try:
+            index = json.loads(f.read())
+            ids = index["tasks"]
+            return (isinstance(index, dict) and "afferent_sweep_index" in index and isinstance(ids, list) and bool(ids)
+                    and all(isinstance(i, str) for i in ids)
+                    and hashlib.sha256(",".join(ids).encode()).hexdigest()[:16] == digits)
+        except (ValueError, KeyError, TypeError):
+            return False
+
+
 def owned(folder: str, what: str, shown: str | None = None) -> list[str]:
     """Prove that afferent wrote everything in ``folder`` (module docstring); the paths to delete, deepest first.
 
@@ -232,7 +252,8 @@ def _unproven(entries, record: dict) -> tuple[list, list]:
                 size = None
             if size != want["size"] or _entry(e.path) != want:
                 changed.append(rel)
-        elif not _task_file(e.path, _batch(rel).group(1)):
+        elif not (_task_file(e.path, _batch(rel).group(1)) if _batch(rel).group(1) else
+                  _index_file(e.path, _batch(rel).group(2))):
             foreign.append(rel)
     return foreign, changed
 

@@ -7,7 +7,11 @@ is timed is what the process that dispatches a sweep does per task before any wo
 
 * ``make``: :meth:`SweepSpec.iter_tasks` over the first ``--tasks`` tasks (each task's id and group);
 * ``resume``: the task stream of a re-run into a folder where every task is done
-  (``afferent._sweep.records._windows`` with every id done: each task made, its id checked, skipped).
+  (``afferent._sweep.records._windows`` with every id done: each task made, its id checked, skipped);
+* ``--read``: what a re-run reads first, the done tasks of the folder (``afferent._sweep._prepare``: ids and
+  input hashes, ``records._done_records``), from a folder of ``--tasks`` records written in batches of 64 (the
+  first task run for real, its record copied under each task's id), with each batch's index
+  (``tasks/index-*.json``) and without (every record read, as before the indexes); this checkout only.
 
 Each measurement runs in a fresh Python process per checkout (``--tree DIR``: the folder whose
 ``afferent/`` package runs, e.g. a ``git archive`` of main), the checkouts interleaved ``--repeat``
@@ -95,18 +99,83 @@ print(json.dumps({"tasks": made, "load_s": load, "make_wall_s": w1 - w, "make_cp
 """
 
 
+READ = r"""
+import itertools, json, os, sys, time
+from afferent._sweep import load_sweep, engine, records, _inputs_unchanged
+src, n, out = sys.argv[1], int(sys.argv[2]), sys.argv[3]
+spec = load_sweep(src, max_tasks=10**7)
+tasks = list(itertools.islice(spec.iter_tasks(), n))
+first = engine.run_batch(engine.sample(tasks[0], None, False), tasks[:1])[0]
+assert first[1] == "ok", first[3][:300]
+os.makedirs(os.path.join(out, "tasks"))
+for k in range(0, len(tasks), 64):
+    items = [(t.id, "ok", 0.0, first[3].replace(tasks[0].id, t.id), first[4]) for t in tasks[k:k + 64]]
+    import hashlib
+    name = hashlib.sha256(",".join(i[0] for i in items).encode()).hexdigest()[:16]
+    batch = os.path.join(out, "tasks", f"batch-{name}.jsonl")
+    with open(batch, "w") as f:
+        f.write("".join(i[3] + "\n" for i in items))
+    with open(os.path.join(out, "tasks", f"index-{name}.json"), "w") as f:
+        json.dump(records.index_of(batch, items), f, separators=(",", ":"))
+def done():
+    hashes = {}
+    t = time.perf_counter(), time.process_time()
+    ids = [i for i, inputs in records._done_records(out) if _inputs_unchanged(inputs, hashes)]
+    assert len(ids) == len(tasks), len(ids)
+    return time.perf_counter() - t[0], time.process_time() - t[1]
+size = sum(os.path.getsize(os.path.join(out, "tasks", f)) for f in os.listdir(os.path.join(out, "tasks")) if f.endswith("l"))
+index = sum(os.path.getsize(os.path.join(out, "tasks", f)) for f in os.listdir(os.path.join(out, "tasks")) if f.endswith("n"))
+w_i, c_i = done()
+for f in os.listdir(os.path.join(out, "tasks")):
+    if f.startswith("index-"):
+        os.remove(os.path.join(out, "tasks", f))
+w_s, c_s = done()
+print(json.dumps({"tasks": len(tasks), "record_bytes": len(first[3]), "batches_mb": size / 1e6, "indexes_mb": index / 1e6,
+                  "index_wall_s": w_i, "index_cpu_s": c_i, "scan_wall_s": w_s, "scan_cpu_s": c_s}))
+"""
+
+
+def read(src: Path, n: int, work: Path, repeat: int) -> None:
+    """The ``--read`` measurement (module docstring), ``repeat`` times in fresh processes of this checkout."""
+    import shutil
+
+    rs = []
+    for k in range(repeat):
+        out = work / f"read-{k}"
+        p = subprocess.run([sys.executable, "-c", READ, str(src), str(n), str(out)], capture_output=True, text=True,
+                           cwd=ROOT, env=dict(os.environ, PYTHONPATH=str(ROOT)))
+        shutil.rmtree(out, ignore_errors=True)
+        if p.returncode:
+            print(f"read: failed\n{p.stderr[-2000:]}")
+            return
+        r = json.loads(p.stdout.strip().splitlines()[-1])
+        rs.append(r)
+        print(f"read round {k + 1}: {r['tasks']} done tasks ({r['record_bytes']} B a record; batches {r['batches_mb']:.0f} "
+              f"MB, indexes {r['indexes_mb']:.2f} MB): from the indexes {r['index_wall_s'] / r['tasks'] * 1e3:.4f} ms/task "
+              f"wall ({r['index_cpu_s'] / r['tasks'] * 1e3:.4f} CPU), every record read {r['scan_wall_s'] / r['tasks'] * 1e3:.4f} "
+              f"ms/task wall ({r['scan_cpu_s'] / r['tasks'] * 1e3:.4f} CPU); load average {os.getloadavg()[0]:.2f}")
+    m = {k: statistics.median(r[k] / r["tasks"] for r in rs) * 1e3
+         for k in ("index_wall_s", "index_cpu_s", "scan_wall_s", "scan_cpu_s")}
+    print(f"read median over {len(rs)} rounds: indexes {m['index_wall_s']:.4f} ms/task wall ({m['index_cpu_s']:.4f} CPU), "
+          f"records {m['scan_wall_s']:.4f} ms/task wall ({m['scan_cpu_s']:.4f} CPU): "
+          f"{m['scan_cpu_s'] / m['index_cpu_s']:.0f}x CPU")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--tasks", type=int, default=100_000, help="tasks of the sweep (a product of 100 x tasks/100)")
     ap.add_argument("--tree", action="append", default=[], help="another checkout to compare (repeatable)")
     ap.add_argument("--cap", type=int, default=3000, help="most tasks made by a checkout slower than 0.2 ms a task")
     ap.add_argument("--repeat", type=int, default=3, help="rounds, checkouts interleaved (the median is reported)")
+    ap.add_argument("--read", action="store_true", help="measure reading a resumed folder's done tasks instead")
     args = ap.parse_args()
     work = Path(tempfile.mkdtemp(prefix="bench-sweep-tasks-"))
     src = sweep_file(work, args.tasks)
     trees = [str(ROOT), *args.tree]
     print("command:", shlex.join([sys.executable, *sys.argv]))
     print(f"machine: {os.cpu_count()} cores, load average {os.getloadavg()[0]:.2f} (1 min); sweep {src}")
+    if args.read:
+        return read(src, args.tasks, work, args.repeat)
     def run(tree, n):
         out = subprocess.run([sys.executable, "-c", CHILD, str(src), str(n)], capture_output=True, text=True,
                              cwd=tree, env=dict(os.environ, PYTHONPATH=tree))

@@ -23,7 +23,8 @@ are sweeps too (one task per scene).
         -> group tasks by what sampling depends on (export content, receptors, region, method)
         -> sample: one task per group, read + sample once (through the SED cache)
         -> batches of tasks on the sampled SED (stimulus, transduction, synthesis, fit, spikes)
-        -> OUT/tasks/batch-*.jsonl (one JSON line per task), OUT/table.csv (or .parquet), OUT/sweep.json
+        -> OUT/tasks/batch-*.jsonl (one JSON line per task) and index-*.json (its done tasks, for resume),
+           OUT/table.csv (or .parquet), OUT/sweep.json
 
 **Engines.** ``scheduler=None`` runs on Dask's local multiprocessing scheduler, one process
 per core. Chosen by measurement (benchmarks/bench_sweep.py, 600 tasks, 3 interleaved rounds on
@@ -50,7 +51,7 @@ sampled SEDs are scattered to the workers: no worker reads an export or assumes 
 done. One file per batch, not per task: writing a file costs this machine ~0.5 ms, a record
 serialised by its worker costs the writer almost nothing, and the writer (this process) must
 keep up with every worker of a cluster. A re-run into the same folder skips the tasks whose records say 'ok' (resume) and retries
-failed ones; a folder holding another sweep is refused unless ``overwrite``, and then the new sweep
+failed ones, reading each batch's index (records.index_of), or the batch where the index is not current; a folder holding another sweep is refused unless ``overwrite``, and then the new sweep
 is written beside it and replaces it only when complete (``afferent._output.atomic_dir``: an
 interrupted ``overwrite`` keeps the previous sweep whole).
 """
@@ -71,7 +72,7 @@ from dataclasses import dataclass, field
 
 from ._local import run_local
 from . import records as _records
-from .records import _gather, _Ids, _iter_records
+from .records import _gather, _Ids
 from .spec import SweepSpec, Task, load_sweep
 from .table import COLUMNS, read_table
 
@@ -194,8 +195,7 @@ def _prepare(output: str, spec: SweepSpec, overwrite: bool, inputs: tuple) -> _I
         raise OutputExistsError(f"Output folder {output!r} already exists and is not a sweep's (no sweep.json); "
                                 "pass overwrite=True to replace it, or choose another folder.")
     hashes: dict = {}
-    return _Ids(r["task"] for r in _iter_records(output)
-                if r.get("status") == "ok" and _inputs_unchanged(r.get("inputs"), hashes))
+    return _Ids(task for task, inputs in _records._done_records(output) if _inputs_unchanged(inputs, hashes))
 
 
 def _inputs_unchanged(inputs, hashes: dict) -> bool:
@@ -254,9 +254,16 @@ class _Sink:
             name = hashlib.sha256(",".join(i[0] for i in items).encode()).hexdigest()[:16]
             if not items or name in self.batches:
                 return
-            with atomic_file(os.path.join(self.output, "tasks", f"batch-{name}.jsonl"), overwrite=True) as tmp:
+            batch, index = (os.path.join(self.output, "tasks", f"{k}-{name}.{x}") for k, x in (("batch", "jsonl"),
+                                                                                              ("index", "json")))
+            if os.path.lexists(index):  # a batch rewritten (a re-run of the same tasks): never beside its old index
+                os.remove(index)
+            with atomic_file(batch, overwrite=True) as tmp:
                 with open(tmp, "w") as f:
                     f.write("".join(i[3] + "\n" for i in items))
+            with atomic_file(index, overwrite=True) as tmp:
+                with open(tmp, "w") as f:  # what resume reads of the batch (records.index_of), written after it
+                    json.dump(_records.index_of(batch, items), f, separators=(",", ":"))
             self.batches.add(name)
             self.n += len(items)
             self.seconds += sum(i[2] for i in items)

@@ -146,13 +146,14 @@ def record_line(task, rec: dict) -> str:
 def run_batch(sampled: Sampled, tasks) -> list[tuple]:
     """A few tasks of one group, run one after the other on its sampled SED.
 
-    Returns ``(task id, status, seconds, record as a JSON line)`` per task: the worker
-    serialises, so the process writing the records only writes text.
+    Returns ``(task id, status, seconds, record as a JSON line, inputs)`` per task (inputs: the files it read,
+    path -> SHA-256, for the batch's index): the worker serialises, so the process writing the records only
+    writes text.
     """
     out = []
     for t in tasks:
         rec = run_task(t, sampled)
-        out.append((t.id, rec["status"], rec.get("seconds", 0.0), record_line(t, rec)))
+        out.append((t.id, rec["status"], rec.get("seconds", 0.0), record_line(t, rec), rec.get("inputs")))
     return out
 
 
@@ -162,7 +163,7 @@ def failed_batch(tasks, error: str) -> list[tuple]:
     for t in tasks:
         rec = {"task": t.id, "index": t.index, "scene": t.label, "scene_file": t.base.scene_path, "params": t.params,
                "group": t.group, "status": "failed", "error": error, "seconds": 0.0}
-        out.append((t.id, "failed", 0.0, record_line(t, rec)))
+        out.append((t.id, "failed", 0.0, record_line(t, rec), None))
     return out
 
 

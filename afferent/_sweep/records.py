@@ -68,24 +68,100 @@ def _iter_records(output: str):
     """Every task record of ``tasks/*.jsonl``, one at a time (a line that is not a record is skipped: it runs again;
     so is a line that is not UTF-8 JSON, read as bytes: a damaged file's other lines are still records; a file
     that is not a regular file - a FIFO would block - is refused, naming it)."""
+    folder = os.path.join(output, "tasks")
+    for name in sorted(os.listdir(folder)) if os.path.isdir(folder) else ():
+        if name.endswith(".jsonl"):
+            yield from _file_records(os.path.join(folder, name))
+
+
+def _file_records(path: str):
+    """The task records of one batch file (:func:`_iter_records`); nothing if it cannot be read."""
     from ..io._files import open_regular
 
+    try:
+        with open_regular(path, "Sweep record", "rb") as f:
+            lines = f.read().splitlines()
+    except OSError:
+        return
+    for line in lines:
+        try:
+            rec = json.loads(line)
+        except ValueError:  # json.JSONDecodeError, or UnicodeDecodeError: bytes that are not UTF-8
+            continue
+        if isinstance(rec, dict) and isinstance(rec.get("task"), str):
+            yield rec
+
+
+#: An index's format (``tasks/index-<name>.json`` beside ``tasks/batch-<name>.jsonl``).
+INDEX_FORMAT = 1
+
+
+def index_of(batch: str, items) -> dict:
+    """The index of a batch file just written (``items``: :func:`engine.run_batch`'s tuples, in the batch's order).
+
+    What resume needs of a batch, without its records: every task id in order (afferent's name for both files
+    is the start of the SHA-256 of these ids joined by commas: ``afferent._owned`` proves an index by it), the
+    tasks that succeeded with the files each read (path -> SHA-256; the distinct sets once each), and the batch
+    file's size (bytes) and modification time (ns) when written: a batch that differs from them is read instead.
+    """
+    st = os.stat(batch)
+    sets: dict = {}
+    ok = {}
+    for i in items:
+        if i[1] == "ok":
+            key = tuple(sorted(i[4].items())) if isinstance(i[4], dict) else None
+            ok[i[0]] = sets.setdefault(key, len(sets))
+    return {"afferent_sweep_index": INDEX_FORMAT, "batch": os.path.basename(batch), "size": st.st_size,
+            "mtime_ns": st.st_mtime_ns, "tasks": [i[0] for i in items], "ok": ok,
+            "inputs": [None if k is None else dict(k) for k in sets]}
+
+
+def _indexed(folder: str, name: str) -> list | None:
+    """``[(task id, inputs)]`` of the 'ok' tasks of batch ``name`` from its index, or None (scan the batch): no index,
+    unreadable, another format, or stale - the batch's size or modification time not those recorded, or the index's
+    tasks not consistent with the batch's name and with themselves. An index is never trusted over its batch."""
+    import hashlib
+    import stat
+
+    from ..io._files import open_regular
+
+    stem = name[len("batch-"):-len(".jsonl")] if name.startswith("batch-") else None
+    if stem is None:
+        return None
+    try:
+        st = os.stat(os.path.join(folder, name))
+        with open_regular(os.path.join(folder, f"index-{stem}.json"), "Sweep index", "rb") as f:
+            index = json.loads(f.read())
+    except Exception:  # noqa: BLE001 - missing, unreadable, not a regular file, not JSON: the batch is read instead
+        return None
+    try:
+        if (not stat.S_ISREG(st.st_mode) or index.get("afferent_sweep_index") != INDEX_FORMAT
+                or index.get("batch") != name or index.get("size") != st.st_size
+                or index.get("mtime_ns") != st.st_mtime_ns):
+            return None
+        tasks, ok, inputs = index["tasks"], index["ok"], index["inputs"]
+        if (not isinstance(tasks, list) or not tasks or not all(isinstance(t, str) for t in tasks)
+                or not isinstance(ok, dict) or not isinstance(inputs, list) or not set(ok) <= set(tasks)
+                or not all(type(k) is int and 0 <= k < len(inputs) for k in ok.values())
+                or hashlib.sha256(",".join(tasks).encode()).hexdigest()[:16] != stem):
+            return None
+        return [(t, inputs[k]) for t, k in ok.items()]
+    except (KeyError, TypeError, AttributeError):
+        return None
+
+
+def _done_records(output: str):
+    """``(task id, inputs)`` of every 'ok' task record of ``tasks/*.jsonl`` (resume): from each batch's index where it
+    is current (:func:`_indexed`), else from the batch's records (:func:`_file_records`)."""
     folder = os.path.join(output, "tasks")
     for name in sorted(os.listdir(folder)) if os.path.isdir(folder) else ():
         if not name.endswith(".jsonl"):
             continue
-        try:
-            with open_regular(os.path.join(folder, name), "Sweep record", "rb") as f:
-                lines = f.read().splitlines()
-        except OSError:
-            continue
-        for line in lines:
-            try:
-                rec = json.loads(line)
-            except ValueError:  # json.JSONDecodeError, or UnicodeDecodeError: bytes that are not UTF-8
-                continue
-            if isinstance(rec, dict) and isinstance(rec.get("task"), str):
-                yield rec
+        done = _indexed(folder, name)
+        if done is None:
+            done = ((r["task"], r.get("inputs")) for r in _file_records(os.path.join(folder, name))
+                    if r.get("status") == "ok")
+        yield from done
 
 
 #: Rows held at a time while the table is gathered: a bucket of tasks written at once, and the rows read and not
