@@ -323,6 +323,17 @@ _WIDE = ('"transduction.gamma_per_pa" = {start = 1e-3, stop = 1e-2, num = 40}\n'
          '"spikes.gain_ms" = {start = 100, stop = 300, num = 10}\n')
 
 
+def _is_pool_worker(proc) -> bool:
+    """A process of the 'processes' scheduler's pool (not the resource tracker, not a child before its exec)."""
+    import psutil
+
+    try:
+        line = " ".join(proc.cmdline())
+    except psutil.Error:
+        return False
+    return "--multiprocessing-fork" in line and "resource_tracker" not in line
+
+
 def _start_sweep_and_wait_for_workers(tmp_path, spec: str = _WIDE, n_workers: int = 2, poll: float = 0.1):
     """A real `afferent sweep` of ``spec`` on the 'processes' engine, once ``n_workers`` workers run (polled every
     ``poll`` s); (process, its descendants, the workers)."""
@@ -337,7 +348,9 @@ def _start_sweep_and_wait_for_workers(tmp_path, spec: str = _WIDE, n_workers: in
     parent, t0 = psutil.Process(proc.pid), time.monotonic()
     while time.monotonic() - t0 < 180:
         kids = parent.children(recursive=True)
-        workers = [k for k in kids if "resource_tracker" not in " ".join(k.cmdline())]
+        # a pool worker once it runs multiprocessing's spawn_main: a child just forked still shows its parent's
+        # command line (the resource tracker before its exec was taken for a worker and killed: a flaky failure)
+        workers = [k for k in kids if _is_pool_worker(k)]
         if len(workers) >= n_workers or proc.poll() is not None:
             break
         time.sleep(poll)

@@ -147,9 +147,14 @@ def _worker_death(workers: dict, sink) -> Exception:
 
     from ..exceptions import WorkerLostError
 
+    import time
+
+    deadline = time.monotonic() + 10.0
     for p in workers.values():  # the pool marks the tasks failed before it has ended and reaped its workers
-        if p.exitcode is None and p.pid is not None:
-            p.join(timeout=5)
+        # while the pool's own thread is reaping a worker, exitcode reads None (its waitpid took the status
+        # first): ask again until that thread has recorded it
+        while p.exitcode is None and p.pid is not None and time.monotonic() < deadline:
+            p.join(timeout=0.05)
     codes = [p.exitcode for p in workers.values() if p.exitcode]
     killed = [-c for c in codes if c < 0]
     if killed:  # the pool ends the other workers with SIGTERM: the odd one out is the cause
