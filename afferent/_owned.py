@@ -61,17 +61,26 @@ def public(path: str, *, folder: bool) -> None:
     os.chmod(path, (0o777 if folder else 0o666) & ~_umask())
 
 
-def _entry(path: str) -> dict | None:
-    """{'size': bytes, 'sha256': hex} of a regular file (not followed if a link); None for anything else."""
+def _regular(path: str):
+    """``path`` opened for binary reading if it is a regular file (a link not followed, a FIFO not waited on);
+    None for anything else."""
     try:
         fd = os.open(path, os.O_RDONLY | getattr(os, "O_NOFOLLOW", 0) | getattr(os, "O_NONBLOCK", 0))
     except OSError:
         return None
-    with os.fdopen(fd, "rb") as f:
-        st = os.fstat(fd)
-        if not stat.S_ISREG(st.st_mode):
-            return None
-        return {"size": st.st_size, "sha256": hashlib.file_digest(f, "sha256").hexdigest()}
+    if not stat.S_ISREG(os.fstat(fd).st_mode):
+        os.close(fd)
+        return None
+    return os.fdopen(fd, "rb")
+
+
+def _entry(path: str) -> dict | None:
+    """{'size': bytes, 'sha256': hex} of a regular file (not followed if a link); None for anything else."""
+    f = _regular(path)
+    if f is None:
+        return None
+    with f:
+        return {"size": os.fstat(f.fileno()).st_size, "sha256": hashlib.file_digest(f, "sha256").hexdigest()}
 
 
 def _walk(folder: str):
@@ -157,13 +166,10 @@ def _batch(rel: str) -> re.Match | None:
 
 def _task_file(path: str, digits: str) -> bool:
     """A sweep's task-record file as afferent names it: every line a record, the name from its task ids."""
-    try:
-        fd = os.open(path, os.O_RDONLY | getattr(os, "O_NOFOLLOW", 0) | getattr(os, "O_NONBLOCK", 0))
-    except OSError:
+    f = _regular(path)
+    if f is None:
         return False
-    with os.fdopen(fd, "rb") as f:
-        if not stat.S_ISREG(os.fstat(fd).st_mode):
-            return False
+    with f:
         ids = []
         for line in f:
             m = _TASK_LINE.match(line)
@@ -175,13 +181,10 @@ def _task_file(path: str, digits: str) -> bool:
 
 def _index_file(path: str, digits: str) -> bool:
     """A batch's index as afferent writes it (afferent._sweep.records.index_of): its task ids give its name."""
-    try:
-        fd = os.open(path, os.O_RDONLY | getattr(os, "O_NOFOLLOW", 0) | getattr(os, "O_NONBLOCK", 0))
-    except OSError:
+    f = _regular(path)
+    if f is None:
         return False
-    with os.fdopen(fd, "rb") as f:
-        if not stat.S_ISREG(os.fstat(fd).st_mode):
-            return False
+    with f:
         try:
             index = json.loads(f.read())
             ids = index["tasks"]
