@@ -52,7 +52,7 @@ def peaks(sm, csed: np.ndarray, vol: np.ndarray) -> dict:
     out = {}
     for reading, cells in (("nodal average", None), ("dermis side", sm.layer == ms.LAYER_DERMIS),
                            ("epidermis side", sm.layer == ms.LAYER_EPIDERMIS)):
-        nodal = mc.nodal_average(sm, csed, vol, cells) * 1e6
+        nodal = ms.nodal_average(sm.mesh, csed, vol, cells) * 1e6
         out[reading] = {"table": float(np.max(nodal[sm.tip_nodes])), "all": float(np.max(nodal[every]))}
     return out
 

@@ -245,18 +245,6 @@ def mirror_map(full: ms.SkinMesh, quarter: ms.SkinMesh) -> np.ndarray:
     return i
 
 
-def nodal_average(sm: ms.SkinMesh, cell_value: np.ndarray, vol: np.ndarray, cells=None) -> np.ndarray:
-    """Volume-weighted average at each node of the adjacent elements' values (all, or only ``cells``, a mask);
-    NaN at nodes with no such element (make_samples.Post.nodal_sed on a subset)."""
-    t = sm.mesh.t
-    w = vol if cells is None else np.where(cells, vol, 0.0)
-    n = sm.mesh.p.shape[1]
-    num = np.bincount(t.ravel(), weights=np.repeat((w * cell_value)[None, :], 8, 0).ravel(), minlength=n)
-    den = np.bincount(t.ravel(), weights=np.repeat(w[None, :], 8, 0).ravel(), minlength=n)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        return num / den
-
-
 def write_sites(path: Path, pts: np.ndarray):
     """``id,x,y,z`` (mm), ids from 1, rows ordered by x then z."""
     with open(path, "w", newline="\n") as f:
@@ -340,7 +328,7 @@ def run_model(model: str, out: Path, quick: bool, material: str = "relaxed", log
                             "sa_table": "sa_sites.csv (9 x 10 intermediate-ridge apexes, y = %.2f mm)" % Y_APEX,
                             "all_tips_xyz_mm": np.round(sites["tips"], 6).tolist(),
                             "all_bases_xyz_mm": np.round(sites["bases"], 6).tolist()}
-        nsed = nodal_average(sm, csed, vol)
+        nsed = ms.nodal_average(sm.mesh, csed, vol)
         n_cells, n_pts = export_cropped(mdir / f"{name}.vtu", sm, nsed, csed)
         sinfo.update(exported_cells=n_cells, exported_nodes=n_pts, file_bytes=(mdir / f"{name}.vtu").stat().st_size,
                      ra_table=tip_summary(sm, nsed, tip_nodes, tips), sa_table=tip_summary(sm, nsed, base_nodes, bases))

@@ -614,9 +614,6 @@ class Post:
         vb = Basis(mesh, ElementHex1(), intorder=2)
         self.vol = _one.elemental(vb)                          # true element volumes
         self.centroid = self.bc.global_coordinates().value[:, :, 0].T   # (nel, 3)
-        t = mesh.t
-        self.node_w = np.bincount(t.ravel(), weights=np.repeat(self.vol[None, :], 8, 0).ravel(),
-                                  minlength=mesh.p.shape[1])
 
     def tensors(self, u):
         """Centroid strain and stress tensors, (nel, 3, 3) each (MPa for stress)."""
@@ -633,10 +630,20 @@ class Post:
 
     def nodal_sed(self, cell_sed):
         """Volume-weighted average of the adjacent elements' centroid SED."""
-        t = self.prob.sm.mesh.t
-        s = np.bincount(t.ravel(), weights=np.repeat((self.vol * cell_sed)[None, :], 8, 0).ravel(),
-                        minlength=self.node_w.size)
-        return s / self.node_w
+        return nodal_average(self.prob.sm.mesh, cell_sed, self.vol)
+
+
+def nodal_average(mesh, cell_value: np.ndarray, vol: np.ndarray, cells=None) -> np.ndarray:
+    """Volume-weighted average at each node of ``mesh`` of the adjacent elements' values (all, or only those
+    ``cells``, a boolean mask, says: one material's side of an interface); NaN at nodes with no such element.
+    ``vol``: element volumes (mm^3)."""
+    t = mesh.t
+    w = vol if cells is None else np.where(cells, vol, 0.0)
+    n = mesh.p.shape[1]
+    num = np.bincount(t.ravel(), weights=np.repeat((w * cell_value)[None, :], t.shape[0], 0).ravel(), minlength=n)
+    den = np.bincount(t.ravel(), weights=np.repeat(w[None, :], t.shape[0], 0).ravel(), minlength=n)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return num / den
 
 
 VOIGT = [(0, 0), (1, 1), (2, 2), (0, 1), (0, 2), (1, 2)]   # Abaqus: 11 22 33 12 13 23
@@ -724,13 +731,7 @@ def write_abaqus_csv(path: Path, centroid, S, E, sel):
 def dermis_side_sed(sm: SkinMesh, post: Post, cell_sed):
     """At each tip node: the volume-weighted mean SED of the dermis elements touching it (one material's side
     of the interface, where the nodal value averages epidermis and dermis; MPa)."""
-    tn, t = sm.tip_nodes, sm.mesh.t
-    mask = np.isin(t, tn) & (sm.layer == LAYER_DERMIS)[None, :]
-    e_of = {n: [] for n in tn}
-    cols = np.nonzero(mask)
-    for a, e in zip(t[cols], cols[1]):
-        e_of[a].append(e)
-    return np.array([np.average(cell_sed[e_of[n]], weights=post.vol[e_of[n]]) for n in tn])
+    return nodal_average(sm.mesh, cell_sed, post.vol, sm.layer == LAYER_DERMIS)[sm.tip_nodes]
 
 
 def receptor_checks(sm: SkinMesh, post: Post, u, cell_sed, node_sed, width):

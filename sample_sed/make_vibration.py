@@ -303,7 +303,7 @@ def quarter_tips(sm):
 def dermis_side(sm, cell_sed: np.ndarray, vol: np.ndarray) -> np.ndarray:
     """SED (MPa) at the receptor nodes of ``sm``: the volume-weighted mean over their adjacent **dermis**
     elements (what afferent.sample_sed(..., side=2) reads from the cell SED of the export)."""
-    return mc.nodal_average(sm, cell_sed, vol, cells=sm.layer == ms.LAYER_DERMIS)[sm.tip_nodes]
+    return ms.nodal_average(sm.mesh, cell_sed, vol, cells=sm.layer == ms.LAYER_DERMIS)[sm.tip_nodes]
 
 
 def write_cropped(path: Path, sm, node_sed: np.ndarray, cell_sed: np.ndarray) -> None:
