@@ -285,6 +285,11 @@ def _check_material(field, side: int) -> None:
                          f"{field.provenance.columns.get('material', '')!r}: {', '.join(map(str, present))}) or 'average'.")
 
 
+def _separable(field) -> bool:
+    """Whether the field holds each material's own SED at an interface: cell data, or per-material node copies."""
+    return field.location == "cell" or field.sides is not None
+
+
 def _refuse_inseparable(field, side: int, n_on: int) -> None:
     """A material's side asked of point data with one value per node: the tool averaged the sides before export."""
     files = field.provenance.files
@@ -343,7 +348,7 @@ def interface_report(field, layout, isamp: InterfaceSampler | None, values: np.n
     """
     if isamp is None:
         return None
-    separable = field.location == "cell" or field.sides is not None
+    separable = _separable(field)
     order = np.argsort(isamp.receptor, kind="stable")
     receptors, starts = np.unique(isamp.receptor[order], return_index=True)
     counts = np.diff(np.append(starts, order.size))
@@ -405,7 +410,7 @@ def sided(sed, first, isamp, steps: list, side, *, stacklevel: int = 3):
         _check_material(first, side)
     if isamp is None:
         return sed
-    if side != SIDE_AVERAGE and isamp.receptor.size and first.location != "cell" and first.sides is None:
+    if side != SIDE_AVERAGE and isamp.receptor.size and not _separable(first):
         _refuse_inseparable(first, side, np.unique(isamp.receptor).size)
     side_values = np.concatenate([v for v, _ in steps])
     average = None if steps[0][1] is None else np.concatenate([a for _, a in steps])
